@@ -1,0 +1,3 @@
+//! Placeholder; see issue 7.
+#![no_std]
+#![no_main]

@@ -1,0 +1,2 @@
+//! Madgwick AHRS (IMU and MARG) in f32 and fixed point.
+#![no_std]

@@ -1,0 +1,2 @@
+//! Barometric altitude, vertical estimation, PID and the altitude/attitude controllers.
+#![no_std]

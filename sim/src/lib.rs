@@ -1,0 +1,1 @@
+//! Host-side simulator of the sensor bus (placeholder, see issue 4).
