@@ -1,1 +1,166 @@
-fn main() {}
+//! `cargo xtask <command>`: project automation that needs more than a shell
+//! one-liner. The check command (`scripts/check`) calls these.
+//!
+//! * `size [ELF]` — text/data/bss of the firmware ELF against the budgets.
+//! * `bench` — instruction counts on an emulated Cortex-M3 (see `bench.rs`).
+
+use std::{
+    env,
+    path::{Path, PathBuf},
+    process::{Command, ExitCode},
+};
+
+mod bench;
+
+/// Flash budget for the release firmware (issue 8 aims for 32 KiB).
+const FLASH_BUDGET: u64 = 48 * 1024;
+/// Static RAM (.data + .bss + .uninit) budget (issue 8 aims for 8 KiB).
+const RAM_BUDGET: u64 = 12 * 1024;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("size") => size(args.get(1).map(PathBuf::from)),
+        Some("bench") => bench::run(&args[1..]),
+        _ => {
+            eprintln!("usage: cargo xtask size [ELF] | cargo xtask bench [--update-doc]");
+            return ExitCode::from(2);
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Workspace root (the parent of this crate's folder).
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+/// Cargo's target directory: `$CARGO_TARGET_DIR` if set, else `<root>/target`.
+pub fn target_dir() -> PathBuf {
+    env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("target"))
+}
+
+/// Path of an LLVM tool from the pinned toolchain's `llvm-tools` component.
+pub fn llvm_tool(name: &str) -> Result<PathBuf, String> {
+    let out = Command::new("rustc")
+        .args(["--print", "sysroot"])
+        .output()
+        .map_err(|e| format!("rustc --print sysroot: {e}"))?;
+    let sysroot = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    let lib = Path::new(&sysroot).join("lib/rustlib");
+    let entries = std::fs::read_dir(&lib).map_err(|e| format!("{}: {e}", lib.display()))?;
+    for entry in entries.flatten() {
+        let candidate = entry.path().join("bin").join(name);
+        if candidate.is_file() {
+            return Ok(candidate);
+        }
+    }
+    Err(format!(
+        "{name} not found under {}: run `rustup component add llvm-tools`",
+        lib.display()
+    ))
+}
+
+/// Section sizes of an ARM ELF, summed the way the budgets count them.
+#[derive(Debug, Default, PartialEq, Eq)]
+pub struct Sizes {
+    /// Code and read-only data in flash (.vector_table, .text, .rodata, defmt).
+    pub text: u64,
+    /// Initialised statics: occupy flash (load image) and RAM.
+    pub data: u64,
+    /// Zero-initialised and uninitialised statics: RAM only.
+    pub bss: u64,
+}
+
+impl Sizes {
+    /// Bytes written to flash.
+    pub fn flash(&self) -> u64 {
+        self.text + self.data
+    }
+    /// Bytes of static RAM (the stack comes on top).
+    pub fn ram(&self) -> u64 {
+        self.data + self.bss
+    }
+}
+
+/// Reads `llvm-size -A` output and classifies each allocated section.
+pub fn elf_sizes(elf: &Path) -> Result<Sizes, String> {
+    let out = Command::new(llvm_tool("llvm-size")?)
+        .arg("-A")
+        .arg(elf)
+        .output()
+        .map_err(|e| format!("llvm-size: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "llvm-size failed on {}: {}",
+            elf.display(),
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    let mut sizes = Sizes::default();
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        let mut cols = line.split_whitespace();
+        let (Some(name), Some(size), Some(addr)) = (cols.next(), cols.next(), cols.next()) else {
+            continue;
+        };
+        let (Ok(size), Ok(addr)) = (size.parse::<u64>(), addr.parse::<u64>()) else {
+            continue;
+        };
+        // Only sections that occupy the target's address space count;
+        // defmt's string table lives at address 0 and is never flashed.
+        if addr == 0 || size == 0 {
+            continue;
+        }
+        match name {
+            ".data" => sizes.data += size,
+            ".bss" | ".uninit" => sizes.bss += size,
+            _ if (0x0800_0000..0x0810_0000).contains(&addr) => sizes.text += size,
+            _ => {}
+        }
+    }
+    Ok(sizes)
+}
+
+fn size(elf: Option<PathBuf>) -> Result<(), String> {
+    let elf = elf.unwrap_or_else(|| target_dir().join("thumbv7m-none-eabi/release/firmware"));
+    let s = elf_sizes(&elf)?;
+    println!("firmware size ({})", elf.display());
+    println!("  text  {:>7} B", s.text);
+    println!("  data  {:>7} B", s.data);
+    println!("  bss   {:>7} B", s.bss);
+    println!(
+        "  flash {:>7} B of {} B budget ({:.1} %)",
+        s.flash(),
+        FLASH_BUDGET,
+        100.0 * s.flash() as f64 / FLASH_BUDGET as f64
+    );
+    println!(
+        "  ram   {:>7} B of {} B budget ({:.1} %) static; the stack takes the rest of 20 KiB",
+        s.ram(),
+        RAM_BUDGET,
+        100.0 * s.ram() as f64 / RAM_BUDGET as f64
+    );
+    let mut over = Vec::new();
+    if s.flash() > FLASH_BUDGET {
+        over.push(format!("flash {} B > {} B", s.flash(), FLASH_BUDGET));
+    }
+    if s.ram() > RAM_BUDGET {
+        over.push(format!("static RAM {} B > {} B", s.ram(), RAM_BUDGET));
+    }
+    if over.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("over budget: {}", over.join(", ")))
+    }
+}
