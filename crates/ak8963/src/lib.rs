@@ -1,2 +1,78 @@
-//! AK8963 magnetometer driver (embedded-hal 1.0).
+//! AK8963 magnetometer driver for embedded-hal 1.0 I2C (the magnetometer
+//! inside the MPU-9250, reached through the MPU-9250's I2C bypass at 0x0C).
+//!
+//! What it does:
+//! * checks WIA (0x48), soft-resets, reads the fuse-ROM sensitivity
+//!   adjustment (ASA; 0x00/0xFF rejected as [`Error::BadFuseRom`]) and sets a
+//!   typed [`Config`] (mode, 14/16-bit), always through power-down with the
+//!   datasheet's 100 µs wait, reading CNTL1 back ([`Error::ConfigMismatch`]);
+//! * reads ST1 (DRDY clear → [`Error::NotReady`], nothing consumed; DOR →
+//!   [`RawMag::data_overrun`] / [`Sample::data_overrun`], data still valid),
+//!   then HXL..ST2 in one 7-byte little-endian burst (ST2 HOFL →
+//!   [`Error::Overflow`], sample dropped, next measurement unblocked);
+//! * converts counts to µT with the factory adjustment
+//!   `(ASA − 128) / 256 + 1`, then applies a hard/soft-iron correction
+//!   [`HardSoftIron`] (`M · (field − offset)`);
+//! * maps the AK8963 frame to the MPU frame ([`to_mpu_frame`]);
+//! * runs the datasheet self-test ([`Ak8963::self_test`]).
+//!
+//! Pure functions ([`parse_st1`], [`parse_measurement`], [`adjustment_factor`],
+//! [`adjustment_q8`], [`ut_per_lsb`], [`convert`], [`exceeds_range`]) work
+//! without a bus (DMA or IRQ transports, integer pipelines).
+//!
+//! What it does not do: enable the MPU-9250 bypass (see
+//! `mpu9250::Mpu9250::set_bypass`), the MPU-9250's I2C-master/slave-0 path,
+//! fitting a calibration (see the `calibration` crate), SPI.
+//!
+//! **Frames.** Everything here is in the AK8963 sensor frame:
+//! x_mag = y_mpu, y_mag = x_mpu, z_mag = −z_mpu (MPU-9250 datasheet §9.1).
+//! [`to_mpu_frame`] returns `[v[1], v[0], -v[2]]`.
+//!
+//! **Measurement range.** The datasheet's overflow condition is
+//! |X| + |Y| + |Z| > 4912 µT (before the factory adjustment); the chip then
+//! sets ST2 HOFL. [`parse_measurement`] treats HOFL, and a reading whose sum
+//! exceeds the range ([`exceeds_range`]), as [`Overflow`].
+//!
+//! ```
+//! use embedded_hal_mock::eh1::delay::NoopDelay;
+//! use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
+//! use ak8963::{Ak8963, Config, Error};
+//!
+//! let a = 0x0C;
+//! let mut i2c = Mock::new(&[
+//!     T::write_read(a, vec![0x00], vec![0x48]),
+//!     T::write(a, vec![0x0B, 0x01]),
+//!     T::write_read(a, vec![0x0B], vec![0x00]),
+//!     T::write(a, vec![0x0A, 0x00]),
+//!     T::write(a, vec![0x0A, 0x0F]),
+//!     T::write_read(a, vec![0x10], vec![0x80, 0x80, 0x80]),
+//!     T::write(a, vec![0x0A, 0x00]),
+//!     T::write(a, vec![0x0A, 0x16]),
+//!     T::write_read(a, vec![0x0A], vec![0x16]),
+//!     T::write_read(a, vec![0x02], vec![0x00]), // DRDY clear
+//! ]);
+//! let mut mag = Ak8963::new(i2c.clone());
+//! mag.init(&mut NoopDelay::new(), &Config::default()).unwrap();
+//! assert_eq!(mag.read(), Err(Error::NotReady));
+//! i2c.done();
+//! ```
 #![no_std]
+#![deny(unsafe_code)]
+
+mod config;
+mod data;
+mod device;
+mod error;
+pub mod register;
+
+pub use config::{Config, Mode, Resolution};
+pub use data::{
+    adjustment_factor, adjustment_q8, asa_valid, convert, counts_to_ut, exceeds_range,
+    parse_measurement, parse_st1, to_mpu_frame, to_mpu_frame_counts, ut_per_lsb, CalibrationError,
+    HardSoftIron, Overflow, RawMag, Sample, St1, MEASUREMENT_RANGE_NT, MEASUREMENT_RANGE_UT,
+};
+pub use device::{
+    Ak8963, MODE_CHANGE_DELAY_US, RESET_MAX_POLLS, RESET_POLL_INTERVAL_US, SELF_TEST_MAX_POLLS,
+    SELF_TEST_POLL_INTERVAL_US,
+};
+pub use error::Error;

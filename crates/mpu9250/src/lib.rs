@@ -1,2 +1,71 @@
-//! MPU-9250 accelerometer/gyroscope driver (embedded-hal 1.0).
+//! MPU-9250 accelerometer / gyroscope / temperature driver for embedded-hal 1.0 I2C.
+//!
+//! What it does:
+//! * checks WHO_AM_I (MPU-9250 0x71, MPU-9255 0x73; the MPU-6500 0x70, which has
+//!   no magnetometer, is its own error), resets the chip with a bounded wait and
+//!   writes a typed [`Config`] (ranges, DLPFs, sample-rate divider, INT pin),
+//!   then reads every written register back ([`Error::ConfigMismatch`]);
+//!   [`Mpu9250::verify_config`] repeats that check at run time;
+//! * reads the 14-byte ACCEL/TEMP/GYRO block in one burst; [`parse_sample`],
+//!   [`convert`], [`Scale`] and the range helpers work without a bus (DMA or IRQ
+//!   transports), and the integer factors ([`AccelRange::lsb_per_g`],
+//!   [`GyroRange::full_scale_dps`], [`temp_centi_c`]) let a fixed-point
+//!   pipeline skip f32 entirely;
+//! * keeps a gyro bias in raw counts ([`Mpu9250::calibrate_gyro_bias`] with
+//!   motion rejection) that survives re-initialisation;
+//! * configures the data-ready interrupt and the I2C bypass that puts the
+//!   AK8963 (see the `ak8963` crate) on the host bus.
+//!
+//! What it does not do: the FIFO, the internal I2C master, the DMP,
+//! wake-on-motion, self-test, SPI, or writing the chip's offset registers.
+//!
+//! **Frame**: every vector is in the MPU sensor frame (datasheet §9.1, axes
+//! printed on the package): right-handed, z out of the top face; at rest, face
+//! up, the accelerometer reads (0, 0, +1 g).
+//!
+//! ```
+//! use embedded_hal_mock::eh1::delay::NoopDelay;
+//! use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
+//! use mpu9250::{Address, Config, Mpu9250};
+//!
+//! let a = 0x68;
+//! let config = Config::default();
+//! let mut expected = vec![
+//!     T::write_read(a, vec![0x75], vec![0x71]),
+//!     T::write(a, vec![0x6B, 0x80]),
+//!     T::write_read(a, vec![0x6B], vec![0x01]),
+//! ];
+//! for (register, value) in config.register_values(false) {
+//!     expected.push(T::write(a, vec![register, value]));
+//! }
+//! expected.push(T::write_read(a, vec![0x19], vec![0x00, 0x03, 0x10, 0x08, 0x03]));
+//! expected.push(T::write_read(a, vec![0x37], vec![0x00, 0x01]));
+//! expected.push(T::write_read(a, vec![0x6A], vec![0x00, 0x01, 0x00]));
+//! expected.push(T::write_read(a, vec![0x3B], vec![0, 0, 0, 0, 0x20, 0, 0, 0, 0, 0, 0, 0, 0, 0]));
+//!
+//! let mut i2c = Mock::new(&expected);
+//! let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
+//! imu.init(&mut NoopDelay::new(), &config).unwrap();
+//! let sample = imu.read().unwrap();
+//! assert_eq!(sample.accel_g, [0.0, 0.0, 1.0]);
+//! i2c.done();
+//! ```
 #![no_std]
+#![deny(unsafe_code)]
+
+mod config;
+mod data;
+mod device;
+mod error;
+pub mod register;
+
+pub use config::{
+    AccelBandwidth, AccelRange, Address, Config, ConfigError, GyroBandwidth, GyroRange, IntClear,
+    IntDrive, IntLatch, IntLevel, InterruptConfig, Variant,
+};
+pub use data::{
+    apply_gyro_bias, convert, dps_to_rps, parse_sample, rescale_gyro_bias, temp_c, temp_centi_c,
+    RawSample, Sample, Scale, RAD_PER_DEG, TEMP_LSB_PER_C, TEMP_OFFSET_C,
+};
+pub use device::{BiasCalibration, IntStatus, Mpu9250, RESET_MAX_POLLS, RESET_POLL_INTERVAL_MS};
+pub use error::{Error, Motion};

@@ -1,0 +1,488 @@
+//! The bus-facing driver.
+
+use embedded_hal::delay::DelayNs;
+use embedded_hal::i2c::I2c;
+
+use crate::config::{Address, Config, ConfigError, InterruptConfig, Variant};
+use crate::data::{
+    apply_gyro_bias, convert, parse_sample, rescale_gyro_bias, RawSample, Sample, Scale,
+};
+use crate::error::{Error, Motion};
+use crate::register as reg;
+
+/// Interval between PWR_MGMT_1 polls while waiting for H_RESET to clear, ms.
+pub const RESET_POLL_INTERVAL_MS: u32 = 10;
+/// Maximum number of PWR_MGMT_1 polls after a reset (bounds the wait to 200 ms).
+pub const RESET_MAX_POLLS: u8 = 20;
+
+/// INT_STATUS contents.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct IntStatus(pub u8);
+
+impl IntStatus {
+    /// RAW_DATA_RDY_INT: a new sample is in the data registers.
+    pub const fn data_ready(self) -> bool {
+        self.0 & reg::INT_STATUS_RAW_DATA_RDY_INT != 0
+    }
+    /// WOM_INT: wake-on-motion.
+    pub const fn wake_on_motion(self) -> bool {
+        self.0 & reg::INT_STATUS_WOM_INT != 0
+    }
+    /// FIFO_OFLOW_INT: FIFO overflow.
+    pub const fn fifo_overflow(self) -> bool {
+        self.0 & reg::INT_STATUS_FIFO_OFLOW_INT != 0
+    }
+    /// FSYNC_INT: FSYNC interrupt.
+    pub const fn fsync(self) -> bool {
+        self.0 & reg::INT_STATUS_FSYNC_INT != 0
+    }
+}
+
+/// Gyro-bias calibration settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BiasCalibration {
+    /// Number of samples averaged (one per output-data period).
+    pub samples: u16,
+    /// Largest allowed max − min of any gyro axis over the window, °/s.
+    pub max_gyro_peak_to_peak_dps: f32,
+    /// Allowed deviation of every sample's |accel| from 1 g, in g.
+    pub accel_tolerance_g: f32,
+}
+
+impl BiasCalibration {
+    /// `samples` samples, 3 °/s peak-to-peak gyro limit (the 41 Hz DLPF noise is
+    /// about 0.1 °/s rms), |a| within 1 g ± 0.1 g.
+    pub const fn new(samples: u16) -> Self {
+        Self {
+            samples,
+            max_gyro_peak_to_peak_dps: 3.0,
+            accel_tolerance_g: 0.1,
+        }
+    }
+}
+
+/// MPU-9250 driver over an [`I2c`] bus.
+///
+/// Holds the configuration, the gyro bias (raw counts at the configured gyro
+/// range) and the bypass state; all three survive [`init`](Self::init), which
+/// resets the chip and rewrites every register from them.
+#[derive(Debug)]
+pub struct Mpu9250<I2C> {
+    i2c: I2C,
+    address: u8,
+    config: Config,
+    scale: Scale,
+    bypass: bool,
+    gyro_bias: [i16; 3],
+    variant: Option<Variant>,
+    initialized: bool,
+}
+
+impl<I2C, E> Mpu9250<I2C>
+where
+    I2C: I2c<Error = E>,
+{
+    /// Create the driver. No bus traffic; call [`init`](Self::init) next.
+    ///
+    /// ```
+    /// use embedded_hal_mock::eh1::i2c::Mock;
+    /// use mpu9250::{Address, Mpu9250};
+    /// let mut i2c = Mock::new(&[]);
+    /// let imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
+    /// assert_eq!(imu.address(), 0x68);
+    /// i2c.done();
+    /// ```
+    pub fn new(i2c: I2C, address: Address) -> Self {
+        let config = Config::new();
+        Self {
+            i2c,
+            address: address.addr(),
+            scale: Scale::from_config(&config),
+            config,
+            bypass: false,
+            gyro_bias: [0; 3],
+            variant: None,
+            initialized: false,
+        }
+    }
+
+    /// Give the bus back.
+    pub fn release(self) -> I2C {
+        self.i2c
+    }
+
+    /// Give the bus back (same as [`release`](Self::release)).
+    pub fn destroy(self) -> I2C {
+        self.release()
+    }
+
+    /// The 7-bit bus address in use.
+    pub fn address(&self) -> u8 {
+        self.address
+    }
+
+    /// The configuration of the last [`init`](Self::init) (the default before).
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// Conversion factors of the current configuration.
+    pub fn scale(&self) -> Scale {
+        self.scale
+    }
+
+    /// The chip found by the last [`init`](Self::init).
+    pub fn variant(&self) -> Option<Variant> {
+        self.variant
+    }
+
+    /// Whether I2C bypass (AK8963 on the host bus) is requested.
+    pub fn bypass(&self) -> bool {
+        self.bypass
+    }
+
+    /// Read WHO_AM_I and classify it.
+    pub fn who_am_i(&mut self) -> Result<Variant, Error<E>> {
+        let id = self.read_reg(reg::WHO_AM_I)?;
+        match id {
+            reg::WHO_AM_I_MPU9250 => Ok(Variant::Mpu9250),
+            reg::WHO_AM_I_MPU9255 => Ok(Variant::Mpu9255),
+            reg::WHO_AM_I_MPU6500 => Err(Error::Mpu6500Detected),
+            other => Err(Error::WrongChipId(other)),
+        }
+    }
+
+    /// Check the chip, reset it, configure it and read every configuration
+    /// register back.
+    ///
+    /// Sequence: WHO_AM_I; PWR_MGMT_1 = 0x80 (H_RESET); poll PWR_MGMT_1 every
+    /// [`RESET_POLL_INTERVAL_MS`] until H_RESET clears (at most
+    /// [`RESET_MAX_POLLS`] polls, bus errors while the chip reboots count as
+    /// "not yet"; else [`Error::ResetTimeout`]); then the writes of
+    /// [`Config::register_values`] (PWR_MGMT_1 CLKSEL = PLL, PWR_MGMT_2 = 0,
+    /// USER_CTRL = 0, SMPLRT_DIV, CONFIG, GYRO_CONFIG, ACCEL_CONFIG,
+    /// ACCEL_CONFIG2, INT_PIN_CFG (with BYPASS_EN if [`set_bypass`](Self::set_bypass)
+    /// asked for it), INT_ENABLE); then three burst reads comparing them
+    /// ([`Error::ConfigMismatch`]). The gyro bias is kept (rescaled if the gyro
+    /// range changes). An invalid `config` fails before any bus traffic.
+    ///
+    /// ```
+    /// use embedded_hal_mock::eh1::delay::NoopDelay;
+    /// use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
+    /// use mpu9250::{Address, Config, Mpu9250, Variant};
+    /// let a = 0x68;
+    /// let mut i2c = Mock::new(&[
+    ///     T::write_read(a, vec![0x75], vec![0x71]),          // WHO_AM_I
+    ///     T::write(a, vec![0x6B, 0x80]),                     // H_RESET
+    ///     T::write_read(a, vec![0x6B], vec![0x01]),          // reset done
+    ///     T::write(a, vec![0x6B, 0x01]),                     // CLKSEL = PLL
+    ///     T::write(a, vec![0x6C, 0x00]),                     // accel + gyro on
+    ///     T::write(a, vec![0x6A, 0x00]),                     // USER_CTRL
+    ///     T::write(a, vec![0x19, 0x00]),                     // SMPLRT_DIV
+    ///     T::write(a, vec![0x1A, 0x03]),                     // gyro DLPF 41 Hz
+    ///     T::write(a, vec![0x1B, 0x10]),                     // ±1000 °/s
+    ///     T::write(a, vec![0x1C, 0x08]),                     // ±4 g
+    ///     T::write(a, vec![0x1D, 0x03]),                     // accel DLPF 44.8 Hz
+    ///     T::write(a, vec![0x37, 0x00]),                     // INT pin
+    ///     T::write(a, vec![0x38, 0x01]),                     // data-ready INT
+    ///     T::write_read(a, vec![0x19], vec![0x00, 0x03, 0x10, 0x08, 0x03]),
+    ///     T::write_read(a, vec![0x37], vec![0x00, 0x01]),
+    ///     T::write_read(a, vec![0x6A], vec![0x00, 0x01, 0x00]),
+    /// ]);
+    /// let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
+    /// assert_eq!(imu.init(&mut NoopDelay::new(), &Config::default()), Ok(Variant::Mpu9250));
+    /// i2c.done();
+    /// ```
+    pub fn init<D: DelayNs>(
+        &mut self,
+        delay: &mut D,
+        config: &Config,
+    ) -> Result<Variant, Error<E>> {
+        config.validate()?;
+        self.initialized = false;
+        // Keep the bias meaning the same physical rate under the new range.
+        self.gyro_bias =
+            rescale_gyro_bias(self.gyro_bias, self.config.gyro_range, config.gyro_range);
+        self.config = *config;
+        self.scale = Scale::from_config(config);
+
+        let variant = self.who_am_i()?;
+        self.variant = Some(variant);
+        self.write_reg(reg::PWR_MGMT_1, reg::PWR_MGMT_1_H_RESET)?;
+        self.wait_reset(delay)?;
+        for (register, value) in self.config.register_values(self.bypass) {
+            self.write_reg(register, value)?;
+        }
+        self.check_registers()?;
+        self.initialized = true;
+        Ok(variant)
+    }
+
+    fn wait_reset<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
+        for _ in 0..RESET_MAX_POLLS {
+            delay.delay_ms(RESET_POLL_INTERVAL_MS);
+            // The chip may NACK while it reboots: that only means "not yet".
+            if let Ok(v) = self.read_reg(reg::PWR_MGMT_1) {
+                if v & reg::PWR_MGMT_1_H_RESET == 0 {
+                    return Ok(());
+                }
+            }
+        }
+        Err(Error::ResetTimeout)
+    }
+
+    /// Read every configuration register back and compare it with what
+    /// [`init`](Self::init) wrote (and later [`set_bypass`](Self::set_bypass) /
+    /// [`set_interrupts`](Self::set_interrupts) changed). Call it periodically
+    /// to detect a chip that reset itself in flight; on
+    /// [`Error::ConfigMismatch`] re-run `init`.
+    pub fn verify_config(&mut self) -> Result<(), Error<E>> {
+        if !self.initialized {
+            return Err(Error::NotInitialized);
+        }
+        self.check_registers()
+    }
+
+    fn check_registers(&mut self) -> Result<(), Error<E>> {
+        let expected = self.config.register_values(self.bypass);
+        let mut a = [0u8; 5];
+        self.read_regs(reg::SMPLRT_DIV, &mut a)?;
+        compare(reg::SMPLRT_DIV, &a, &expected)?;
+        let mut b = [0u8; 2];
+        self.read_regs(reg::INT_PIN_CFG, &mut b)?;
+        compare(reg::INT_PIN_CFG, &b, &expected)?;
+        let mut c = [0u8; 3];
+        self.read_regs(reg::USER_CTRL, &mut c)?;
+        compare(reg::USER_CTRL, &c, &expected)?;
+        Ok(())
+    }
+
+    /// Read the 14-byte ACCEL_XOUT_H..GYRO_ZOUT_L block in one burst: counts,
+    /// no bias removed, MPU sensor frame.
+    pub fn read_raw(&mut self) -> Result<RawSample, Error<E>> {
+        let mut buf = [0u8; reg::SAMPLE_LEN];
+        self.read_regs(reg::ACCEL_XOUT_H, &mut buf)?;
+        Ok(parse_sample(&buf))
+    }
+
+    /// Read one sample, remove the gyro bias and convert with the configured
+    /// scale (g, °/s, °C; MPU sensor frame).
+    ///
+    /// ```
+    /// use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
+    /// use mpu9250::{Address, Mpu9250};
+    /// # use embedded_hal_mock::eh1::delay::NoopDelay;
+    /// # let a = 0x68;
+    /// # let mut init = vec![
+    /// #     T::write_read(a, vec![0x75], vec![0x71]), T::write(a, vec![0x6B, 0x80]),
+    /// #     T::write_read(a, vec![0x6B], vec![0x01]),
+    /// # ];
+    /// # for (r, v) in mpu9250::Config::default().register_values(false) { init.push(T::write(a, vec![r, v])); }
+    /// # init.push(T::write_read(a, vec![0x19], vec![0x00, 0x03, 0x10, 0x08, 0x03]));
+    /// # init.push(T::write_read(a, vec![0x37], vec![0x00, 0x01]));
+    /// # init.push(T::write_read(a, vec![0x6A], vec![0x00, 0x01, 0x00]));
+    /// // Face up at rest, ±4 g / ±1000 °/s: z = 8192 counts = 1 g, gyro x = 328 counts = 10 °/s.
+    /// init.push(T::write_read(a, vec![0x3B], vec![0, 0, 0, 0, 0x20, 0x00, 0, 0, 0x01, 0x48, 0, 0, 0, 0]));
+    /// let mut i2c = Mock::new(&init);
+    /// let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
+    /// imu.init(&mut NoopDelay::new(), &Default::default())?;
+    /// let s = imu.read()?;
+    /// assert_eq!(s.accel_g, [0.0, 0.0, 1.0]);
+    /// assert!((s.gyro_dps[0] - 10.0).abs() < 1e-4);
+    /// assert_eq!(s.temp_c, 21.0);
+    /// i2c.done();
+    /// # Ok::<(), mpu9250::Error<embedded_hal::i2c::ErrorKind>>(())
+    /// ```
+    pub fn read(&mut self) -> Result<Sample, Error<E>> {
+        if !self.initialized {
+            return Err(Error::NotInitialized);
+        }
+        let raw = self.read_raw()?;
+        Ok(convert(&apply_gyro_bias(raw, self.gyro_bias), &self.scale))
+    }
+
+    /// Read one sample with the gyro bias removed, still in counts (for an
+    /// integer pipeline; see [`GyroRange::lsb_per_dps_x10`](crate::GyroRange::lsb_per_dps_x10)).
+    pub fn read_raw_unbiased(&mut self) -> Result<RawSample, Error<E>> {
+        let raw = self.read_raw()?;
+        Ok(apply_gyro_bias(raw, self.gyro_bias))
+    }
+
+    /// The stored gyro bias, counts at the configured gyro range (MPU frame).
+    pub fn gyro_bias(&self) -> [i16; 3] {
+        self.gyro_bias
+    }
+
+    /// The stored gyro bias in °/s.
+    pub fn gyro_bias_dps(&self) -> [f32; 3] {
+        let k = self.scale.dps_per_lsb;
+        [
+            f32::from(self.gyro_bias[0]) * k,
+            f32::from(self.gyro_bias[1]) * k,
+            f32::from(self.gyro_bias[2]) * k,
+        ]
+    }
+
+    /// Set the gyro bias, counts at the configured gyro range. It is a driver
+    /// field (never written to the chip's offset registers) and survives `init`.
+    pub fn set_gyro_bias(&mut self, bias_counts: [i16; 3]) {
+        self.gyro_bias = bias_counts;
+    }
+
+    /// Average `n_samples` gyro samples at rest and store the mean as the gyro
+    /// bias, with the default motion limits of [`BiasCalibration::new`].
+    pub fn calibrate_gyro_bias<D: DelayNs>(
+        &mut self,
+        delay: &mut D,
+        n_samples: u16,
+    ) -> Result<[i16; 3], Error<E>> {
+        self.calibrate_gyro_bias_with(delay, &BiasCalibration::new(n_samples))
+    }
+
+    /// Average `settings.samples` raw gyro samples, one per sample period
+    /// (waiting [`Config::sample_period_us`] before each read), and store the
+    /// rounded mean as the bias. Fails with [`Error::Moved`] (bias unchanged)
+    /// when any gyro axis' max − min exceeds the limit or any sample's
+    /// accelerometer magnitude is outside 1 g ± the tolerance.
+    pub fn calibrate_gyro_bias_with<D: DelayNs>(
+        &mut self,
+        delay: &mut D,
+        settings: &BiasCalibration,
+    ) -> Result<[i16; 3], Error<E>> {
+        if !self.initialized {
+            return Err(Error::NotInitialized);
+        }
+        let n = settings.samples;
+        if n == 0 {
+            return Err(Error::InvalidConfig(ConfigError::NoSamples));
+        }
+        let lsb_per_g = f32::from(self.config.accel_range.lsb_per_g());
+        let lo = (1.0 - settings.accel_tolerance_g) * lsb_per_g;
+        let hi = (1.0 + settings.accel_tolerance_g) * lsb_per_g;
+        // f32 -> i64 casts saturate; squares of |x| <= 2^17 fit easily.
+        let lo_sq = if lo > 0.0 { (lo * lo) as i64 } else { 0 };
+        let hi_sq = (hi * hi) as i64;
+        let limit_counts =
+            (settings.max_gyro_peak_to_peak_dps * self.config.gyro_range.lsb_per_dps()) as u16;
+        let period_us = self.config.sample_period_us();
+
+        let mut sum = [0i64; 3];
+        let mut min = [i16::MAX; 3];
+        let mut max = [i16::MIN; 3];
+        for _ in 0..n {
+            delay.delay_us(period_us);
+            let raw = self.read_raw()?;
+            let mag_sq: i64 = raw.accel.iter().map(|&c| i64::from(c) * i64::from(c)).sum();
+            if mag_sq < lo_sq || mag_sq > hi_sq {
+                let mag = u64::try_from(mag_sq).unwrap_or(0).isqrt();
+                let mg = mag.saturating_mul(1000) / u64::from(self.config.accel_range.lsb_per_g());
+                return Err(Error::Moved(Motion::AccelMagnitude {
+                    magnitude_mg: u16::try_from(mg).unwrap_or(u16::MAX),
+                }));
+            }
+            for (i, &g) in raw.gyro.iter().enumerate() {
+                if let (Some(s), Some(lo), Some(hi)) =
+                    (sum.get_mut(i), min.get_mut(i), max.get_mut(i))
+                {
+                    *s += i64::from(g);
+                    *lo = (*lo).min(g);
+                    *hi = (*hi).max(g);
+                }
+            }
+        }
+        for axis in 0..3u8 {
+            let i = usize::from(axis);
+            let (lo, hi) = (
+                min.get(i).copied().unwrap_or(0),
+                max.get(i).copied().unwrap_or(0),
+            );
+            let p2p = u16::try_from(i32::from(hi) - i32::from(lo)).unwrap_or(u16::MAX);
+            if p2p > limit_counts {
+                return Err(Error::Moved(Motion::GyroSpread {
+                    axis,
+                    peak_to_peak_counts: p2p,
+                    limit_counts,
+                }));
+            }
+        }
+        let n = i64::from(n);
+        let mean = |s: i64| -> i16 {
+            // Round half away from zero... as floor((2s + n) / 2n): nearest, ties up.
+            let m = (2 * s + n).div_euclid(2 * n);
+            i16::try_from(m).unwrap_or(if m < 0 { i16::MIN } else { i16::MAX })
+        };
+        let bias = [mean(sum[0]), mean(sum[1]), mean(sum[2])];
+        self.gyro_bias = bias;
+        Ok(bias)
+    }
+
+    /// Write the interrupt configuration (INT_PIN_CFG, keeping BYPASS_EN as
+    /// set; then INT_ENABLE). It is kept for later `init`/`verify_config`.
+    pub fn set_interrupts(&mut self, interrupt: InterruptConfig) -> Result<(), Error<E>> {
+        self.config.interrupt = interrupt;
+        self.write_reg(reg::INT_PIN_CFG, interrupt.int_pin_cfg(self.bypass))?;
+        self.write_reg(reg::INT_ENABLE, interrupt.int_enable_bits())
+    }
+
+    /// Read INT_STATUS (this clears the latched flags and, with
+    /// [`IntClear::OnStatusRead`](crate::IntClear::OnStatusRead), the INT pin).
+    pub fn read_int_status(&mut self) -> Result<IntStatus, Error<E>> {
+        Ok(IntStatus(self.read_reg(reg::INT_STATUS)?))
+    }
+
+    /// Whether a new sample is ready (reads INT_STATUS, see [`read_int_status`](Self::read_int_status)).
+    pub fn data_ready(&mut self) -> Result<bool, Error<E>> {
+        Ok(self.read_int_status()?.data_ready())
+    }
+
+    /// Enable or disable I2C bypass so the host reaches the AK8963 (0x0C) directly.
+    ///
+    /// Enabling writes USER_CTRL = 0 (I2C_MST_EN cleared; this driver never
+    /// uses the FIFO or the I2C master) and then INT_PIN_CFG with BYPASS_EN
+    /// plus the interrupt bits of the current configuration; disabling writes
+    /// INT_PIN_CFG without BYPASS_EN. The state survives `init`.
+    pub fn set_bypass(&mut self, enable: bool) -> Result<(), Error<E>> {
+        self.bypass = enable;
+        if enable {
+            self.write_reg(reg::USER_CTRL, 0x00)?;
+        }
+        self.write_reg(reg::INT_PIN_CFG, self.config.interrupt.int_pin_cfg(enable))
+    }
+
+    fn write_reg(&mut self, register: u8, value: u8) -> Result<(), Error<E>> {
+        self.i2c
+            .write(self.address, &[register, value])
+            .map_err(Error::Bus)
+    }
+
+    fn read_reg(&mut self, register: u8) -> Result<u8, Error<E>> {
+        let mut b = [0u8; 1];
+        self.read_regs(register, &mut b)?;
+        Ok(b[0])
+    }
+
+    fn read_regs(&mut self, start: u8, buf: &mut [u8]) -> Result<(), Error<E>> {
+        self.i2c
+            .write_read(self.address, &[start], buf)
+            .map_err(Error::Bus)
+    }
+}
+
+/// Compare a burst read starting at `start` with the expected `(register, value)` pairs it covers.
+fn compare<E>(start: u8, read: &[u8], expected: &[(u8, u8)]) -> Result<(), Error<E>> {
+    for (i, &found) in read.iter().enumerate() {
+        let register = start.wrapping_add(i as u8);
+        if let Some(&(_, value)) = expected.iter().find(|(r, _)| *r == register) {
+            if value != found {
+                return Err(Error::ConfigMismatch {
+                    register,
+                    expected: value,
+                    found,
+                });
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,116 @@
+//! The driver's error type.
+
+use core::fmt;
+
+use crate::config::ConfigError;
+
+/// What the gyro-bias calibration saw that shows the device was not at rest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Motion {
+    /// A gyro axis' peak-to-peak spread over the window exceeded the limit.
+    GyroSpread {
+        /// Axis index (0 = x, 1 = y, 2 = z, MPU frame).
+        axis: u8,
+        /// Observed max − min, counts.
+        peak_to_peak_counts: u16,
+        /// The limit that was exceeded, counts.
+        limit_counts: u16,
+    },
+    /// One sample's accelerometer magnitude was outside 1 g ± the tolerance.
+    AccelMagnitude {
+        /// Observed |a| in milli-g (saturated at `u16::MAX`).
+        magnitude_mg: u16,
+    },
+}
+
+/// Every way a driver call can fail. `E` is the I2C bus error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Error<E> {
+    /// The I2C bus reported an error (NACK, arbitration loss, ...).
+    Bus(E),
+    /// WHO_AM_I returned an id that is not an MPU-9250/9255/6500.
+    WrongChipId(u8),
+    /// WHO_AM_I returned 0x70: an MPU-6500, which has no AK8963 magnetometer.
+    Mpu6500Detected,
+    /// PWR_MGMT_1 H_RESET did not clear within the polling budget.
+    ResetTimeout,
+    /// A configuration register read back differently from what was written
+    /// (bus corruption or the chip reset itself): re-initialise.
+    ConfigMismatch {
+        /// Register address.
+        register: u8,
+        /// Value written.
+        expected: u8,
+        /// Value read back.
+        found: u8,
+    },
+    /// Gyro-bias calibration saw motion; nothing was stored.
+    Moved(Motion),
+    /// The call needs [`init`](crate::Mpu9250::init) to have succeeded first.
+    NotInitialized,
+    /// The requested configuration is not valid; nothing was written.
+    InvalidConfig(ConfigError),
+}
+
+impl<E> From<ConfigError> for Error<E> {
+    fn from(e: ConfigError) -> Self {
+        Error::InvalidConfig(e)
+    }
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigError::DividerIgnored => f.write_str(
+                "sample-rate divider is ignored at gyro bandwidth 250 Hz / 3600 Hz (8 kHz)",
+            ),
+            ConfigError::NoSamples => f.write_str("zero samples requested"),
+        }
+    }
+}
+
+impl fmt::Display for Motion {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Motion::GyroSpread {
+                axis,
+                peak_to_peak_counts,
+                limit_counts,
+            } => write!(
+                f,
+                "gyro axis {axis} peak-to-peak {peak_to_peak_counts} counts > {limit_counts}"
+            ),
+            Motion::AccelMagnitude { magnitude_mg } => {
+                write!(f, "accelerometer magnitude {magnitude_mg} mg is not 1 g")
+            }
+        }
+    }
+}
+
+impl<E: fmt::Debug> fmt::Display for Error<E> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Bus(e) => write!(f, "I2C bus error: {e:?}"),
+            Error::WrongChipId(id) => write!(f, "WHO_AM_I 0x{id:02X} is not an MPU-9250"),
+            Error::Mpu6500Detected => {
+                f.write_str("WHO_AM_I 0x70: MPU-6500 (no magnetometer), not an MPU-9250")
+            }
+            Error::ResetTimeout => f.write_str("device reset did not complete"),
+            Error::ConfigMismatch {
+                register,
+                expected,
+                found,
+            } => write!(
+                f,
+                "register 0x{register:02X} reads 0x{found:02X}, expected 0x{expected:02X}"
+            ),
+            Error::Moved(m) => write!(f, "device moved during gyro calibration: {m}"),
+            Error::NotInitialized => f.write_str("driver not initialised"),
+            Error::InvalidConfig(e) => write!(f, "invalid configuration: {e}"),
+        }
+    }
+}
+
+impl<E: fmt::Debug> core::error::Error for Error<E> {}
