@@ -1,2 +1,68 @@
-//! MS5611 barometer driver (embedded-hal 1.0).
+//! MS5611-01BA03 barometric pressure sensor driver (embedded-hal 1.0, I²C).
+//!
+//! What it does:
+//!
+//! * Talks to the chip at 0x76 or 0x77 ([`Address`]): reset, PROM read with
+//!   the AN520 CRC-4 check and a blank-PROM check ([`Prom`], [`crc4`]), D1
+//!   (pressure) and D2 (temperature) conversions at every oversampling ratio
+//!   ([`Osr`]) and the 24-bit ADC read, where a result of 0 is an error
+//!   ([`Error::AdcNotReady`]), never a reading.
+//! * Compensates exactly as the datasheet, in integer arithmetic including
+//!   the second-order correction below 20 °C and −15 °C ([`compensate`],
+//!   [`compensate_detailed`] with every intermediate). Pressure is in Pa
+//!   (= 0.01 mbar), temperature in 0.01 °C.
+//! * Schedules conversions without blocking ([`Sampler`]): the caller passes
+//!   a wrapping microsecond timestamp; one D2 per N D1; a
+//!   [`Sampler::next_deadline_us`] for timer-driven firmware.
+//! * Blocking helpers ([`Ms5611::init`], [`Ms5611::measure`]) take an
+//!   `embedded_hal::delay::DelayNs`.
+//!
+//! What it does not do: altitude (that is `control`'s job), filtering, or
+//! anything with SPI.
+//!
+//! ```
+//! # use embedded_hal_mock::eh1::{i2c::{Mock, Transaction as T}, delay::NoopDelay};
+//! # let words = ms5611::Prom::from_coefficients([40127, 36924, 23317, 23282, 33464, 28312]).words();
+//! # let mut ex = vec![T::write(0x76, vec![0x1E])];
+//! # for (i, w) in words.iter().enumerate() {
+//! #     ex.push(T::write(0x76, vec![0xA0 + 2 * i as u8]));
+//! #     ex.push(T::read(0x76, w.to_be_bytes().to_vec()));
+//! # }
+//! # ex.extend([
+//! #     T::write(0x76, vec![0x44]), T::write(0x76, vec![0x00]), T::read(0x76, vec![0x8A, 0xA2, 0x1A]),
+//! #     T::write(0x76, vec![0x54]), T::write(0x76, vec![0x00]), T::read(0x76, vec![0x82, 0xC1, 0x3E]),
+//! # ]);
+//! # let i2c = Mock::new(&ex);
+//! # let mut delay = NoopDelay::new();
+//! use ms5611::{Address, Ms5611, Osr};
+//!
+//! let mut baro = Ms5611::new(i2c, Address::CsbHigh);
+//! baro.init(&mut delay)?; // reset, 2.8 ms, PROM + CRC
+//! let m = baro.measure(&mut delay, Osr::Osr1024)?;
+//! assert_eq!(m.pressure_pa, 100_009);
+//! assert_eq!(m.temperature_centi_c, 2007);
+//! # baro.release().done();
+//! # Ok::<(), ms5611::Error<embedded_hal::i2c::ErrorKind>>(())
+//! ```
 #![no_std]
+#![deny(unsafe_code)]
+
+pub mod command;
+mod compensation;
+mod device;
+mod error;
+mod prom;
+mod sampler;
+mod types;
+
+pub use command::{MAX_CONVERSION_TIME_US, RESET_TIME_US};
+pub use compensation::{
+    compensate, compensate_detailed, Compensation, Measurement, RawOutOfRange, ADC_LIMIT,
+};
+pub use device::Ms5611;
+pub use error::Error;
+pub use prom::{crc4, with_valid_crc, Prom, PromError};
+pub use sampler::{
+    guard_for_bus_hz, Action, SampleError, Sampler, SamplerConfig, DEFAULT_GUARD_US, MAX_GUARD_US,
+};
+pub use types::{Address, Channel, Osr};
