@@ -1,0 +1,188 @@
+//! Filter configuration (physical units, shared by the f32 and fixed-point filters)
+//! and the per-update status report.
+
+/// Filter configuration in physical units, so the same values work at any sample rate.
+///
+/// The fixed-point filter converts this once (at construction, using f32) into its
+/// Q-format constants ([`crate::fixed::FixedConfig::from_config`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Config {
+    /// Madgwick's β (rad/s): the rate at which the accelerometer/magnetometer correction
+    /// turns the estimate (the paper's eq. 50: β = √(3/4)·ω̃β, ω̃β the gyro error).
+    pub beta: f32,
+    /// Gain of the magnetometer (heading) correction (rad/s). The accelerometer and
+    /// magnetometer gradients are normalised separately (instead of jointly as in eq. 44)
+    /// so the heading correction rate does not jump when the accelerometer is rejected.
+    pub beta_mag: f32,
+    /// β at start-up (rad/s); β ramps linearly from this to [`Config::beta`] over
+    /// [`Config::startup_s`]. Rejection features are off during the ramp.
+    pub startup_beta: f32,
+    /// Duration of the start-up ramp (s). 0 disables it. Both gains ramp from
+    /// `startup_beta`.
+    pub startup_s: f32,
+    /// Norm of the accelerometer at rest (1 g) in the units the accelerometer is fed in
+    /// (9.80665 for m/s², 1.0 for g, 16384 for MPU-9250 counts at ±2 g).
+    pub gravity_norm: f32,
+    /// Use the magnetometer for heading only: its gradient is projected onto the
+    /// estimated vertical so a disturbed field cannot tilt the estimate.
+    pub mag_heading_only: bool,
+    /// Gyroscope bias estimation at rest.
+    pub bias: BiasConfig,
+    /// Accelerometer rejection during strong dynamics.
+    pub accel_rejection: AccelRejectionConfig,
+    /// Magnetic disturbance rejection.
+    pub mag_rejection: MagRejectionConfig,
+}
+
+/// Gyroscope bias estimation while the sensor is at rest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BiasConfig {
+    /// Switch.
+    pub enabled: bool,
+    /// Rest when |ω − bias| is below this (rad/s) ...
+    pub rest_gyro_rps: f32,
+    /// ... and |‖a‖ − g| is below this fraction of g ...
+    pub rest_accel_tol: f32,
+    /// ... for at least this long (s).
+    pub rest_time_s: f32,
+    /// Time constant of the bias average while at rest (s).
+    pub tau_s: f32,
+    /// Bias estimate is clamped to ± this (rad/s).
+    pub max_rps: f32,
+}
+
+/// Accelerometer rejection: skip the accelerometer correction when the measured
+/// specific force is not gravity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AccelRejectionConfig {
+    /// Switch.
+    pub enabled: bool,
+    /// Reject when |‖a‖ − g| exceeds this fraction of g.
+    pub norm_tol: f32,
+    /// Reject when the angle between measured and estimated gravity exceeds this (deg).
+    pub angle_deg: f32,
+    /// After this long rejected without a break (s), accept the accelerometer again
+    /// until it agrees with the estimate (recovery, so it cannot lock out forever).
+    pub recovery_s: f32,
+}
+
+/// Magnetic disturbance rejection: the field strength and dip angle must match the
+/// reference learned at initialisation (or from a stable new field).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MagRejectionConfig {
+    /// Switch.
+    pub enabled: bool,
+    /// Reject when ‖m‖ differs from the reference by more than this fraction.
+    pub norm_tol: f32,
+    /// Reject when the dip (inclination) differs from the reference by more than this (deg).
+    pub dip_tol_deg: f32,
+    /// Recovery: a field whose strength and dip stay consistent (within the tolerances)
+    /// for this long while the sensor rotates becomes the new reference (s).
+    pub recovery_s: f32,
+    /// Recovery time only accumulates while |ω| exceeds this (rad/s), so a constant
+    /// disturbance while standing still is not learnt.
+    pub recovery_min_rate_rps: f32,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+impl Config {
+    /// Defaults, chosen from sensor physics (see the crate README for the rationale
+    /// and the BROAD results).
+    pub const DEFAULT: Config = Config {
+        beta: 0.02,
+        beta_mag: 0.007,
+        startup_beta: 2.5,
+        startup_s: 3.0,
+        gravity_norm: 9.80665,
+        mag_heading_only: false,
+        bias: BiasConfig {
+            enabled: true,
+            rest_gyro_rps: 0.035,
+            rest_accel_tol: 0.05,
+            rest_time_s: 1.5,
+            tau_s: 3.0,
+            max_rps: 0.1,
+        },
+        accel_rejection: AccelRejectionConfig {
+            enabled: false,
+            norm_tol: 0.2,
+            angle_deg: 15.0,
+            recovery_s: 5.0,
+        },
+        mag_rejection: MagRejectionConfig {
+            enabled: true,
+            norm_tol: 0.1,
+            dip_tol_deg: 10.0,
+            recovery_s: 20.0,
+            recovery_min_rate_rps: 0.35,
+        },
+    };
+}
+
+/// Which corrections an update applied (the fallback chain).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum UpdatePath {
+    /// Gyro + accelerometer + magnetometer corrections.
+    Marg,
+    /// Gyro + accelerometer (magnetometer absent, invalid or rejected).
+    Imu,
+    /// Gyro + magnetometer heading correction (accelerometer rejected or invalid).
+    MagOnly,
+    /// Gyro integration only.
+    GyroOnly,
+    /// Nothing: gyro or dt invalid (or the result was not finite); state untouched.
+    Skipped,
+}
+
+/// What an update did and why.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct UpdateStatus {
+    /// Corrections applied.
+    pub path: UpdatePath,
+    /// Gyro or dt not finite / out of range.
+    pub gyro_invalid: bool,
+    /// Accelerometer zero or not finite.
+    pub accel_invalid: bool,
+    /// Magnetometer zero or not finite (only for MARG updates).
+    pub mag_invalid: bool,
+    /// Accelerometer rejected (strong dynamics).
+    pub accel_rejected: bool,
+    /// Accelerometer accepted only because the recovery timeout ran out.
+    pub accel_recovering: bool,
+    /// Magnetometer rejected (disturbed field).
+    pub mag_rejected: bool,
+    /// A new magnetic reference was adopted this update (recovery).
+    pub mag_reference_relearned: bool,
+    /// Rest detected; the gyro bias estimate is being updated.
+    pub at_rest: bool,
+    /// Still in the start-up (high-gain) phase.
+    pub initialising: bool,
+}
+
+impl UpdateStatus {
+    pub(crate) const fn new() -> Self {
+        Self {
+            path: UpdatePath::Skipped,
+            gyro_invalid: false,
+            accel_invalid: false,
+            mag_invalid: false,
+            accel_rejected: false,
+            accel_recovering: false,
+            mag_rejected: false,
+            mag_reference_relearned: false,
+            at_rest: false,
+            initialising: false,
+        }
+    }
+}
