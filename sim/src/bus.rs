@@ -1,0 +1,483 @@
+//! The virtual I2C bus: address routing, transfer timing, fault injection.
+
+use crate::ak8963::Ak8963Model;
+use crate::clock::SimClock;
+use crate::device::Device;
+use crate::errors::SensorErrors;
+use crate::math::Vec3;
+use crate::mpu9250::Mpu9250Model;
+use crate::ms5611::Ms5611Model;
+use crate::physics::{Environment, Trajectory};
+use crate::world::{MagnetPass, Vibration, World};
+use embedded_hal::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Operation};
+use std::cell::{Ref, RefCell, RefMut};
+use std::rc::Rc;
+
+/// AK8963 address (reachable through the MPU-9250's bypass only).
+pub const AK8963_ADDRESS: u8 = 0x0C;
+
+/// Error of a simulated transaction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SimBusError {
+    /// Address or data byte not acknowledged.
+    Nack(NoAcknowledgeSource),
+    /// Bus error (misplaced start/stop), e.g. a glitch mid-transfer or a stuck bus.
+    Bus,
+    /// Arbitration lost.
+    ArbitrationLoss,
+}
+
+impl embedded_hal::i2c::Error for SimBusError {
+    fn kind(&self) -> ErrorKind {
+        match *self {
+            SimBusError::Nack(s) => ErrorKind::NoAcknowledge(s),
+            SimBusError::Bus => ErrorKind::Bus,
+            SimBusError::ArbitrationLoss => ErrorKind::ArbitrationLoss,
+        }
+    }
+}
+
+impl std::fmt::Display for SimBusError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{self:?}")
+    }
+}
+
+impl std::error::Error for SimBusError {}
+
+/// Which chip a fault targets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Chip {
+    /// MPU-9250 (accelerometer, gyroscope).
+    Mpu9250,
+    /// AK8963 magnetometer.
+    Ak8963,
+    /// MS5611 barometer.
+    Ms5611,
+}
+
+/// A fault to inject with [`SimBus::inject`]. Persistent faults last until
+/// [`SimBus::clear_faults`]; one-shot ones say so.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Fault {
+    /// Transactions to `address` are not acknowledged, for the next
+    /// `transactions` ones (`None`: until cleared).
+    Nack {
+        /// 7-bit address.
+        address: u8,
+        /// How many transactions; `None` = until cleared.
+        transactions: Option<u32>,
+    },
+    /// One-shot: the next transaction (any address) fails with
+    /// `ErrorKind::Bus` after `after_bytes` data bytes have been transferred.
+    BusErrorMidTransfer {
+        /// Data bytes that get through before the error.
+        after_bytes: usize,
+    },
+    /// The next `transactions` transactions lose arbitration.
+    ArbitrationLoss {
+        /// How many.
+        transactions: u32,
+    },
+    /// Every transaction fails with `ErrorKind::Bus` (SDA held low) until cleared.
+    StuckBus,
+    /// The chip reports a wrong id (WHO_AM_I / WIA); the MS5611 has none.
+    WrongChipId {
+        /// Which chip.
+        chip: Chip,
+        /// The id it reports.
+        id: u8,
+    },
+    /// MS5611 PROM word `word` reads with `xor_mask` flipped.
+    CorruptProm {
+        /// Word 0..7.
+        word: usize,
+        /// Bits to flip.
+        xor_mask: u16,
+    },
+    /// Every AK8963 measurement reports HOFL (magnetic sensor overflow).
+    MagOverflow,
+    /// The chip's data stops updating (data-ready keeps firing, values stay).
+    Frozen(Chip),
+    /// A magnet passes by (field disturbance, body frame).
+    Magnet(MagnetPass),
+    /// Vibration on the accelerometer and gyroscope.
+    Vibration(Vibration),
+    /// One-shot: the chip resets itself now (registers back to reset values).
+    ChipReset(Chip),
+}
+
+/// Everything needed to build a simulated board.
+#[derive(Clone, Debug)]
+pub struct SimConfig {
+    /// The motion.
+    pub trajectory: Trajectory,
+    /// Field and atmosphere.
+    pub env: Environment,
+    /// Sensor errors.
+    pub errors: SensorErrors,
+    /// Seed of all randomness.
+    pub seed: u64,
+    /// MPU-9250 address (0x68 with AD0 low, 0x69 high).
+    pub mpu_address: u8,
+    /// MS5611 address (0x77 with CSB low, 0x76 high).
+    pub ms5611_address: u8,
+    /// Bus clock (Hz) used to advance simulated time per transfer; `None` = transfers take no time.
+    pub bus_hz: Option<u32>,
+    /// AK8963 fuse-ROM values.
+    pub ak8963_asa: [u8; 3],
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self {
+            trajectory: Trajectory::at_rest(),
+            env: Environment::default(),
+            errors: SensorErrors::noise_only(),
+            seed: 1,
+            mpu_address: 0x68,
+            ms5611_address: 0x77,
+            bus_hz: Some(400_000),
+            ak8963_asa: crate::ak8963::DEFAULT_ASA,
+        }
+    }
+}
+
+/// The state behind a [`SimBus`]; borrow it with [`SimBus::state`].
+#[derive(Debug)]
+pub struct BusState {
+    /// The world (truth, errors, disturbances).
+    pub world: World,
+    /// MPU-9250 model.
+    pub mpu: Mpu9250Model,
+    /// AK8963 model.
+    pub ak: Ak8963Model,
+    /// MS5611 model.
+    pub ms: Ms5611Model,
+    /// MPU-9250 address.
+    pub mpu_address: u8,
+    /// MS5611 address.
+    pub ms5611_address: u8,
+    /// Bus clock for transfer timing.
+    pub bus_hz: Option<u32>,
+    nacks: Vec<(u8, Option<u32>)>,
+    bus_error_after: Option<usize>,
+    arbitration_losses: u32,
+    stuck: bool,
+    transactions: u64,
+    failed_transactions: u64,
+}
+
+impl BusState {
+    fn update_all(&mut self, now_ns: u64) {
+        self.mpu.update(now_ns, &mut self.world);
+        self.ak.update(now_ns, &mut self.world);
+        self.ms.update(now_ns, &mut self.world);
+    }
+}
+
+/// The virtual I2C bus with the three chips on it. Cheap to clone: clones
+/// share the same chips, so each driver can own one and the test keeps one
+/// for fault injection and inspection.
+#[derive(Clone, Debug)]
+pub struct SimBus {
+    clock: SimClock,
+    state: Rc<RefCell<BusState>>,
+}
+
+impl SimBus {
+    /// A bus on `clock` built from `config`.
+    pub fn new(clock: &SimClock, config: SimConfig) -> Self {
+        let world = World::new(config.trajectory, config.env, config.errors, config.seed);
+        let state = BusState {
+            world,
+            mpu: Mpu9250Model::new(),
+            ak: Ak8963Model::new(config.ak8963_asa),
+            ms: Ms5611Model::default(),
+            mpu_address: config.mpu_address,
+            ms5611_address: config.ms5611_address,
+            bus_hz: config.bus_hz,
+            nacks: Vec::new(),
+            bus_error_after: None,
+            arbitration_losses: 0,
+            stuck: false,
+            transactions: 0,
+            failed_transactions: 0,
+        };
+        Self {
+            clock: clock.clone(),
+            state: Rc::new(RefCell::new(state)),
+        }
+    }
+
+    /// The shared clock.
+    pub fn clock(&self) -> &SimClock {
+        &self.clock
+    }
+
+    /// Read access to the models and the world (brought up to date first).
+    pub fn state(&self) -> Ref<'_, BusState> {
+        self.sync();
+        self.state.borrow()
+    }
+
+    /// Write access to the models and the world.
+    pub fn state_mut(&self) -> RefMut<'_, BusState> {
+        self.sync();
+        self.state.borrow_mut()
+    }
+
+    fn sync(&self) {
+        let now = self.clock.now_ns();
+        self.state.borrow_mut().update_all(now);
+    }
+
+    /// The MPU-9250 INT line is asserted now (data ready; see
+    /// `Mpu9250Model::int_asserted` for the latched / 50 µs pulse modes).
+    pub fn data_ready(&self) -> bool {
+        let now = self.clock.now_ns();
+        let mut s = self.state.borrow_mut();
+        s.update_all(now);
+        s.mpu.int_asserted(now)
+    }
+
+    /// Simulated time (ns) of the MPU-9250's next sample.
+    pub fn next_mpu_sample_ns(&self) -> u64 {
+        self.state().mpu.next_sample_ns()
+    }
+
+    /// Advances the clock to the next MPU-9250 sample (if it is running) and
+    /// returns the new time.
+    pub fn advance_to_next_mpu_sample(&self) -> u64 {
+        let t = self.next_mpu_sample_ns();
+        self.clock.advance_to_ns(t);
+        self.sync();
+        self.clock.now_ns()
+    }
+
+    /// Truth at the current simulated time.
+    pub fn truth_now(&self) -> crate::physics::TruthSample {
+        let t = self.clock.now_s();
+        self.state.borrow().world.truth(t)
+    }
+
+    /// Truth at the time of the MPU's latest sample (what the sample registers hold).
+    pub fn truth_at_last_mpu_sample(&self) -> Option<crate::physics::TruthSample> {
+        let s = self.state();
+        s.mpu
+            .last_sample_ns()
+            .map(|t| s.world.truth(t as f64 * 1e-9))
+    }
+
+    /// Transactions so far (all / failed).
+    pub fn transaction_counts(&self) -> (u64, u64) {
+        let s = self.state.borrow();
+        (s.transactions, s.failed_transactions)
+    }
+
+    /// Injects a fault.
+    pub fn inject(&self, fault: Fault) {
+        let now = self.clock.now_ns();
+        let mut s = self.state.borrow_mut();
+        s.update_all(now);
+        match fault {
+            Fault::Nack {
+                address,
+                transactions,
+            } => {
+                s.nacks.retain(|(a, _)| *a != address);
+                s.nacks.push((address, transactions));
+            }
+            Fault::BusErrorMidTransfer { after_bytes } => s.bus_error_after = Some(after_bytes),
+            Fault::ArbitrationLoss { transactions } => s.arbitration_losses = transactions,
+            Fault::StuckBus => s.stuck = true,
+            Fault::WrongChipId { chip, id } => match chip {
+                Chip::Mpu9250 => s.mpu.who_am_i_override = Some(id),
+                Chip::Ak8963 => s.ak.who_am_i_override = Some(id),
+                Chip::Ms5611 => {}
+            },
+            Fault::CorruptProm { word, xor_mask } => {
+                if let Some(w) = s.ms.prom_corruption.get_mut(word) {
+                    *w ^= xor_mask;
+                }
+            }
+            Fault::MagOverflow => s.ak.force_overflow = true,
+            Fault::Frozen(chip) => match chip {
+                Chip::Mpu9250 => s.mpu.frozen = true,
+                Chip::Ak8963 => s.ak.frozen = true,
+                Chip::Ms5611 => s.ms.frozen = true,
+            },
+            Fault::Magnet(m) => s.world.magnets.push(m),
+            Fault::Vibration(v) => s.world.vibration = Some(v),
+            Fault::ChipReset(chip) => match chip {
+                Chip::Mpu9250 => s.mpu.power_on_reset(now),
+                Chip::Ak8963 => s.ak.power_on_reset(now),
+                Chip::Ms5611 => s.ms.power_on_reset(now),
+            },
+        }
+    }
+
+    /// Clears every persistent fault (NACKs, stuck bus, wrong ids, PROM
+    /// corruption, overflow, frozen chips, magnets, vibration).
+    pub fn clear_faults(&self) {
+        let mut s = self.state.borrow_mut();
+        s.nacks.clear();
+        s.bus_error_after = None;
+        s.arbitration_losses = 0;
+        s.stuck = false;
+        s.mpu.who_am_i_override = None;
+        s.ak.who_am_i_override = None;
+        s.ms.prom_corruption = [0; 8];
+        s.ak.force_overflow = false;
+        s.mpu.frozen = false;
+        s.ak.frozen = false;
+        s.ms.frozen = false;
+        s.world.magnets.clear();
+        s.world.vibration = None;
+    }
+
+    fn transfer_time_ns(bus_hz: Option<u32>, segments: usize, bytes: usize) -> u64 {
+        match bus_hz {
+            Some(hz) if hz > 0 => {
+                // Start + 9 bits of address per segment, 9 bits per byte, stop.
+                let bits = (segments * 10 + bytes * 9 + 1) as u64;
+                bits * 1_000_000_000 / u64::from(hz)
+            }
+            _ => 0,
+        }
+    }
+
+    fn run(&self, address: u8, operations: &mut [Operation<'_>]) -> Result<(), SimBusError> {
+        let now = self.clock.now_ns();
+        let mut guard = self.state.borrow_mut();
+        let s = &mut *guard;
+        s.update_all(now);
+        s.transactions += 1;
+        let segments = operations.len().max(1);
+        let bytes: usize = operations
+            .iter()
+            .map(|o| match o {
+                Operation::Read(b) => b.len(),
+                Operation::Write(b) => b.len(),
+            })
+            .sum();
+        let result = Self::run_inner(s, now, address, operations);
+        if result.is_err() {
+            s.failed_transactions += 1;
+        }
+        let dt = Self::transfer_time_ns(s.bus_hz, segments, if result.is_ok() { bytes } else { 0 });
+        drop(guard);
+        self.clock.advance_ns(dt);
+        result
+    }
+
+    fn run_inner(
+        s: &mut BusState,
+        now: u64,
+        address: u8,
+        operations: &mut [Operation<'_>],
+    ) -> Result<(), SimBusError> {
+        if s.stuck {
+            return Err(SimBusError::Bus);
+        }
+        if s.arbitration_losses > 0 {
+            s.arbitration_losses -= 1;
+            return Err(SimBusError::ArbitrationLoss);
+        }
+        let nack_addr = Err(SimBusError::Nack(NoAcknowledgeSource::Address));
+        if let Some(i) = s.nacks.iter().position(|(a, _)| *a == address) {
+            match &mut s.nacks[i].1 {
+                None => return nack_addr,
+                Some(0) => {
+                    s.nacks.remove(i);
+                }
+                Some(n) => {
+                    *n -= 1;
+                    if *n == 0 {
+                        s.nacks.remove(i);
+                    }
+                    return nack_addr;
+                }
+            }
+        }
+        let mut budget = s.bus_error_after.take();
+        let BusState {
+            world, mpu, ak, ms, ..
+        } = s;
+        let dev: &mut dyn Device = if address == s.mpu_address {
+            mpu
+        } else if address == s.ms5611_address {
+            ms
+        } else if address == AK8963_ADDRESS && mpu.bypass_active() {
+            ak
+        } else {
+            return nack_addr;
+        };
+        if !dev.acks_address(now) {
+            return nack_addr;
+        }
+        let mut prev_read: Option<bool> = None;
+        let mut result = Ok(());
+        'ops: for op in operations.iter_mut() {
+            let is_read = matches!(op, Operation::Read(_));
+            if prev_read != Some(is_read) {
+                dev.start(is_read);
+                prev_read = Some(is_read);
+            }
+            match op {
+                Operation::Write(bytes) => {
+                    for &b in bytes.iter() {
+                        if budget == Some(0) {
+                            result = Err(SimBusError::Bus);
+                            break 'ops;
+                        }
+                        budget = budget.map(|n| n - 1);
+                        if let Err(e) = dev.write_byte(b, now, world) {
+                            result = Err(e);
+                            break 'ops;
+                        }
+                    }
+                }
+                Operation::Read(buf) => {
+                    for slot in buf.iter_mut() {
+                        if budget == Some(0) {
+                            result = Err(SimBusError::Bus);
+                            break 'ops;
+                        }
+                        budget = budget.map(|n| n - 1);
+                        *slot = dev.read_byte(now, world);
+                    }
+                }
+            }
+        }
+        dev.stop(now, world);
+        if result.is_ok() && budget.is_some() {
+            // The glitch did not happen during this (short) transaction: keep it armed.
+            s.bus_error_after = budget;
+        }
+        result
+    }
+}
+
+impl ErrorType for SimBus {
+    type Error = SimBusError;
+}
+
+impl I2c for SimBus {
+    fn transaction(
+        &mut self,
+        address: u8,
+        operations: &mut [Operation<'_>],
+    ) -> Result<(), Self::Error> {
+        self.run(address, operations)
+    }
+}
+
+/// Convenience: a field disturbance of `peak_body_ut` peaking at `peak_time_s`.
+pub fn magnet_pass(peak_body_ut: Vec3, peak_time_s: f64, width_s: f64) -> Fault {
+    Fault::Magnet(MagnetPass {
+        peak_body_ut,
+        peak_time_s,
+        width_s,
+    })
+}

@@ -1,0 +1,360 @@
+//! Register-level model of the InvenSense MPU-9250 (register map rev 1.6,
+//! product specification rev 1.1): accelerometer, gyroscope, temperature,
+//! sample-rate divider and DLPF configuration, data-ready interrupt, bypass.
+//!
+//! Not modelled: FIFO, DMP, the I2C master (SLV0..4 / EXT_SENS_DATA),
+//! self-test responses, wake-on-motion, the DLPF's signal delay (only its
+//! noise bandwidth), start-up transients.
+
+use crate::bus::SimBusError;
+use crate::device::Device;
+use crate::math::Vec3;
+use crate::world::{World, G_MPS2};
+use std::f64::consts::FRAC_PI_2;
+
+/// Register addresses used by the model (register map rev 1.6).
+#[allow(missing_docs)]
+pub mod reg {
+    pub const SMPLRT_DIV: u8 = 0x19;
+    pub const CONFIG: u8 = 0x1A;
+    pub const GYRO_CONFIG: u8 = 0x1B;
+    pub const ACCEL_CONFIG: u8 = 0x1C;
+    pub const ACCEL_CONFIG2: u8 = 0x1D;
+    pub const INT_PIN_CFG: u8 = 0x37;
+    pub const INT_ENABLE: u8 = 0x38;
+    pub const INT_STATUS: u8 = 0x3A;
+    pub const ACCEL_XOUT_H: u8 = 0x3B;
+    pub const TEMP_OUT_H: u8 = 0x41;
+    pub const GYRO_XOUT_H: u8 = 0x43;
+    pub const EXT_SENS_DATA_23: u8 = 0x60;
+    pub const SIGNAL_PATH_RESET: u8 = 0x68;
+    pub const USER_CTRL: u8 = 0x6A;
+    pub const PWR_MGMT_1: u8 = 0x6B;
+    pub const PWR_MGMT_2: u8 = 0x6C;
+    pub const FIFO_COUNTH: u8 = 0x72;
+    pub const FIFO_COUNTL: u8 = 0x73;
+    pub const WHO_AM_I: u8 = 0x75;
+}
+
+/// WHO_AM_I of the MPU-9250.
+pub const WHO_AM_I_VALUE: u8 = 0x71;
+/// Time the H_RESET bit stays set after it is written (simulated, ns).
+pub const RESET_TIME_NS: u64 = 1_000_000;
+/// Length of the non-latched INT pulse (register map: 50 µs).
+pub const INT_PULSE_NS: u64 = 50_000;
+/// Temperature sensitivity (LSB/°C), offset 0 LSB at 21 °C.
+pub const TEMP_LSB_PER_C: f64 = 333.87;
+
+/// Gyro LSB per °/s for GYRO_FS_SEL 0..3.
+pub const GYRO_LSB_PER_DPS: [f64; 4] = [131.0, 65.5, 32.8, 16.4];
+/// Accelerometer LSB per g for ACCEL_FS_SEL 0..3.
+pub const ACCEL_LSB_PER_G: [f64; 4] = [16384.0, 8192.0, 4096.0, 2048.0];
+const GYRO_DLPF_BW_HZ: [f64; 8] = [250.0, 184.0, 92.0, 41.0, 20.0, 10.0, 5.0, 3600.0];
+const ACCEL_DLPF_BW_HZ: [f64; 8] = [218.1, 218.1, 99.0, 44.8, 21.2, 10.2, 5.05, 420.0];
+
+fn reset_registers() -> [u8; 128] {
+    let mut r = [0u8; 128];
+    r[reg::PWR_MGMT_1 as usize] = 0x01;
+    r[reg::WHO_AM_I as usize] = WHO_AM_I_VALUE;
+    // Factory self-test codes (arbitrary but typical).
+    r[0x00] = 0x6A;
+    r[0x01] = 0x6C;
+    r[0x02] = 0x6F;
+    r[0x0D] = 0x6B;
+    r[0x0E] = 0x6E;
+    r[0x0F] = 0x72;
+    r
+}
+
+/// Saturating conversion to a 16-bit two's-complement register value.
+pub fn to_i16_sat(x: f64) -> i16 {
+    x.round().clamp(-32768.0, 32767.0) as i16
+}
+
+/// The MPU-9250 model.
+#[derive(Clone, Debug)]
+pub struct Mpu9250Model {
+    regs: [u8; 128],
+    ptr: u8,
+    expect_reg_addr: bool,
+    reset_done_ns: Option<u64>,
+    next_sample_ns: u64,
+    last_sample_ns: Option<u64>,
+    sleeping: bool,
+    /// Data registers stop updating while data-ready keeps firing (fault).
+    pub frozen: bool,
+    /// WHO_AM_I override (fault).
+    pub who_am_i_override: Option<u8>,
+    samples: u64,
+    last_physical: Option<crate::world::ImuPhysical>,
+}
+
+impl Default for Mpu9250Model {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Mpu9250Model {
+    /// A chip just powered on.
+    pub fn new() -> Self {
+        Self {
+            regs: reset_registers(),
+            ptr: 0,
+            expect_reg_addr: false,
+            reset_done_ns: None,
+            next_sample_ns: 1_000_000,
+            last_sample_ns: None,
+            sleeping: false,
+            frozen: false,
+            who_am_i_override: None,
+            samples: 0,
+            last_physical: None,
+        }
+    }
+
+    /// Raw register value (no side effects).
+    pub fn register(&self, addr: u8) -> u8 {
+        self.regs.get(usize::from(addr)).copied().unwrap_or(0)
+    }
+
+    /// Output data rate period (ns) from GYRO_CONFIG.FCHOICE_B, CONFIG.DLPF_CFG, SMPLRT_DIV.
+    pub fn sample_period_ns(&self) -> u64 {
+        let fchoice_b = self.regs[reg::GYRO_CONFIG as usize] & 0x03;
+        let dlpf = self.regs[reg::CONFIG as usize] & 0x07;
+        if fchoice_b != 0 {
+            31_250
+        } else if dlpf == 0 || dlpf == 7 {
+            125_000
+        } else {
+            1_000_000 * (1 + u64::from(self.regs[reg::SMPLRT_DIV as usize]))
+        }
+    }
+
+    /// Gyro equivalent noise bandwidth (Hz) = 3 dB bandwidth · π/2.
+    pub fn gyro_enbw_hz(&self) -> f64 {
+        let fchoice_b = self.regs[reg::GYRO_CONFIG as usize] & 0x03;
+        let bw = match fchoice_b {
+            0 => GYRO_DLPF_BW_HZ[usize::from(self.regs[reg::CONFIG as usize] & 7)],
+            2 => 3600.0,
+            _ => 8800.0,
+        };
+        bw * FRAC_PI_2
+    }
+
+    /// Accelerometer equivalent noise bandwidth (Hz).
+    pub fn accel_enbw_hz(&self) -> f64 {
+        let c2 = self.regs[reg::ACCEL_CONFIG2 as usize];
+        let bw = if c2 & 0x08 != 0 {
+            1046.0
+        } else {
+            ACCEL_DLPF_BW_HZ[usize::from(c2 & 7)]
+        };
+        bw * FRAC_PI_2
+    }
+
+    /// Gyro sensitivity (LSB per °/s) at the configured full scale.
+    pub fn gyro_lsb_per_dps(&self) -> f64 {
+        GYRO_LSB_PER_DPS[usize::from((self.regs[reg::GYRO_CONFIG as usize] >> 3) & 3)]
+    }
+
+    /// Accelerometer sensitivity (LSB per g) at the configured full scale.
+    pub fn accel_lsb_per_g(&self) -> f64 {
+        ACCEL_LSB_PER_G[usize::from((self.regs[reg::ACCEL_CONFIG as usize] >> 3) & 3)]
+    }
+
+    /// BYPASS_EN set and I2C_MST_EN clear: the AK8963 is reachable.
+    pub fn bypass_active(&self) -> bool {
+        self.reset_done_ns.is_none()
+            && self.regs[reg::INT_PIN_CFG as usize] & 0x02 != 0
+            && self.regs[reg::USER_CTRL as usize] & 0x20 == 0
+    }
+
+    /// Number of samples produced so far.
+    pub fn sample_count(&self) -> u64 {
+        self.samples
+    }
+
+    /// Time of the last sample (ns).
+    pub fn last_sample_ns(&self) -> Option<u64> {
+        self.last_sample_ns
+    }
+
+    /// Time of the next sample (ns).
+    pub fn next_sample_ns(&self) -> u64 {
+        self.next_sample_ns
+    }
+
+    /// The physical values behind the latest sample (before quantisation).
+    pub fn last_physical(&self) -> Option<crate::world::ImuPhysical> {
+        self.last_physical
+    }
+
+    /// The INT line is asserted (logical level; see [`Mpu9250Model::int_pin_high`]).
+    pub fn int_asserted(&self, now_ns: u64) -> bool {
+        if self.regs[reg::INT_ENABLE as usize] & 0x01 == 0 {
+            return false;
+        }
+        if self.regs[reg::INT_PIN_CFG as usize] & 0x20 != 0 {
+            self.regs[reg::INT_STATUS as usize] & 0x01 != 0
+        } else {
+            self.last_sample_ns
+                .is_some_and(|t| now_ns < t + INT_PULSE_NS)
+        }
+    }
+
+    /// Electrical level of the INT pin (ACTL = INT_PIN_CFG bit 7 inverts it).
+    pub fn int_pin_high(&self, now_ns: u64) -> bool {
+        let active_low = self.regs[reg::INT_PIN_CFG as usize] & 0x80 != 0;
+        self.int_asserted(now_ns) != active_low
+    }
+
+    fn clear_data(&mut self) {
+        for r in reg::ACCEL_XOUT_H..=reg::EXT_SENS_DATA_23 {
+            self.regs[usize::from(r)] = 0;
+        }
+    }
+
+    fn put16(&mut self, at: u8, v: i16) {
+        let b = v.to_be_bytes();
+        self.regs[usize::from(at)] = b[0];
+        self.regs[usize::from(at) + 1] = b[1];
+    }
+
+    fn produce_sample(&mut self, t_ns: u64, world: &mut World) {
+        let phys = world.imu(
+            t_ns as f64 * 1e-9,
+            self.gyro_enbw_hz(),
+            self.accel_enbw_hz(),
+        );
+        let pm2 = self.regs[reg::PWR_MGMT_2 as usize];
+        let a_lsb = self.accel_lsb_per_g() / G_MPS2;
+        let g_lsb = self.gyro_lsb_per_dps();
+        let acc: Vec3 = phys.accel_mpu_mps2;
+        let gyr: Vec3 = phys.gyro_mpu_dps;
+        for i in 0..3 {
+            // PWR_MGMT_2: bits 5..3 disable XA, YA, ZA; bits 2..0 disable XG, YG, ZG.
+            let a = if pm2 & (0x20 >> i) != 0 {
+                0
+            } else {
+                to_i16_sat(acc[i] * a_lsb)
+            };
+            let g = if pm2 & (0x04 >> i) != 0 {
+                0
+            } else {
+                to_i16_sat(gyr[i] * g_lsb)
+            };
+            self.put16(reg::ACCEL_XOUT_H + 2 * i as u8, a);
+            self.put16(reg::GYRO_XOUT_H + 2 * i as u8, g);
+        }
+        self.put16(
+            reg::TEMP_OUT_H,
+            to_i16_sat((phys.temp_c - 21.0) * TEMP_LSB_PER_C),
+        );
+        self.regs[reg::INT_STATUS as usize] |= 0x01;
+        self.last_sample_ns = Some(t_ns);
+        self.last_physical = Some(phys);
+        self.samples += 1;
+    }
+
+    fn on_register_write(&mut self, r: u8, v: u8, now_ns: u64) {
+        match r {
+            reg::PWR_MGMT_1 => {
+                if v & 0x80 != 0 {
+                    self.power_on_reset(now_ns);
+                    self.regs[reg::PWR_MGMT_1 as usize] = 0x81;
+                    self.reset_done_ns = Some(now_ns + RESET_TIME_NS);
+                } else {
+                    self.regs[r as usize] = v;
+                }
+            }
+            reg::SIGNAL_PATH_RESET => self.clear_data(),
+            reg::USER_CTRL => {
+                if v & 0x01 != 0 {
+                    self.clear_data();
+                }
+                // FIFO_RST, I2C_MST_RST, SIG_COND_RST self-clear.
+                self.regs[r as usize] = v & !0x07;
+            }
+            reg::INT_STATUS | reg::FIFO_COUNTH | reg::FIFO_COUNTL | reg::WHO_AM_I => {}
+            reg::ACCEL_XOUT_H..=reg::EXT_SENS_DATA_23 => {}
+            _ => {
+                if let Some(c) = self.regs.get_mut(usize::from(r)) {
+                    *c = v;
+                }
+            }
+        }
+    }
+}
+
+impl Device for Mpu9250Model {
+    fn update(&mut self, now_ns: u64, world: &mut World) {
+        if let Some(done) = self.reset_done_ns {
+            if now_ns < done {
+                return;
+            }
+            self.reset_done_ns = None;
+            self.regs[reg::PWR_MGMT_1 as usize] &= !0x80;
+            self.next_sample_ns = done + self.sample_period_ns();
+        }
+        let asleep = self.regs[reg::PWR_MGMT_1 as usize] & 0x40 != 0;
+        let period = self.sample_period_ns();
+        if asleep {
+            self.sleeping = true;
+            return;
+        }
+        if self.sleeping {
+            self.sleeping = false;
+            self.next_sample_ns = now_ns + period;
+        }
+        if now_ns >= self.next_sample_ns {
+            let n = (now_ns - self.next_sample_ns) / period + 1;
+            let t = self.next_sample_ns + (n - 1) * period;
+            self.next_sample_ns += n * period;
+            if self.frozen {
+                // Stuck output: data-ready keeps firing, the data registers keep their old values.
+                self.regs[reg::INT_STATUS as usize] |= 0x01;
+                self.last_sample_ns = Some(t);
+            } else {
+                self.produce_sample(t, world);
+            }
+        }
+    }
+
+    fn start(&mut self, read: bool) {
+        self.expect_reg_addr = !read;
+    }
+
+    fn write_byte(&mut self, byte: u8, now_ns: u64, _world: &mut World) -> Result<(), SimBusError> {
+        if self.expect_reg_addr {
+            self.expect_reg_addr = false;
+            self.ptr = byte & 0x7F;
+        } else {
+            self.on_register_write(self.ptr, byte, now_ns);
+            self.ptr = (self.ptr + 1) & 0x7F;
+        }
+        Ok(())
+    }
+
+    fn read_byte(&mut self, _now_ns: u64, _world: &mut World) -> u8 {
+        let r = self.ptr;
+        let mut v = self.regs[usize::from(r)];
+        if r == reg::WHO_AM_I {
+            v = self.who_am_i_override.unwrap_or(v);
+        }
+        let any_read_clears = self.regs[reg::INT_PIN_CFG as usize] & 0x10 != 0;
+        if r == reg::INT_STATUS || any_read_clears {
+            self.regs[reg::INT_STATUS as usize] &= !0x01;
+        }
+        self.ptr = (self.ptr + 1) & 0x7F;
+        v
+    }
+
+    fn power_on_reset(&mut self, now_ns: u64) {
+        self.regs = reset_registers();
+        self.sleeping = false;
+        self.reset_done_ns = None;
+        self.next_sample_ns = now_ns + self.sample_period_ns();
+        self.last_sample_ns = None;
+    }
+}

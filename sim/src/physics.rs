@@ -1,0 +1,417 @@
+//! Rigid-body truth: trajectories, the Earth's magnetic field and the ISA
+//! atmosphere.
+//!
+//! Frames: body FRD (x forward, y right, z down), earth NED. A trajectory
+//! gives the pose (position in NED, `q_ned_from_body`) as a smooth function of
+//! time; angular rate and specific force are obtained by differentiating it
+//! numerically (central differences in f64, errors < 1e-6 of the signal).
+
+use crate::math::{self, Quat, Vec3};
+use std::f64::consts::PI;
+use std::fmt;
+use std::rc::Rc;
+
+/// Standard gravity (m/s²), used by the simulator as the local gravity.
+pub const G0_MPS2: f64 = 9.80665;
+
+/// Everything true about the body at one instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TruthSample {
+    /// Simulated time (s).
+    pub t_s: f64,
+    /// Orientation: rotates body (FRD) vectors into NED.
+    pub q_ned_from_body: Quat,
+    /// Angular rate of the body relative to NED, in the body frame (rad/s).
+    pub omega_body_rps: Vec3,
+    /// Specific force (what an accelerometer measures: a − g) in the body frame (m/s²).
+    pub specific_force_body_mps2: Vec3,
+    /// Position relative to the start point, NED (m).
+    pub position_ned_m: Vec3,
+    /// Velocity, NED (m/s).
+    pub velocity_ned_mps: Vec3,
+    /// Height above the start point (m, up).
+    pub height_m: f64,
+    /// True while the body rotates or accelerates noticeably.
+    pub moving: bool,
+}
+
+/// A pose at one instant: (position NED in m, `q_ned_from_body`).
+pub type Pose = (Vec3, Quat);
+
+/// Built-in trajectories. Every built-in starts with a rest phase of
+/// [`Trajectory::REST_S`] seconds (level, facing north) so that a gyro bias
+/// calibration can run first, then blends smoothly into its motion.
+#[derive(Clone)]
+pub enum Trajectory {
+    /// Motionless at the given orientation for ever.
+    AtRest {
+        /// Orientation of the body.
+        q_ned_from_body: Quat,
+    },
+    /// Constant angular rate about a body axis, from the start (no rest phase).
+    ConstantRate {
+        /// Body rate (rad/s).
+        omega_body_rps: Vec3,
+    },
+    /// Gentle rotations (≤ ~40°/s) in all three axes, no translation.
+    SlowRotations,
+    /// The figure-eight calibration dance: full yaw turns, pitch ±75°, roll
+    /// ±180°, small translations — covers all field directions for a
+    /// magnetometer calibration.
+    FigureEight,
+    /// Hover with climbs and descents (0 → 10 → 25 → 5 m, repeating) and
+    /// small attitude wobbles.
+    Hover,
+    /// Aggressive manoeuvres: flips (up to ~700°/s), fast yaw, accelerations
+    /// of about 1 g on top of gravity.
+    Aggressive,
+    /// A user-supplied pose function of time (s).
+    Custom(Rc<dyn Fn(f64) -> Pose>),
+}
+
+impl fmt::Debug for Trajectory {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+fn smoothstep(t: f64, t0: f64, t1: f64) -> f64 {
+    let x = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
+    x * x * x * (x * (6.0 * x - 15.0) + 10.0)
+}
+
+fn sin_hz(t: f64, hz: f64, phase: f64) -> f64 {
+    (2.0 * PI * hz * t + phase).sin()
+}
+
+impl Trajectory {
+    /// Length of the rest phase at the start of the moving built-ins (s).
+    pub const REST_S: f64 = 3.0;
+
+    /// Names accepted by [`Trajectory::from_name`].
+    pub const NAMES: [&'static str; 6] = ["rest", "spin", "slow", "figure8", "hover", "aggressive"];
+
+    /// Level at rest, facing north.
+    pub fn at_rest() -> Self {
+        Trajectory::AtRest {
+            q_ned_from_body: Quat::IDENTITY,
+        }
+    }
+
+    /// Rest for [`Trajectory::REST_S`], then a 1 s linear ramp up to a constant
+    /// body rate `omega_body_rps` (rad/s) kept for ever.
+    pub fn spin(omega_body_rps: Vec3) -> Self {
+        let w = omega_body_rps;
+        let rate = math::norm(w);
+        Trajectory::Custom(Rc::new(move |t_s: f64| {
+            let tau = t_s - Self::REST_S;
+            let angle = if tau <= 0.0 {
+                0.0
+            } else if tau < 1.0 {
+                0.5 * rate * tau * tau
+            } else {
+                rate * (tau - 0.5)
+            };
+            ([0.0; 3], Quat::from_axis_angle(w, angle))
+        }))
+    }
+
+    /// Built-in by name: `rest`, `spin` (rest, then yaw at 90°/s), `slow`, `figure8`,
+    /// `hover`, `aggressive`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Some(match name {
+            "rest" => Self::at_rest(),
+            "spin" => Self::spin([0.0, 0.0, 90f64.to_radians()]),
+            "slow" => Trajectory::SlowRotations,
+            "figure8" | "figure-eight" => Trajectory::FigureEight,
+            "hover" => Trajectory::Hover,
+            "aggressive" => Trajectory::Aggressive,
+            _ => return None,
+        })
+    }
+
+    /// Short name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Trajectory::AtRest { .. } => "rest",
+            Trajectory::ConstantRate { .. } => "spin",
+            Trajectory::SlowRotations => "slow",
+            Trajectory::FigureEight => "figure8",
+            Trajectory::Hover => "hover",
+            Trajectory::Aggressive => "aggressive",
+            Trajectory::Custom(_) => "custom/spin",
+        }
+    }
+
+    /// Pose at time `t_s`.
+    pub fn pose(&self, t_s: f64) -> Pose {
+        let tau = t_s - Self::REST_S;
+        let env = smoothstep(t_s, Self::REST_S, Self::REST_S + 1.5);
+        match self {
+            Trajectory::AtRest { q_ned_from_body } => ([0.0; 3], *q_ned_from_body),
+            Trajectory::ConstantRate { omega_body_rps } => {
+                let w = *omega_body_rps;
+                ([0.0; 3], Quat::from_axis_angle(w, math::norm(w) * t_s))
+            }
+            Trajectory::SlowRotations => {
+                let roll = env * 0.6 * sin_hz(tau, 0.05, 0.0);
+                let pitch = env * 0.45 * sin_hz(tau, 0.037, 0.0);
+                let yaw = env * (1.8 * sin_hz(tau, 0.021, 0.0) + 0.4 * sin_hz(tau, 0.061, 0.0));
+                ([0.0; 3], Quat::from_euler(roll, pitch, yaw))
+            }
+            Trajectory::FigureEight => {
+                // Hand-held dance: yaw turns, nose up/down, full rolls.
+                let yaw = env * 2.0 * PI * tau / 9.0;
+                let pitch = env * 1.3 * sin_hz(tau, 1.0 / 5.3, 0.0);
+                let roll = env * PI * sin_hz(tau, 1.0 / 7.1, 0.0);
+                let pos = [
+                    env * 0.4 * sin_hz(tau, 0.25, 0.0),
+                    env * 0.2 * sin_hz(tau, 0.5, 0.0),
+                    env * 0.1 * sin_hz(tau, 0.37, 0.0),
+                ];
+                (pos, Quat::from_euler(roll, pitch, yaw))
+            }
+            Trajectory::Hover => {
+                let period = 80.0;
+                let c = if tau > 0.0 { tau % period } else { 0.0 };
+                let laps = if tau > 0.0 {
+                    (tau / period).floor()
+                } else {
+                    0.0
+                };
+                // 0 → 10 m (take-off), → 25 m, → 5 m, → 10 m (then repeats from 10 m).
+                let base = if laps > 0.0 { 10.0 } else { 0.0 };
+                let h = base
+                    + (10.0 - base) * smoothstep(c, 2.0, 10.0)
+                    + 15.0 * smoothstep(c, 20.0, 32.0)
+                    - 20.0 * smoothstep(c, 42.0, 56.0)
+                    + 5.0 * smoothstep(c, 66.0, 72.0);
+                let roll = env * (0.05 * sin_hz(tau, 0.31, 0.0) + 0.02 * sin_hz(tau, 1.7, 1.0));
+                let pitch = env * (0.05 * sin_hz(tau, 0.23, 0.5) + 0.02 * sin_hz(tau, 1.3, 0.0));
+                let yaw = env * 0.6 * sin_hz(tau, 0.017, 0.0);
+                let pos = [
+                    env * 2.0 * sin_hz(tau, 0.02, 0.0),
+                    env * 1.5 * sin_hz(tau, 0.027, 0.0),
+                    -h,
+                ];
+                (pos, Quat::from_euler(roll, pitch, yaw))
+            }
+            Trajectory::Aggressive => {
+                // A 360° roll flip in 0.9 s every 8 s, on top of fast wobbles.
+                let mut flip = 0.0;
+                if tau > 0.0 {
+                    let k = (tau / 8.0).floor();
+                    let c = tau - 8.0 * k;
+                    flip = 2.0 * PI * (k + smoothstep(c, 4.0, 4.9));
+                }
+                let roll = env * 0.9 * sin_hz(tau, 0.7, 0.0) + flip;
+                let pitch = env * 0.7 * sin_hz(tau, 0.53, 1.0);
+                let yaw = env * 2.5 * sin_hz(tau, 0.2, 0.0);
+                let env_p = smoothstep(t_s, Self::REST_S, Self::REST_S + 5.0);
+                let pos = [
+                    env_p * 4.0 * sin_hz(tau, 0.25, 0.0),
+                    env_p * 3.0 * sin_hz(tau, 0.19, 0.3),
+                    -(env_p * (8.0 + 2.0 * sin_hz(tau, 0.3, 0.0))),
+                ];
+                (pos, Quat::from_euler(roll, pitch, yaw))
+            }
+            Trajectory::Custom(f) => f(t_s),
+        }
+    }
+
+    /// Full truth at `t_s`: pose plus its derivatives.
+    pub fn sample(&self, t_s: f64) -> TruthSample {
+        let (p0, q0) = self.pose(t_s);
+        // Angular rate: ω_body = 2·vec(q* ⊗ dq/dt).
+        let h = 1e-4;
+        let (_, qp) = self.pose(t_s + h);
+        let (_, qm) = self.pose(t_s - h);
+        let qp = if qp.w * q0.w + qp.x * q0.x + qp.y * q0.y + qp.z * q0.z < 0.0 {
+            Quat::new(-qp.w, -qp.x, -qp.y, -qp.z)
+        } else {
+            qp
+        };
+        let qm = if qm.w * q0.w + qm.x * q0.x + qm.y * q0.y + qm.z * q0.z < 0.0 {
+            Quat::new(-qm.w, -qm.x, -qm.y, -qm.z)
+        } else {
+            qm
+        };
+        let dq = Quat::new(
+            (qp.w - qm.w) / (2.0 * h),
+            (qp.x - qm.x) / (2.0 * h),
+            (qp.y - qm.y) / (2.0 * h),
+            (qp.z - qm.z) / (2.0 * h),
+        );
+        let w = q0.conj().mul(&dq);
+        let omega_body_rps = [2.0 * w.x, 2.0 * w.y, 2.0 * w.z];
+        // Linear acceleration by second difference.
+        let ha = 1e-3;
+        let (pp, _) = self.pose(t_s + ha);
+        let (pm, _) = self.pose(t_s - ha);
+        let acc_ned = [
+            (pp[0] - 2.0 * p0[0] + pm[0]) / (ha * ha),
+            (pp[1] - 2.0 * p0[1] + pm[1]) / (ha * ha),
+            (pp[2] - 2.0 * p0[2] + pm[2]) / (ha * ha),
+        ];
+        let vel = math::scale(math::sub(pp, pm), 1.0 / (2.0 * ha));
+        let f_ned = math::sub(acc_ned, [0.0, 0.0, G0_MPS2]);
+        let specific_force_body_mps2 = q0.conj().rotate(f_ned);
+        let moving = math::norm(omega_body_rps) > 0.05 || math::norm(acc_ned) > 0.2;
+        TruthSample {
+            t_s,
+            q_ned_from_body: q0,
+            omega_body_rps,
+            specific_force_body_mps2,
+            position_ned_m: p0,
+            velocity_ned_mps: vel,
+            height_m: -p0[2],
+            moving,
+        }
+    }
+}
+
+/// The Earth's magnetic field at the flying site.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MagneticField {
+    /// Total intensity (µT).
+    pub total_ut: f64,
+    /// Inclination (dip), positive down (degrees).
+    pub inclination_deg: f64,
+    /// Declination, positive east of true north (degrees).
+    pub declination_deg: f64,
+}
+
+impl Default for MagneticField {
+    /// 50 µT, 60° dip, 0° declination (central Europe-like).
+    fn default() -> Self {
+        Self {
+            total_ut: 50.0,
+            inclination_deg: 60.0,
+            declination_deg: 0.0,
+        }
+    }
+}
+
+impl MagneticField {
+    /// The field vector in NED (µT).
+    pub fn ned_ut(&self) -> Vec3 {
+        let (si, ci) = self.inclination_deg.to_radians().sin_cos();
+        let (sd, cd) = self.declination_deg.to_radians().sin_cos();
+        [
+            self.total_ut * ci * cd,
+            self.total_ut * ci * sd,
+            self.total_ut * si,
+        ]
+    }
+}
+
+/// ISA (troposphere) pressure at geopotential altitude `alt_m` above mean sea level (Pa).
+pub fn isa_pressure_pa(alt_m: f64) -> f64 {
+    101_325.0 * (1.0 - 2.255_77e-5 * alt_m).powf(5.255_88)
+}
+
+/// ISA temperature at `alt_m` (°C).
+pub fn isa_temperature_c(alt_m: f64) -> f64 {
+    15.0 - 0.0065 * alt_m
+}
+
+/// The environment the body flies in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Environment {
+    /// Earth's field.
+    pub field: MagneticField,
+    /// Altitude of the start point above mean sea level (m).
+    pub ground_altitude_m: f64,
+    /// Chips' temperature minus the ISA air temperature (°C), e.g. self-heating.
+    pub chip_temp_offset_c: f64,
+}
+
+impl Default for Environment {
+    fn default() -> Self {
+        Self {
+            field: MagneticField::default(),
+            ground_altitude_m: 0.0,
+            chip_temp_offset_c: 0.0,
+        }
+    }
+}
+
+impl Environment {
+    /// True static pressure at height `height_m` above the start point (Pa).
+    pub fn pressure_pa(&self, height_m: f64) -> f64 {
+        isa_pressure_pa(self.ground_altitude_m + height_m)
+    }
+    /// True chip temperature at height `height_m` (°C).
+    pub fn temperature_c(&self, height_m: f64) -> f64 {
+        isa_temperature_c(self.ground_altitude_m + height_m) + self.chip_temp_offset_c
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+mod tests {
+    use super::*;
+    use crate::math::norm;
+
+    #[test]
+    fn rest_gives_gravity_up_in_body() {
+        let s = Trajectory::at_rest().sample(1.0);
+        assert!(norm(math::sub(s.specific_force_body_mps2, [0.0, 0.0, -G0_MPS2])) < 1e-6);
+        assert!(norm(s.omega_body_rps) < 1e-9);
+        assert!(!s.moving);
+    }
+
+    #[test]
+    fn constant_rate_is_recovered() {
+        let w = [0.3, -0.2, 1.1];
+        let s = Trajectory::ConstantRate { omega_body_rps: w }.sample(2.7);
+        assert!(
+            norm(math::sub(s.omega_body_rps, w)) < 1e-6,
+            "{:?}",
+            s.omega_body_rps
+        );
+    }
+
+    #[test]
+    fn isa_reference_points() {
+        assert!((isa_pressure_pa(0.0) - 101_325.0).abs() < 1e-6);
+        // ISA table: 1000 m → 89 874.6 Pa, 8.5 °C.
+        assert!((isa_pressure_pa(1000.0) - 89_874.6).abs() < 5.0);
+        assert!((isa_temperature_c(1000.0) - 8.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn field_has_dip() {
+        let b = MagneticField::default().ned_ut();
+        assert!((norm(b) - 50.0).abs() < 1e-9);
+        assert!((b[2] / b[0] - 60f64.to_radians().tan()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn trajectories_are_smooth_and_start_at_rest() {
+        for name in Trajectory::NAMES {
+            let tr = Trajectory::from_name(name).unwrap_or_else(Trajectory::at_rest);
+            let mut prev = tr.sample(0.0);
+            let mut t = 0.0;
+            while t < 30.0 {
+                t += 0.01;
+                let s = tr.sample(t);
+                // Bounded rates and forces, no jumps.
+                assert!(
+                    norm(s.omega_body_rps) < 2000f64.to_radians(),
+                    "{name} ω at {t}"
+                );
+                assert!(
+                    norm(s.specific_force_body_mps2) < 4.0 * G0_MPS2,
+                    "{name} f at {t}"
+                );
+                assert!(
+                    s.q_ned_from_body.angle_to(&prev.q_ned_from_body) < 0.2,
+                    "{name} jump at {t}"
+                );
+                prev = s;
+            }
+            assert!(!tr.sample(1.0).moving, "{name} not at rest at start");
+        }
+    }
+}
