@@ -201,14 +201,22 @@ where
     /// Change mode and/or resolution: CNTL1 = power-down, wait, CNTL1 = new
     /// value, wait (the datasheet requires passing through power-down for
     /// every mode change), then read CNTL1 back.
+    ///
+    /// The driver adopts `config` (and its µT scale) only once the new CNTL1
+    /// value was written; on a bus error before that it keeps the previous
+    /// configuration.
     pub fn set_config<D: DelayNs>(
         &mut self,
         delay: &mut D,
         config: &Config,
     ) -> Result<(), Error<E>> {
-        self.apply_config(config);
         self.write_cntl1(delay, reg::MODE_POWER_DOWN)?;
         self.write_cntl1(delay, config.cntl1())?;
+        // Only now does the chip run `config`: adopting it earlier would
+        // convert the old mode's data with the new resolution's scale after
+        // a failed write. If the power-down went through but the new value
+        // did not, the chip idles and `verify_config` reports the mismatch.
+        self.apply_config(config);
         self.check_cntl1()
     }
 
@@ -271,14 +279,24 @@ where
     /// (the pending state is untouched). Otherwise reads HXL..ST2 in one
     /// 7-byte burst (which also tells the chip the read is finished); ST2 HOFL
     /// gives [`Error::Overflow`] and the sample is dropped. ST1 DOR is returned
-    /// as [`RawMag::data_overrun`] (the data is still valid).
+    /// as [`RawMag::data_overrun`] (the data is still valid). If the burst
+    /// fails, ST2 is read once more on its own so that the chip's data
+    /// protection is released, and the burst's bus error is returned.
     pub fn read_raw(&mut self) -> Result<RawMag, Error<E>> {
         let st1 = self.status()?;
         if !st1.data_ready {
             return Err(Error::NotReady);
         }
         let mut buf = [0u8; reg::MEASUREMENT_LEN];
-        self.read_regs(reg::HXL, &mut buf)?;
+        if let Err(e) = self.read_regs(reg::HXL, &mut buf) {
+            // The burst may have died after the chip saw the start of the
+            // data read: DRDY is then cleared and the data registers stay
+            // protected until ST2 is read, so DRDY would never rise again.
+            // Reading ST2 ends that read (best effort; the burst's own error
+            // is the one reported).
+            let _ = self.read_reg(reg::ST2);
+            return Err(e);
+        }
         let mut raw = parse_measurement(&buf, self.config.resolution)?;
         raw.data_overrun = st1.data_overrun;
         Ok(raw)
@@ -325,33 +343,25 @@ where
     /// configured mode. Passes when the adjusted readings are within
     /// X, Y ∈ [−200, 200], Z ∈ [−3200, −800] (16-bit) or
     /// X, Y ∈ [−50, 50], Z ∈ [−800, −200] (14-bit). Returns the adjusted counts.
+    ///
+    /// The clean-up (SELF = 0, power-down, configured mode) is attempted even
+    /// after a bus error earlier in the sequence, so the self-test field is
+    /// never left on; the first error is returned. If clearing SELF itself
+    /// fails, the chip is left in power-down (not measuring with the
+    /// self-test field on) and [`verify_config`](Self::verify_config) reports
+    /// it; re-run [`init`](Self::init).
     pub fn self_test<D: DelayNs>(&mut self, delay: &mut D) -> Result<[i32; 3], Error<E>> {
         if !self.initialized {
             return Err(Error::NotInitialized);
         }
         let res = self.config.resolution;
-        self.write_cntl1(delay, reg::MODE_POWER_DOWN)?;
-        self.write_reg(reg::ASTC, reg::ASTC_SELF)?;
-        self.write_cntl1(delay, res.bits() | reg::MODE_SELF_TEST)?;
-        let mut ready = false;
-        for _ in 0..SELF_TEST_MAX_POLLS {
-            if self.status()?.data_ready {
-                ready = true;
-                break;
-            }
-            delay.delay_us(SELF_TEST_POLL_INTERVAL_US);
-        }
-        let mut buf = [0u8; reg::MEASUREMENT_LEN];
-        if ready {
-            self.read_regs(reg::HXL, &mut buf)?;
-        }
-        self.write_reg(reg::ASTC, 0)?;
-        self.write_cntl1(delay, reg::MODE_POWER_DOWN)?;
-        let config = self.config;
-        self.write_cntl1(delay, config.cntl1())?;
-        if !ready {
+        let measured = self.self_test_measure(delay, res);
+        let cleaned = self.self_test_cleanup(delay);
+        let buf = measured?;
+        cleaned?;
+        let Some(buf) = buf else {
             return Err(Error::SelfTestTimeout);
-        }
+        };
         let raw = parse_measurement(&buf, res)?;
         let q8 = self.adjustment_q8();
         let adj = [
@@ -371,6 +381,40 @@ where
                 adjusted_counts: adj,
             })
         }
+    }
+
+    /// Self-test steps up to the data read; `None` when DRDY never came.
+    fn self_test_measure<D: DelayNs>(
+        &mut self,
+        delay: &mut D,
+        res: Resolution,
+    ) -> Result<Option<[u8; reg::MEASUREMENT_LEN]>, Error<E>> {
+        self.write_cntl1(delay, reg::MODE_POWER_DOWN)?;
+        self.write_reg(reg::ASTC, reg::ASTC_SELF)?;
+        self.write_cntl1(delay, res.bits() | reg::MODE_SELF_TEST)?;
+        for _ in 0..SELF_TEST_MAX_POLLS {
+            if self.status()?.data_ready {
+                let mut buf = [0u8; reg::MEASUREMENT_LEN];
+                self.read_regs(reg::HXL, &mut buf)?;
+                return Ok(Some(buf));
+            }
+            delay.delay_us(SELF_TEST_POLL_INTERVAL_US);
+        }
+        Ok(None)
+    }
+
+    /// ASTC SELF = 0, power-down, configured mode (the last only if SELF was
+    /// cleared). Every step is attempted; the first error is returned.
+    fn self_test_cleanup<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
+        let self_off = self.write_reg(reg::ASTC, 0);
+        let power_down = self.write_cntl1(delay, reg::MODE_POWER_DOWN);
+        let restore = if self_off.is_ok() {
+            let cntl1 = self.config.cntl1();
+            self.write_cntl1(delay, cntl1)
+        } else {
+            Ok(())
+        };
+        self_off.and(power_down).and(restore)
     }
 
     /// Write CNTL1 = `value`, then wait [`MODE_CHANGE_DELAY_US`].

@@ -374,6 +374,9 @@ fn read_bus_errors() {
             st1(0x01).with_error(NACK),
             st1(0x01),
             data([0; 3], 0x10).with_error(NACK),
+            // The failed burst is followed by an ST2 read that ends the
+            // chip's data read (releases the data protection).
+            T::write_read(A, vec![0x09], vec![0x10]),
         ],
     );
     assert_eq!(mag.read(), Err(Error::Bus(NACK)));
