@@ -1,2 +1,50 @@
-//! Hardware-free firmware logic: sensor pipeline, scheduling, health, calibration modes, calibration storage.
+//! Hardware-free firmware logic for the Blue Pill flight controller: the
+//! calibration flash record, sensor health and I2C bus recovery, scheduling
+//! and loop-timing statistics, boot-time probing, calibration state
+//! machines and the per-sample processing pipeline.
+//!
+//! Everything here is `no_std`, heap-free and generic over
+//! `embedded_hal` traits, so it runs unchanged on the host (tests, against
+//! mocks and the `sim` bus) and in the RTIC firmware, which only wires it
+//! to interrupts, timers and peripherals. It does not touch hardware
+//! registers, own peripherals, or decide task priorities.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`storage`] | calibration record in the flash page: encode/decode, CRC-32, typed errors, [`storage::CalibrationStore`] + RAM mock |
+//! | [`health`] | per-sensor counters and state, retry / re-init / bus-recovery policy, stuck-bus recovery procedure |
+//! | [`schedule`] | mag every 10th IMU sample, periodic deadlines, dt from cycle counts, µs clock, loop statistics, watchdog gate |
+//! | [`boot`] | bounded probing with typed verdicts, graceful degradation, start-up gyro bias |
+//! | [`sensors`] | the three drivers on one bus with their health: boot, reads, config checks, re-init |
+//! | [`calmode`] | magnetometer (ellipsoid or min/max) and accelerometer calibration sessions, button decoder, raw-log rows |
+//! | [`pipeline`] | the 1 kHz / 100 Hz processing chain (fixed-point AHRS by default, f32 with `f32-ahrs`) |
+//! | [`mounting`] | MPU frame → body FRD signed axis permutation |
+//!
+//! ```
+//! use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
+//! let mut p = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
+//! let due = p.imu_step(&ImuInput { accel: [0, 0, 8192], gyro: [0; 3], dt_cycles: 72_000 });
+//! assert!(!due); // the control step runs every 10th sample
+//! ```
 #![no_std]
+#![cfg_attr(
+    test,
+    allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::field_reassign_with_default
+    )
+)]
+
+pub mod boot;
+pub mod calmode;
+pub mod crc32;
+pub mod health;
+pub mod mounting;
+pub mod pipeline;
+pub mod schedule;
+pub mod sensors;
+pub mod storage;
+
+pub use mounting::Mounting;

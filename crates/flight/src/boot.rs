@@ -1,0 +1,388 @@
+//! Boot-time decisions: bounded probing of each chip with a typed verdict,
+//! the degraded capabilities that follow from what was found, and the
+//! start-up gyro bias (board must be still; motion restarts the window).
+
+use calibration::{Error as CalError, GyroBiasConfig, GyroBiasEstimator};
+use embedded_hal::delay::DelayNs;
+
+/// The three chips on the bus.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Chip {
+    /// MPU-9250 accelerometer + gyroscope.
+    Mpu9250,
+    /// AK8963 magnetometer (behind the MPU-9250's bypass).
+    Ak8963,
+    /// MS5611 barometer.
+    Ms5611,
+}
+
+/// Why a chip did not come up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ProbeFailure {
+    /// No answer on the bus (NACK / bus error on every attempt): not fitted
+    /// or not wired.
+    NoResponse,
+    /// It answered with an identity register that is not the expected chip.
+    WrongId {
+        /// The value read.
+        found: u8,
+    },
+    /// The MPU answered as an MPU-6500 (no magnetometer inside).
+    Mpu6500,
+    /// The MS5611 PROM failed its CRC-4 or read blank (a damaged or wrong
+    /// chip).
+    BadProm,
+    /// It answered but configuration failed (reset timeout, read-back
+    /// mismatch, fuse ROM, ...).
+    InitFailed,
+    /// Not probed because a chip it depends on is missing (the AK8963 needs
+    /// the MPU-9250's bypass).
+    DependencyMissing,
+}
+
+/// Verdict of one chip's probe: `Ok` or why not, plus attempts used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ProbeResult {
+    /// Which chip.
+    pub chip: Chip,
+    /// `Ok(())` if it is present and configured.
+    pub status: Result<(), ProbeFailure>,
+    /// Attempts made (1 = first try succeeded).
+    pub attempts: u8,
+}
+
+impl ProbeResult {
+    /// `true` when the chip is usable.
+    pub fn present(&self) -> bool {
+        self.status.is_ok()
+    }
+}
+
+/// Runs `op` up to `attempts` times (at least once), waiting `retry_delay_ms`
+/// between attempts, and classifies the last error with `classify`.
+/// Returns the value and the attempt count, or the failure and the attempt
+/// count.
+///
+/// ```
+/// use flight::boot::{probe_with_retries, ProbeFailure};
+/// # struct D; impl embedded_hal::delay::DelayNs for D { fn delay_ns(&mut self, _: u32) {} }
+/// let mut n = 0;
+/// let r = probe_with_retries(3, 1, &mut D, |_| { n += 1; if n < 2 { Err(()) } else { Ok(5) } },
+///                            |_| ProbeFailure::NoResponse);
+/// assert_eq!(r, Ok((5, 2)));
+/// ```
+pub fn probe_with_retries<T, E, D: DelayNs>(
+    attempts: u8,
+    retry_delay_ms: u32,
+    delay: &mut D,
+    mut op: impl FnMut(&mut D) -> Result<T, E>,
+    classify: impl Fn(&E) -> ProbeFailure,
+) -> Result<(T, u8), (ProbeFailure, u8)> {
+    let attempts = attempts.max(1);
+    let mut n = 0u8;
+    loop {
+        n = n.saturating_add(1);
+        match op(delay) {
+            Ok(v) => return Ok((v, n)),
+            Err(e) => {
+                if n >= attempts {
+                    return Err((classify(&e), n));
+                }
+                delay.delay_ms(retry_delay_ms);
+            }
+        }
+    }
+}
+
+/// How the AHRS runs given the sensors found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AhrsMode {
+    /// Gyro + accelerometer + magnetometer: absolute heading.
+    Marg,
+    /// Gyro + accelerometer only: roll and pitch absolute, yaw drifts.
+    ImuOnly,
+    /// No IMU: no attitude at all.
+    None,
+}
+
+/// What the stack can do with the chips that are present.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Capabilities {
+    /// Attitude estimation mode.
+    pub ahrs: AhrsMode,
+    /// Barometric altitude and vertical speed (needs the MS5611).
+    pub altitude: bool,
+}
+
+/// Results of probing all three chips.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BootReport {
+    /// MPU-9250.
+    pub mpu: ProbeResult,
+    /// AK8963.
+    pub mag: ProbeResult,
+    /// MS5611.
+    pub baro: ProbeResult,
+}
+
+impl BootReport {
+    /// Graceful degradation: no MPU → nothing; no magnetometer → IMU-only
+    /// AHRS; no barometer → no altitude.
+    pub fn capabilities(&self) -> Capabilities {
+        let ahrs = match (self.mpu.present(), self.mag.present()) {
+            (false, _) => AhrsMode::None,
+            (true, false) => AhrsMode::ImuOnly,
+            (true, true) => AhrsMode::Marg,
+        };
+        Capabilities {
+            ahrs,
+            altitude: self.baro.present(),
+        }
+    }
+
+    /// The chips that failed, in bus order.
+    pub fn failures(&self) -> impl Iterator<Item = (Chip, ProbeFailure)> {
+        [self.mpu, self.mag, self.baro]
+            .into_iter()
+            .filter_map(|r| r.status.err().map(|f| (r.chip, f)))
+    }
+}
+
+/// Progress of the start-up gyro bias measurement.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum BiasStatus {
+    /// Collecting: samples accepted so far of the window.
+    Collecting {
+        /// Accepted samples.
+        have: u32,
+        /// Window length.
+        need: u32,
+    },
+    /// The board moved; the window restarted (attempt number starting at 1).
+    Moved {
+        /// Attempts used so far.
+        attempt: u8,
+    },
+    /// Done: bias in gyro counts (MPU frame).
+    Done([i16; 3]),
+    /// The board never held still for `max_attempts` windows: keep the
+    /// fallback bias (stored calibration or zero).
+    GaveUp,
+}
+
+/// Start-up gyro bias from raw counts: wraps
+/// [`calibration::GyroBiasEstimator`], checking stillness of both gyro and
+/// accelerometer, and restarting (up to `max_attempts` windows) when the
+/// board moves.
+#[derive(Clone, Copy, Debug)]
+pub struct StartupGyroBias {
+    est: GyroBiasEstimator,
+    attempt: u8,
+    max_attempts: u8,
+    finished: Option<BiasStatus>,
+}
+
+/// Why [`StartupGyroBias::new`] refused its parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BiasConfigError(pub CalError);
+
+impl StartupGyroBias {
+    /// A measurement over `samples` samples for a gyro with `lsb_per_dps`
+    /// and an accelerometer with `lsb_per_g`: at most 3 °/s peak-to-peak
+    /// and 0.3 °/s standard deviation on the gyro, 0.1 g peak-to-peak and
+    /// 0.02 g standard deviation on the accelerometer.
+    pub fn new(
+        samples: u32,
+        lsb_per_dps: f32,
+        lsb_per_g: f32,
+        max_attempts: u8,
+    ) -> Result<Self, BiasConfigError> {
+        let cfg = GyroBiasConfig {
+            samples,
+            max_std: 0.3 * lsb_per_dps,
+            max_spread: 3.0 * lsb_per_dps,
+            max_accel_std: 0.02 * lsb_per_g,
+            max_accel_spread: 0.1 * lsb_per_g,
+        };
+        let est = GyroBiasEstimator::new(cfg).map_err(BiasConfigError)?;
+        Ok(Self {
+            est,
+            attempt: 1,
+            max_attempts: max_attempts.max(1),
+            finished: None,
+        })
+    }
+
+    /// Feeds one raw sample (counts, MPU frame).
+    pub fn push(&mut self, gyro: [i16; 3], accel: [i16; 3]) -> BiasStatus {
+        if let Some(done) = self.finished {
+            return done;
+        }
+        let g = gyro.map(f32::from);
+        let a = accel.map(f32::from);
+        match self.est.push_with_accel(g, a) {
+            Ok(true) => match self.est.finish() {
+                Ok(b) => {
+                    let bias = b.bias.map(round_i16);
+                    let s = BiasStatus::Done(bias);
+                    self.finished = Some(s);
+                    s
+                }
+                Err(_) => self.restart(),
+            },
+            Ok(false) => BiasStatus::Collecting {
+                have: self.est.count(),
+                need: self.est.config().samples,
+            },
+            Err(CalError::Moved { .. }) => self.restart(),
+            // Non-finite/out-of-range cannot come from i16 input; skip.
+            Err(_) => BiasStatus::Collecting {
+                have: self.est.count(),
+                need: self.est.config().samples,
+            },
+        }
+    }
+
+    fn restart(&mut self) -> BiasStatus {
+        if self.attempt >= self.max_attempts {
+            self.finished = Some(BiasStatus::GaveUp);
+            return BiasStatus::GaveUp;
+        }
+        self.est.reset();
+        let moved = BiasStatus::Moved {
+            attempt: self.attempt,
+        };
+        self.attempt = self.attempt.saturating_add(1);
+        moved
+    }
+
+    /// Windows started so far.
+    pub fn attempts(&self) -> u8 {
+        self.attempt
+    }
+}
+
+/// Rounds to the nearest `i16`, saturating (NaN → 0).
+fn round_i16(x: f32) -> i16 {
+    let r = if x >= 0.0 { x + 0.5 } else { x - 0.5 };
+    // `as` saturates and maps NaN to 0.
+    r as i16
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct NoDelay(u32);
+    impl DelayNs for NoDelay {
+        fn delay_ns(&mut self, ns: u32) {
+            self.0 = self.0.saturating_add(ns);
+        }
+    }
+
+    #[test]
+    fn probe_is_bounded_and_classified() {
+        let mut d = NoDelay(0);
+        let mut calls = 0;
+        let r: Result<((), u8), _> = probe_with_retries(
+            3,
+            10,
+            &mut d,
+            |_| {
+                calls += 1;
+                Err(0x12u8)
+            },
+            |e| ProbeFailure::WrongId { found: *e },
+        );
+        assert_eq!(r, Err((ProbeFailure::WrongId { found: 0x12 }, 3)));
+        assert_eq!(calls, 3);
+        assert_eq!(d.0, 20_000_000); // two waits of 10 ms between three tries
+    }
+
+    fn report(mpu: bool, mag: bool, baro: bool) -> BootReport {
+        let r = |chip, ok: bool| ProbeResult {
+            chip,
+            status: if ok {
+                Ok(())
+            } else {
+                Err(ProbeFailure::NoResponse)
+            },
+            attempts: 1,
+        };
+        BootReport {
+            mpu: r(Chip::Mpu9250, mpu),
+            mag: r(Chip::Ak8963, mag),
+            baro: r(Chip::Ms5611, baro),
+        }
+    }
+
+    #[test]
+    fn degradation() {
+        assert_eq!(
+            report(true, true, true).capabilities(),
+            Capabilities {
+                ahrs: AhrsMode::Marg,
+                altitude: true
+            }
+        );
+        assert_eq!(
+            report(true, false, true).capabilities(),
+            Capabilities {
+                ahrs: AhrsMode::ImuOnly,
+                altitude: true
+            }
+        );
+        assert_eq!(
+            report(true, true, false).capabilities(),
+            Capabilities {
+                ahrs: AhrsMode::Marg,
+                altitude: false
+            }
+        );
+        assert_eq!(
+            report(false, false, true).capabilities().ahrs,
+            AhrsMode::None
+        );
+        let f: [(Chip, ProbeFailure); 1] = [(Chip::Ms5611, ProbeFailure::NoResponse)];
+        assert!(report(true, true, false).failures().eq(f));
+    }
+
+    #[test]
+    fn gyro_bias_still_board() {
+        let mut b = StartupGyroBias::new(100, 32.8, 8192.0, 3).unwrap();
+        let mut last = BiasStatus::GaveUp;
+        for i in 0..100 {
+            let n = (i % 5) as i16 - 2; // ±2 counts of noise
+            last = b.push([40 + n, -13 - n, 7], [n, 0, 8192 + n]);
+        }
+        assert_eq!(last, BiasStatus::Done([40, -13, 7]));
+        assert_eq!(b.push([0; 3], [0; 3]), BiasStatus::Done([40, -13, 7]));
+    }
+
+    #[test]
+    fn gyro_bias_moved_then_retry_then_give_up() {
+        let mut b = StartupGyroBias::new(50, 32.8, 8192.0, 2).unwrap();
+        for _ in 0..10 {
+            b.push([0; 3], [0, 0, 8192]);
+        }
+        // A 20 °/s twitch: restart.
+        assert_eq!(
+            b.push([656, 0, 0], [0, 0, 8192]),
+            BiasStatus::Moved { attempt: 1 }
+        );
+        for _ in 0..10 {
+            b.push([0; 3], [0, 0, 8192]);
+        }
+        // Picked up: accelerometer spread 0.2 g. Out of attempts.
+        assert_eq!(b.push([0; 3], [0, 1638, 8192]), BiasStatus::GaveUp);
+        assert_eq!(b.push([0; 3], [0, 0, 8192]), BiasStatus::GaveUp);
+    }
+}

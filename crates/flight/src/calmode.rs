@@ -1,0 +1,530 @@
+//! Calibration modes as state machines with progress reporting, the PA0
+//! button decoder that selects them, and the raw-log row format.
+//!
+//! * Magnetometer figure-eight: wraps [`calibration::EllipsoidFit`]; progress
+//!   is the direction coverage (bins hit of [`calibration::COVERAGE_BINS`]).
+//! * Accelerometer six-position: wraps [`calibration::AccelSixPosition`];
+//!   progress is the set of captured positions.
+//! * Raw log: stream calibrated sensor values in the BROAD CSV column order
+//!   ([`RAW_LOG_HEADER`]) so the replay tool can read a recording.
+//!
+//! Button (PA0 to GND, pull-up), decoded by [`Button`]:
+//! held at boot → accelerometer six-position; long press (≥ 1.5 s) →
+//! magnetometer figure-eight; short press → raw log on/off, or abort a
+//! calibration in progress.
+
+use calibration::{
+    AccelCalibration, AccelSixPosition, AccelSixPositionConfig, EllipsoidFit, EllipsoidFitConfig,
+    Error as CalError, MagCalibration, MagMinMax, MagMinMaxConfig, Position, SixPositionEvent,
+    COVERAGE_BINS,
+};
+
+/// Figure-eight magnetometer calibration (samples in µT, MPU frame).
+#[derive(Clone, Debug)]
+pub struct MagCalMode {
+    fit: EllipsoidFit,
+    bins_needed: u8,
+    min_samples: u32,
+}
+
+/// Progress of [`MagCalMode`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MagProgress {
+    /// Accepted samples.
+    pub samples: u32,
+    /// Direction bins hit so far.
+    pub bins_hit: u8,
+    /// Bins required.
+    pub bins_needed: u8,
+    /// Overall progress 0..=100 (the lesser of coverage and sample count).
+    pub percent: u8,
+}
+
+impl MagCalMode {
+    /// A fresh session with [`EllipsoidFitConfig::MICROTESLA`]-style
+    /// thresholds (`config` is validated by the fit).
+    pub fn new(config: EllipsoidFitConfig) -> Result<Self, CalError> {
+        Ok(Self {
+            fit: EllipsoidFit::new(config)?,
+            bins_needed: config.bins_needed.min(COVERAGE_BINS),
+            min_samples: config.min_samples.max(10),
+        })
+    }
+
+    /// Adds a sample; bad samples are skipped (counted by the fit).
+    pub fn push(&mut self, mag_ut: [f32; 3]) -> MagProgress {
+        let _ = self.fit.push(mag_ut);
+        self.progress()
+    }
+
+    /// Current progress.
+    pub fn progress(&self) -> MagProgress {
+        let samples = self.fit.count();
+        let bins_hit = self.fit.bins_hit();
+        let cov = percent(u32::from(bins_hit), u32::from(self.bins_needed));
+        let cnt = percent(samples, self.min_samples);
+        MagProgress {
+            samples,
+            bins_hit,
+            bins_needed: self.bins_needed,
+            percent: cov.min(cnt),
+        }
+    }
+
+    /// `true` once coverage and sample count are sufficient to try a fit.
+    pub fn ready(&self) -> bool {
+        self.progress().percent >= 100
+    }
+
+    /// Fits the ellipsoid (a few ms of f64 work: call from a low-priority
+    /// context).
+    pub fn finish(&self) -> Result<MagCalibration, CalError> {
+        self.fit.finish().map(|s| s.calibration)
+    }
+}
+
+/// Light-weight magnetometer calibration (samples in µT, MPU frame): per-axis
+/// min/max ([`calibration::MagMinMax`]: hard iron + diagonal soft iron), all
+/// `f32`, for builds that cannot afford the ellipsoid fit's `f64` solver.
+/// Progress = the smallest per-axis sweep relative to the required range.
+#[derive(Clone, Debug)]
+pub struct MagMinMaxMode {
+    mm: MagMinMax,
+    min_range_ut: f32,
+    min_samples: u32,
+}
+
+impl MagMinMaxMode {
+    /// Every axis must sweep `min_range_ut` (a full figure-eight sweeps about
+    /// twice the local field, 50–130 µT) over at least `min_samples` samples.
+    pub fn new(min_range_ut: f32, min_samples: u32) -> Result<Self, CalError> {
+        let mm = MagMinMax::new(MagMinMaxConfig {
+            min_range: min_range_ut,
+            min_samples,
+        })?;
+        Ok(Self {
+            mm,
+            min_range_ut,
+            min_samples: min_samples.max(1),
+        })
+    }
+
+    /// Adds a sample; bad samples are skipped (counted).
+    pub fn push(&mut self, mag_ut: [f32; 3]) -> MagProgress {
+        let _ = self.mm.push(mag_ut);
+        self.progress()
+    }
+
+    /// Current progress; `bins_hit`/`bins_needed` count axes swept enough (of 3).
+    pub fn progress(&self) -> MagProgress {
+        let r = self.mm.ranges();
+        let mut worst = 100u8;
+        let mut axes = 0u8;
+        for v in r {
+            let p = if self.min_range_ut > 0.0 {
+                (v / self.min_range_ut * 100.0).clamp(0.0, 100.0) as u8
+            } else {
+                100
+            };
+            if p >= 100 {
+                axes += 1;
+            }
+            worst = worst.min(p);
+        }
+        let samples = self.mm.count();
+        MagProgress {
+            samples,
+            bins_hit: axes,
+            bins_needed: 3,
+            percent: worst.min(percent(samples, self.min_samples)),
+        }
+    }
+
+    /// `true` once every axis is swept and enough samples were taken.
+    pub fn ready(&self) -> bool {
+        self.progress().percent >= 100
+    }
+
+    /// The hard-iron offset and diagonal soft-iron correction.
+    pub fn finish(&self) -> Result<MagCalibration, CalError> {
+        self.mm.finish()
+    }
+}
+
+fn percent(have: u32, need: u32) -> u8 {
+    if have >= need {
+        return 100;
+    }
+    // have < need here, so have · 100 / need < 100; avoid overflow of have · 100.
+    let p = if have <= u32::MAX / 100 {
+        have * 100 / need
+    } else {
+        have / (need / 100).max(1)
+    };
+    p.min(100) as u8
+}
+
+/// Six-position accelerometer calibration (samples in g, MPU frame).
+#[derive(Clone, Debug)]
+pub struct AccelCalMode {
+    six: AccelSixPosition,
+}
+
+/// Progress of [`AccelCalMode`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AccelProgress {
+    /// Positions captured (0..=6).
+    pub captured: u8,
+    /// The next position to present, if any remain.
+    pub next: Option<Position>,
+    /// A position captured by this sample.
+    pub just_captured: Option<Position>,
+    /// The board is moving (window restarted).
+    pub moving: bool,
+}
+
+impl AccelCalMode {
+    /// A fresh session.
+    pub fn new(config: AccelSixPositionConfig) -> Result<Self, CalError> {
+        Ok(Self {
+            six: AccelSixPosition::new(config)?,
+        })
+    }
+
+    /// Adds a sample.
+    pub fn push(&mut self, accel_g: [f32; 3]) -> AccelProgress {
+        let r = self.six.push(accel_g);
+        let p = self.six.progress();
+        AccelProgress {
+            captured: p.count(),
+            next: p.next_missing(),
+            just_captured: match r {
+                Ok(SixPositionEvent::Captured(pos)) => Some(pos),
+                _ => None,
+            },
+            moving: matches!(r, Err(CalError::Moved { .. })),
+        }
+    }
+
+    /// Current progress (without a new sample).
+    pub fn progress(&self) -> AccelProgress {
+        let p = self.six.progress();
+        AccelProgress {
+            captured: p.count(),
+            next: p.next_missing(),
+            just_captured: None,
+            moving: false,
+        }
+    }
+
+    /// `true` once all six positions are captured.
+    pub fn ready(&self) -> bool {
+        self.six.progress().is_complete()
+    }
+
+    /// The fitted offsets and scales.
+    pub fn finish(&self) -> Result<AccelCalibration, CalError> {
+        self.six.finish()
+    }
+}
+
+/// What a decoded button press means.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Press {
+    /// Released after less than [`LONG_PRESS_MS`].
+    Short,
+    /// Held for [`LONG_PRESS_MS`] (reported once, while still held).
+    Long,
+}
+
+/// Debounce time, ms.
+pub const DEBOUNCE_MS: u32 = 30;
+/// Long-press threshold, ms.
+pub const LONG_PRESS_MS: u32 = 1_500;
+
+/// Debounced button decoder over a polled level (`pressed` = PA0 low) and
+/// a wrapping ms clock.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Button {
+    stable: bool,
+    candidate: bool,
+    since_ms: u32,
+    pressed_at_ms: u32,
+    long_sent: bool,
+}
+
+impl Button {
+    /// A released button.
+    pub const fn new() -> Self {
+        Self {
+            stable: false,
+            candidate: false,
+            since_ms: 0,
+            pressed_at_ms: 0,
+            long_sent: false,
+        }
+    }
+
+    /// Feeds the raw level; returns a press event when one completes.
+    pub fn update(&mut self, now_ms: u32, pressed: bool) -> Option<Press> {
+        if pressed != self.candidate {
+            self.candidate = pressed;
+            self.since_ms = now_ms;
+        }
+        if self.candidate != self.stable && now_ms.wrapping_sub(self.since_ms) >= DEBOUNCE_MS {
+            self.stable = self.candidate;
+            if self.stable {
+                self.pressed_at_ms = self.since_ms;
+                self.long_sent = false;
+            } else if !self.long_sent {
+                return Some(Press::Short);
+            }
+        }
+        if self.stable
+            && !self.long_sent
+            && now_ms.wrapping_sub(self.pressed_at_ms) >= LONG_PRESS_MS
+        {
+            self.long_sent = true;
+            return Some(Press::Long);
+        }
+        None
+    }
+}
+
+/// The operating mode selected by the button.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Mode {
+    /// Normal operation: live log.
+    Normal,
+    /// Streaming calibrated samples in CSV order.
+    RawLog,
+    /// Magnetometer figure-eight calibration running.
+    MagCal,
+    /// Accelerometer six-position calibration running.
+    AccelCal,
+}
+
+impl Mode {
+    /// Mode at boot: button held → accelerometer calibration.
+    pub fn at_boot(button_held: bool) -> Self {
+        if button_held {
+            Self::AccelCal
+        } else {
+            Self::Normal
+        }
+    }
+
+    /// Transition on a press.
+    pub fn on_press(self, press: Press) -> Self {
+        match (self, press) {
+            (Self::Normal, Press::Short) => Self::RawLog,
+            (Self::RawLog, Press::Short) => Self::Normal,
+            (Self::Normal | Self::RawLog, Press::Long) => Self::MagCal,
+            // A press aborts a calibration.
+            (Self::MagCal | Self::AccelCal, _) => Self::Normal,
+        }
+    }
+}
+
+/// Column header of a raw-log recording: the BROAD CSV column order
+/// (see `/work/shared/data/broad/README.md`); reference columns are `nan`.
+pub const RAW_LOG_HEADER: &str =
+    "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,\
+mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving";
+
+/// Raw-log rate: every [`RAW_LOG_DIVIDER`]th IMU sample (100 Hz at 1 kHz;
+/// ~45 bytes a row of defmt-encoded floats, ≈ 4.5 KB/s over RTT).
+pub const RAW_LOG_DIVIDER: u16 = 10;
+
+/// One raw-log row: calibrated values in the MPU sensor frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RawLogRow {
+    /// Time since boot, s.
+    pub t_s: f32,
+    /// Angular rate, rad/s (bias removed).
+    pub gyr_rps: [f32; 3],
+    /// Specific force, m/s² (accelerometer calibration applied).
+    pub acc_mps2: [f32; 3],
+    /// Magnetic field, µT (hard/soft iron applied; NaN if no magnetometer).
+    pub mag_ut: [f32; 3],
+}
+
+impl RawLogRow {
+    /// Writes the row as one CSV line (no newline) in [`RAW_LOG_HEADER`]
+    /// order.
+    ///
+    /// ```
+    /// let mut s = String::new();
+    /// flight::calmode::RawLogRow { t_s: 0.5, ..Default::default() }.write_csv(&mut s).unwrap();
+    /// assert_eq!(s, "0.5,0,0,0,0,0,0,0,0,0,nan,nan,nan,nan,0");
+    /// ```
+    pub fn write_csv<W: core::fmt::Write>(&self, w: &mut W) -> core::fmt::Result {
+        write!(w, "{}", self.t_s)?;
+        for v in self
+            .gyr_rps
+            .iter()
+            .chain(&self.acc_mps2)
+            .chain(&self.mag_ut)
+        {
+            if v.is_nan() {
+                w.write_str(",nan")?;
+            } else {
+                write!(w, ",{v}")?;
+            }
+        }
+        w.write_str(",nan,nan,nan,nan,0")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn button_short_long_debounce() {
+        let mut b = Button::new();
+        assert_eq!(b.update(0, true), None);
+        // Bounce shorter than the debounce time is ignored.
+        assert_eq!(b.update(10, false), None);
+        assert_eq!(b.update(50, false), None);
+        assert_eq!(b.update(100, true), None);
+        assert_eq!(b.update(135, true), None);
+        assert_eq!(b.update(400, false), None);
+        assert_eq!(b.update(431, false), Some(Press::Short));
+        assert_eq!(b.update(1000, true), None);
+        assert_eq!(b.update(2499, true), None);
+        assert_eq!(b.update(2500, true), Some(Press::Long));
+        assert_eq!(b.update(2600, true), None);
+        assert_eq!(b.update(2700, false), None);
+        assert_eq!(b.update(2800, false), None, "no short after a long");
+    }
+
+    #[test]
+    fn mode_transitions() {
+        assert_eq!(Mode::at_boot(true), Mode::AccelCal);
+        assert_eq!(Mode::at_boot(false), Mode::Normal);
+        assert_eq!(Mode::Normal.on_press(Press::Short), Mode::RawLog);
+        assert_eq!(Mode::RawLog.on_press(Press::Short), Mode::Normal);
+        assert_eq!(Mode::Normal.on_press(Press::Long), Mode::MagCal);
+        assert_eq!(Mode::MagCal.on_press(Press::Short), Mode::Normal);
+        assert_eq!(Mode::AccelCal.on_press(Press::Long), Mode::Normal);
+    }
+
+    #[test]
+    fn header_has_broad_columns() {
+        assert_eq!(RAW_LOG_HEADER.split(',').count(), 15);
+        let mut s = String::new();
+        RawLogRow {
+            t_s: 1.0,
+            gyr_rps: [0.1, 0.2, 0.3],
+            acc_mps2: [0.0, 0.0, 9.81],
+            mag_ut: [f32::NAN; 3],
+        }
+        .write_csv(&mut s)
+        .unwrap();
+        assert_eq!(s.split(',').count(), 15);
+        assert!(s.starts_with("1,0.1,0.2,0.3,0,0,9.81,nan,nan,nan,nan"));
+    }
+
+    extern crate std;
+    use std::string::String;
+
+    /// Field of 50 µT, hard iron (10, −20, 5) µT, axis gains 1.1/0.9/1.0.
+    fn distorted(dir: [f32; 3]) -> [f32; 3] {
+        [
+            dir[0] * 55.0 + 10.0,
+            dir[1] * 45.0 - 20.0,
+            dir[2] * 50.0 + 5.0,
+        ]
+    }
+
+    #[test]
+    fn mag_figure_eight_progress_and_fit() {
+        let mut m = MagCalMode::new(EllipsoidFitConfig::MICROTESLA).unwrap();
+        let p0 = m.push(distorted([1.0, 0.0, 0.0]));
+        assert_eq!(p0.samples, 1);
+        assert!(p0.percent < 10);
+        // Only one plane first: coverage stays partial, fit refused.
+        for i in 0..200 {
+            let a = i as f32 * 0.0314;
+            m.push(distorted([libm::cosf(a), libm::sinf(a), 0.0]));
+        }
+        assert!(!m.ready());
+        assert!(m.finish().is_err());
+        // Then the full sphere (spiral).
+        let n = 600;
+        let mut last = m.progress();
+        for i in 0..n {
+            let z = -1.0 + 2.0 * (i as f32 + 0.5) / n as f32;
+            let r = libm::sqrtf(1.0 - z * z);
+            let a = i as f32 * 2.4;
+            let p = m.push(distorted([r * libm::cosf(a), r * libm::sinf(a), z]));
+            assert!(p.bins_hit >= last.bins_hit, "coverage never decreases");
+            last = p;
+        }
+        assert!(m.ready(), "{last:?}");
+        let cal = m.finish().unwrap();
+        let c = cal.apply(distorted([0.0, 0.0, 1.0]));
+        let c2 = cal.apply(distorted([1.0, 0.0, 0.0]));
+        let n1 = libm::sqrtf(c.iter().map(|v| v * v).sum());
+        let n2 = libm::sqrtf(c2.iter().map(|v| v * v).sum());
+        assert!((n1 - n2).abs() / n1 < 0.02, "{n1} {n2}");
+    }
+
+    #[test]
+    fn mag_min_max_mode() {
+        let mut m = MagMinMaxMode::new(40.0, 100).unwrap();
+        for i in 0..50 {
+            let a = i as f32 * 0.0314;
+            m.push(distorted([libm::cosf(a), libm::sinf(a), 0.0]));
+        }
+        // Only a quarter turn in one plane: not ready, z never swept.
+        assert!(!m.ready());
+        assert_eq!(m.progress().percent, 0);
+        let n = 600;
+        for i in 0..n {
+            let z = -1.0 + 2.0 * (i as f32 + 0.5) / n as f32;
+            let r = libm::sqrtf(1.0 - z * z);
+            let a = i as f32 * 2.4;
+            m.push(distorted([r * libm::cosf(a), r * libm::sinf(a), z]));
+        }
+        assert!(m.ready());
+        let cal = m.finish().unwrap();
+        // Hard iron (10, −20, 5) µT recovered within the sampling of the extremes.
+        assert!(
+            (cal.offset[0] - 10.0).abs() < 1.0 && (cal.offset[1] + 20.0).abs() < 1.0,
+            "{cal:?}"
+        );
+    }
+
+    #[test]
+    fn accel_six_position() {
+        let cfg = AccelSixPositionConfig {
+            window: 20,
+            ..AccelSixPositionConfig::G
+        };
+        let mut a = AccelCalMode::new(cfg).unwrap();
+        let mut captured = 0;
+        for p in Position::ALL {
+            let mut v = [0.02, -0.01, 0.05];
+            v[p.axis() as usize] += if p.is_up() { 1.02 } else { -1.02 };
+            for _ in 0..20 {
+                let pr = a.push(v);
+                if pr.just_captured == Some(p) {
+                    captured += 1;
+                }
+            }
+        }
+        assert_eq!(captured, 6);
+        assert!(a.ready());
+        let cal = a.finish().unwrap();
+        assert!((cal.offset[2] - 0.05).abs() < 1e-4);
+        assert!((cal.scale[0] - 1.0 / 1.02).abs() < 1e-4);
+    }
+}

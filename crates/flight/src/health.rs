@@ -1,0 +1,562 @@
+//! Per-sensor health bookkeeping and the recovery policy, as pure logic.
+//!
+//! The firmware reports each bus transaction's outcome to a
+//! [`SensorHealth`]; the returned [`Action`] says whether to retry, to
+//! re-initialise the chip, or to stop trying. [`needs_bus_recovery`] decides
+//! when every device is failing at once (a stuck bus), and
+//! [`recover_bus`] is the stuck-bus procedure itself over a small
+//! pin-toggling trait ([`RecoveryPins`]).
+
+use embedded_hal::delay::DelayNs;
+
+/// Overall state of one sensor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SensorState {
+    /// Working; the last transaction succeeded.
+    Ok,
+    /// Working with recent errors (retries or re-initialisations under way).
+    Degraded,
+    /// Not found at boot; never used.
+    Missing,
+    /// Re-initialisation failed repeatedly; the sensor's data is not used.
+    Failed,
+}
+
+/// Event counters of one sensor (saturating).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HealthCounters {
+    /// Successful transactions.
+    pub ok: u32,
+    /// Failed transactions (bus error, NACK, timeout).
+    pub errors: u32,
+    /// Transactions repeated after an error.
+    pub retries: u32,
+    /// Re-initialisations performed.
+    pub reinits: u32,
+    /// Chip resets detected (configuration read-back mismatch).
+    pub resets_detected: u32,
+    /// Data overruns reported by the sensor (e.g. AK8963 DOR, FIFO overflow).
+    pub overflows: u32,
+    /// Reads that found no new data.
+    pub not_ready: u32,
+}
+
+/// Tunable thresholds of the recovery policy.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HealthPolicy {
+    /// Retries of one failed transaction before it is given up.
+    pub max_retries: u8,
+    /// Consecutive failed transactions (after retries) that trigger a
+    /// re-initialisation.
+    pub reinit_after_errors: u16,
+    /// Consecutive failed re-initialisations after which the sensor is
+    /// declared [`SensorState::Failed`].
+    pub fail_after_reinits: u16,
+    /// Consecutive failed transactions of every present sensor that
+    /// trigger stuck-bus recovery ([`needs_bus_recovery`]).
+    pub bus_recovery_after_errors: u16,
+}
+
+impl Default for HealthPolicy {
+    fn default() -> Self {
+        Self {
+            max_retries: 2,
+            reinit_after_errors: 5,
+            fail_after_reinits: 5,
+            bus_recovery_after_errors: 3,
+        }
+    }
+}
+
+/// What the caller should do after reporting an outcome.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Action {
+    /// Nothing: carry on.
+    None,
+    /// Re-initialise the chip (it reset itself or keeps failing).
+    Reinit,
+    /// The sensor is failed or missing: do not use its data.
+    Disable,
+}
+
+/// Health of one sensor: state, counters, and the policy's memory.
+///
+/// ```
+/// use flight::health::{Action, HealthPolicy, SensorHealth, SensorState};
+/// let mut h = SensorHealth::new(HealthPolicy::default());
+/// let r: Result<u8, ()> = h.with_retries(|| Ok(7));
+/// assert_eq!(r, Ok(7));
+/// assert_eq!(h.state(), SensorState::Ok);
+/// assert_eq!(h.config_mismatch(), Action::Reinit);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SensorHealth {
+    policy: HealthPolicy,
+    state: SensorState,
+    counters: HealthCounters,
+    consecutive_errors: u16,
+    failed_reinits: u16,
+}
+
+impl SensorHealth {
+    /// A present, healthy sensor.
+    pub const fn new(policy: HealthPolicy) -> Self {
+        Self {
+            policy,
+            state: SensorState::Ok,
+            counters: HealthCounters {
+                ok: 0,
+                errors: 0,
+                retries: 0,
+                reinits: 0,
+                resets_detected: 0,
+                overflows: 0,
+                not_ready: 0,
+            },
+            consecutive_errors: 0,
+            failed_reinits: 0,
+        }
+    }
+
+    /// A sensor that was not found at boot.
+    pub const fn missing(policy: HealthPolicy) -> Self {
+        let mut h = Self::new(policy);
+        h.state = SensorState::Missing;
+        h
+    }
+
+    /// Current state.
+    pub fn state(&self) -> SensorState {
+        self.state
+    }
+
+    /// Counters.
+    pub fn counters(&self) -> &HealthCounters {
+        &self.counters
+    }
+
+    /// Failed transactions since the last success.
+    pub fn consecutive_errors(&self) -> u16 {
+        self.consecutive_errors
+    }
+
+    /// The policy in use.
+    pub fn policy(&self) -> &HealthPolicy {
+        &self.policy
+    }
+
+    /// `true` if the sensor's data may be used (Ok or Degraded).
+    pub fn usable(&self) -> bool {
+        matches!(self.state, SensorState::Ok | SensorState::Degraded)
+    }
+
+    /// Records a successful transaction.
+    pub fn success(&mut self) {
+        self.counters.ok = self.counters.ok.saturating_add(1);
+        self.consecutive_errors = 0;
+        if self.state == SensorState::Degraded {
+            self.state = SensorState::Ok;
+        }
+    }
+
+    /// Records a failed transaction (after its retries). Returns
+    /// [`Action::Reinit`] once `reinit_after_errors` failures in a row
+    /// accumulate (and every further `reinit_after_errors`).
+    pub fn error(&mut self) -> Action {
+        self.counters.errors = self.counters.errors.saturating_add(1);
+        self.consecutive_errors = self.consecutive_errors.saturating_add(1);
+        match self.state {
+            SensorState::Missing | SensorState::Failed => return Action::Disable,
+            SensorState::Ok => self.state = SensorState::Degraded,
+            SensorState::Degraded => {}
+        }
+        let n = self.policy.reinit_after_errors.max(1);
+        if self.consecutive_errors.is_multiple_of(n) {
+            Action::Reinit
+        } else {
+            Action::None
+        }
+    }
+
+    /// Records a repeated transaction.
+    pub fn retry(&mut self) {
+        self.counters.retries = self.counters.retries.saturating_add(1);
+    }
+
+    /// Records a read that found no new data (not an error).
+    pub fn not_ready(&mut self) {
+        self.counters.not_ready = self.counters.not_ready.saturating_add(1);
+    }
+
+    /// Records a data overrun reported by the sensor (not an error).
+    pub fn overflow(&mut self) {
+        self.counters.overflows = self.counters.overflows.saturating_add(1);
+    }
+
+    /// Records that a configuration read-back did not match what was
+    /// written: the chip reset itself. Always asks for a re-initialisation.
+    pub fn config_mismatch(&mut self) -> Action {
+        self.counters.resets_detected = self.counters.resets_detected.saturating_add(1);
+        match self.state {
+            SensorState::Missing | SensorState::Failed => Action::Disable,
+            _ => {
+                self.state = SensorState::Degraded;
+                Action::Reinit
+            }
+        }
+    }
+
+    /// Records the result of a re-initialisation. After
+    /// `fail_after_reinits` failures in a row the sensor is `Failed`.
+    pub fn reinit_done(&mut self, success: bool) -> Action {
+        self.counters.reinits = self.counters.reinits.saturating_add(1);
+        if success {
+            self.failed_reinits = 0;
+            self.consecutive_errors = 0;
+            if self.state != SensorState::Missing {
+                self.state = SensorState::Ok;
+            }
+            return Action::None;
+        }
+        self.failed_reinits = self.failed_reinits.saturating_add(1);
+        if self.failed_reinits >= self.policy.fail_after_reinits {
+            self.state = SensorState::Failed;
+            Action::Disable
+        } else {
+            Action::None
+        }
+    }
+
+    /// Gives a `Failed` sensor another chance (e.g. after a bus recovery):
+    /// it becomes `Degraded` and is re-initialised by the caller.
+    pub fn revive(&mut self) {
+        if self.state == SensorState::Failed {
+            self.state = SensorState::Degraded;
+            self.failed_reinits = 0;
+            self.consecutive_errors = 0;
+        }
+    }
+
+    /// Runs `op` up to `1 + max_retries` times, counting retries, and
+    /// records the final outcome ([`success`](Self::success) or
+    /// [`error`](Self::error)). Returns the last result; the
+    /// [`Action`] for a final error is available from
+    /// [`pending_action`](Self::pending_action).
+    pub fn with_retries<T, E>(&mut self, mut op: impl FnMut() -> Result<T, E>) -> Result<T, E> {
+        let mut attempt = 0u8;
+        loop {
+            match op() {
+                Ok(v) => {
+                    self.success();
+                    return Ok(v);
+                }
+                Err(e) => {
+                    if attempt >= self.policy.max_retries {
+                        self.error();
+                        return Err(e);
+                    }
+                    attempt = attempt.saturating_add(1);
+                    self.retry();
+                }
+            }
+        }
+    }
+
+    /// The action the current error streak calls for: `Reinit` when the
+    /// streak is a positive multiple of `reinit_after_errors`, `Disable`
+    /// when missing or failed, otherwise `None`.
+    pub fn pending_action(&self) -> Action {
+        match self.state {
+            SensorState::Missing | SensorState::Failed => Action::Disable,
+            _ => {
+                let n = self.policy.reinit_after_errors.max(1);
+                if self.consecutive_errors > 0 && self.consecutive_errors.is_multiple_of(n) {
+                    Action::Reinit
+                } else {
+                    Action::None
+                }
+            }
+        }
+    }
+}
+
+/// `true` when every present (not `Missing`) sensor has failed at least
+/// `bus_recovery_after_errors` transactions in a row: the bus itself is
+/// stuck, not one chip. Returns `false` if no sensor is present.
+pub fn needs_bus_recovery(sensors: &[&SensorHealth]) -> bool {
+    let mut any = false;
+    for s in sensors {
+        if s.state == SensorState::Missing {
+            continue;
+        }
+        any = true;
+        if s.consecutive_errors < s.policy.bus_recovery_after_errors {
+            return false;
+        }
+    }
+    any
+}
+
+/// The two I2C lines driven by hand as open-drain GPIO during recovery.
+/// "High" means released (pulled up by the resistors); "low" means driven.
+pub trait RecoveryPins {
+    /// Releases (`true`) or drives low (`false`) SCL.
+    fn set_scl(&mut self, high: bool);
+    /// Releases (`true`) or drives low (`false`) SDA.
+    fn set_sda(&mut self, high: bool);
+    /// Reads SCL.
+    fn scl_is_high(&mut self) -> bool;
+    /// Reads SDA.
+    fn sda_is_high(&mut self) -> bool;
+}
+
+/// Outcome of a successful [`recover_bus`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RecoveryReport {
+    /// SCL pulses it took for SDA to be released (0 if it was already free).
+    pub clocks: u8,
+}
+
+/// Why [`recover_bus`] could not free the bus.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RecoveryError {
+    /// SCL stays low even when released (short or a slave stretching forever).
+    SclStuckLow,
+    /// SDA still low after [`MAX_RECOVERY_CLOCKS`] pulses.
+    SdaStuckLow,
+}
+
+/// Upper bound on SCL pulses (9 suffice for a slave mid-byte; margin for a
+/// slave that ACKs once more).
+pub const MAX_RECOVERY_CLOCKS: u8 = 16;
+/// Half period of the hand-made clock, µs (≈ 100 kHz).
+pub const RECOVERY_HALF_PERIOD_US: u32 = 5;
+
+/// Frees a stuck I2C bus (NXP UM10204 §3.1.16): with SDA released, clock SCL
+/// until the slave that holds SDA low finishes its byte and lets go (up to
+/// [`MAX_RECOVERY_CLOCKS`]), then generate a STOP (SDA low → high while SCL
+/// is high). Leaves both lines released. The caller then re-creates the I2C
+/// peripheral (the STM32F1 I2C cell needs a reset after such an event,
+/// errata 2.13.7).
+pub fn recover_bus<P: RecoveryPins, D: DelayNs>(
+    pins: &mut P,
+    delay: &mut D,
+) -> Result<RecoveryReport, RecoveryError> {
+    pins.set_sda(true);
+    pins.set_scl(true);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    // Allow clock stretching for a bounded time (~1 ms).
+    let mut waited = 0u32;
+    while !pins.scl_is_high() {
+        if waited >= 200 {
+            return Err(RecoveryError::SclStuckLow);
+        }
+        delay.delay_us(RECOVERY_HALF_PERIOD_US);
+        waited = waited.saturating_add(1);
+    }
+    let mut clocks = 0u8;
+    while !pins.sda_is_high() {
+        if clocks >= MAX_RECOVERY_CLOCKS {
+            return Err(RecoveryError::SdaStuckLow);
+        }
+        pins.set_scl(false);
+        delay.delay_us(RECOVERY_HALF_PERIOD_US);
+        pins.set_scl(true);
+        delay.delay_us(RECOVERY_HALF_PERIOD_US);
+        clocks = clocks.saturating_add(1);
+    }
+    // STOP: SCL low, SDA low, SCL high, SDA high.
+    pins.set_scl(false);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    pins.set_sda(false);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    pins.set_scl(true);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    pins.set_sda(true);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if !pins.sda_is_high() {
+        return Err(RecoveryError::SdaStuckLow);
+    }
+    Ok(RecoveryReport { clocks })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn policy() -> HealthPolicy {
+        HealthPolicy::default()
+    }
+
+    #[test]
+    fn retries_are_bounded_and_counted() {
+        let mut h = SensorHealth::new(policy());
+        let mut calls = 0;
+        let r: Result<(), u8> = h.with_retries(|| {
+            calls += 1;
+            Err(1)
+        });
+        assert_eq!(r, Err(1));
+        assert_eq!(calls, 3);
+        assert_eq!(h.counters().retries, 2);
+        assert_eq!(h.counters().errors, 1);
+        assert_eq!(h.state(), SensorState::Degraded);
+        // A transient error is absorbed by a retry.
+        let mut calls = 0;
+        let r: Result<u8, u8> = h.with_retries(|| {
+            calls += 1;
+            if calls == 1 {
+                Err(0)
+            } else {
+                Ok(5)
+            }
+        });
+        assert_eq!(r, Ok(5));
+        assert_eq!(h.state(), SensorState::Ok);
+        assert_eq!(h.counters().retries, 3);
+        assert_eq!(h.consecutive_errors(), 0);
+    }
+
+    #[test]
+    fn reinit_after_consecutive_errors_then_fail() {
+        let mut h = SensorHealth::new(policy());
+        for _ in 0..4 {
+            assert_eq!(h.error(), Action::None);
+        }
+        assert_eq!(h.error(), Action::Reinit);
+        assert_eq!(h.pending_action(), Action::Reinit);
+        for _ in 0..4 {
+            assert_eq!(h.reinit_done(false), Action::None);
+        }
+        assert_eq!(h.reinit_done(false), Action::Disable);
+        assert_eq!(h.state(), SensorState::Failed);
+        assert!(!h.usable());
+        assert_eq!(h.error(), Action::Disable);
+        h.revive();
+        assert_eq!(h.state(), SensorState::Degraded);
+        assert_eq!(h.reinit_done(true), Action::None);
+        assert_eq!(h.state(), SensorState::Ok);
+        assert_eq!(h.counters().reinits, 6);
+    }
+
+    #[test]
+    fn config_mismatch_requests_reinit() {
+        let mut h = SensorHealth::new(policy());
+        assert_eq!(h.config_mismatch(), Action::Reinit);
+        assert_eq!(h.counters().resets_detected, 1);
+        assert_eq!(h.state(), SensorState::Degraded);
+        let mut m = SensorHealth::missing(policy());
+        assert_eq!(m.config_mismatch(), Action::Disable);
+    }
+
+    #[test]
+    fn bus_recovery_only_when_all_present_fail() {
+        let mut a = SensorHealth::new(policy());
+        let mut b = SensorHealth::new(policy());
+        let missing = SensorHealth::missing(policy());
+        for _ in 0..3 {
+            a.error();
+        }
+        assert!(!needs_bus_recovery(&[&a, &b, &missing]));
+        for _ in 0..3 {
+            b.error();
+        }
+        assert!(needs_bus_recovery(&[&a, &b, &missing]));
+        b.success();
+        assert!(!needs_bus_recovery(&[&a, &b, &missing]));
+        assert!(!needs_bus_recovery(&[&missing]));
+    }
+
+    /// A bus with a slave that holds SDA low for `hold` more SCL falling edges.
+    struct StuckSlave {
+        scl: bool,
+        sda_master: bool,
+        hold: u8,
+        scl_short: bool,
+        log: [u8; 64],
+        n: usize,
+    }
+
+    impl StuckSlave {
+        fn new(hold: u8) -> Self {
+            Self {
+                scl: true,
+                sda_master: true,
+                hold,
+                scl_short: false,
+                log: [0; 64],
+                n: 0,
+            }
+        }
+        fn push(&mut self, e: u8) {
+            if self.n < self.log.len() {
+                self.log[self.n] = e;
+                self.n += 1;
+            }
+        }
+    }
+
+    impl RecoveryPins for StuckSlave {
+        fn set_scl(&mut self, high: bool) {
+            if self.scl && !high && self.hold > 0 {
+                self.hold -= 1; // slave shifts one bit per falling edge
+            }
+            self.scl = high;
+            self.push(if high { b'C' } else { b'c' });
+        }
+        fn set_sda(&mut self, high: bool) {
+            self.sda_master = high;
+            self.push(if high { b'D' } else { b'd' });
+        }
+        fn scl_is_high(&mut self) -> bool {
+            self.scl && !self.scl_short
+        }
+        fn sda_is_high(&mut self) -> bool {
+            self.sda_master && self.hold == 0
+        }
+    }
+
+    struct NoDelay;
+    impl DelayNs for NoDelay {
+        fn delay_ns(&mut self, _ns: u32) {}
+    }
+
+    #[test]
+    fn recovery_clocks_until_sda_released_then_stop() {
+        let mut bus = StuckSlave::new(7);
+        assert_eq!(
+            recover_bus(&mut bus, &mut NoDelay),
+            Ok(RecoveryReport { clocks: 7 })
+        );
+        // Ends with a STOP: SCL low, SDA low, SCL high, SDA high.
+        assert_eq!(&bus.log[bus.n - 4..bus.n], b"cdCD");
+        assert!(bus.scl && bus.sda_master);
+        let mut free = StuckSlave::new(0);
+        assert_eq!(
+            recover_bus(&mut free, &mut NoDelay),
+            Ok(RecoveryReport { clocks: 0 })
+        );
+    }
+
+    #[test]
+    fn recovery_gives_up_bounded() {
+        let mut bus = StuckSlave::new(200);
+        assert_eq!(
+            recover_bus(&mut bus, &mut NoDelay),
+            Err(RecoveryError::SdaStuckLow)
+        );
+        let mut short = StuckSlave::new(1);
+        short.scl_short = true;
+        assert_eq!(
+            recover_bus(&mut short, &mut NoDelay),
+            Err(RecoveryError::SclStuckLow)
+        );
+    }
+}

@@ -1,0 +1,206 @@
+//! Board mounting: a signed axis permutation from the MPU sensor frame to
+//! the body frame (FRD: x forward, y right, z down).
+
+/// One body axis: which MPU axis it takes and with which sign.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AxisMap {
+    /// Index of the MPU-frame axis (0 = x, 1 = y, 2 = z).
+    pub source: u8,
+    /// `true` if the body axis is the negated MPU axis.
+    pub negate: bool,
+}
+
+/// Signed axis permutation `body[i] = ±mpu[axes[i].source]` (MPU frame → body FRD).
+///
+/// The default assumes the breakout mounted face up with its x arrow
+/// forward: body = (x_mpu, −y_mpu, −z_mpu).
+///
+/// ```
+/// use flight::Mounting;
+/// let m = Mounting::default();
+/// assert_eq!(m.apply_i32([1, 2, 3]), [1, -2, -3]);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Mounting {
+    axes: [AxisMap; 3],
+}
+
+/// Why a mounting description was rejected.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MountingError {
+    /// An axis index is not 0, 1 or 2.
+    AxisOutOfRange,
+    /// Two body axes take the same MPU axis (not a permutation).
+    RepeatedAxis,
+    /// The permutation is a reflection (determinant −1): the body frame would
+    /// be left-handed.
+    LeftHanded,
+}
+
+impl Default for Mounting {
+    fn default() -> Self {
+        Self {
+            axes: [
+                AxisMap {
+                    source: 0,
+                    negate: false,
+                },
+                AxisMap {
+                    source: 1,
+                    negate: true,
+                },
+                AxisMap {
+                    source: 2,
+                    negate: true,
+                },
+            ],
+        }
+    }
+}
+
+impl Mounting {
+    /// Builds a mounting from three axis maps, checking that it is a proper
+    /// rotation (a permutation with determinant +1).
+    pub fn new(axes: [AxisMap; 3]) -> Result<Self, MountingError> {
+        let mut seen = [false; 3];
+        for a in &axes {
+            let slot = seen
+                .get_mut(usize::from(a.source))
+                .ok_or(MountingError::AxisOutOfRange)?;
+            if *slot {
+                return Err(MountingError::RepeatedAxis);
+            }
+            *slot = true;
+        }
+        // Parity of the permutation: even permutations are cyclic shifts.
+        let [a0, a1, a2] = axes;
+        let even = (a1.source == (a0.source + 1) % 3) && (a2.source == (a1.source + 1) % 3);
+        let negations = u8::from(a0.negate) + u8::from(a1.negate) + u8::from(a2.negate);
+        let det_positive = even == (negations % 2 == 0);
+        if !det_positive {
+            return Err(MountingError::LeftHanded);
+        }
+        Ok(Self { axes })
+    }
+
+    /// The three axis maps (body x, y, z).
+    pub fn axes(&self) -> [AxisMap; 3] {
+        self.axes
+    }
+
+    /// Applies the permutation to an integer vector in the MPU frame.
+    /// Negation saturates (`i32::MIN` becomes `i32::MAX`).
+    #[inline]
+    pub fn apply_i32(&self, v: [i32; 3]) -> [i32; 3] {
+        self.axes.map(|a| {
+            let x = match a.source {
+                0 => v[0],
+                1 => v[1],
+                _ => v[2],
+            };
+            if a.negate {
+                x.saturating_neg()
+            } else {
+                x
+            }
+        })
+    }
+
+    /// Applies the permutation to an `f32` vector in the MPU frame.
+    #[inline]
+    pub fn apply_f32(&self, v: [f32; 3]) -> [f32; 3] {
+        self.axes.map(|a| {
+            let x = match a.source {
+                0 => v[0],
+                1 => v[1],
+                _ => v[2],
+            };
+            if a.negate {
+                -x
+            } else {
+                x
+            }
+        })
+    }
+
+    /// Packs into 9 bits: per body axis, 2 bits of source and 1 sign bit.
+    pub fn to_code(&self) -> u16 {
+        let mut code = 0u16;
+        for (i, a) in self.axes.iter().enumerate() {
+            let bits = u16::from(a.source & 3) | (u16::from(a.negate) << 2);
+            code |= bits << (3 * i);
+        }
+        code
+    }
+
+    /// Unpacks [`Mounting::to_code`], validating the result.
+    pub fn from_code(code: u16) -> Result<Self, MountingError> {
+        if code >> 9 != 0 {
+            return Err(MountingError::AxisOutOfRange);
+        }
+        let axis = |i: u16| {
+            let bits = (code >> (3 * i)) & 7;
+            AxisMap {
+                source: (bits & 3) as u8,
+                negate: bits & 4 != 0,
+            }
+        };
+        Self::new([axis(0), axis(1), axis(2)])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_is_face_up_x_forward() {
+        let m = Mounting::default();
+        // At rest face up the accelerometer reads +1 g on z_mpu; in FRD the
+        // specific force at rest points up, i.e. −z_body.
+        assert_eq!(m.apply_f32([0.0, 0.0, 1.0]), [0.0, 0.0, -1.0]);
+        assert_eq!(Mounting::from_code(m.to_code()), Ok(m));
+    }
+
+    #[test]
+    fn rejects_reflections_and_repeats() {
+        let id = |s, n| AxisMap {
+            source: s,
+            negate: n,
+        };
+        assert_eq!(
+            Mounting::new([id(0, false), id(1, false), id(2, true)]),
+            Err(MountingError::LeftHanded)
+        );
+        assert_eq!(
+            Mounting::new([id(1, false), id(0, false), id(2, false)]),
+            Err(MountingError::LeftHanded)
+        );
+        assert!(Mounting::new([id(1, false), id(0, false), id(2, true)]).is_ok());
+        assert!(Mounting::new([id(1, false), id(2, false), id(0, false)]).is_ok());
+        assert_eq!(
+            Mounting::new([id(0, false), id(0, false), id(2, false)]),
+            Err(MountingError::RepeatedAxis)
+        );
+        assert_eq!(
+            Mounting::new([id(3, false), id(0, false), id(2, false)]),
+            Err(MountingError::AxisOutOfRange)
+        );
+    }
+
+    #[test]
+    fn every_code_roundtrips_or_is_rejected() {
+        let mut proper = 0;
+        for code in 0..512u16 {
+            if let Ok(m) = Mounting::from_code(code) {
+                proper += 1;
+                assert_eq!(m.to_code(), code);
+            }
+        }
+        // 24 proper rotations among the 48 signed permutations.
+        assert_eq!(proper, 24);
+    }
+}

@@ -1,0 +1,787 @@
+//! The per-sample processing the firmware runs.
+//!
+//! * [`Pipeline::imu_step`] (1 kHz, per MPU data-ready): raw counts → gyro
+//!   bias (integer) → accelerometer offset/scale (integer, Q14 scale) →
+//!   mounting (MPU frame → body FRD, signed permutation) → AHRS update →
+//!   accumulate body specific force for the vertical estimator. No f32
+//!   division, trigonometry or square root outside the AHRS itself.
+//! * [`Pipeline::mag_step`] (100 Hz): AK8963 counts → µT (factory
+//!   adjustment) → MPU frame → hard/soft iron → body frame; kept for the
+//!   AHRS's MARG updates.
+//! * [`Pipeline::baro_step`] (per MS5611 pressure, ~100 Hz): pressure →
+//!   height (control's cheap table form) → vertical estimator.
+//! * [`Pipeline::control_step`] (100 Hz): vertical prediction with the mean
+//!   earth-frame vertical acceleration of the last samples, then the
+//!   altitude-hold and attitude controllers (outputs only logged; there are
+//!   no motors).
+//!
+//! The AHRS is `fc_ahrs`'s Madgwick filter; see [`AHRS_KIND`].
+
+use control::baro::CheapBaro;
+use control::controllers::{
+    AltitudeHold, AltitudeHoldConfig, Attitude, AttitudeConfig, AttitudeController, AttitudeTarget,
+    BodyRates, TorqueCommand, YawTarget,
+};
+use control::vertical::{Config as VerticalConfig, VerticalEstimator};
+use fc_ahrs::Quaternion;
+
+use crate::boot::AhrsMode;
+use crate::mounting::Mounting;
+use crate::storage::{CalibrationRecord, ValidParts};
+
+/// Standard gravity, m/s².
+pub const G_MPS2: f32 = 9.806_65;
+const DEG_PER_RAD: f32 = 180.0 / core::f32::consts::PI;
+const RAD_PER_DEG: f32 = core::f32::consts::PI / 180.0;
+
+/// Which AHRS implementation this build uses.
+pub const AHRS_KIND: &str = backend::KIND;
+
+/// One raw MPU-9250 sample as the 1 kHz step receives it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ImuInput {
+    /// Accelerometer, counts, MPU frame.
+    pub accel: [i16; 3],
+    /// Gyroscope, counts, MPU frame (bias not removed).
+    pub gyro: [i16; 3],
+    /// Time since the previous sample, CPU cycles (DWT CYCCNT difference).
+    pub dt_cycles: u32,
+}
+
+/// Fixed settings of the pipeline.
+#[derive(Clone, Copy, Debug)]
+pub struct PipelineConfig {
+    /// CPU clock of the cycle counter, Hz.
+    pub cpu_hz: u32,
+    /// Gyro sensitivity, °/s per count (e.g. `mpu9250::Scale::dps_per_lsb`).
+    pub gyro_dps_per_lsb: f32,
+    /// Accelerometer sensitivity, g per count.
+    pub accel_g_per_lsb: f32,
+    /// Magnetometer µT per count per axis (AK8963 frame, factory adjustment
+    /// included).
+    pub mag_ut_per_lsb: [f32; 3],
+    /// How the AHRS runs (from the boot probe).
+    pub ahrs_mode: AhrsMode,
+    /// Barometer present.
+    pub altitude: bool,
+    /// Altitude-hold target, m above the take-off pressure.
+    pub altitude_target_m: f32,
+    /// IMU samples per [`Pipeline::control_step`] (10 → 100 Hz).
+    pub control_divider: u16,
+    /// AHRS tuning.
+    pub ahrs: fc_ahrs::Config,
+    /// Vertical estimator tuning.
+    pub vertical: VerticalConfig,
+    /// Altitude-hold tuning.
+    pub altitude_hold: AltitudeHoldConfig,
+    /// Attitude-controller tuning.
+    pub attitude: AttitudeConfig,
+}
+
+impl PipelineConfig {
+    /// Defaults for the MPU-9250 at ±1000 °/s / ±4 g, the AK8963 at 16 bit
+    /// with neutral adjustment, 72 MHz, full MARG + altitude.
+    pub fn new() -> Self {
+        Self {
+            cpu_hz: 72_000_000,
+            gyro_dps_per_lsb: 1.0 / 32.8,
+            accel_g_per_lsb: 1.0 / 8192.0,
+            mag_ut_per_lsb: [0.15; 3],
+            ahrs_mode: AhrsMode::Marg,
+            altitude: true,
+            altitude_target_m: 1.0,
+            control_divider: 10,
+            ahrs: fc_ahrs::Config::default(),
+            vertical: VerticalConfig::default(),
+            altitude_hold: AltitudeHoldConfig::default(),
+            attitude: AttitudeConfig::default(),
+        }
+    }
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Why [`Pipeline::new`] refused its configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PipelineError {
+    /// A sensitivity, clock or divider is zero, negative or not finite.
+    InvalidScale,
+    /// A control-crate configuration was rejected.
+    Control(control::Error),
+}
+
+impl From<control::Error> for PipelineError {
+    fn from(e: control::Error) -> Self {
+        Self::Control(e)
+    }
+}
+
+/// What the pipeline produces (logged at 10–50 Hz).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Outputs {
+    /// Roll, °, NED/FRD ZYX Euler.
+    pub roll_deg: f32,
+    /// Pitch, °.
+    pub pitch_deg: f32,
+    /// Yaw (heading), °, clockwise from north (magnetic, or arbitrary in IMU-only mode).
+    pub yaw_deg: f32,
+    /// Height above the take-off pressure, m (0 without barometer).
+    pub altitude_m: f32,
+    /// Vertical speed, m/s, up positive.
+    pub vertical_speed_mps: f32,
+    /// Altitude-hold throttle command, 0..1 (logged only).
+    pub throttle: f32,
+    /// Attitude-controller torque commands (roll, pitch, yaw), −1..1 (logged only).
+    pub torque: [f32; 3],
+    /// IMU samples processed.
+    pub imu_samples: u32,
+    /// Magnetometer samples used.
+    pub mag_samples: u32,
+    /// Barometer samples used.
+    pub baro_samples: u32,
+}
+
+/// The processing chain and its state.
+pub struct Pipeline {
+    cfg: PipelineConfig,
+    mounting: Mounting,
+    gyro_bias: [i32; 3],
+    accel_offset: [i32; 3],
+    accel_scale_q14: [i32; 3],
+    mag_offset_ut: [f32; 3],
+    mag_soft: [[f32; 3]; 3],
+    ahrs: backend::Ahrs,
+    last_gyro_body: [i32; 3],
+    accel_sum: [i32; 3],
+    accel_n: u16,
+    dt_sum_cycles: u32,
+    cycle_s: f32,
+    accel_mps2_per_lsb: f32,
+    gyro_rps_per_lsb: f32,
+    mag_fresh: u16,
+    baro: Option<CheapBaro>,
+    vertical: VerticalEstimator,
+    alt_hold: AltitudeHold,
+    attitude: AttitudeController,
+    out: Outputs,
+}
+
+fn positive(x: f32) -> bool {
+    x.is_finite() && x > 0.0
+}
+
+/// Round to nearest i32, saturating.
+fn round_i32(x: f32) -> i32 {
+    (if x >= 0.0 { x + 0.5 } else { x - 0.5 }) as i32
+}
+
+impl Pipeline {
+    /// Builds the pipeline from its configuration and the calibration
+    /// record (gyro bias from the record until
+    /// [`set_gyro_bias_counts`](Self::set_gyro_bias_counts) is called with
+    /// the start-up measurement).
+    pub fn new(cfg: PipelineConfig, cal: &CalibrationRecord) -> Result<Self, PipelineError> {
+        let scales_ok = positive(cfg.gyro_dps_per_lsb)
+            && positive(cfg.accel_g_per_lsb)
+            && cfg.mag_ut_per_lsb.iter().all(|s| positive(*s))
+            && cfg.cpu_hz > 0
+            && cfg.control_divider > 0
+            && cfg.altitude_target_m.is_finite();
+        if !scales_ok {
+            return Err(PipelineError::InvalidScale);
+        }
+        let lsb_per_g = 1.0 / cfg.accel_g_per_lsb;
+        let lsb_per_dps = 1.0 / cfg.gyro_dps_per_lsb;
+        let gyro_bias = if cal.valid.has(ValidParts::GYRO) {
+            cal.gyro_bias_dps.map(|b| round_i32(b * lsb_per_dps))
+        } else {
+            [0; 3]
+        };
+        let gyro_rps_per_lsb = cfg.gyro_dps_per_lsb * RAD_PER_DEG;
+        let accel_mps2_per_lsb = cfg.accel_g_per_lsb * G_MPS2;
+        Ok(Self {
+            mounting: cal.mounting,
+            gyro_bias,
+            accel_offset: cal.accel_offset_g.map(|o| round_i32(o * lsb_per_g)),
+            accel_scale_q14: cal.accel_scale.map(|s| round_i32(s * 16_384.0)),
+            mag_offset_ut: cal.mag_offset_ut,
+            mag_soft: cal.mag_soft_iron,
+            ahrs: backend::Ahrs::new(cfg.ahrs, gyro_rps_per_lsb, accel_mps2_per_lsb, cfg.cpu_hz),
+            last_gyro_body: [0; 3],
+            accel_sum: [0; 3],
+            accel_n: 0,
+            dt_sum_cycles: 0,
+            cycle_s: 1.0 / cfg.cpu_hz as f32,
+            accel_mps2_per_lsb,
+            gyro_rps_per_lsb,
+            mag_fresh: 0,
+            baro: None,
+            vertical: VerticalEstimator::new(cfg.vertical)?,
+            alt_hold: AltitudeHold::new(cfg.altitude_hold)?,
+            attitude: AttitudeController::new(cfg.attitude)?,
+            out: Outputs::default(),
+            cfg,
+        })
+    }
+
+    /// Applies a new calibration record (accelerometer, magnetometer,
+    /// mounting; the gyro bias only if the record holds one).
+    pub fn set_calibration(&mut self, cal: &CalibrationRecord) {
+        let lsb_per_g = 1.0 / self.cfg.accel_g_per_lsb;
+        let lsb_per_dps = 1.0 / self.cfg.gyro_dps_per_lsb;
+        if cal.valid.has(ValidParts::GYRO) {
+            self.gyro_bias = cal.gyro_bias_dps.map(|b| round_i32(b * lsb_per_dps));
+        }
+        self.mounting = cal.mounting;
+        self.accel_offset = cal.accel_offset_g.map(|o| round_i32(o * lsb_per_g));
+        self.accel_scale_q14 = cal.accel_scale.map(|s| round_i32(s * 16_384.0));
+        self.mag_offset_ut = cal.mag_offset_ut;
+        self.mag_soft = cal.mag_soft_iron;
+    }
+
+    /// The gyro bias in use, counts (MPU frame).
+    pub fn gyro_bias_counts(&self) -> [i32; 3] {
+        self.gyro_bias
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &PipelineConfig {
+        &self.cfg
+    }
+
+    /// Replaces the gyro bias (counts, MPU frame), e.g. with the start-up
+    /// measurement.
+    pub fn set_gyro_bias_counts(&mut self, bias: [i16; 3]) {
+        self.gyro_bias = bias.map(i32::from);
+    }
+
+    /// The AHRS mode in use.
+    pub fn ahrs_mode(&self) -> AhrsMode {
+        self.cfg.ahrs_mode
+    }
+
+    /// Degrades the pipeline at run time (a sensor failed in flight).
+    pub fn set_capabilities(&mut self, ahrs_mode: AhrsMode, altitude: bool) {
+        self.cfg.ahrs_mode = ahrs_mode;
+        self.cfg.altitude = altitude;
+    }
+
+    /// Calibrated accelerometer sample, counts, MPU frame (integer:
+    /// `(raw − offset) · scale_q14 >> 14`).
+    #[inline]
+    pub fn calibrate_accel_counts(&self, raw: [i16; 3]) -> [i32; 3] {
+        let mut out = [0i32; 3];
+        for (((o, r), off), s) in out
+            .iter_mut()
+            .zip(raw)
+            .zip(self.accel_offset)
+            .zip(self.accel_scale_q14)
+        {
+            let centred = i32::from(r).saturating_sub(off);
+            // |centred| ≤ 2^17 after saturation of a bad offset; s ≤ 2^15 (scale ≤ 2).
+            *o = ((i64::from(centred) * i64::from(s)) >> 14) as i32;
+        }
+        out
+    }
+
+    /// The 1 kHz step: bias, calibration, mounting, AHRS update and the
+    /// accumulation for the vertical estimator. Returns `true` when a
+    /// [`control_step`](Self::control_step) is due.
+    ///
+    /// ```
+    /// use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
+    /// let mut p = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
+    /// // Flat, face up, still: +1 g on z_mpu (8192 counts at ±4 g).
+    /// let s = ImuInput { accel: [0, 0, 8192], gyro: [0; 3], dt_cycles: 72_000 };
+    /// for _ in 0..2000 {
+    ///     if p.imu_step(&s) { p.control_step(); }
+    /// }
+    /// let o = p.outputs();
+    /// assert!(o.roll_deg.abs() < 1.0 && o.pitch_deg.abs() < 1.0);
+    /// ```
+    pub fn imu_step(&mut self, input: &ImuInput) -> bool {
+        if self.cfg.ahrs_mode == AhrsMode::None {
+            return false;
+        }
+        let mut gyro = [0i32; 3];
+        for ((g, r), b) in gyro.iter_mut().zip(input.gyro).zip(self.gyro_bias) {
+            *g = i32::from(r).saturating_sub(b);
+        }
+        let accel = self.calibrate_accel_counts(input.accel);
+        let gyro_b = self.mounting.apply_i32(gyro);
+        let accel_b = self.mounting.apply_i32(accel);
+        let use_mag = self.cfg.ahrs_mode == AhrsMode::Marg && self.mag_fresh > 0;
+        self.mag_fresh = self.mag_fresh.saturating_sub(1);
+        self.ahrs.update(gyro_b, accel_b, use_mag, input.dt_cycles);
+        self.last_gyro_body = gyro_b;
+        for (s, a) in self.accel_sum.iter_mut().zip(accel_b) {
+            *s = s.saturating_add(a);
+        }
+        self.accel_n = self.accel_n.saturating_add(1);
+        self.dt_sum_cycles = self.dt_sum_cycles.saturating_add(input.dt_cycles);
+        self.out.imu_samples = self.out.imu_samples.wrapping_add(1);
+        self.accel_n >= self.cfg.control_divider
+    }
+
+    /// Converts an AK8963 reading (counts, AK8963 frame) to µT in the MPU
+    /// frame, factory adjustment applied but no hard/soft-iron correction
+    /// (the input of the magnetometer calibration).
+    pub fn mag_counts_to_mpu_raw_ut(&self, counts: [i16; 3]) -> [f32; 3] {
+        let [s0, s1, s2] = self.cfg.mag_ut_per_lsb;
+        let ak = [
+            f32::from(counts[0]) * s0,
+            f32::from(counts[1]) * s1,
+            f32::from(counts[2]) * s2,
+        ];
+        // AK8963 → MPU: x_mpu = y_ak, y_mpu = x_ak, z_mpu = −z_ak.
+        [ak[1], ak[0], -ak[2]]
+    }
+
+    /// Converts an AK8963 reading (counts, AK8963 frame) to the calibrated
+    /// field in µT, MPU frame.
+    pub fn mag_counts_to_mpu_ut(&self, counts: [i16; 3]) -> [f32; 3] {
+        let raw = self.mag_counts_to_mpu_raw_ut(counts);
+        let c = [
+            raw[0] - self.mag_offset_ut[0],
+            raw[1] - self.mag_offset_ut[1],
+            raw[2] - self.mag_offset_ut[2],
+        ];
+        let m = &self.mag_soft;
+        [
+            m[0][0] * c[0] + m[0][1] * c[1] + m[0][2] * c[2],
+            m[1][0] * c[0] + m[1][1] * c[1] + m[1][2] * c[2],
+            m[2][0] * c[0] + m[2][1] * c[1] + m[2][2] * c[2],
+        ]
+    }
+
+    /// The 100 Hz magnetometer step (counts, AK8963 frame).
+    pub fn mag_step(&mut self, counts: [i16; 3]) {
+        let mpu = self.mag_counts_to_mpu_ut(counts);
+        let body = self.mounting.apply_f32(mpu);
+        self.ahrs.set_mag(body);
+        // A reading stays usable for 3 magnetometer periods.
+        self.mag_fresh = self.cfg.control_divider.saturating_mul(3);
+        self.out.mag_samples = self.out.mag_samples.wrapping_add(1);
+    }
+
+    /// A barometer pressure, Pa. The first one sets the take-off reference
+    /// (height 0).
+    pub fn baro_step(&mut self, pressure_pa: i32) {
+        if !self.cfg.altitude {
+            return;
+        }
+        let baro = match self.baro {
+            Some(b) => b,
+            None => match CheapBaro::new(pressure_pa as f32) {
+                Ok(b) => {
+                    self.baro = Some(b);
+                    b
+                }
+                Err(_) => return,
+            },
+        };
+        let h = baro.height_m(pressure_pa);
+        if self.vertical.update_baro(h).is_ok() {
+            self.out.baro_samples = self.out.baro_samples.wrapping_add(1);
+        }
+    }
+
+    /// The 100 Hz step: vertical prediction with the mean earth-frame
+    /// vertical acceleration since the last call, then the controllers.
+    pub fn control_step(&mut self) {
+        let n = self.accel_n;
+        if n == 0 {
+            return;
+        }
+        let inv_n = 1.0 / f32::from(n);
+        let k = self.accel_mps2_per_lsb * inv_n;
+        let a_body = self.accel_sum.map(|s| s as f32 * k);
+        let dt_s = self.dt_sum_cycles as f32 * self.cycle_s;
+        self.accel_sum = [0; 3];
+        self.accel_n = 0;
+        self.dt_sum_cycles = 0;
+        let q = self.ahrs.quaternion();
+        // Specific force in NED; up acceleration = −f_down − g.
+        let f_ned = q.rotate(a_body);
+        let accel_up = -f_ned[2] - G_MPS2;
+        if self.cfg.altitude && self.vertical.is_initialized() {
+            let _ = self.vertical.predict(accel_up, dt_s);
+        }
+        let e = euler_rad(&q);
+        let attitude = Attitude {
+            roll_rad: e[0],
+            pitch_rad: e[1],
+            yaw_rad: e[2],
+        };
+        let g = self
+            .last_gyro_body
+            .map(|c| c as f32 * self.gyro_rps_per_lsb);
+        let rates = BodyRates {
+            roll_rps: g[0],
+            pitch_rps: g[1],
+            yaw_rps: g[2],
+        };
+        let target = AttitudeTarget {
+            roll_rad: 0.0,
+            pitch_rad: 0.0,
+            yaw: YawTarget::Rate(0.0),
+        };
+        if let Ok(TorqueCommand { roll, pitch, yaw }) =
+            self.attitude.update(&target, &attitude, &rates, dt_s)
+        {
+            self.out.torque = [roll, pitch, yaw];
+        }
+        if self.cfg.altitude && self.vertical.is_initialized() {
+            let h = self.vertical.height_m();
+            let v = self.vertical.velocity_mps();
+            if let Ok(t) = self.alt_hold.update(self.cfg.altitude_target_m, h, v, dt_s) {
+                self.out.throttle = t;
+            }
+            self.out.altitude_m = h;
+            self.out.vertical_speed_mps = v;
+        }
+        self.out.roll_deg = e[0] * DEG_PER_RAD;
+        self.out.pitch_deg = e[1] * DEG_PER_RAD;
+        self.out.yaw_deg = e[2] * DEG_PER_RAD;
+    }
+
+    /// The latest outputs (attitude as of the last control step).
+    pub fn outputs(&self) -> Outputs {
+        self.out
+    }
+
+    /// The AHRS quaternion `q_ned_from_body`.
+    pub fn quaternion(&self) -> Quaternion {
+        self.ahrs.quaternion()
+    }
+}
+
+/// ZYX Euler angles (roll, pitch, yaw), rad, of `q_ned_from_body`. Pitch
+/// uses `atan2f(s, √(1−s²))` instead of `asinf(s)`, whose libm version
+/// works in f64 (≈ 3 KiB of soft-double code on the M3).
+pub fn euler_rad(q: &Quaternion) -> [f32; 3] {
+    let Quaternion { w, x, y, z } = *q;
+    let roll = libm::atan2f(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y));
+    let sp = (2.0 * (w * y - x * z)).clamp(-1.0, 1.0);
+    let pitch = libm::atan2f(sp, libm::sqrtf((1.0 - sp * sp).max(0.0)));
+    let yaw = libm::atan2f(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z));
+    [roll, pitch, yaw]
+}
+
+#[cfg(feature = "f32-ahrs")]
+mod backend {
+    //! f32 Madgwick (`fc_ahrs::Madgwick`), inputs converted from counts
+    //! with one multiply per axis (each a soft-float call on the M3).
+    use fc_ahrs::{Config, Madgwick, Quaternion};
+
+    pub const KIND: &str = "f32 Madgwick";
+
+    pub struct Ahrs {
+        filter: Madgwick,
+        gyro_k: f32,
+        accel_k: f32,
+        cycle_s: f32,
+        mag: [f32; 3],
+    }
+
+    impl Ahrs {
+        pub fn new(
+            cfg: Config,
+            gyro_rps_per_lsb: f32,
+            accel_mps2_per_lsb: f32,
+            cpu_hz: u32,
+        ) -> Self {
+            Self {
+                filter: Madgwick::new(cfg),
+                gyro_k: gyro_rps_per_lsb,
+                accel_k: accel_mps2_per_lsb,
+                cycle_s: 1.0 / cpu_hz as f32,
+                mag: [0.0; 3],
+            }
+        }
+
+        pub fn set_mag(&mut self, body_ut: [f32; 3]) {
+            self.mag = body_ut;
+        }
+
+        #[inline]
+        pub fn update(
+            &mut self,
+            gyro_b: [i32; 3],
+            accel_b: [i32; 3],
+            use_mag: bool,
+            dt_cycles: u32,
+        ) {
+            let g = gyro_b.map(|c| c as f32 * self.gyro_k);
+            let a = accel_b.map(|c| c as f32 * self.accel_k);
+            let dt = dt_cycles as f32 * self.cycle_s;
+            if use_mag {
+                self.filter.update_marg(g, a, self.mag, dt);
+            } else {
+                self.filter.update_imu(g, a, dt);
+            }
+        }
+
+        pub fn quaternion(&self) -> Quaternion {
+            self.filter.quaternion()
+        }
+    }
+}
+
+#[cfg(not(feature = "f32-ahrs"))]
+mod backend {
+    //! Fixed-point Madgwick (`fc_ahrs::fixed::MadgwickFixed`): gyro counts →
+    //! rad/s Q20 with one 32×32→64 multiply per axis (`K` in Q36 rad/s per
+    //! count, shifted right 16), accelerometer in counts (the filter's
+    //! `gravity_norm` is set to 1 g in counts), magnetometer in 1/16 µT,
+    //! dt in cycles → Q31 s with one multiply (`2^47 / cpu_hz`, shifted 16).
+    use fc_ahrs::fixed::{FixedConfig, MadgwickFixed};
+    use fc_ahrs::{Config, Quaternion};
+
+    pub const KIND: &str = "fixed-point Madgwick (Q30)";
+
+    pub struct Ahrs {
+        filter: MadgwickFixed,
+        gyro_k_q36: i64,
+        dt_k: u64,
+        mag: [i32; 3],
+    }
+
+    impl Ahrs {
+        pub fn new(
+            cfg: Config,
+            gyro_rps_per_lsb: f32,
+            accel_mps2_per_lsb: f32,
+            cpu_hz: u32,
+        ) -> Self {
+            let lsb_per_g = super::G_MPS2 / accel_mps2_per_lsb;
+            let fixed = FixedConfig::from_config(&Config {
+                gravity_norm: lsb_per_g,
+                ..cfg
+            });
+            let k = gyro_rps_per_lsb * (1u64 << 36) as f32;
+            Self {
+                filter: MadgwickFixed::new(fixed),
+                gyro_k_q36: if k.is_finite() { k as i64 } else { 0 },
+                // 2^47 / cpu_hz (1.95e6 at 72 MHz), computed in f32 (init only).
+                dt_k: (140_737_488_355_328.0f32 / cpu_hz.max(1) as f32) as u64,
+                mag: [0; 3],
+            }
+        }
+
+        pub fn set_mag(&mut self, body_ut: [f32; 3]) {
+            // `as` saturates (and maps NaN to 0).
+            self.mag = body_ut.map(|m| (m * 16.0) as i32);
+        }
+
+        #[inline]
+        pub fn update(
+            &mut self,
+            gyro_b: [i32; 3],
+            accel_b: [i32; 3],
+            use_mag: bool,
+            dt_cycles: u32,
+        ) {
+            let k = self.gyro_k_q36;
+            // |counts| ≤ 2^17, k < 2^27: the product fits i64 easily.
+            let g = gyro_b.map(|c| ((i64::from(c) * k) >> 16) as i32);
+            let dt = ((u64::from(dt_cycles) * self.dt_k) >> 16).min(i32::MAX as u64) as i32;
+            if use_mag {
+                self.filter.update_marg(g, accel_b, self.mag, dt);
+            } else {
+                self.filter.update_imu(g, accel_b, dt);
+            }
+        }
+
+        pub fn quaternion(&self) -> Quaternion {
+            self.filter.quaternion_f32()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(accel: [i16; 3], gyro: [i16; 3]) -> ImuInput {
+        ImuInput {
+            accel,
+            gyro,
+            dt_cycles: 72_000,
+        }
+    }
+
+    #[test]
+    fn accel_calibration_integer() {
+        let mut rec = CalibrationRecord::default();
+        rec.accel_offset_g = [0.01, 0.0, -0.02];
+        rec.accel_scale = [1.0, 0.5, 1.25];
+        let p = Pipeline::new(PipelineConfig::new(), &rec).unwrap();
+        // offset 0.01 g = 82 counts; −0.02 g = −164 counts.
+        assert_eq!(
+            p.calibrate_accel_counts([1082, 1000, 8028]),
+            [1000, 500, 10240]
+        );
+        assert_eq!(p.calibrate_accel_counts([i16::MIN, i16::MAX, 0])[1], 16383);
+    }
+
+    #[test]
+    fn tilt_and_yaw_rate_come_out_in_body_frd() {
+        let mut p = Pipeline::new(
+            PipelineConfig {
+                ahrs_mode: AhrsMode::ImuOnly,
+                ..PipelineConfig::new()
+            },
+            &Default::default(),
+        )
+        .unwrap();
+        // Rolled right wing down by 30°: in FRD gravity (down) appears on +y_body
+        // and the specific force (up) on −y_body, i.e. +y_mpu (y_body = −y_mpu).
+        let (s, c) = (0.5f32, 0.866_025_4f32);
+        let acc = [0i16, (8192.0 * s) as i16, (8192.0 * c) as i16];
+        for _ in 0..4000 {
+            if p.imu_step(&sample(acc, [0; 3])) {
+                p.control_step();
+            }
+        }
+        let o = p.outputs();
+        assert!((o.roll_deg - 30.0).abs() < 1.0, "{o:?}");
+        assert!(o.pitch_deg.abs() < 1.0, "{o:?}");
+        // Yaw rate about body z (down) = −z_mpu: 32.8 counts = 1 °/s on −z_mpu.
+        let mut p = Pipeline::new(
+            PipelineConfig {
+                ahrs_mode: AhrsMode::ImuOnly,
+                ..PipelineConfig::new()
+            },
+            &Default::default(),
+        )
+        .unwrap();
+        for _ in 0..1000 {
+            if p.imu_step(&sample([0, 0, 8192], [0, 0, -328])) {
+                p.control_step();
+            }
+        }
+        let yaw = p.outputs().yaw_deg;
+        assert!(
+            (yaw - 10.0).abs() < 0.5,
+            "yaw after 1 s at 10 °/s clockwise: {yaw}"
+        );
+    }
+
+    #[test]
+    fn gyro_bias_is_removed() {
+        let mut p = Pipeline::new(
+            PipelineConfig {
+                ahrs_mode: AhrsMode::ImuOnly,
+                ..PipelineConfig::new()
+            },
+            &Default::default(),
+        )
+        .unwrap();
+        p.set_gyro_bias_counts([0, 0, 100]);
+        for _ in 0..1000 {
+            if p.imu_step(&sample([0, 0, 8192], [0, 0, 100])) {
+                p.control_step();
+            }
+        }
+        assert!(p.outputs().yaw_deg.abs() < 0.05);
+    }
+
+    #[test]
+    fn mag_frames() {
+        let p = Pipeline::new(
+            PipelineConfig {
+                mag_ut_per_lsb: [0.125, 0.25, 0.5],
+                ..PipelineConfig::new()
+            },
+            &Default::default(),
+        )
+        .unwrap();
+        // 100 counts on x_ak = 12.5 µT on y_mpu; z_ak = −z_mpu.
+        assert_eq!(p.mag_counts_to_mpu_ut([100, 0, 0]), [0.0, 12.5, 0.0]);
+        assert_eq!(p.mag_counts_to_mpu_ut([0, 100, 0]), [25.0, 0.0, 0.0]);
+        assert_eq!(p.mag_counts_to_mpu_ut([0, 0, 100]), [0.0, 0.0, -50.0]);
+        // Hard iron then soft iron, in the MPU frame.
+        let mut rec = CalibrationRecord::default();
+        rec.mag_offset_ut = [10.0, 0.0, 0.0];
+        rec.mag_soft_iron = [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let p = Pipeline::new(
+            PipelineConfig {
+                mag_ut_per_lsb: [0.125, 0.25, 0.5],
+                ..PipelineConfig::new()
+            },
+            &rec,
+        )
+        .unwrap();
+        assert_eq!(p.mag_counts_to_mpu_ut([0, 100, 0]), [30.0, 0.0, 0.0]);
+        assert_eq!(p.mag_counts_to_mpu_raw_ut([0, 100, 0]), [25.0, 0.0, 0.0]);
+        let mut q = Pipeline::new(
+            PipelineConfig {
+                mag_ut_per_lsb: [0.125, 0.25, 0.5],
+                ..PipelineConfig::new()
+            },
+            &Default::default(),
+        )
+        .unwrap();
+        q.set_calibration(&rec);
+        assert_eq!(q.mag_counts_to_mpu_ut([0, 100, 0]), [30.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn altitude_from_baro_and_still_accel() {
+        let mut p = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
+        // 1 s of still samples, baro at reference, then the pressure of +10 m.
+        let p0 = 100_000;
+        let p10 = control::baro::pressure_pa(10.0, p0 as f32).unwrap() as i32;
+        for i in 0..20_000 {
+            if p.imu_step(&sample([0, 0, 8192], [0; 3])) {
+                p.control_step();
+            }
+            if i % 10 == 0 {
+                p.baro_step(if i < 1000 { p0 } else { p10 });
+            }
+        }
+        let o = p.outputs();
+        assert!((o.altitude_m - 10.0).abs() < 0.3, "{o:?}");
+        assert!(o.vertical_speed_mps.abs() < 0.3, "{o:?}");
+        // Below target? no: above the 1 m target → throttle below hover.
+        assert!(o.throttle < 0.5, "{o:?}");
+    }
+
+    #[test]
+    fn euler_matches_asin_form() {
+        for (r, p, y) in [
+            (0.3f32, -0.7f32, 2.0f32),
+            (-1.2, 1.5, -3.0),
+            (0.0, 0.0, 0.0),
+            (0.1, -1.55, 0.4),
+        ] {
+            let q = Quaternion::from_euler_rad(r, p, y);
+            let a = euler_rad(&q);
+            let b = q.to_euler_rad();
+            for i in 0..3 {
+                assert!((a[i] - b[i]).abs() < 2e-3, "{a:?} {b:?}");
+            }
+            assert!((a[1] - p).abs() < 2e-3);
+        }
+    }
+
+    #[test]
+    fn rejects_bad_scales() {
+        let cfg = PipelineConfig {
+            gyro_dps_per_lsb: 0.0,
+            ..PipelineConfig::new()
+        };
+        assert_eq!(
+            Pipeline::new(cfg, &Default::default()).err(),
+            Some(PipelineError::InvalidScale)
+        );
+    }
+}

@@ -1,0 +1,40 @@
+//! The calibration flash page (`0x0800_FC00`, the last 1 KiB page) through
+//! the HAL's flash writer.
+
+use flight::storage::CalibrationStore;
+use stm32f1xx_hal::flash::{Error, FlashSize, FlashWriter, Parts, SectorSize};
+
+/// Offset of the calibration page from the start of flash.
+pub const PAGE_OFFSET: u32 = flight::storage::PAGE_ADDRESS - 0x0800_0000;
+
+/// The calibration page.
+pub struct FlashPage<'a> {
+    writer: FlashWriter<'a>,
+}
+
+impl<'a> FlashPage<'a> {
+    /// A writer for the 64 KiB part with 1 KiB pages.
+    pub fn new(flash: &'a mut Parts) -> Self {
+        Self {
+            writer: flash.writer(SectorSize::Sz1K, FlashSize::Sz64K),
+        }
+    }
+}
+
+impl CalibrationStore for FlashPage<'_> {
+    type Error = Error;
+
+    fn read(&mut self, offset: u32, buf: &mut [u8]) -> Result<(), Error> {
+        let src = self.writer.read(PAGE_OFFSET + offset, buf.len())?;
+        buf.copy_from_slice(src);
+        Ok(())
+    }
+
+    fn erase(&mut self) -> Result<(), Error> {
+        self.writer.page_erase(PAGE_OFFSET)
+    }
+
+    fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), Error> {
+        self.writer.write(PAGE_OFFSET + offset, data)
+    }
+}
