@@ -1,3 +1,584 @@
-//! Placeholder; see issue 7.
-#![no_std]
-#![no_main]
+//! Instruction-count benchmarks on the emulated Cortex-M3.
+//!
+//! Every case runs its function a few times, each call between two marker
+//! calls, [`bench_start`](suite::bench_start) and
+//! [`bench_end`](suite::bench_end). Before a case's calls the binary prints
+//! `BENCH <name> <calls>` through semihosting. `cargo xtask bench` runs the
+//! binary in QEMU with one instruction per translation block and an execution
+//! trace, counts the instructions between each pair of markers, assigns the
+//! counts to the cases in order, and subtracts the `baseline` case (the
+//! markers and the `black_box` plumbing with no work between them).
+//!
+//! Inputs pass through `core::hint::black_box` after the start marker and the
+//! results (and the filter state) before the end marker, so the optimiser can
+//! neither precompute the work nor move it outside the markers.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod rt;
+
+#[cfg(target_os = "none")]
+#[allow(unsafe_code)] // `no_mangle` markers (found by name in the ELF) and a volatile write
+mod suite {
+    use core::hint::black_box;
+
+    use bench::{RawSample, SampleGen, SiSample, DT_S};
+    use cortex_m as _;
+    use cortex_m_semihosting::hprintln;
+
+    /// Calls per case for our code, for the (slower) peers, and for VQF
+    /// (f64: ~100k instructions a call). Odd, so the median is one call.
+    const CALLS: usize = 7;
+    const PEER_CALLS: usize = 5;
+    const VQF_CALLS: usize = 3;
+    /// Warm-up calls before the measured ones (outside the markers, but the
+    /// trace still records them, so few), with the board still.
+    const WARM_CALLS: usize = 4;
+
+    static mut MARK: u32 = 0;
+
+    /// Start marker. Its body differs from [`bench_end`]'s so the linker
+    /// cannot merge the two into one address.
+    #[unsafe(no_mangle)]
+    #[inline(never)]
+    pub extern "C" fn bench_start() {
+        // SAFETY: single-threaded; a volatile write the optimiser must keep.
+        unsafe { core::ptr::write_volatile(&raw mut MARK, 0x5354_4152) };
+    }
+
+    /// End marker.
+    #[unsafe(no_mangle)]
+    #[inline(never)]
+    pub extern "C" fn bench_end() {
+        // SAFETY: as above.
+        unsafe { core::ptr::write_volatile(&raw mut MARK, 0x454E_4421) };
+    }
+
+    /// Runs `f(state, input)` once per input, each call between the markers.
+    #[inline(always)]
+    fn case<S, I, R>(name: &str, state: &mut S, inputs: &[I], f: impl FnMut(&mut S, &I) -> R) {
+        case_full(name, state, inputs, |_, _| {}, f, |_| true);
+    }
+
+    /// [`case`], and prints `FAIL <name>` when a result does not satisfy
+    /// `ok` (e.g. a filter update that did not take the path the row is
+    /// meant to measure); `cargo xtask bench` then fails.
+    #[inline(always)]
+    fn case_checked<S, I, R>(
+        name: &str,
+        state: &mut S,
+        inputs: &[I],
+        f: impl FnMut(&mut S, &I) -> R,
+        ok: impl Fn(&R) -> bool,
+    ) {
+        case_full(name, state, inputs, |_, _| {}, f, ok);
+    }
+
+    /// The general form: `setup(state, input)` runs before each call,
+    /// outside the markers.
+    #[inline(always)]
+    fn case_full<S, I, R>(
+        name: &str,
+        state: &mut S,
+        inputs: &[I],
+        mut setup: impl FnMut(&mut S, &I),
+        mut f: impl FnMut(&mut S, &I) -> R,
+        ok: impl Fn(&R) -> bool,
+    ) {
+        hprintln!("BENCH {} {}", name, inputs.len());
+        let mut all_ok = true;
+        for input in inputs {
+            setup(state, input);
+            bench_start();
+            let s = black_box(&mut *state);
+            let i = black_box(input);
+            let r = black_box(f(s, i));
+            black_box(s);
+            bench_end();
+            all_ok &= ok(&r);
+        }
+        if !all_ok {
+            hprintln!("FAIL {}: a call did not take the measured path", name);
+        }
+    }
+
+    /// Filter inputs: a warm-up sample (the generator's first, gyro zeroed:
+    /// the board held still where the measured motion starts) and `N`
+    /// nominal samples (no disturbances) that follow it.
+    fn filter_inputs<const N: usize>(seed: u32) -> (RawSample, [RawSample; N]) {
+        let mut g = SampleGen::new(seed, false);
+        let mut warm = g.next_sample();
+        warm.gyro = [0; 3];
+        (warm, core::array::from_fn(|_| g.next_sample()))
+    }
+
+    /// `N` nominal samples (no disturbances), SI units.
+    fn samples<const N: usize>(seed: u32) -> [SiSample; N] {
+        let mut g = SampleGen::new(seed, false);
+        core::array::from_fn(|_| g.next_sample().to_si())
+    }
+
+    /// Runs every case in a fixed order (the order `cargo xtask bench`
+    /// reads the `BENCH` lines in).
+    #[unsafe(no_mangle)]
+    extern "C" fn bench_main() -> ! {
+        let unit = [(); CALLS];
+
+        // Harness overhead, subtracted from every other case.
+        case("baseline", &mut (), &unit, |_, _| ());
+        // Self-test of the counting: exactly 100 instructions. Spelled out
+        // line by line (not `.rept`): LLVM sizes inline asm by its lines
+        // when it chooses branch encodings.
+        macro_rules! nop10 {
+            () => {
+                "nop\nnop\nnop\nnop\nnop\nnop\nnop\nnop\nnop\nnop\n"
+            };
+        }
+        case("selftest_100_nops", &mut (), &unit, |_, _| {
+            // SAFETY: no operands, no side effects.
+            unsafe {
+                core::arch::asm!(
+                    concat!(
+                        nop10!(),
+                        nop10!(),
+                        nop10!(),
+                        nop10!(),
+                        nop10!(),
+                        nop10!(),
+                        nop10!(),
+                        nop10!(),
+                        nop10!(),
+                        nop10!()
+                    ),
+                    options(nomem, nostack)
+                )
+            }
+        });
+
+        ms5611_cases();
+        calibration_cases();
+        control_cases();
+        ahrs_cases();
+        pipeline_cases();
+        peer_cases();
+
+        hprintln!("BENCH done 0");
+        super::rt::exit(true)
+    }
+
+    fn calibration_cases() {
+        use calibration::{AccelCalibration, GyroBias, MagCalibration};
+        let s: [SiSample; CALLS] = samples(11);
+        let mut gyro = GyroBias {
+            bias: [0.011, -0.007, 0.003],
+        };
+        case("calibration::GyroBias::apply", &mut gyro, &s, |c, s| {
+            c.apply(s.gyro_rps)
+        });
+        let mut accel = AccelCalibration {
+            offset: [0.12, -0.08, 0.21],
+            scale: [1.003, 0.998, 1.011],
+        };
+        case(
+            "calibration::AccelCalibration::apply",
+            &mut accel,
+            &s,
+            |c, s| c.apply(s.accel_mps2),
+        );
+        let mut mag = MagCalibration {
+            offset: [3.5, -7.25, 11.0],
+            soft_iron: [
+                [1.02, 0.013, -0.021],
+                [0.013, 0.97, 0.008],
+                [-0.021, 0.008, 1.01],
+            ],
+        };
+        case(
+            "calibration::MagCalibration::apply",
+            &mut mag,
+            &s,
+            |c, s| c.apply(s.mag_ut),
+        );
+    }
+
+    fn ms5611_cases() {
+        use ms5611::{compensate, Prom};
+        let prom = Prom::from_coefficients(bench::check::MS5611_DATASHEET_C);
+        // Around the datasheet's example (20.07 °C, 1000.09 mbar): the
+        // first-order path (no low-temperature correction), as in flight.
+        let mut rng = bench::Rng::new(51);
+        let raw: [(u32, u32); CALLS] = core::array::from_fn(|_| {
+            (
+                9_085_466u32.wrapping_add_signed(rng.symmetric(20_000)),
+                8_569_150 + rng.symmetric(20_000).unsigned_abs(),
+            )
+        });
+        case("ms5611::compensate", &mut (), &raw, |_, &(d1, d2)| {
+            compensate(&prom, d1, d2)
+        });
+    }
+
+    fn control_cases() {
+        use control::baro::{altitude_m, CheapBaro};
+        use control::pid::{Pid, PidConfig};
+        // Pressures around 960 hPa, integer pascals as the MS5611 delivers.
+        let mut rng = bench::Rng::new(21);
+        let p_pa: [i32; CALLS] = core::array::from_fn(|_| 96_000 + rng.symmetric(2_000));
+        let p0_pa = 98_000.0f32;
+        case(
+            "control::baro::altitude_m (exact)",
+            &mut (),
+            &p_pa,
+            |_, &p| altitude_m(p as f32, p0_pa),
+        );
+        if let Ok(mut cheap) = CheapBaro::new(p0_pa) {
+            case(
+                "control::baro::CheapBaro::height_m",
+                &mut cheap,
+                &p_pa,
+                |b, &p| b.height_m(p),
+            );
+        }
+        let cfg = PidConfig::new(0.8, 0.3, 0.05)
+            .with_d_cutoff_hz(30.0)
+            .with_output_limits(-0.5, 0.5)
+            .with_integral_limits(-0.2, 0.2);
+        if let Ok(mut pid) = Pid::new(cfg) {
+            // One warm-up step so the derivative has a previous measurement.
+            let _ = pid.update(0.1, 0.0, DT_S);
+            let meas: [f32; CALLS] = core::array::from_fn(|k| 0.01 * k as f32 - 0.02);
+            case("control::pid::Pid::update", &mut pid, &meas, |pid, &m| {
+                pid.update(0.1, m, DT_S)
+            });
+        }
+    }
+
+    fn ahrs_cases() {
+        use bench::{counts_config, features_on, plain, FixedSample};
+        use fc_ahrs::fixed::{dt_us_to_q31, FixedConfig, MadgwickFixed};
+        use fc_ahrs::{Madgwick, UpdatePath};
+        let (warm_raw, raw) = filter_inputs::<CALLS>(31);
+        let s = raw.map(|r| r.to_si());
+        let fx: [FixedSample; CALLS] = raw.map(|r| r.to_fixed());
+        let (w, w_fx) = (warm_raw.to_si(), warm_raw.to_fixed());
+        let dt_q31 = dt_us_to_q31(1000);
+
+        // Steady state: no start-up gain ramp (`startup_s` = 0; the filters
+        // start aligned by `from_accel_mag`), everything else as configured.
+        // (Warming up through a 3 s ramp would cost millions of traced
+        // instructions; large warm-up steps make the ramp's β·dt unstable.)
+        let steady = |mut c: fc_ahrs::Config| {
+            c.startup_s = 0.0;
+            c
+        };
+        for (on, cfg) in [(true, steady(features_on())), (false, steady(plain()))] {
+            let name = |on_name: &'static str, plain_name: &'static str| {
+                if on {
+                    on_name
+                } else {
+                    plain_name
+                }
+            };
+            // f32: warm up past the start-up gain ramp, then measure.
+            let mut f = Madgwick::from_accel_mag(cfg, w.accel_mps2, w.mag_ut);
+            for _ in 0..WARM_CALLS {
+                f.update_marg(w.gyro_rps, w.accel_mps2, w.mag_ut, DT_S);
+            }
+            let mut imu = f.clone();
+            case_checked(
+                name(
+                    "fc_ahrs::Madgwick f32 MARG (rejection on)",
+                    "fc_ahrs::Madgwick f32 MARG (plain)",
+                ),
+                &mut f,
+                &s,
+                |f, s| f.update_marg(s.gyro_rps, s.accel_mps2, s.mag_ut, DT_S),
+                |st| st.path == UpdatePath::Marg,
+            );
+            case_checked(
+                name(
+                    "fc_ahrs::Madgwick f32 IMU (rejection on)",
+                    "fc_ahrs::Madgwick f32 IMU (plain)",
+                ),
+                &mut imu,
+                &s,
+                |f, s| f.update_imu(s.gyro_rps, s.accel_mps2, DT_S),
+                |st| st.path == UpdatePath::Imu,
+            );
+
+            // Fixed point, raw counts in.
+            let fcfg = FixedConfig::from_config(&counts_config(cfg));
+            let mut f = MadgwickFixed::from_accel_mag(fcfg, w_fx.accel, w_fx.mag);
+            for _ in 0..WARM_CALLS {
+                f.update_marg(w_fx.gyro_rps_q20, w_fx.accel, w_fx.mag, dt_q31);
+            }
+            let mut imu = f.clone();
+            case_checked(
+                name(
+                    "fc_ahrs::MadgwickFixed MARG (rejection on)",
+                    "fc_ahrs::MadgwickFixed MARG (plain)",
+                ),
+                &mut f,
+                &fx,
+                |f, s| f.update_marg(s.gyro_rps_q20, s.accel, s.mag, dt_q31),
+                |st| st.path == UpdatePath::Marg,
+            );
+            case_checked(
+                name(
+                    "fc_ahrs::MadgwickFixed IMU (rejection on)",
+                    "fc_ahrs::MadgwickFixed IMU (plain)",
+                ),
+                &mut imu,
+                &fx,
+                |f, s| f.update_imu(s.gyro_rps_q20, s.accel, dt_q31),
+                |st| st.path == UpdatePath::Imu,
+            );
+        }
+    }
+
+    /// `flight::pipeline::Pipeline` as the firmware schedules it (default
+    /// features: the fixed-point AHRS): per 10 ms, ten 1 kHz `imu_step`s,
+    /// one magnetometer and one barometer sample and one `control_step`.
+    fn pipeline_cases() {
+        use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
+        const FRAMES: usize = 3;
+        const SAMPLES_PER_FRAME: usize = 10;
+        const WARM_FRAMES: usize = 2;
+        // Our generator's body-FRD counts → the sensors' own frames (default
+        // mounting: body = (x, −y, −z) of the MPU; AK8963: x_ak = y_mpu,
+        // y_ak = x_mpu, z_ak = −z_mpu).
+        let to_input = |r: &RawSample| ImuInput {
+            accel: [
+                r.accel[0],
+                r.accel[1].saturating_neg(),
+                r.accel[2].saturating_neg(),
+            ],
+            gyro: [
+                r.gyro[0],
+                r.gyro[1].saturating_neg(),
+                r.gyro[2].saturating_neg(),
+            ],
+            dt_cycles: 72_000,
+        };
+        let to_ak = |r: &RawSample| [r.mag[1].saturating_neg(), r.mag[0], r.mag[2]];
+        type Frame = ([ImuInput; SAMPLES_PER_FRAME], [i16; 3], i32);
+        let mut g = SampleGen::new(61, false);
+        let mut rng = bench::Rng::new(62);
+        let mut frame = || -> Frame {
+            let raw: [RawSample; SAMPLES_PER_FRAME] = core::array::from_fn(|_| g.next_sample());
+            (
+                raw.map(|r| to_input(&r)),
+                to_ak(&raw[0]),
+                96_000 + rng.symmetric(30),
+            )
+        };
+        let warm: [Frame; WARM_FRAMES] = core::array::from_fn(|_| frame());
+        let frames: [Frame; FRAMES] = core::array::from_fn(|_| frame());
+
+        let mut cfg = PipelineConfig::new();
+        // Our generator's scales (±8 g: 4096 counts/g; ±1000 °/s).
+        cfg.accel_g_per_lsb = 1.0 / bench::ACCEL_LSB_PER_G as f32;
+        cfg.gyro_dps_per_lsb = 10.0 / bench::GYRO_LSB_PER_DPS_X10 as f32;
+        // Steady state (see `ahrs_cases`).
+        cfg.ahrs.startup_s = 0.0;
+        let Ok(mut p) = Pipeline::new(cfg, &Default::default()) else {
+            hprintln!("FAIL flight::pipeline::Pipeline::new refused the configuration");
+            return;
+        };
+        let run_frame = |p: &mut Pipeline, f: &Frame| {
+            p.mag_step(f.1);
+            p.baro_step(f.2);
+            let mut control = false;
+            for s in &f.0 {
+                control |= p.imu_step(s);
+            }
+            if control {
+                p.control_step();
+            }
+        };
+        for f in &warm {
+            run_frame(&mut p, f);
+        }
+        case(FRAME_NAME, &mut p, &frames, |p, f| {
+            run_frame(p, f);
+            p.outputs()
+        });
+        // The steps one by one, on the frames' first samples.
+        let inputs: [ImuInput; CALLS] = core::array::from_fn(|k| frames[k % FRAMES].0[k / FRAMES]);
+        case(
+            "flight::Pipeline::imu_step (1 kHz, MARG)",
+            &mut p,
+            &inputs,
+            |p, s| p.imu_step(s),
+        );
+        let mags: [[i16; 3]; FRAMES] = frames.map(|f| f.1);
+        case(
+            "flight::Pipeline::mag_step (100 Hz)",
+            &mut p,
+            &mags,
+            |p, m| p.mag_step(*m),
+        );
+        let baros: [i32; FRAMES] = frames.map(|f| f.2);
+        case(
+            "flight::Pipeline::baro_step (100 Hz)",
+            &mut p,
+            &baros,
+            |p, b| p.baro_step(*b),
+        );
+        // Each control step after its ten IMU steps (run outside the markers).
+        case_full(
+            "flight::Pipeline::control_step (100 Hz)",
+            &mut p,
+            &frames,
+            |p, f| {
+                for s in &f.0 {
+                    p.imu_step(s);
+                }
+            },
+            |p, _| p.control_step(),
+            |_| true,
+        );
+        hprintln!("NOTE pipeline AHRS: {}", flight::pipeline::AHRS_KIND);
+    }
+
+    /// Name of the 10 ms frame case (`cargo xtask bench` derives the
+    /// per-sample row from it).
+    const FRAME_NAME: &str = "flight pipeline: 10 ms frame (10 IMU + mag + baro + control)";
+
+    fn peer_cases() {
+        let (warm_raw, raw) = filter_inputs::<PEER_CALLS>(41);
+        let s = raw.map(|r| r.to_si());
+        let warm = [warm_raw.to_si(); WARM_CALLS];
+
+        // ahrs 0.8 (nalgebra, f32), Madgwick.
+        {
+            use peer_ahrs::{Ahrs, Madgwick};
+            use peer_nalgebra::Vector3;
+            let v = Vector3::from;
+            let warmed = || {
+                let mut f = Madgwick::new(DT_S, 0.1f32);
+                for w in &warm {
+                    let _ = f.update(&v(w.gyro_rps), &v(w.accel_mps2), &v(w.mag_ut));
+                }
+                f
+            };
+            let (mut f, mut imu) = (warmed(), warmed());
+            case("peer ahrs 0.8 Madgwick f32 MARG", &mut f, &s, |f, s| {
+                f.update(&v(s.gyro_rps), &v(s.accel_mps2), &v(s.mag_ut))
+                    .copied()
+            });
+            case("peer ahrs 0.8 Madgwick f32 IMU", &mut imu, &s, |f, s| {
+                f.update_imu(&v(s.gyro_rps), &v(s.accel_mps2)).copied()
+            });
+        }
+
+        // imu-fusion 0.2 (x-io Fusion port, f32): the AHRS core only.
+        {
+            use imu_fusion::{FusionAhrs, FusionAhrsSettings, FusionConvention, FusionVector};
+            const DEG_PER_RAD: f32 = 57.295_78;
+            let gyr = |s: &SiSample| {
+                let [x, y, z] = s.gyro_rps;
+                FusionVector::new(x * DEG_PER_RAD, y * DEG_PER_RAD, z * DEG_PER_RAD)
+            };
+            let acc = |s: &SiSample| {
+                let [x, y, z] = s.accel_mps2.map(|a| a / bench::G_MPS2);
+                FusionVector::new(x, y, z)
+            };
+            let mag = |s: &SiSample| {
+                let [x, y, z] = s.mag_ut;
+                FusionVector::new(x, y, z)
+            };
+            // NED convention (our body frame is FRD), rejection active as in
+            // x-io's examples (10°, recovery after 5 s); warmed up past its
+            // fixed 3 s initialisation (the board is still and the filter
+            // starts aligned, so large steps are harmless here).
+            let settings = || FusionAhrsSettings {
+                convention: FusionConvention::NED,
+                gain: 0.5,
+                gyr_range: 2000.0,
+                acc_rejection: 10.0,
+                mag_rejection: 10.0,
+                recovery_trigger_period: 5000,
+            };
+            let warmed = |mag_too: bool| {
+                let mut f = FusionAhrs::new();
+                f.update_settings(settings());
+                for w in &warm {
+                    if mag_too {
+                        f.update(gyr(w), acc(w), mag(w), 0.9);
+                    } else {
+                        f.update_no_mag(gyr(w), acc(w), 0.9);
+                    }
+                }
+                f
+            };
+            let (mut f, mut imu) = (warmed(true), warmed(false));
+            if f.flags().initializing || imu.flags().initializing {
+                hprintln!("FAIL imu-fusion still initialising after the warm-up");
+            }
+            // Unit conversions happen before the start marker.
+            let conv: [(FusionVector, FusionVector, FusionVector); PEER_CALLS] =
+                core::array::from_fn(|k| (gyr(&s[k]), acc(&s[k]), mag(&s[k])));
+            case(
+                "peer imu-fusion 0.2 f32 MARG",
+                &mut f,
+                &conv,
+                |f, &(g, a, m)| f.update(g, a, m, DT_S),
+            );
+            case(
+                "peer imu-fusion 0.2 f32 IMU",
+                &mut imu,
+                &conv,
+                |f, &(g, a, _)| f.update_no_mag(g, a, DT_S),
+            );
+        }
+
+        // vqf-rs 0.3 (VQF, f64 internals), default parameters.
+        {
+            use vqf_rs::VQF;
+            let f64x3 = |v: [f32; 3]| v.map(f64::from);
+            let warmed = || {
+                let mut f = VQF::new(f64::from(DT_S), None, None, None);
+                for w in warm.iter().take(1) {
+                    f.update(
+                        f64x3(w.gyro_rps),
+                        f64x3(w.accel_mps2),
+                        Some(f64x3(w.mag_ut)),
+                    );
+                }
+                f
+            };
+            let (mut f, mut imu) = (warmed(), warmed());
+            let conv: [([f64; 3], [f64; 3], [f64; 3]); VQF_CALLS] = core::array::from_fn(|k| {
+                (
+                    f64x3(s[k].gyro_rps),
+                    f64x3(s[k].accel_mps2),
+                    f64x3(s[k].mag_ut),
+                )
+            });
+            case(
+                "peer vqf-rs 0.3 f64 MARG",
+                &mut f,
+                &conv,
+                |f, &(g, a, m)| {
+                    f.update(g, a, Some(m));
+                    f.quat_9d()
+                },
+            );
+            case(
+                "peer vqf-rs 0.3 f64 IMU",
+                &mut imu,
+                &conv,
+                |f, &(g, a, _)| {
+                    f.update(g, a, None);
+                    f.quat_6d()
+                },
+            );
+        }
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!("bench runs on thumbv7m-none-eabi under qemu-system-arm: use `cargo xtask bench`");
+}
