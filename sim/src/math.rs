@@ -167,6 +167,19 @@ impl Quat {
             ],
         ]
     }
+    /// Spherical interpolation from `self` (`s = 0`) to `other` (`s = 1`)
+    /// along the shortest rotation.
+    pub fn slerp(&self, other: &Quat, s: f64) -> Quat {
+        let mut rel = self.conj().mul(other);
+        if rel.w < 0.0 {
+            rel = Quat::new(-rel.w, -rel.x, -rel.y, -rel.z);
+        }
+        let angle = 2.0 * rel.w.min(1.0).acos();
+        if angle < 1e-12 {
+            return *other;
+        }
+        self.mul(&Quat::from_axis_angle([rel.x, rel.y, rel.z], angle * s))
+    }
     /// Smallest rotation angle (rad, 0..π) between two orientations.
     pub fn angle_to(&self, other: &Quat) -> f64 {
         let d = (self.w * other.w + self.x * other.x + self.y * other.y + self.z * other.z).abs();

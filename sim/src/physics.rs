@@ -65,6 +65,12 @@ pub enum Trajectory {
     /// Aggressive manoeuvres: flips (up to ~700°/s), fast yaw, accelerations
     /// of about 1 g on top of gravity.
     Aggressive,
+    /// The accelerometer six-position calibration as done by hand: the
+    /// board held still on each face in turn ([`Trajectory::SIX_POSITION_POSES`],
+    /// [`Trajectory::SIX_POSITION_HOLD_S`] each, the first one starting with
+    /// the usual rest phase), turned between faces in
+    /// [`Trajectory::SIX_POSITION_MOVE_S`], then back to level for ever.
+    SixPosition,
     /// A user-supplied pose function of time (s).
     Custom(Rc<dyn Fn(f64) -> Pose>),
 }
@@ -89,7 +95,90 @@ impl Trajectory {
     pub const REST_S: f64 = 3.0;
 
     /// Names accepted by [`Trajectory::from_name`].
-    pub const NAMES: [&'static str; 6] = ["rest", "spin", "slow", "figure8", "hover", "aggressive"];
+    pub const NAMES: [&'static str; 7] = [
+        "rest",
+        "spin",
+        "slow",
+        "figure8",
+        "hover",
+        "aggressive",
+        "sixpos",
+    ];
+
+    /// How long each face is held still in [`Trajectory::SixPosition`] (s).
+    pub const SIX_POSITION_HOLD_S: f64 = 4.0;
+    /// How long the turn from one face to the next takes (s).
+    pub const SIX_POSITION_MOVE_S: f64 = 2.0;
+    /// The six faces of [`Trajectory::SixPosition`] in order, as
+    /// (MPU axis pointing up, `+1` up / `−1` down). Body FRD = (x, −y, −z)
+    /// of the MPU frame, so: level, upside down, nose up, nose down, right
+    /// side down, left side down.
+    pub const SIX_POSITION_POSES: [(usize, i8); 6] =
+        [(2, 1), (2, -1), (0, 1), (0, -1), (1, 1), (1, -1)];
+
+    /// `q_ned_from_body` of a face of [`Trajectory::SIX_POSITION_POSES`]:
+    /// MPU axis `axis` (0 = x, 1 = y, 2 = z) pointing up (`up`) or down.
+    pub fn six_position_pose(axis: usize, up: bool) -> Quat {
+        let half = PI / 2.0;
+        match (axis, up) {
+            // z_mpu = −z_body: up when level, down upside down (roll 180°).
+            (2, true) => Quat::IDENTITY,
+            (2, false) => Quat::from_euler(PI, 0.0, 0.0),
+            // x_mpu = x_body: nose up / nose down.
+            (0, true) => Quat::from_euler(0.0, half, 0.0),
+            (0, false) => Quat::from_euler(0.0, -half, 0.0),
+            // y_mpu = −y_body: up when the right side (y_body) points down (roll +90°).
+            (_, true) => Quat::from_euler(half, 0.0, 0.0),
+            (_, false) => Quat::from_euler(-half, 0.0, 0.0),
+        }
+    }
+
+    /// The still intervals `(start_s, end_s)` of [`Trajectory::SixPosition`],
+    /// one per entry of [`Trajectory::SIX_POSITION_POSES`].
+    pub fn six_position_still_intervals() -> [(f64, f64); 6] {
+        let mut out = [(0.0, 0.0); 6];
+        for (k, o) in out.iter_mut().enumerate() {
+            let start = Self::six_position_start_s(k);
+            *o = (
+                if k == 0 { 0.0 } else { start },
+                start + Self::SIX_POSITION_HOLD_S,
+            );
+        }
+        out
+    }
+
+    /// Start of the hold of face `k` (the first face also holds through the
+    /// rest phase before it).
+    fn six_position_start_s(k: usize) -> f64 {
+        Self::REST_S + k as f64 * (Self::SIX_POSITION_HOLD_S + Self::SIX_POSITION_MOVE_S)
+    }
+
+    /// Total length of [`Trajectory::SixPosition`] until it is back to level (s).
+    pub fn six_position_duration_s() -> f64 {
+        Self::six_position_start_s(6)
+    }
+
+    fn six_position_at(t_s: f64) -> Quat {
+        let faces = Self::SIX_POSITION_POSES.map(|(a, s)| Self::six_position_pose(a, s > 0));
+        let period = Self::SIX_POSITION_HOLD_S + Self::SIX_POSITION_MOVE_S;
+        let tau = t_s - Self::REST_S;
+        if tau <= 0.0 {
+            return faces[0];
+        }
+        let k = (tau / period).floor() as usize;
+        let c = tau - k as f64 * period;
+        let from = faces.get(k).copied().unwrap_or(Quat::IDENTITY);
+        let to = faces.get(k + 1).copied().unwrap_or(Quat::IDENTITY);
+        if k >= faces.len() {
+            return Quat::IDENTITY;
+        }
+        let s = smoothstep(
+            c,
+            Self::SIX_POSITION_HOLD_S,
+            Self::SIX_POSITION_HOLD_S + Self::SIX_POSITION_MOVE_S,
+        );
+        from.slerp(&to, s)
+    }
 
     /// Level at rest, facing north.
     pub fn at_rest() -> Self {
@@ -117,7 +206,7 @@ impl Trajectory {
     }
 
     /// Built-in by name: `rest`, `spin` (rest, then yaw at 90°/s), `slow`, `figure8`,
-    /// `hover`, `aggressive`.
+    /// `hover`, `aggressive`, `sixpos`.
     pub fn from_name(name: &str) -> Option<Self> {
         Some(match name {
             "rest" => Self::at_rest(),
@@ -126,6 +215,7 @@ impl Trajectory {
             "figure8" | "figure-eight" => Trajectory::FigureEight,
             "hover" => Trajectory::Hover,
             "aggressive" => Trajectory::Aggressive,
+            "sixpos" | "six-position" => Trajectory::SixPosition,
             _ => return None,
         })
     }
@@ -139,6 +229,7 @@ impl Trajectory {
             Trajectory::FigureEight => "figure8",
             Trajectory::Hover => "hover",
             Trajectory::Aggressive => "aggressive",
+            Trajectory::SixPosition => "sixpos",
             Trajectory::Custom(_) => "custom/spin",
         }
     }
@@ -215,6 +306,7 @@ impl Trajectory {
                 ];
                 (pos, Quat::from_euler(roll, pitch, yaw))
             }
+            Trajectory::SixPosition => ([0.0; 3], Self::six_position_at(t_s)),
             Trajectory::Custom(f) => f(t_s),
         }
     }
@@ -378,6 +470,39 @@ mod tests {
         // ISA table: 1000 m → 89 874.6 Pa, 8.5 °C.
         assert!((isa_pressure_pa(1000.0) - 89_874.6).abs() < 5.0);
         assert!((isa_temperature_c(1000.0) - 8.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn six_position_holds_each_face_still_with_gravity_on_one_mpu_axis() {
+        let tr = Trajectory::SixPosition;
+        for ((axis, sign), (t0, t1)) in Trajectory::SIX_POSITION_POSES
+            .into_iter()
+            .zip(Trajectory::six_position_still_intervals())
+        {
+            for t in [t0 + 0.01, 0.5 * (t0 + t1), t1 - 0.01] {
+                let s = tr.sample(t);
+                assert!(!s.moving, "moving at {t}");
+                // Specific force at rest points up: +g on the axis that is up.
+                let f = math::body_to_mpu(s.specific_force_body_mps2);
+                for (i, fi) in f.iter().enumerate() {
+                    let expect = if i == axis {
+                        f64::from(sign) * G0_MPS2
+                    } else {
+                        0.0
+                    };
+                    assert!((fi - expect).abs() < 1e-6, "{t}: {f:?}");
+                }
+            }
+            // Moving between faces.
+            assert!(tr.sample(t1 + 0.5 * Trajectory::SIX_POSITION_MOVE_S).moving);
+        }
+        let end = Trajectory::six_position_duration_s();
+        assert!(
+            tr.sample(end + 1.0)
+                .q_ned_from_body
+                .angle_to(&Quat::IDENTITY)
+                < 1e-9
+        );
     }
 
     #[test]

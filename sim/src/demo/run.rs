@@ -1,7 +1,7 @@
 //! Drives a simulated flight through the [`Stack`](super::stack::Stack) and
 //! scores it against the truth.
 
-use super::stack::{self, Filter, MagCalRun, Stack};
+use super::stack::{self, AccelCalRun, MagCalRun, Stack};
 use sim::{Environment, Quat, SensorErrors, SimBus, SimClock, SimConfig, Trajectory};
 
 /// What to run.
@@ -13,8 +13,6 @@ pub struct RunOptions {
     pub seed: u64,
     /// Simulated flight time (s).
     pub duration_s: f64,
-    /// AHRS implementation.
-    pub filter: Filter,
     /// Print a status line every this many simulated seconds (0 = never).
     pub print_every_s: f64,
     /// Length of the magnetometer calibration dance (s).
@@ -34,6 +32,10 @@ pub struct Record {
     pub est_height_m: Option<f64>,
     /// True height (m).
     pub true_height_m: f64,
+    /// Estimated vertical speed, up (m/s).
+    pub est_vspeed_mps: Option<f64>,
+    /// True vertical speed, up (m/s).
+    pub true_vspeed_mps: f64,
     /// Bias-corrected gyro, MPU frame (rad/s).
     pub gyro_mpu_rps: [f32; 3],
     /// Accelerometer, MPU frame (m/s²).
@@ -57,18 +59,35 @@ pub struct Summary {
     pub attitude_max_deg: f64,
     /// RMS height error (m).
     pub height_rms_m: f64,
+    /// RMS vertical speed error (m/s).
+    pub vspeed_rms_mps: f64,
     /// Samples scored.
     pub samples: usize,
     /// Wall-clock time of the run (s).
     pub wall_s: f64,
 }
 
+/// The start-up gyro bias the flight measured, against the truth.
+#[derive(Clone, Copy, Debug)]
+pub struct GyroBiasRun {
+    /// Measured (rad/s, MPU frame), as the pipeline uses it (whole counts).
+    pub measured_rps: [f32; 3],
+    /// The simulated board's bias when it was measured (rad/s, MPU frame).
+    pub truth_rps: [f64; 3],
+    /// Simulated time it became available (s).
+    pub at_s: f64,
+}
+
 /// Everything a run produced.
 pub struct RunResult {
     /// Per-sample records.
     pub records: Vec<Record>,
+    /// The accelerometer six-position calibration.
+    pub accel_cal: AccelCalRun,
     /// The magnetometer calibration.
     pub mag_cal: MagCalRun,
+    /// The start-up gyro bias, if the board held still long enough.
+    pub gyro_bias: Option<GyroBiasRun>,
     /// Scores.
     pub summary: Summary,
 }
@@ -104,13 +123,18 @@ pub fn run(opts: &RunOptions) -> Result<RunResult, String> {
         ..SimConfig::default()
     };
     println!(
-        "sim: trajectory {}, seed {}, {:.0} s, filter {:?}",
+        "sim: trajectory {}, seed {}, {:.0} s; firmware pipeline (flight) with the {}",
         opts.trajectory.name(),
         opts.seed,
         opts.duration_s,
-        opts.filter
+        flight::pipeline::AHRS_KIND
     );
-    // 1. Ground calibration of the magnetometer (separate session, same board).
+    // 1. Ground calibrations (separate sessions, same board), as stored in
+    //    flash on the real board: accelerometer six-position, then the
+    //    magnetometer dance.
+    let accel_cal = stack::calibrate_accel_six_position(&base)?;
+    print_accel_cal(&accel_cal, &base.errors);
+
     let mag_cal = stack::calibrate_mag_on_dance(&base, opts.mag_dance_s)?;
     let c = &mag_cal.calibration;
     println!(
@@ -131,23 +155,24 @@ pub fn run(opts: &RunOptions) -> Result<RunResult, String> {
         hi[1], hi[0], -hi[2]
     );
 
-    // 2. The flight: gyro bias during the rest phase, then the pipeline.
+    // 2. The flight, as the firmware runs it: boot probe, stored
+    //    calibration, start-up gyro bias while still, the 1 kHz pipeline.
+    let record = stack::calibration_record(&accel_cal.calibration, &mag_cal.calibration)?;
     let clock = SimClock::new();
     let bus = SimBus::new(&clock, base.clone());
     let mut delay = clock.delay();
-    let mut sensors = stack::init_sensors(&bus, &mut delay)?;
-    let bias = stack::calibrate_gyro(&mut sensors, &bus)?;
-    let true_bias_rps = bus.state().world.gyro_bias_dps().map(f64::to_radians);
+    let mut stack = Stack::boot(&bus, &mut delay, &record)?;
+    let b = stack.boot_report();
+    let caps = b.capabilities();
     println!(
-        "gyro bias at rest: [{:.4}, {:.4}, {:.4}] rad/s (truth [{:.4}, {:.4}, {:.4}])",
-        bias.bias[0],
-        bias.bias[1],
-        bias.bias[2],
-        true_bias_rps[0],
-        true_bias_rps[1],
-        true_bias_rps[2]
+        "boot: MPU-9250 {}, AK8963 {}, MS5611 {} -> AHRS {:?}, altitude {}",
+        if b.mpu.present() { "ok" } else { "MISSING" },
+        if b.mag.present() { "ok" } else { "MISSING" },
+        if b.baro.present() { "ok" } else { "MISSING" },
+        caps.ahrs,
+        caps.altitude
     );
-    let mut stack = Stack::new(sensors, bias, mag_cal.calibration, opts.filter)?;
+    let mut gyro_bias = None;
     let mut records = Vec::with_capacity((opts.duration_s * 1000.0) as usize + 16);
     let mut next_print = 0.0;
     while clock.now_s() < opts.duration_s {
@@ -155,16 +180,38 @@ pub fn run(opts: &RunOptions) -> Result<RunResult, String> {
         if !bus.data_ready() {
             continue;
         }
-        let est = stack.on_data_ready(clock.now_us())?;
+        let Some(est) = stack.on_data_ready(clock.now_us()) else {
+            continue;
+        };
         let Some(truth) = bus.truth_at_last_mpu_sample() else {
             continue;
         };
+        if let (None, Some(measured_rps)) = (gyro_bias, stack.gyro_bias_rps()) {
+            let g = GyroBiasRun {
+                measured_rps,
+                truth_rps: bus.state().world.gyro_bias_dps().map(f64::to_radians),
+                at_s: truth.t_s,
+            };
+            println!(
+                "gyro bias at start-up (t {:.2} s): [{:.4}, {:.4}, {:.4}] rad/s (truth [{:.4}, {:.4}, {:.4}])",
+                g.at_s,
+                g.measured_rps[0],
+                g.measured_rps[1],
+                g.measured_rps[2],
+                g.truth_rps[0],
+                g.truth_rps[1],
+                g.truth_rps[2]
+            );
+            gyro_bias = Some(g);
+        }
         let r = Record {
             t_s: truth.t_s,
             est: q_from(est.q_ned_from_body),
             truth: truth.q_ned_from_body,
             est_height_m: est.height_m.map(f64::from),
             true_height_m: truth.height_m,
+            est_vspeed_mps: est.vertical_speed_mps.map(f64::from),
+            true_vspeed_mps: -truth.velocity_ned_mps[2],
             gyro_mpu_rps: est.gyro_mpu_rps,
             accel_mpu_mps2: est.accel_mpu_mps2,
             mag_mpu_ut: est.mag_mpu_ut,
@@ -179,9 +226,55 @@ pub fn run(opts: &RunOptions) -> Result<RunResult, String> {
     let summary = summarize(&records, wall.elapsed().as_secs_f64());
     Ok(RunResult {
         records,
+        accel_cal,
         mag_cal,
+        gyro_bias,
         summary,
     })
+}
+
+/// The accelerometer errors the six-position calibration should find, in
+/// its terms (g, MPU frame): offset = injected bias, scale = 1 / the
+/// diagonal of the injected scale/misalignment matrix (the cross-axis terms
+/// are outside its model).
+pub fn accel_truth(errors: &SensorErrors) -> ([f64; 3], [f64; 3]) {
+    let e = &errors.accel_mps2;
+    let g = sim::physics::G0_MPS2;
+    (
+        e.bias.map(|b| b / g),
+        [0, 1, 2].map(|i| 1.0 / e.misalignment[i][i]),
+    )
+}
+
+fn print_accel_cal(run: &AccelCalRun, errors: &SensorErrors) {
+    let c = &run.calibration;
+    let (offset, scale) = accel_truth(errors);
+    let order: Vec<String> = run
+        .captured
+        .iter()
+        .map(|(p, t)| format!("{p:?}@{t:.0}s"))
+        .collect();
+    println!(
+        "accel six-position ({}; {} window restarts while moving): residual |a|−1g RMS {:.2} mg",
+        order.join(" "),
+        run.refused_windows,
+        run.rms_residual_g * 1000.0
+    );
+    println!(
+        "  offset [{:+.1}, {:+.1}, {:+.1}] mg (truth [{:+.1}, {:+.1}, {:+.1}]), scale [{:.4}, {:.4}, {:.4}] (truth [{:.4}, {:.4}, {:.4}])",
+        c.offset[0] * 1000.0,
+        c.offset[1] * 1000.0,
+        c.offset[2] * 1000.0,
+        offset[0] * 1000.0,
+        offset[1] * 1000.0,
+        offset[2] * 1000.0,
+        c.scale[0],
+        c.scale[1],
+        c.scale[2],
+        scale[0],
+        scale[1],
+        scale[2]
+    );
 }
 
 fn deg3(q: &Quat) -> [f64; 3] {
@@ -217,6 +310,7 @@ pub fn summarize(records: &[Record], wall_s: f64) -> Summary {
         ..Summary::default()
     };
     let (mut a2, mut h2, mut i2, mut z2, mut nz) = (0.0, 0.0, 0.0, 0.0, 0usize);
+    let (mut v2, mut nv) = (0.0, 0usize);
     for r in records.iter().filter(|r| r.t_s >= 1.0) {
         let (t, h, i) = attitude_errors(&r.est, &r.truth);
         a2 += t * t;
@@ -228,11 +322,16 @@ pub fn summarize(records: &[Record], wall_s: f64) -> Summary {
             z2 += (eh - r.true_height_m).powi(2);
             nz += 1;
         }
+        if let Some(ev) = r.est_vspeed_mps {
+            v2 += (ev - r.true_vspeed_mps).powi(2);
+            nv += 1;
+        }
     }
     let n = s.samples.max(1) as f64;
     s.attitude_rms_deg = (a2 / n).sqrt().to_degrees();
     s.heading_rms_deg = (h2 / n).sqrt().to_degrees();
     s.inclination_rms_deg = (i2 / n).sqrt().to_degrees();
     s.height_rms_m = (z2 / nz.max(1) as f64).sqrt();
+    s.vspeed_rms_mps = (v2 / nv.max(1) as f64).sqrt();
     s
 }

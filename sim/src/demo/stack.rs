@@ -1,46 +1,66 @@
-//! The sensor stack wiring: drivers → calibration → AHRS → altitude.
+//! The sensor stack on the simulated board.
 //!
-//! This module is the only place that knows how the crates are put
-//! together; when the `flight` crate's pipeline is ready, [`Stack`] and the
-//! two ground-calibration functions are what to replace.
+//! * The ground calibrations a user runs once and stores in flash: the
+//!   accelerometer six-position ([`calibrate_accel_six_position`]) and the
+//!   magnetometer figure-eight dance ([`calibrate_mag_on_dance`]), each a
+//!   separate session of the same simulated board, through the real drivers
+//!   and `calibration`'s estimators. [`calibration_record`] packs them into
+//!   the firmware's flash record (and through its byte encoding).
+//! * The flight: [`Stack`] is the firmware's per-sample path without the
+//!   RTIC wiring — `flight::sensors::Sensors` (boot probe, health, reads),
+//!   `flight::boot::StartupGyroBias`, `flight::schedule` (magnetometer
+//!   divider, cycle-counter dt) and `flight::pipeline::Pipeline` (raw counts
+//!   → calibration → mounting → AHRS → vertical estimator → controllers),
+//!   called in the same order as the firmware's `imu` and `baro` tasks.
 
 use super::mag::Mag;
 use calibration::{
-    EllipsoidFit, EllipsoidFitConfig, GyroBias, GyroBiasConfig, GyroBiasEstimator, MagCalibration,
-    MagMinMax, MagMinMaxConfig,
+    AccelCalibration, AccelSixPosition, AccelSixPositionConfig, EllipsoidFit, EllipsoidFitConfig,
+    MagCalibration, MagMinMax, MagMinMaxConfig, Position, SixPositionEvent,
 };
-use control::baro::CheapBaro;
-use control::vertical::{Config as VerticalConfig, VerticalEstimator};
 use embedded_hal::delay::DelayNs;
-use fc_ahrs::fixed::{self, FixedConfig, MadgwickFixed};
-use fc_ahrs::Madgwick;
+use flight::boot::{BiasStatus, BootReport, StartupGyroBias};
+use flight::pipeline::{ImuInput, Pipeline, PipelineConfig, G_MPS2};
+use flight::schedule::{DtClock, SampleScheduler, IMU_RATE_HZ, MAG_DIVIDER};
+use flight::sensors::{MagRead, Sensors as FlightSensors, SensorsConfig};
+use flight::storage::{CalibrationRecord, ValidParts};
 use mpu9250::{Address, Config as MpuConfig, Mpu9250};
-use ms5611::{Ms5611, Sampler, SamplerConfig};
 use sim::{SimBus, SimConfig, SimDelay, Trajectory};
 
-/// Standard gravity used to turn g into m/s².
-pub const G_MPS2: f32 = 9.806_65;
+/// CPU clock of the simulated Blue Pill (its DWT cycle counter), Hz.
+pub const CPU_HZ: u32 = 72_000_000;
 
-/// Which AHRS implementation to run.
+/// Which AHRS implementation the `flight` pipeline was built with: chosen
+/// at compile time by `flight`'s `f32-ahrs` feature (this crate's
+/// `f32-ahrs` feature forwards it), exactly as for the firmware.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Filter {
-    /// `fc_ahrs::Madgwick` (f32).
+    /// `fc_ahrs::Madgwick` (f32): built with `--features f32-ahrs`.
     F32,
-    /// The fixed-point Madgwick.
+    /// The fixed-point Madgwick (Q30): the default build.
     Fixed,
 }
 
-/// The three drivers on one simulated bus.
+impl Filter {
+    /// The one this binary was built with.
+    pub const BUILT: Filter = if cfg!(feature = "f32-ahrs") {
+        Filter::F32
+    } else {
+        Filter::Fixed
+    };
+}
+
+/// The inertial drivers on one simulated bus, for the ground calibrations
+/// (the barometer is not needed there).
 pub struct Sensors {
     /// MPU-9250 driver.
     pub imu: Mpu9250<SimBus>,
     /// AK8963 access.
     pub mag: Mag,
-    /// MS5611 driver.
-    pub baro: Ms5611<SimBus>,
 }
 
-/// Initialises the three chips (MPU with I2C bypass so the AK8963 is on the bus).
+/// Initialises the MPU-9250 (with I2C bypass so the AK8963 is on the bus)
+/// and the AK8963.
 pub fn init_sensors(bus: &SimBus, delay: &mut SimDelay) -> Result<Sensors, String> {
     let mut imu = Mpu9250::new(bus.clone(), Address::Ad0Low);
     imu.set_bypass(true)
@@ -48,35 +68,75 @@ pub fn init_sensors(bus: &SimBus, delay: &mut SimDelay) -> Result<Sensors, Strin
     imu.init(delay, &MpuConfig::default())
         .map_err(|e| format!("MPU-9250 init: {e}"))?;
     let mag = Mag::init(bus.clone(), delay)?;
-    let mut baro = Ms5611::new(bus.clone(), ms5611::Address::CsbLow);
-    baro.init(delay)
-        .map_err(|e| format!("MS5611 init: {e:?}"))?;
-    Ok(Sensors { imu, mag, baro })
+    Ok(Sensors { imu, mag })
 }
 
-/// MPU sensor frame → body FRD (default mounting: face up, x forward).
-pub fn mpu_to_body(v: [f32; 3]) -> [f32; 3] {
-    [v[0], -v[1], -v[2]]
+/// Result of the accelerometer six-position calibration.
+pub struct AccelCalRun {
+    /// The correction (g, MPU frame).
+    pub calibration: AccelCalibration,
+    /// Order in which the faces were captured, with the simulated time (s).
+    pub captured: Vec<(Position, f64)>,
+    /// Still windows refused (moved, not square to gravity).
+    pub refused_windows: u32,
+    /// RMS of `|corrected mean| − 1 g` over the six captured faces (g): what
+    /// the per-axis model leaves (cross-axis misalignment, tilt, noise).
+    pub rms_residual_g: f32,
 }
 
-/// Gyro bias at rest with `calibration::GyroBiasEstimator` (rad/s, MPU frame):
-/// one sample per MPU data-ready.
-pub fn calibrate_gyro(sensors: &mut Sensors, bus: &SimBus) -> Result<GyroBias, String> {
-    let mut est =
-        GyroBiasEstimator::new(GyroBiasConfig::RPS_AND_G).map_err(|e| format!("{e:?}"))?;
-    loop {
-        bus.advance_to_next_mpu_sample();
+/// The accelerometer six-position calibration as a user does it: the same
+/// board (`base`'s errors and seed) held still on each face in turn
+/// ([`Trajectory::SixPosition`]), one accelerometer sample (g, MPU frame)
+/// every 10 ms into `calibration::AccelSixPosition` with its default
+/// settings (200-sample still windows), like the firmware's calibration mode.
+pub fn calibrate_accel_six_position(base: &SimConfig) -> Result<AccelCalRun, String> {
+    let config = SimConfig {
+        trajectory: Trajectory::SixPosition,
+        ..base.clone()
+    };
+    let clock = sim::SimClock::new();
+    let bus = SimBus::new(&clock, config);
+    let mut delay = clock.delay();
+    let mut sensors = init_sensors(&bus, &mut delay)?;
+    let mut six = AccelSixPosition::new(AccelSixPositionConfig::G).map_err(|e| format!("{e:?}"))?;
+    let mut captured = Vec::new();
+    let mut refused_windows = 0;
+    // Generous limit: the sequence itself takes ~40 s.
+    let limit_s = Trajectory::six_position_duration_s() + 20.0;
+    while !six.progress().is_complete() {
+        if clock.now_s() > limit_s {
+            return Err(format!(
+                "accel six-position: only {} of 6 faces captured in {limit_s:.0} s",
+                six.progress().count()
+            ));
+        }
+        delay.delay_ms(10);
         let s = sensors
             .imu
             .read()
             .map_err(|e| format!("MPU-9250 read: {e}"))?;
-        if est
-            .push_with_accel(s.gyro_rps(), s.accel_g)
-            .map_err(|e| format!("{e:?}"))?
-        {
-            return est.finish().map_err(|e| format!("gyro calibration: {e:?}"));
+        match six.push(s.accel_g) {
+            Ok(SixPositionEvent::Captured(p)) => captured.push((p, clock.now_s())),
+            Ok(_) => {}
+            Err(_) => refused_windows += 1,
         }
     }
+    let calibration = six
+        .finish()
+        .map_err(|e| format!("accel six-position: {e:?}"))?;
+    let mut sum2 = 0.0;
+    for p in Position::ALL {
+        let m = six.captured(p).unwrap_or_default();
+        let c = calibration.apply(m);
+        let n = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        sum2 += (n - 1.0) * (n - 1.0);
+    }
+    Ok(AccelCalRun {
+        calibration,
+        captured,
+        refused_windows,
+        rms_residual_g: (sum2 / 6.0).sqrt(),
+    })
 }
 
 /// Result of the magnetometer calibration dance.
@@ -135,6 +195,26 @@ pub fn calibrate_mag_on_dance(base: &SimConfig, duration_s: f64) -> Result<MagCa
     }
 }
 
+/// The firmware's flash record holding the two ground calibrations
+/// (default mounting, no stored gyro bias: it is measured at every boot),
+/// passed through its byte encoding as a save and load would.
+pub fn calibration_record(
+    accel: &AccelCalibration,
+    mag: &MagCalibration,
+) -> Result<CalibrationRecord, String> {
+    let rec = CalibrationRecord {
+        valid: ValidParts(ValidParts::ACCEL | ValidParts::MAG),
+        accel_offset_g: accel.offset,
+        accel_scale: accel.scale,
+        mag_offset_ut: mag.offset,
+        mag_soft_iron: mag.soft_iron,
+        ..CalibrationRecord::default()
+    };
+    flight::storage::validate(&rec).map_err(|f| format!("calibration record: bad {f:?}"))?;
+    flight::storage::decode(&flight::storage::encode(&rec))
+        .map_err(|e| format!("calibration record: {e:?}"))
+}
+
 /// What the stack estimates at one IMU sample.
 #[derive(Clone, Copy, Debug)]
 pub struct Estimate {
@@ -142,182 +222,145 @@ pub struct Estimate {
     pub q_ned_from_body: [f32; 4],
     /// Height above take-off (m), once the baro has given a first sample.
     pub height_m: Option<f32>,
+    /// Vertical speed, up positive (m/s), with the height.
+    pub vertical_speed_mps: Option<f32>,
     /// Bias-corrected angular rate, MPU frame (rad/s).
     pub gyro_mpu_rps: [f32; 3],
-    /// Specific force, MPU frame (m/s²).
+    /// Calibrated specific force, MPU frame (m/s²).
     pub accel_mpu_mps2: [f32; 3],
     /// Latest calibrated magnetic field, MPU frame (µT).
     pub mag_mpu_ut: Option<[f32; 3]>,
 }
 
-/// The per-sample pipeline.
+/// The firmware's per-sample path on the simulated bus.
 pub struct Stack {
-    filter: Filter,
-    sensors: Sensors,
-    gyro_bias: GyroBias,
-    mag_cal: MagCalibration,
-    ahrs: Option<Ahrs>,
-    sampler: Sampler,
-    baro_height: Option<CheapBaro>,
-    vertical: VerticalEstimator,
-    last_us: Option<u64>,
+    sensors: FlightSensors<SimBus>,
+    pipeline: Pipeline,
+    boot: BootReport,
+    bias: Option<StartupGyroBias>,
+    bias_done: Option<[i16; 3]>,
+    sched: SampleScheduler,
+    dt: DtClock,
     last_mag: Option<[f32; 3]>,
-    samples: u64,
 }
 
 impl Stack {
-    /// A stack on initialised sensors with the ground calibrations.
-    pub fn new(
-        sensors: Sensors,
-        gyro_bias: GyroBias,
-        mag_cal: MagCalibration,
-        filter: Filter,
+    /// Boots the chips (`flight::sensors::Sensors::boot`: probe with
+    /// retries, configure) and builds the pipeline from their scales, the
+    /// capabilities found and the stored calibration `record` — as the
+    /// firmware's `init` does.
+    pub fn boot(
+        bus: &SimBus,
+        delay: &mut SimDelay,
+        record: &CalibrationRecord,
     ) -> Result<Self, String> {
+        let (sensors, boot) = FlightSensors::boot(
+            bus.clone(),
+            bus.clone(),
+            bus.clone(),
+            delay,
+            SensorsConfig::default(),
+        );
+        let caps = boot.capabilities();
+        let scale = sensors.mpu_scale();
+        let cfg = PipelineConfig {
+            cpu_hz: CPU_HZ,
+            gyro_dps_per_lsb: scale.dps_per_lsb,
+            accel_g_per_lsb: scale.g_per_lsb,
+            mag_ut_per_lsb: if boot.mag.present() {
+                sensors.mag_ut_per_lsb()
+            } else {
+                [0.15; 3]
+            },
+            ahrs_mode: caps.ahrs,
+            altitude: caps.altitude,
+            ..PipelineConfig::new()
+        };
+        let pipeline = Pipeline::new(cfg, record).map_err(|e| format!("pipeline: {e:?}"))?;
+        // Start-up gyro bias: 1 s still, up to 5 windows (as the firmware).
+        let bias = StartupGyroBias::new(
+            IMU_RATE_HZ,
+            1.0 / scale.dps_per_lsb,
+            1.0 / scale.g_per_lsb,
+            5,
+        )
+        .map_err(|e| format!("start-up gyro bias: {e:?}"))?;
         Ok(Self {
-            filter,
             sensors,
-            gyro_bias,
-            mag_cal,
-            ahrs: None,
-            sampler: Sampler::new(SamplerConfig::new()),
-            baro_height: None,
-            vertical: VerticalEstimator::new(VerticalConfig::default())
-                .map_err(|e| format!("{e:?}"))?,
-            last_us: None,
+            pipeline,
+            boot,
+            bias: Some(bias),
+            bias_done: None,
+            sched: SampleScheduler::new(MAG_DIVIDER),
+            dt: DtClock::new(CPU_HZ, IMU_RATE_HZ),
             last_mag: None,
-            samples: 0,
         })
     }
 
-    /// Processes one MPU data-ready at `now_us`.
-    pub fn on_data_ready(&mut self, now_us: u64) -> Result<Estimate, String> {
-        let s = self
-            .sensors
-            .imu
-            .read()
-            .map_err(|e| format!("MPU-9250 read: {e}"))?;
-        let gyro_mpu_rps = self.gyro_bias.apply(s.gyro_rps());
-        let accel_mpu_mps2 = s.accel_g.map(|a| a * G_MPS2);
-        // Magnetometer: 100 Hz data, polled at 200 Hz.
-        if self.samples.is_multiple_of(5) {
-            if let Some(raw) = self.sensors.mag.read()? {
-                self.last_mag = Some(self.mag_cal.apply(raw));
-            }
-        }
-        // Barometer: non-blocking conversion schedule.
-        match self.sampler.poll(&mut self.sensors.baro, now_us as u32) {
-            Ok(Some(m)) => {
-                let cheap = match self.baro_height {
-                    Some(c) => c,
-                    None => {
-                        let c =
-                            CheapBaro::new(m.pressure_pa as f32).map_err(|e| format!("{e:?}"))?;
-                        self.baro_height = Some(c);
-                        c
-                    }
-                };
-                let _ = self.vertical.update_baro(cheap.height_m(m.pressure_pa));
-            }
-            Ok(None) => {}
-            Err(e) => eprintln!("MS5611: {e:?}"),
-        }
-        let dt_s = self
-            .last_us
-            .map_or(0.001, |l| (now_us.saturating_sub(l)) as f32 * 1e-6);
-        self.last_us = Some(now_us);
-        self.samples += 1;
-        let gyro_b = mpu_to_body(gyro_mpu_rps);
-        let acc_b = mpu_to_body(accel_mpu_mps2);
-        let mag_b = self.last_mag.map(mpu_to_body);
-        let filter = self.filter;
-        let ahrs = match (&mut self.ahrs, mag_b) {
-            (Some(a), _) => a,
-            (None, Some(m)) => self.ahrs.insert(Ahrs::new(filter, Some((acc_b, m)))),
-            (None, None) => self.ahrs.insert(Ahrs::new(filter, None)),
+    /// The boot probe's verdicts.
+    pub fn boot_report(&self) -> &BootReport {
+        &self.boot
+    }
+
+    /// The start-up gyro bias (rad/s, MPU frame) once measured.
+    pub fn gyro_bias_rps(&self) -> Option<[f32; 3]> {
+        let k = self.pipeline.config().gyro_dps_per_lsb.to_radians();
+        self.bias_done.map(|b| b.map(|c| f32::from(c) * k))
+    }
+
+    /// One MPU data-ready at `now_us`, in the order of the firmware's `imu`
+    /// task (then its `baro` task's poll). `None` if the IMU read failed.
+    pub fn on_data_ready(&mut self, now_us: u64) -> Option<Estimate> {
+        // The DWT cycle counter at 72 MHz (wraps every ~60 s, like the real one).
+        let now_cycles = now_us.wrapping_mul(u64::from(CPU_HZ / 1_000_000)) as u32;
+        let tick = self.sched.on_imu_sample();
+        let dt_cycles = self.dt.step_cycles(now_cycles);
+        let raw = self.sensors.read_imu();
+        let mag = if tick.read_mag {
+            self.sensors.read_mag()
+        } else {
+            MagRead::NotReady
         };
-        let (q, up) = ahrs.update(gyro_b, acc_b, mag_b, dt_s);
-        let _ = self.vertical.predict(up, dt_s);
-        Ok(Estimate {
-            q_ned_from_body: q,
-            height_m: self.baro_height.map(|_| self.vertical.height_m()),
+        if let Some(m) = self.sensors.poll_baro(now_us as u32) {
+            self.pipeline.baro_step(m.pressure_pa);
+        }
+        let raw = raw?;
+        if let Some(BiasStatus::Done(b)) = self.bias.as_mut().map(|e| e.push(raw.gyro, raw.accel)) {
+            if self.bias_done.is_none() {
+                self.pipeline.set_gyro_bias_counts(b);
+                self.bias_done = Some(b);
+            }
+        }
+        let p = &mut self.pipeline;
+        if let MagRead::Sample(m) = mag {
+            p.mag_step(m.counts);
+            self.last_mag = Some(p.mag_counts_to_mpu_ut(m.counts));
+        }
+        let input = ImuInput {
+            accel: raw.accel,
+            gyro: raw.gyro,
+            dt_cycles,
+        };
+        if p.imu_step(&input) {
+            p.control_step();
+        }
+        // The calibrated values, MPU frame, as the firmware's raw log.
+        let cfg = p.config();
+        let bias = p.gyro_bias_counts();
+        let k_g = cfg.gyro_dps_per_lsb.to_radians();
+        let k_a = cfg.accel_g_per_lsb * G_MPS2;
+        let gyro_mpu_rps = [0, 1, 2].map(|i| (i32::from(raw.gyro[i]) - bias[i]) as f32 * k_g);
+        let accel_mpu_mps2 = p.calibrate_accel_counts(raw.accel).map(|c| c as f32 * k_a);
+        let q = p.quaternion();
+        let o = p.outputs();
+        let has_height = o.baro_samples > 0;
+        Some(Estimate {
+            q_ned_from_body: [q.w, q.x, q.y, q.z],
+            height_m: has_height.then_some(o.altitude_m),
+            vertical_speed_mps: has_height.then_some(o.vertical_speed_mps),
             gyro_mpu_rps,
             accel_mpu_mps2,
             mag_mpu_ut: self.last_mag,
         })
-    }
-}
-
-/// The AHRS behind one interface: f32 or fixed point (Q-formats of `fc_ahrs::fixed`).
-#[allow(clippy::large_enum_variant)] // one instance, never moved in the loop
-enum Ahrs {
-    F32(Madgwick),
-    Fixed(MadgwickFixed),
-}
-
-/// Accelerometer fed to the fixed-point filter in mm/s² (its `gravity_norm` is 1 g in that unit).
-const FIXED_ACCEL_PER_MPS2: f32 = 1000.0;
-/// Magnetometer fed to the fixed-point filter in 0.01 µT.
-const FIXED_MAG_PER_UT: f32 = 100.0;
-
-fn to_i32x3(v: [f32; 3], k: f32) -> [i32; 3] {
-    v.map(|x| (x * k).round() as i32)
-}
-
-impl Ahrs {
-    fn new(filter: Filter, init: Option<([f32; 3], [f32; 3])>) -> Self {
-        let cfg = fc_ahrs::Config::default();
-        match filter {
-            Filter::F32 => Ahrs::F32(match init {
-                Some((a, m)) => Madgwick::from_accel_mag(cfg, a, m),
-                None => Madgwick::new(cfg),
-            }),
-            Filter::Fixed => {
-                let fcfg = FixedConfig::from_config(&fc_ahrs::Config {
-                    gravity_norm: G_MPS2 * FIXED_ACCEL_PER_MPS2,
-                    ..cfg
-                });
-                Ahrs::Fixed(match init {
-                    Some((a, m)) => MadgwickFixed::from_accel_mag(
-                        fcfg,
-                        to_i32x3(a, FIXED_ACCEL_PER_MPS2),
-                        to_i32x3(m, FIXED_MAG_PER_UT),
-                    ),
-                    None => MadgwickFixed::new(fcfg),
-                })
-            }
-        }
-    }
-
-    /// One update (body FRD inputs); returns `q_ned_from_body` and the
-    /// vertical (up) linear acceleration in m/s².
-    fn update(
-        &mut self,
-        gyro_rps: [f32; 3],
-        accel_mps2: [f32; 3],
-        mag_ut: Option<[f32; 3]>,
-        dt_s: f32,
-    ) -> ([f32; 4], f32) {
-        match self {
-            Ahrs::F32(a) => {
-                match mag_ut {
-                    Some(m) => a.update_marg(gyro_rps, accel_mps2, m, dt_s),
-                    None => a.update_imu(gyro_rps, accel_mps2, dt_s),
-                };
-                let q = a.quaternion();
-                ([q.w, q.x, q.y, q.z], a.vertical_accel_up_mps2(accel_mps2))
-            }
-            Ahrs::Fixed(a) => {
-                let g = gyro_rps.map(fixed::rps_to_q20);
-                let acc = to_i32x3(accel_mps2, FIXED_ACCEL_PER_MPS2);
-                let dt = fixed::dt_s_to_q31(dt_s);
-                match mag_ut {
-                    Some(m) => a.update_marg(g, acc, to_i32x3(m, FIXED_MAG_PER_UT), dt),
-                    None => a.update_imu(g, acc, dt),
-                };
-                let q = a.quaternion_f32();
-                let up_q16 = a.vertical_accel_up_mps2_q16(to_i32x3(accel_mps2, 65_536.0));
-                ([q.w, q.x, q.y, q.z], up_q16 as f32 / 65_536.0)
-            }
-        }
     }
 }
