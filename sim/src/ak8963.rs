@@ -40,7 +40,7 @@ pub const UT_PER_LSB_14: f64 = 0.6;
 /// Default fuse-ROM sensitivity adjustment values (ASAX, ASAY, ASAZ).
 pub const DEFAULT_ASA: [u8; 3] = [176, 178, 165];
 
-/// Operating modes (CNTL1 MODE[3:0]).
+/// Operating modes (CNTL1 MODE\[3:0\]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
     /// 0000.
