@@ -443,9 +443,13 @@ mod app {
                     MagRead::Sample(m) => p.mag_counts_to_mpu_ut(m.counts),
                     _ => [f32::NAN; 3],
                 };
+                let mut gyr_rps = [0.0; 3];
+                for ((o, &g), &b) in gyr_rps.iter_mut().zip(&raw.gyro).zip(&bias) {
+                    *o = i32::from(g).saturating_sub(b) as f32 * k_g;
+                }
                 Some(RawLogRow {
                     t_s: now_us as f32 * 1e-6,
-                    gyr_rps: [0, 1, 2].map(|i| (i32::from(raw.gyro[i]) - bias[i]) as f32 * k_g),
+                    gyr_rps,
                     acc_mps2: acc.map(|c| c as f32 * g_per_lsb * G_MPS2),
                     mag_ut,
                 })
