@@ -24,6 +24,29 @@ pub struct Config {
     /// Norm of the accelerometer at rest (1 g) in the units the accelerometer is fed in
     /// (9.80665 for m/s², 1.0 for g, 16384 for MPU-9250 counts at ±2 g).
     pub gravity_norm: f32,
+    /// Gyro sensitivity (scale-factor) tolerance, as a fraction (MPU-9250 datasheet:
+    /// ±3 % at 25 °C); 0 disables the heading gain schedule below.
+    ///
+    /// A scale error s makes a rotation at rate ω look like (1 + s)·ω. What accumulates
+    /// into attitude error is the *net* rotation: back-and-forth motion cancels, a
+    /// sustained turn does not (a yaw spin at 90 °/s drifts 2.7 °/s at 3 %), and the
+    /// constant heading gain [`Config::beta_mag`] cannot follow it. Madgwick's β is the
+    /// quaternion rate of the gyro error (half its angular rate), so the filter adds a
+    /// heading correction about the earth vertical with
+    /// β_head = ½·`gyro_scale_tol`·|ω̄_D|, ω̄_D the mean rate about the vertical
+    /// (first-order low-pass of the NED z rate, time constant [`Config::gyro_scale_tau_s`]).
+    /// It turns the estimate towards the magnetometer's heading (only when the
+    /// magnetometer is used), at the full rate beyond ~3° of heading error and
+    /// proportionally below (so magnetometer noise is not chased). Tilt is left to the
+    /// accelerometer's β: raising β with the rate made fast manoeuvres with large linear
+    /// accelerations worse (see the crate README).
+    pub gyro_scale_tol: f32,
+    /// Time constant (s) of the mean rate about the vertical behind the scale-factor
+    /// heading correction. Turns that reverse within about this time average out and
+    /// leave the gain alone; after a sustained turn starts, the heading error it builds
+    /// before the gain catches up is at most about `gyro_scale_tol` × (the angle turned in
+    /// this time): 5.4° for 90 °/s at 3 % with 2 s.
+    pub gyro_scale_tau_s: f32,
     /// Use the magnetometer for heading only: its gradient is projected onto the
     /// estimated vertical so a disturbed field cannot tilt the estimate.
     pub mag_heading_only: bool,
@@ -103,6 +126,8 @@ impl Config {
         startup_beta: 2.5,
         startup_s: 3.0,
         gravity_norm: 9.80665,
+        gyro_scale_tol: 0.03,
+        gyro_scale_tau_s: 2.0,
         mag_heading_only: false,
         bias: BiasConfig {
             enabled: true,

@@ -13,15 +13,26 @@
 //!   accelerometer units;
 //! * unit vectors, rotation-matrix entries, cosines and sines: Q2.30.
 //!
-//! All products are 32×32→64-bit (one `SMULL` on the M3), there is no division on the
-//! update path: every normalisation is one integer reciprocal square root (leading-zero
-//! count + 48-entry table + two Newton steps, ~2e-7 relative error). Conversions from the
-//! f32 [`crate::Config`] happen once, in [`FixedConfig::from_config`].
+//! All products are 32×32→64-bit (one `SMULL`/`SMLAL` on the M3) accumulated in `i64`
+//! with one shift per result; every such sum has its overflow bound in a comment instead
+//! of saturating arithmetic. There is no division on the update path: the accelerometer,
+//! magnetometer and the two gradients are normalised with one integer reciprocal square
+//! root each (32-bit leading-zero normalisation + 48-entry table + two Newton steps in
+//! 32-bit arithmetic, < 3e-7 relative error); the quaternion is renormalised with the
+//! first-order q·(3 − ‖q‖²)/2 (every normal step: ‖q‖² is within 2^-10 of 1) or a full
+//! reciprocal square root otherwise. The gradient step per update is limited to
+//! min(β·dt, ‖∇f‖/4, ½), as in the f32 filter. Conversions from the f32 [`crate::Config`]
+//! happen once, in [`FixedConfig::from_config`].
 
 use crate::config::{Config, UpdatePath, UpdateStatus};
 use crate::Quaternion;
 
 const ONE_Q30: i64 = 1 << 30;
+
+/// Bound on the rate about the vertical entering the mean used by the heading gain
+/// schedule (64 rad/s, as the f32 filter), in Q20 and Q40.
+const MAX_MEAN_RATE_Q20: i64 = 64 << 20;
+const MAX_MEAN_RATE_Q40: i64 = 64 << 40;
 
 /// 1/√m in Q29 at the midpoints of 48 bins of m ∈ [0.25, 1).
 const RSQRT_TABLE: [u32; 48] = [
@@ -33,45 +44,131 @@ const RSQRT_TABLE: [u32; 48] = [
     571393950, 566403514, 561541591, 556802759, 552181909, 547674226, 543275165, 538980433,
 ];
 
-/// Reciprocal square root of a u64: returns (R, e) with 1/√s ≈ R·2^(e−60), R in
-/// (2^29, 2^30] (Q29 of a value in (1, 2]), and m_q30 (the mantissa, Q30 in [0.25, 1)).
-/// `s` must be non-zero.
-fn rsqrt_parts(s: u64) -> (i64, i32, i64) {
-    let len = 64 - s.leading_zeros() as i32; // 1..=64
-    let e = (62 - len) >> 1; // -1..=30
-    let sp = if e >= 0 { s << (2 * e) } else { s >> 2 };
-    let m = (sp >> 32) as i64; // Q30 in [2^28, 2^30)
-    let idx = ((m >> 24) - 16).clamp(0, 47) as usize;
-    let mut y = i64::from(RSQRT_TABLE.get(idx).copied().unwrap_or(1 << 29));
-    for _ in 0..2 {
-        let y2 = (y * y) >> 29; // Q29
-        let my2 = (m * y2) >> 30; // Q29
-        y = (y * ((3 << 29) - my2)) >> 30; // Q29
-    }
-    (y, e, m)
+/// 1/√M in Q29 for M = `m_q32`/2^32 ∈ [0.25, 1) (`m_q32` ≥ 2^30): table start (≤ 1.6 %
+/// off) and two Newton steps y ← y·(3 − M·y²)/2 in 32-bit arithmetic (`UMULL`, high words),
+/// relative error < 3e-7 (test `rsqrt_accuracy`; 1.5·ε² after the second step).
+///
+/// Bounds: Newton steps for 1/√M never overshoot (y·(3 − My²)/2 ≤ 1/√M), so y stays
+/// ≤ 2 (2^31 in Q30) after the first step, and the table start is < 2^31 too: y² < 2^62,
+/// M·y² (Q28) < 2^30, t ≤ 3·2^28, y·t < 2^61. Out-of-range `m_q32` (< 2^30) gives a
+/// meaningless result but no panic.
+#[inline(always)]
+fn rsqrt_q29(m_q32: u32) -> i32 {
+    let idx = ((m_q32 >> 26) as usize).wrapping_sub(16);
+    // Q30 start; two steps written out (a two-trip loop stays a loop at `opt-level = "s"`).
+    let y = RSQRT_TABLE.get(idx).copied().unwrap_or(1 << 29) << 1;
+    (newton_rsqrt(newton_rsqrt(y, m_q32), m_q32) >> 1) as i32 // ≤ 2^30
 }
 
-/// Scale a vector by 1/√s, result Q30: v_i·2^30/√s.
-fn scale_rsqrt<const N: usize>(v: [i64; N], s: u64) -> [i32; N] {
-    let (r, e, _) = rsqrt_parts(s);
-    let sh = (30 - e) as u32; // 0..=31
-    v.map(|x| sat32((x.saturating_mul(r) + (1i64 << sh >> 1)) >> sh))
+/// One Newton step y·(3 − M·y²)/2 for 1/√M, y in Q30, M = `m_q32`/2^32 (see `rsqrt_q29`).
+#[inline(always)]
+fn newton_rsqrt(y: u32, m_q32: u32) -> u32 {
+    let y2 = ((u64::from(y) * u64::from(y)) >> 32) as u32; // y² in Q28
+    let my2 = ((u64::from(m_q32) * u64::from(y2)) >> 32) as u32; // M·y² in Q28
+    let t = (3u32 << 28).saturating_sub(my2); // (3 − M·y²) in Q28
+    ((u64::from(y) * u64::from(t)) >> 29) as u32 // Q30·Q28/2 → Q30
 }
 
-/// Integer √s (s ≥ 1), result ≈ √s with ~2e-7 relative error, as i64.
-fn isqrt(s: u64) -> i64 {
-    if s == 0 {
-        return 0;
-    }
-    let (r, e, m) = rsqrt_parts(s);
-    // √s = √m·2^(31−e); √m = m·(1/√m): (m_q30·R_q29)>>29 is √m in Q30.
-    let sm = (m * r) >> 29;
-    let sh = 30 - 31 + e; // √s = sm·2^(1−e) → shift right by (e−1)
-    if sh > 0 {
-        (sm + (1 << (sh - 1))) >> sh
+/// For s ∈ [1, 2^62): (m, k) with s·4^k ∈ [2^60, 2^62) and m = s·4^k/2^30 (its top 32
+/// bits, m ∈ [2^30, 2^32)), k ∈ 0..=30. 32-bit shifts only: a variable 64-bit shift is a
+/// library call (`__aeabi_llsl`) on the M3 at `opt-level = "s"`. Other s give a meaningless
+/// result, no panic.
+#[inline(always)]
+fn norm_parts(s: u64) -> (u32, u32) {
+    let hi = (s >> 32) as u32;
+    let lo = s as u32;
+    if hi != 0 {
+        // s << z ∈ [2^62, 2^64) with z even, 2..=30 (hi < 2^30).
+        let z = hi.leading_zeros() & !1;
+        let m = (hi << z) | lo.checked_shr(32 - z).unwrap_or(0);
+        (m, (z / 2).saturating_sub(1))
     } else {
-        sm << (-sh)
+        // s << (32 + z) ∈ [2^62, 2^64), z even, 0..=30 (lo ≠ 0).
+        let z = lo.leading_zeros() & !1;
+        (lo.checked_shl(z).unwrap_or(0), (z / 2 + 15).min(30))
     }
+}
+
+/// Σ vᵢ² of a 4-vector, exact: i32::MIN is first raised to −i32::MAX, so each term is
+/// < 2^62 and four of them < 2^64. (Written out per component: at `opt-level = "s"`
+/// array maps stay loops over stack copies.)
+#[inline(always)]
+fn sumsq4(v: [i32; 4]) -> u64 {
+    let sq = |x: i32| {
+        let x = i64::from(x.max(-i32::MAX));
+        (x * x) as u64
+    };
+    let [a, b, c, d] = v;
+    sq(a) + sq(b) + sq(c) + sq(d)
+}
+
+/// v·2^30/√s, the unit vector in Q30, for s = Σ vᵢ² ∈ [1, 2^62) (zeros for s = 0).
+///
+/// An even shift 2k takes s to [2^60, 2^62); v·2^k then stays below 2^31 in magnitude
+/// (|vᵢ| ≤ √s), and u = (v·2^k·Y_q29) >> 30 with Y = 1/√(s·4^k/2^62). |uᵢ| ≤ 2^30 + 1.
+#[inline(always)]
+fn scale4(v: [i32; 4], s: u64) -> [i32; 4] {
+    let (m_q32, k) = norm_parts(s);
+    let y = rsqrt_q29(m_q32);
+    let f = |x: i32| ((m64(x << k, y) + (1 << 29)) >> 30) as i32;
+    let [a, b, c, d] = v;
+    [f(a), f(b), f(c), f(d)]
+}
+
+/// Normalise a 4-vector to Q30; `None` if zero. Also returns ‖v‖².
+fn unit4(v: [i32; 4]) -> Option<([i32; 4], u64)> {
+    let s = sumsq4(v);
+    if s == 0 {
+        return None;
+    }
+    let u = if s < 1 << 62 {
+        scale4(v, s)
+    } else {
+        // Rare (components ≥ 2^30): v/4 has Σ < 2^60 and is non-zero.
+        let [a, b, c, d] = v;
+        let v4 = [a >> 2, b >> 2, c >> 2, d >> 2];
+        scale4(v4, sumsq4(v4))
+    };
+    Some((u, s))
+}
+
+/// Normalise an i32 3-vector to Q30; `None` if zero. Also returns ‖v‖².
+fn unit3(v: [i32; 3]) -> Option<([i32; 3], u64)> {
+    let [a, b, c] = v;
+    unit4([a, b, c, 0]).map(|([x, y, z, _], s)| ([x, y, z], s))
+}
+
+/// √s rounded, from `norm_parts` and `rsqrt_q29`: √s = M·Y·2^(31−k) with
+/// m_q32·Y_q29 = M·Y·2^61 < 2^62, so (m·y) >> 30 fits in u32 and the rest is a 32-bit
+/// shift by k. s ∈ [1, 2^62).
+#[inline(always)]
+fn sqrt_parts(m: u32, y: i32, k: u32) -> u32 {
+    let r = ((u64::from(m) * u64::from(y.unsigned_abs())) >> 30) as u32;
+    // r >> k, rounded (k = 0: no rounding bit).
+    (r >> k) + (r.checked_shr(k.wrapping_sub(1)).unwrap_or(0) & 1)
+}
+
+/// Integer √s, relative error < 3e-7 (absolute ≤ ½ for small s).
+fn isqrt(s: u64) -> i64 {
+    sqrt_and_ratio(s, 0).0
+}
+
+/// (√s, v·2^30/√s) with one reciprocal square root; (0, 0) for s = 0. The ratio needs
+/// |v| ≤ √s (it is a sine or cosine: v² is one term of s); otherwise it is meaningless
+/// (no panic).
+fn sqrt_and_ratio(s: u64, v: i64) -> (i64, i64) {
+    if s == 0 {
+        return (0, 0);
+    }
+    // s ≥ 2^62: √s = 4·√(s/16), v/√s = (v/4)/√(s/16).
+    let big = s >= 1 << 62;
+    let (s, v) = if big { (s >> 4, v >> 2) } else { (s, v) };
+    let (m, k) = norm_parts(s);
+    let y = rsqrt_q29(m);
+    let sq = i64::from(sqrt_parts(m, y, k)) * if big { 4 } else { 1 };
+    // v·2^30/√s = (v·2^k)·Y/2^31·2^30: |v·2^k| ≤ √(s·4^k) < 2^31 as in `scale4`.
+    let vk = (v.clamp(-i64::from(i32::MAX), i64::from(i32::MAX)) as i32) << k;
+    (sq, (m64(vk, y) + (1 << 29)) >> 30)
 }
 
 fn sat32(x: i64) -> i32 {
@@ -82,26 +179,147 @@ fn mul30(a: i32, b: i32) -> i64 {
     (i64::from(a) * i64::from(b)) >> 30
 }
 
-fn sumsq3(v: [i32; 3]) -> u64 {
-    v.iter()
-        .map(|&x| i64::from(x).unsigned_abs().pow(2))
-        .fold(0u64, u64::saturating_add)
+/// 32×32→64 product (one `SMULL`).
+fn m64(a: i32, b: i32) -> i64 {
+    i64::from(a) * i64::from(b)
 }
 
-/// Normalise an i32 3-vector to Q30; `None` if zero. Also returns ‖v‖² (saturating).
-fn unit3(v: [i32; 3]) -> Option<([i32; 3], u64)> {
-    let s = sumsq3(v);
-    if s == 0 {
-        return None;
+/// Dot product of two Q30 vectors with |aᵢ|, |bᵢ| ≤ 2^30 + 2^20 (unit vectors, rows of
+/// R(q)): each product < 2^61, the sum < 2^63. Result Q30.
+fn dot30u(a: [i32; 3], b: [i32; 3]) -> i32 {
+    ((m64(a[0], b[0]) + m64(a[1], b[1]) + m64(a[2], b[2]) + (1 << 29)) >> 30) as i32
+}
+
+/// Row 2 of R(q) (body → NED), "down" in body axes, Q30, for a unit Q30 quaternion
+/// (entries ≤ |q|² ≤ 1 + 1e-6, so they fit: no saturation needed).
+fn down_row(q: [i32; 4]) -> [i32; 3] {
+    let [w, x, y, z] = q;
+    // 2ab in Q30 = (a·b) >> 29; 1 − 2(xx + yy) = (2^59 − xx − yy) >> 29.
+    [
+        ((m64(x, z) - m64(w, y) + (1 << 28)) >> 29) as i32,
+        ((m64(y, z) + m64(w, x) + (1 << 28)) >> 29) as i32,
+        (((1i64 << 59) - m64(x, x) - m64(y, y) + (1 << 28)) >> 29) as i32,
+    ]
+}
+
+/// Accelerometer gradient J_gᵀ f_g / 2 (eqs. 25–26), up to a positive scale (only its
+/// direction and, for the step limit, its size relative to that scale are used):
+/// f_g = down − d in Q29 (|fᵢ| ≤ 2^30 + 1). Single-coefficient terms use q in Q29 (q >> 1),
+/// doubled ones 2q in Q29 (= q's raw Q30 value): products Q58, at most 2^59 + 2^59 + 2^60
+/// = 2^61 (×(1+1e-6)²) per component, so the sums fit and the high word (>> 32) is
+/// ∇f/2 in Q26 with |gᵢ| < 2^30.
+fn accel_grad(q: [i32; 4], down: [i32; 3], d: [i32; 3]) -> [i32; 4] {
+    let [d2q1, d2q2, d2q3, d2q4] = q;
+    let (q1, q2, q3, q4) = (d2q1 >> 1, d2q2 >> 1, d2q3 >> 1, d2q4 >> 1);
+    let f1 = (down[0] >> 1) - (d[0] >> 1);
+    let f2 = (down[1] >> 1) - (d[1] >> 1);
+    let f3 = (down[2] >> 1) - (d[2] >> 1);
+    let hi = |x: i64| (x >> 32) as i32;
+    [
+        hi(m64(q2, f2) - m64(q3, f1)),
+        hi(m64(q4, f1) + m64(q1, f2) - m64(d2q2, f3)),
+        hi(m64(q4, f2) - m64(q1, f1) - m64(d2q3, f3)),
+        hi(m64(q2, f1) + m64(q3, f2)),
+    ]
+}
+
+/// Magnetometer gradient J_bᵀ f_b / 2 (eqs. 29–30 with the correct 2bx, 2bz), up to a
+/// positive scale. b = (bx, 0, bz) in Q30 with bx² + bz² ≤ 1, rows of R(q) in Q30.
+/// Bounds: f_b = bx·row0 + bz·row2 − m in Q28 (|bx·r0ᵢ + bz·r2ᵢ| ≤ 2^60 by Cauchy–Schwarz,
+/// so |f_bᵢ| ≤ 2^29); bx·qᵢ, bz·qᵢ in Q28 (high words, ≤ 2^28), coefficient sums
+/// ≤ 3·2^28; products ≤ 3·2^57, three of them < 2^61; the high word is ∇f/2 in Q24
+/// (|gᵢ| < 2^29).
+fn mag_grad(q: [i32; 4], r0: [i32; 3], r2: [i32; 3], m: [i32; 3], bx: i32, bz: i32) -> [i32; 4] {
+    let hi = |x: i64| (x >> 32) as i32;
+    let [r00, r01, r02] = r0;
+    let [r20, r21, r22] = r2;
+    let [m0, m1, m2] = m;
+    let f1 = hi(m64(bx, r00) + m64(bz, r20)) - (m0 >> 2);
+    let f2 = hi(m64(bx, r01) + m64(bz, r21)) - (m1 >> 2);
+    let f3 = hi(m64(bx, r02) + m64(bz, r22)) - (m2 >> 2);
+    let [q1, q2, q3, q4] = q;
+    let (x, z) = (|q: i32| hi(m64(bx, q)), |q: i32| hi(m64(bz, q)));
+    let (bx1, bx2, bx3, bx4) = (x(q1), x(q2), x(q3), x(q4));
+    let (bz1, bz2, bz3, bz4) = (z(q1), z(q2), z(q3), z(q4));
+    [
+        hi(m64(bx3, f3) - m64(bz3, f1) + m64(bz2 - bx4, f2)),
+        hi(m64(bz4, f1) + m64(bx3 + bz1, f2) + m64(bx4 - 2 * bz2, f3)),
+        hi(m64(bx2 + bz4, f2) - m64(2 * bx3 + bz1, f1) + m64(bx1 - 2 * bz3, f3)),
+        hi(m64(bx2, f3) + m64(bz2 - 2 * bx4, f1) + m64(bz3 - bx1, f2)),
+    ]
+}
+
+/// q + ½ q ⊗ (0, ω)·dt in Q60 (`hw` = ½ω·dt in Q30, each |hwᵢ| ≤ 2^29).
+/// Bound: ‖q‖·(1 + ‖hw‖)·2^60 ≤ (1 + √3/2)·2^60·(1 + 1e-6) < 1.87·2^60.
+fn propagate(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
+    let [q1, q2, q3, q4] = q;
+    let [h0, h1, h2] = hw;
+    let b = |x: i32| i64::from(x) << 30;
+    [
+        b(q1) - m64(q2, h0) - m64(q3, h1) - m64(q4, h2),
+        b(q2) + m64(q1, h0) + m64(q3, h2) - m64(q4, h1),
+        b(q3) + m64(q1, h1) - m64(q2, h2) + m64(q4, h0),
+        b(q4) + m64(q1, h2) + m64(q2, h1) - m64(q3, h0),
+    ]
+}
+
+/// Normalised gradient step on the Q60 accumulator: acc −= s·∇/‖∇‖ with
+/// s = min(β·dt, ‖∇‖/4, ½) in Q30. `g` is ∇/2 in Q(29 − log₂ `cap_mul`) (< 2^30 per
+/// component), so ‖∇‖/4 in Q30 is ‖g‖·`cap_mul` (8 for the accelerometer's Q26, 32 for
+/// the magnetometer's Q24).
+///
+/// Why ‖∇‖/4: for a small error θ about an axis perpendicular to the sensor's reference,
+/// ∇ = 4·δq (δq ≈ θ/2 is the quaternion step that removes it), so a large β·dt (start-up
+/// gain with a long dt) reaches but cannot pass the minimum instead of spinning the
+/// estimate away. Same limit as the f32 filter. The step adds at most ½·2^60 to the
+/// accumulator's norm.
+fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: i32) {
+    if let Some((u, _)) = unit4(g) {
+        let [g0, g1, g2, g3] = g;
+        let [u0, u1, u2, u3] = u;
+        // ‖g‖ = g·u/2^30 (|g|·|u| < 2^61).
+        let norm = (m64(g0, u0) + m64(g1, u1) + m64(g2, u2) + m64(g3, u3)) >> 30;
+        // ‖g‖ < 2^30 fits in i32. A product, not a shift: a variable 64-bit shift is a
+        // library call (`__aeabi_llsl`) on the M3.
+        let cap = m64(norm as i32, cap_mul);
+        let s = beta_dt_q30.min(cap).clamp(0, 1 << 29) as i32;
+        // In place, per component (returning the array by value costs a `memcpy`).
+        let [a0, a1, a2, a3] = acc;
+        *a0 -= m64(s, u0);
+        *a1 -= m64(s, u1);
+        *a2 -= m64(s, u2);
+        *a3 -= m64(s, u3);
     }
-    Some((scale_rsqrt(v.map(i64::from), s), s))
 }
 
+/// Renormalise the Q60 accumulator to a unit Q30 quaternion; `None` if (near) zero
+/// (‖acc‖ < 2^-10). Bound: ‖acc‖ < (1.87 + 3·½)·2^60 = 3.37·2^60 (propagation, two
+/// gradient steps and the heading term, each ≤ ½), so the Q29 components are < 2^31 and
+/// ‖nq‖²·2^58 < 11.4·2^58 < 2^62.
+/// Fast path (‖nq‖² = 1 + δ, |δ| < 2^-10, every normal step): nq·(3 − ‖nq‖²)/2, error
+/// 3δ²/8 < 4e-7 (corrected again by the next step); otherwise a full reciprocal square root.
+fn renormalise(acc: [i64; 4]) -> Option<[i32; 4]> {
+    let q29 = |a: i64| ((a + (1 << 30)) >> 31) as i32;
+    let [a0, a1, a2, a3] = acc;
+    let (n0, n1, n2, n3) = (q29(a0), q29(a1), q29(a2), q29(a3));
+    let s = m64(n0, n0) + m64(n1, n1) + m64(n2, n2) + m64(n3, n3);
+    let dev = s - (1 << 58);
+    if dev.unsigned_abs() < 1 << 48 {
+        let f = (1 << 30) - (dev >> 29) as i32; // (3 − ‖nq‖²)/2 in Q30, |dev >> 29| < 2^19
+        let r = |x: i32| ((m64(x, f) + (1 << 28)) >> 29) as i32;
+        Some([r(n0), r(n1), r(n2), r(n3)])
+    } else if s < 1 << 38 {
+        None
+    } else {
+        unit4([n0, n1, n2, n3]).map(|(u, _)| u)
+    }
+}
+/// a·b >> 30 for `a` a unit vector or a row of R(q) in Q30 (|aᵢ| ≤ 2^30 + 2^10) and any
+/// `b`: each product ≤ 2^61·(1 + 2^-20), the sum of three < 2^63 (no saturation needed).
 fn dot30(a: [i32; 3], b: [i32; 3]) -> i64 {
-    (i64::from(a[0]) * i64::from(b[0]))
-        .saturating_add(i64::from(a[1]) * i64::from(b[1]))
-        .saturating_add(i64::from(a[2]) * i64::from(b[2]))
-        >> 30
+    let [a0, a1, a2] = a;
+    let [b0, b1, b2] = b;
+    (m64(a0, b0) + m64(a1, b1) + m64(a2, b2)) >> 30
 }
 
 fn cross30(a: [i32; 3], b: [i32; 3]) -> [i32; 3] {
@@ -154,6 +372,8 @@ pub struct FixedConfig {
     beta_q24: i32,
     beta_mag_q24: i32,
     startup_beta_q24: i32,
+    half_scale_tol_q30: i64,
+    inv_scale_tau_q20: i64,
     startup_q20: i64,
     inv_startup_q30: i64,
     rest_gyro_sq_q40: i64,
@@ -210,6 +430,14 @@ impl FixedConfig {
             beta_q24: float_to_q(cfg.beta, 24),
             beta_mag_q24: float_to_q(cfg.beta_mag, 24),
             startup_beta_q24: float_to_q(cfg.startup_beta, 24),
+            // ½·tol in Q30, tol clamped to [0, 1] (NaN → 0).
+            half_scale_tol_q30: f30(0.5 * cfg.gyro_scale_tol.clamp(0.0, 1.0)),
+            // 1/τ in Q20 (≤ 2000/s; τ ≤ 0 or NaN → k = 1 per step, as the f32 filter).
+            inv_scale_tau_q20: if cfg.gyro_scale_tau_s > 0.0 {
+                i64::from(float_to_q((1.0 / cfg.gyro_scale_tau_s).min(2000.0), 20))
+            } else {
+                2000 << 20
+            },
             startup_q20: s_to_q20(cfg.startup_s.max(0.0)),
             inv_startup_q30: inv(cfg.startup_s),
             rest_gyro_sq_q40: sq_q40(cfg.bias.rest_gyro_rps),
@@ -267,6 +495,7 @@ pub struct MadgwickFixed {
     mag_ref: Option<MagRef>,
     cand: Option<(u64, i64)>,
     cand_q20: i64,
+    rate_lp_down_q40: i64,
 }
 
 impl MadgwickFixed {
@@ -285,6 +514,7 @@ impl MadgwickFixed {
             mag_ref: None,
             cand: None,
             cand_q20: 0,
+            rate_lp_down_q40: 0,
         }
     }
 
@@ -438,8 +668,9 @@ impl MadgwickFixed {
             st.gyro_invalid = true;
             return st;
         }
-        let c = self.c;
-        let cfg = c.cfg;
+        // By reference: a copy of the whole configuration costs a `memcpy` per update.
+        let c = &self.c;
+        let cfg = &c.cfg;
         let dt_q20 = i64::from(dt_q31 >> 11);
         let initialising = self.time_q20 < c.startup_q20;
         st.initialising = initialising;
@@ -454,10 +685,12 @@ impl MadgwickFixed {
                 gyro[2].saturating_sub(b[2]),
             ]
         };
+        // |ω|² in Q40: three squares ≤ 2^62 each sum exactly in u64 (< 3·2^62), then
+        // saturate once to i64 (no per-term saturating adds).
         let w_sq = |w: [i32; 3]| {
-            w.iter()
-                .map(|&x| i64::from(x) * i64::from(x))
-                .fold(0i64, i64::saturating_add)
+            let [a, b, d] = w;
+            let sq = |x: i32| (i64::from(x) * i64::from(x)) as u64;
+            (sq(a) + sq(b) + sq(d)).min(i64::MAX as u64) as i64
         };
         if cfg.bias.enabled {
             let w = wsub(self.bias_q20);
@@ -491,12 +724,21 @@ impl MadgwickFixed {
         };
 
         let q = self.q;
-        let [q1, q2, q3, q4] = q.map(i64::from);
         let r = rows(q);
         let down = r[2];
+        // Mean rate about the earth vertical ω̄_D (Q40 rad/s, |ω̄_D| ≤ 64 rad/s) for the
+        // scale-factor heading gain: ω̄_D += k·(down·ω − ω̄_D), k = dt/τ in Q30.
+        if c.half_scale_tol_q30 > 0 {
+            let k = ((i64::from(dt_q31) * c.inv_scale_tau_q20) >> 21).clamp(0, ONE_Q30);
+            let lp = self.rate_lp_down_q40;
+            let x_q20 = dot30(down, w).clamp(-MAX_MEAN_RATE_Q20, MAX_MEAN_RATE_Q20);
+            let e = x_q20 - (lp >> 20); // |e| ≤ 2^27, so k·e < 2^57
+            self.rate_lp_down_q40 =
+                (lp + ((k * e) >> 10)).clamp(-MAX_MEAN_RATE_Q40, MAX_MEAN_RATE_Q40);
+        }
 
         // --- accelerometer: eqs. (25)-(26) -----------------------------------------
-        let mut grad = [0i64; 4];
+        let mut grad = [0i32; 4];
         let mut use_acc = false;
         if let Some((a, n2)) = acc {
             let d = a.map(|x| x.saturating_neg());
@@ -521,58 +763,36 @@ impl MadgwickFixed {
             st.accel_rejected = reject;
             if !reject {
                 use_acc = true;
-                // f_g = Rᵀ(0,0,1) − d (eq. 25), Q29 to keep 3-term sums in i64.
-                let f1 = (i64::from(down[0]) - i64::from(d[0])) >> 1;
-                let f2 = (i64::from(down[1]) - i64::from(d[1])) >> 1;
-                let f3 = (i64::from(down[2]) - i64::from(d[2])) >> 1;
-                // J_gᵀ f_g (eq. 26): Q30·Q29·2 → >> 28 gives Q30.
-                grad[0] = (-q3 * f1 + q2 * f2) >> 28;
-                grad[1] = (q4 * f1 + q1 * f2 - 2 * q2 * f3) >> 28;
-                grad[2] = (-q1 * f1 + q4 * f2 - 2 * q3 * f3) >> 28;
-                grad[3] = (q2 * f1 + q3 * f2) >> 28;
+                // f_g = Rᵀ(0,0,1) − d (eq. 25), J_gᵀ f_g (eq. 26): ∇f/2 in Q26.
+                grad = accel_grad(q, down, d);
             }
         }
 
         // --- magnetometer: eqs. (29)-(30), (45)-(46) --------------------------------
-        let mut grad_mag = [0i64; 4];
+        let mut grad_mag = [0i32; 4];
         let mut use_mag = false;
+        let mut head_err = 0i64;
         if let Some(mag) = mag {
             match unit3(mag) {
                 None => st.mag_invalid = true,
                 Some((m, n2)) => {
                     // h = R m (eq. 45), NED.
-                    let h = [dot30(r[0], m), dot30(r[1], m), dot30(r[2], m)]
-                        .map(|x| x.clamp(-ONE_Q30, ONE_Q30));
+                    let h = [dot30u(r[0], m), dot30u(r[1], m), dot30u(r[2], m)]
+                        .map(|x| i64::from(x).clamp(-ONE_Q30, ONE_Q30));
                     let hz = h[2];
                     let accept = self.check_mag(n2, hz, w_sq(w), dt_q31, initialising, &mut st);
+                    let cfg = &self.c.cfg;
                     if accept {
                         use_mag = true;
                         // b = (√(hx²+hy²), 0, hz) (eq. 46), Q30.
                         let hs = (h[0] * h[0] + h[1] * h[1]) as u64; // Q60
-                        let bx = isqrt(hs);
+                        let (bx, sin_q30) = sqrt_and_ratio(hs, h[1]);
+                        head_err = ((sin_q30 * crate::madgwick::HEADING_LINEAR_GAIN_Q16) >> 16)
+                            .clamp(-ONE_Q30, ONE_Q30);
                         let bz = hz;
-                        // f_b = Rᵀ b − m (eq. 29 with the correct 2bx, 2bz), Q29.
-                        let fb = |i: usize| {
-                            let col = |row: usize| {
-                                r.get(row)
-                                    .and_then(|rr| rr.get(i))
-                                    .copied()
-                                    .map_or(0, i64::from)
-                            };
-                            let mi = m.get(i).copied().map_or(0, i64::from);
-                            ((bx * col(0) + bz * col(2)) >> 30).saturating_sub(mi) >> 1
-                        };
-                        let (f1, f2, f3) = (fb(0), fb(1), fb(2));
-                        let bq = |b: i64, qq: i64| (b * qq) >> 30; // Q30
-                        let (bx1, bx2, bx3, bx4) = (bq(bx, q1), bq(bx, q2), bq(bx, q3), bq(bx, q4));
-                        let (bz1, bz2, bz3, bz4) = (bq(bz, q1), bq(bz, q2), bq(bz, q3), bq(bz, q4));
-                        // J_bᵀ f_b (eq. 30), half coefficients; Q30·Q29·2 → >> 28.
-                        let mut gb = [
-                            (-bz3 * f1 + (-bx4 + bz2) * f2 + bx3 * f3) >> 28,
-                            (bz4 * f1 + (bx3 + bz1) * f2 + (bx4 - 2 * bz2) * f3) >> 28,
-                            ((-2 * bx3 - bz1) * f1 + (bx2 + bz4) * f2 + (bx1 - 2 * bz3) * f3) >> 28,
-                            ((-2 * bx4 + bz2) * f1 + (-bx1 + bz3) * f2 + bx2 * f3) >> 28,
-                        ];
+                        // f_b = Rᵀ b − m (eq. 29 with the correct 2bx, 2bz), J_bᵀ f_b
+                        // (eq. 30): ∇f/2 in Q24 (|bx|, |bz| ≤ 2^30: they fit in i32).
+                        let mut gb = mag_grad(q, r[0], r[2], m, bx as i32, bz as i32);
                         if cfg.mag_heading_only {
                             gb = project_heading(q, gb, down);
                         }
@@ -582,6 +802,7 @@ impl MadgwickFixed {
             }
         }
 
+        let c = &self.c;
         st.path = match (use_acc, use_mag) {
             (true, true) => UpdatePath::Marg,
             (true, false) => UpdatePath::Imu,
@@ -600,41 +821,42 @@ impl MadgwickFixed {
                 b
             }
         };
-        // β·dt: Q24·Q31 → Q30.
-        let beta_dt = ((ramp(c.beta_q24) * i64::from(dt_q31)) >> 25).clamp(0, ONE_Q30);
-        let beta_mag_dt = ((ramp(c.beta_mag_q24) * i64::from(dt_q31)) >> 25).clamp(0, ONE_Q30);
+        // Heading gain for the gyro scale-factor error (`Config::gyro_scale_tol`):
+        // β_head = ½·tol·|ω̄_D|: Q20 (< 2^27) · Q30 → >> 26 gives Q24.
+        let rh = (((self.rate_lp_down_q40 >> 20).abs()) * c.half_scale_tol_q30) >> 26;
+        // β·dt: Q24·Q31 → Q30 (β clamped to < 128 rad/s so the product fits in i64).
+        let gain_dt =
+            |b: i64| ((b.min(i64::from(i32::MAX)) * i64::from(dt_q31)) >> 25).clamp(0, ONE_Q30);
+        let beta_dt = gain_dt(ramp(c.beta_q24));
+        let beta_mag_dt = gain_dt(ramp(c.beta_mag_q24));
+        let head_dt = if use_mag && head_err != 0 {
+            gain_dt(rh)
+        } else {
+            0
+        };
         // ½ω·dt in Q30: Q20·Q31 = Q51 → >> 22.
-        // Clamped to ±1 rad (half angle) per step, far beyond any physical rate·dt.
-        let hw = w.map(|x| ((i64::from(x) * i64::from(dt_q31)) >> 22).clamp(-ONE_Q30, ONE_Q30));
-        let mut nq = [
-            q1 + ((-q2 * hw[0] - q3 * hw[1] - q4 * hw[2]) >> 30),
-            q2 + ((q1 * hw[0] + q3 * hw[2] - q4 * hw[1]) >> 30),
-            q3 + ((q1 * hw[1] - q2 * hw[2] + q4 * hw[0]) >> 30),
-            q4 + ((q1 * hw[2] + q2 * hw[1] - q3 * hw[0]) >> 30),
-        ];
-        for (g, bdt) in [(grad, beta_dt), (grad_mag, beta_mag_dt)] {
-            // Q30 gradient (|∇f| ≤ ~12) → Q26 i32 → unit Q30.
-            let g26 = g.map(|x| (x >> 4).clamp(i64::from(i32::MIN), i64::from(i32::MAX)));
-            let s = g26
-                .iter()
-                .map(|&x| x.unsigned_abs().pow(2))
-                .fold(0u64, u64::saturating_add);
-            if s > 0 {
-                let u = scale_rsqrt(g26, s);
-                for (n, ui) in nq.iter_mut().zip(u) {
-                    *n -= (bdt * i64::from(ui)) >> 30;
-                }
-            }
+        // Clamped to ±½ rad (half angle) per step, far beyond any physical rate·dt.
+        let half_angle = |x: i32| (m64(x, dt_q31) >> 22).clamp(-ONE_Q30 / 2, ONE_Q30 / 2) as i32;
+        let [w0, w1, w2] = w;
+        let hw = [half_angle(w0), half_angle(w1), half_angle(w2)];
+        // Q60 accumulator (bounds in `propagate`, `grad_step`, `renormalise`).
+        let mut nq = propagate(q, hw);
+        grad_step(&mut nq, grad, beta_dt, 8);
+        grad_step(&mut nq, grad_mag, beta_mag_dt, 32);
+        if head_dt > 0 {
+            // Q30, clamped to ½ so the accumulator stays < 2^62 (see `renormalise`).
+            let t = ((head_dt * head_err) >> 30).clamp(-ONE_Q30 / 2, ONE_Q30 / 2) as i32;
+            let [q1, q2, q3, q4] = q;
+            nq[0] += m64(t, q4);
+            nq[1] += m64(t, q3);
+            nq[2] -= m64(t, q2);
+            nq[3] -= m64(t, q1);
         }
-        let s = nq
-            .iter()
-            .map(|&x| x.unsigned_abs().min(1 << 31).pow(2))
-            .fold(0u64, u64::saturating_add);
-        if s < (1 << 40) {
+        let Some(nq) = renormalise(nq) else {
             st.path = UpdatePath::Skipped;
             return st;
-        }
-        self.q = scale_rsqrt(nq.map(|x| x.clamp(-(1 << 31), 1 << 31)), s);
+        };
+        self.q = nq;
         self.time_q20 = (self.time_q20 + dt_q20).min(1 << 60);
         st
     }
@@ -648,7 +870,7 @@ impl MadgwickFixed {
         initialising: bool,
         st: &mut UpdateStatus,
     ) -> bool {
-        let c = self.c;
+        let c = &self.c;
         let mr = c.cfg.mag_rejection;
         let Some(re) = self.mag_ref else {
             self.mag_ref = Some(self.make_ref(n2, hz));
@@ -703,60 +925,47 @@ impl MadgwickFixed {
 }
 
 /// Rows of the rotation matrix R(q) (body -> NED) in Q30; row 2 is "down" in body axes.
+/// q is a unit Q30 quaternion (the filter's invariant), so every entry is ≤ ‖q‖² ≤ 1 + 1e-6
+/// in magnitude and fits (see [`down_row`]).
 fn rows(q: [i32; 4]) -> [[i32; 3]; 3] {
     let [w, x, y, z] = q;
-    let p = |a: i32, b: i32| mul30(a, b);
-    let (xx, yy, zz) = (p(x, x), p(y, y), p(z, z));
-    let (xy, xz, yz) = (p(x, y), p(x, z), p(y, z));
-    let (wx, wy, wz) = (p(w, x), p(w, y), p(w, z));
-    let s = |v: i64| sat32(v);
+    let r = |v: i64| ((v + (1 << 28)) >> 29) as i32;
     [
         [
-            s(ONE_Q30 - 2 * (yy + zz)),
-            s(2 * (xy - wz)),
-            s(2 * (xz + wy)),
+            r((1i64 << 59) - m64(y, y) - m64(z, z)),
+            r(m64(x, y) - m64(w, z)),
+            r(m64(x, z) + m64(w, y)),
         ],
         [
-            s(2 * (xy + wz)),
-            s(ONE_Q30 - 2 * (xx + zz)),
-            s(2 * (yz - wx)),
+            r(m64(x, y) + m64(w, z)),
+            r((1i64 << 59) - m64(x, x) - m64(z, z)),
+            r(m64(y, z) - m64(w, x)),
         ],
-        [
-            s(2 * (xz - wy)),
-            s(2 * (yz + wx)),
-            s(ONE_Q30 - 2 * (xx + yy)),
-        ],
+        down_row(q),
     ]
 }
 
 /// Heading-only part of a quaternion-space gradient (see the f32 version): body rate
-/// ω = 2 q* ⊗ ∇f (eq. 47), projected on the vertical, back to ½ q ⊗ (0, ω_v).
-fn project_heading(q: [i32; 4], g: [i64; 4], down: [i32; 3]) -> [i64; 4] {
-    // Scale g to a unit Q30 vector first so the products stay in range (direction is
-    // all that matters: the result is normalised again).
-    let g26 = g.map(|x| (x >> 4).clamp(i64::from(i32::MIN), i64::from(i32::MAX)));
-    let s = g26
-        .iter()
-        .map(|&x| x.unsigned_abs().pow(2))
-        .fold(0u64, u64::saturating_add);
-    if s == 0 {
-        return [0; 4];
-    }
-    let u = scale_rsqrt(g26, s).map(i64::from);
-    let [w, x, y, z] = q.map(i64::from);
-    // vector part of q* ⊗ u
-    let vx = (w * u[1] - x * u[0] - y * u[3] + z * u[2]) >> 30;
-    let vy = (w * u[2] + x * u[3] - y * u[0] - z * u[1]) >> 30;
-    let vz = (w * u[3] - x * u[2] + y * u[1] - z * u[0]) >> 30;
-    let d = down.map(i64::from);
-    let sdot = (vx * d[0] + vy * d[1] + vz * d[2]) >> 30;
-    let o = d.map(|di| (sdot * di) >> 30);
+/// ω = 2 q* ⊗ ∇f (eq. 47), projected on the vertical, back to ½ q ⊗ (0, ω_v). Keeps the
+/// gradient's scale: |gᵢ| < 2^30 and every step (products with unit Q30 factors, >> 30)
+/// is bounded by ‖g‖ < 2^31, sums of four products < 2^62.
+fn project_heading(q: [i32; 4], g: [i32; 4], down: [i32; 3]) -> [i32; 4] {
+    let [w, x, y, z] = q;
+    let [u0, u1, u2, u3] = g;
+    let s30 = |v: i64| (v >> 30) as i32;
+    // vector part of q* ⊗ g
+    let vx = s30(m64(w, u1) - m64(x, u0) - m64(y, u3) + m64(z, u2));
+    let vy = s30(m64(w, u2) + m64(x, u3) - m64(y, u0) - m64(z, u1));
+    let vz = s30(m64(w, u3) - m64(x, u2) + m64(y, u1) - m64(z, u0));
+    let [d0, d1, d2] = down;
+    let sdot = s30(m64(vx, d0) + m64(vy, d1) + m64(vz, d2));
+    let [o0, o1, o2] = down.map(|di| s30(m64(sdot, di)));
     // q ⊗ (0, o)
     [
-        (-x * o[0] - y * o[1] - z * o[2]) >> 30,
-        (w * o[0] + y * o[2] - z * o[1]) >> 30,
-        (w * o[1] - x * o[2] + z * o[0]) >> 30,
-        (w * o[2] + x * o[1] - y * o[0]) >> 30,
+        s30(-m64(x, o0) - m64(y, o1) - m64(z, o2)),
+        s30(m64(w, o0) + m64(y, o2) - m64(z, o1)),
+        s30(m64(w, o1) - m64(x, o2) + m64(z, o0)),
+        s30(m64(w, o2) + m64(x, o1) - m64(y, o0)),
     ]
 }
 
@@ -816,14 +1025,7 @@ fn quat_from_rows_q30(m: [[i32; 3]; 3]) -> [i32; 4] {
             p,
         ],
     };
-    let s = q
-        .iter()
-        .map(|&x| x.unsigned_abs().min(1 << 31).pow(2))
-        .fold(0u64, u64::saturating_add);
-    if s == 0 {
-        return [1 << 30, 0, 0, 0];
-    }
-    scale_rsqrt(q, s)
+    unit4(q.map(sat32)).map_or([1 << 30, 0, 0, 0], |(u, _)| u)
 }
 
 #[cfg(test)]
@@ -833,6 +1035,15 @@ mod tests {
 
     #[test]
     fn rsqrt_accuracy() {
+        // Every table bin, its edges and a dense sweep of M ∈ [0.25, 1).
+        let mut worst = 0f64;
+        for i in 0..=4096u64 {
+            let m = ((1u64 << 30) + i * ((3u64 << 30) / 4096)).min(u64::from(u32::MAX)) as u32;
+            let y = f64::from(rsqrt_q29(m)) / f64::from(1u32 << 29);
+            let exact = 1.0 / (f64::from(m) / 2f64.powi(32)).sqrt();
+            worst = worst.max((y / exact - 1.0).abs());
+        }
+        assert!(worst < 3e-7, "rsqrt worst relative error {worst}");
         for &s in &[
             1u64,
             2,
@@ -841,22 +1052,60 @@ mod tests {
             1000,
             123_456_789,
             1 << 40,
+            (1 << 60) - 1,
             (1 << 62) + 12345,
             u64::MAX,
         ] {
-            let (r, e, _) = rsqrt_parts(s);
-            let approx = r as f64 * 2f64.powi(e - 60);
-            let exact = 1.0 / (s as f64).sqrt();
-            assert!(
-                (approx / exact - 1.0).abs() < 1e-6,
-                "s={s} {approx} {exact}"
-            );
             let sq = isqrt(s) as f64;
+            let exact = (s as f64).sqrt();
             assert!(
-                (sq / (s as f64).sqrt() - 1.0).abs() < 1e-6 || (sq - (s as f64).sqrt()).abs() < 1.0,
-                "isqrt {s}"
+                (sq / exact - 1.0).abs() < 3e-7 || (sq - exact).abs() <= 0.5 + 1e-9,
+                "isqrt {s}: {sq} vs {exact}"
+            );
+            let v = (s.min(1 << 60) as f64).sqrt() as i64 / 2;
+            let (sq2, ratio) = sqrt_and_ratio(s, v);
+            assert_eq!(sq2, isqrt(s));
+            let want = v as f64 * 2f64.powi(30) / exact;
+            assert!(
+                (ratio as f64 - want).abs() <= 1.0 + want.abs() * 3e-7,
+                "ratio {s}"
             );
         }
+        // unit vectors of 4-vectors, including the ≥ 2^62 branch
+        for v in [
+            [1, 2, 3, 4],
+            [i32::MIN; 4],
+            [i32::MAX, 0, -5, 1 << 20],
+            [0, 0, 0, -1],
+        ] {
+            let (u, _) = unit4(v).unwrap();
+            let n: f64 = u
+                .iter()
+                .map(|&x| (f64::from(x) / 2f64.powi(30)).powi(2))
+                .sum();
+            assert!((n.sqrt() - 1.0).abs() < 3e-7, "{v:?} {u:?}");
+            let vn: f64 = v.iter().map(|&x| f64::from(x).powi(2)).sum::<f64>().sqrt();
+            for (a, b) in u.iter().zip(v) {
+                assert!((f64::from(*a) / 2f64.powi(30) - f64::from(b) / vn).abs() < 3e-7);
+            }
+        }
+    }
+
+    #[test]
+    fn renormalise_fast_and_slow_paths() {
+        for scale in [1.0f64, 1.0005, 0.9995, 1.01, 2.5, 0.3] {
+            let q = [0.5f64, -0.5, 0.5, 0.5].map(|x| (x * scale * 2f64.powi(60)) as i64);
+            let n = renormalise(q).unwrap();
+            let norm: f64 = n
+                .iter()
+                .map(|&x| (f64::from(x) / 2f64.powi(30)).powi(2))
+                .sum();
+            assert!((norm.sqrt() - 1.0).abs() < 1e-6, "{scale}: {norm}");
+            assert!(n
+                .iter()
+                .all(|&x| (f64::from(x.abs()) / 2f64.powi(30) - 0.5).abs() < 1e-6));
+        }
+        assert!(renormalise([1 << 40, 0, 0, 0]).is_none());
     }
 
     #[test]

@@ -12,6 +12,7 @@
 //! reference is b = (bx, 0, bz) with bz > 0 in the northern hemisphere.
 
 use crate::config::{Config, UpdatePath, UpdateStatus};
+use crate::quat::mat_vec;
 use crate::Quaternion;
 
 /// Standard gravity (m/s²), used by the linear-acceleration helpers.
@@ -19,6 +20,17 @@ pub const STANDARD_GRAVITY_MPS2: f32 = 9.80665;
 
 /// Longest accepted time step (s); longer (or non-positive) steps are rejected.
 pub const MAX_DT_S: f32 = 1.0;
+
+/// Bound on the earth-frame rate entering the mean used by the heading gain schedule
+/// (rad/s; the MPU-9250's largest full scale is 2000 °/s ≈ 35 rad/s).
+pub(crate) const MAX_MEAN_RATE_RPS: f32 = 64.0;
+
+/// Heading error (rad, as sin) beyond which the scale-factor heading correction runs at
+/// its full rate; below it the correction is proportional (so magnetometer noise of a
+/// degree or two is not chased at full rate).
+pub(crate) const HEADING_LINEAR_ZONE: f32 = 0.05;
+/// 1 / [`HEADING_LINEAR_ZONE`] in Q16, for the fixed-point filter.
+pub(crate) const HEADING_LINEAR_GAIN_Q16: i64 = (1 << 16) * 20;
 
 /// Madgwick AHRS in f32. See the crate docs for an example.
 #[derive(Debug, Clone)]
@@ -38,6 +50,7 @@ pub struct Madgwick {
     mag_cand_hz: f32,
     mag_cand_s: f32,
     mag_cand_valid: bool,
+    rate_lp_down_rps: f32,
     // constants derived from cfg
     cos_accel_angle: f32,
     sin_dip_tol: f32,
@@ -108,6 +121,7 @@ impl Madgwick {
             mag_cand_hz: 0.0,
             mag_cand_s: 0.0,
             mag_cand_valid: false,
+            rate_lp_down_rps: 0.0,
             cos_accel_angle: libm::cosf(cfg.accel_rejection.angle_deg.to_radians()),
             sin_dip_tol: libm::sinf(cfg.mag_rejection.dip_tol_deg.to_radians()),
         }
@@ -311,7 +325,20 @@ impl Madgwick {
         };
         let w = [gyro_rps[0] - b[0], gyro_rps[1] - b[1], gyro_rps[2] - b[2]];
 
-        let down = down_body(&q);
+        let rot = q.to_matrix(); // rows: NED axes in body coordinates
+        let down = rot[2];
+        // Mean rate about the earth vertical (NED z = down·ω) for the scale-factor
+        // heading gain schedule (`Config::gyro_scale_tol`).
+        if cfg.gyro_scale_tol > 0.0 {
+            let w_down = dot(down, w);
+            if w_down.is_finite() {
+                let k = (dt_s / cfg.gyro_scale_tau_s.max(dt_s)).clamp(0.0, 1.0);
+                let x = w_down.clamp(-MAX_MEAN_RATE_RPS, MAX_MEAN_RATE_RPS);
+                let lp = self.rate_lp_down_rps;
+                self.rate_lp_down_rps =
+                    (lp + k * (x - lp)).clamp(-MAX_MEAN_RATE_RPS, MAX_MEAN_RATE_RPS);
+            }
+        }
         let Quaternion {
             w: q1,
             x: q2,
@@ -362,12 +389,13 @@ impl Madgwick {
 
         // --- magnetometer ---------------------------------------------------------
         let mut use_mag = false;
+        let mut head_err = 0.0f32;
         if let Some(mag) = mag {
             match unit3(mag) {
                 None => st.mag_invalid = true,
                 Some((m, n2)) => {
                     // h = q ⊗ m ⊗ q* (eq. 45): the field in NED; hz = m·down.
-                    let h = q.rotate(m);
+                    let h = mat_vec(&rot, m);
                     let hz = h[2];
                     let accept = self.check_mag(n2, hz, dot(w, w), dt_s, initialising, &mut st);
                     if accept {
@@ -375,6 +403,11 @@ impl Madgwick {
                         // b = (0, √(hx²+hy²), 0, hz) (eq. 46), the earth field with
                         // zero east component; bx > 0, bz > 0 north of the equator.
                         let bx = libm::sqrtf(h[0] * h[0] + h[1] * h[1]);
+                        // Heading error of the estimate (sin, from the field's east
+                        // component), saturated to ±1 beyond HEADING_LINEAR_ZONE.
+                        if bx > 1e-6 {
+                            head_err = (h[1] / (bx * HEADING_LINEAR_ZONE)).clamp(-1.0, 1.0);
+                        }
                         let bz = hz;
                         // f_b (eq. 29) and J_b (eq. 30) with the correct 2bx, 2bz factors.
                         let f1 = 2.0 * bx * (0.5 - q3 * q3 - q4 * q4)
@@ -425,6 +458,9 @@ impl Madgwick {
         };
         let beta = ramp(cfg.beta);
         let beta_mag = ramp(cfg.beta_mag);
+        // Heading gain for the gyro scale-factor error (`Config::gyro_scale_tol`):
+        // β_head = ½·tol·|ω̄_D|, the quaternion rate of the worst-case heading drift.
+        let beta_head = 0.5 * cfg.gyro_scale_tol.max(0.0) * self.rate_lp_down_rps.abs();
         let mut qdot = [
             0.5 * (-q2 * w[0] - q3 * w[1] - q4 * w[2]),
             0.5 * (q1 * w[0] + q3 * w[2] - q4 * w[1]),
@@ -434,11 +470,26 @@ impl Madgwick {
         for (grad, beta) in [(grad, beta), (grad_mag, beta_mag)] {
             let gn2 = grad.iter().map(|g| g * g).sum::<f32>();
             if gn2 > 1e-30 && gn2.is_finite() {
-                let r = beta / libm::sqrtf(gn2);
+                // Step per update min(β·dt, ‖∇f‖/4, ½): ‖∇f‖/4 is the quaternion step that
+                // removes a small error, so a large gain·dt (start-up β with a long dt)
+                // reaches but cannot pass the minimum. Same limit as the fixed filter's
+                // `grad_step`.
+                let n = libm::sqrtf(gn2);
+                let r = (beta * dt_s).min(0.25 * n).min(0.5) / (n * dt_s);
                 for (qd, g) in qdot.iter_mut().zip(grad) {
                     *qd -= r * g;
                 }
             }
+        }
+        // Scale-factor heading correction: rotate about the earth vertical towards the
+        // magnetometer's heading, q̇ = ½ (0, 0, 0, −2·β_head·e) ⊗ q with e the saturated
+        // heading error (`head_err`, > 0 when the estimate is east of the field).
+        if use_mag && beta_head > 0.0 && head_err != 0.0 {
+            let t = beta_head * head_err;
+            qdot[0] += t * q4;
+            qdot[1] += t * q3;
+            qdot[2] -= t * q2;
+            qdot[3] -= t * q1;
         }
         let new = Quaternion::new(
             q1 + qdot[0] * dt_s,

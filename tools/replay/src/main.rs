@@ -37,6 +37,9 @@ OPTIONS:
     --mag-norm-tol FRAC         field strength tolerance (fraction)
     --mag-dip-tol DEG           dip angle tolerance
     --mag-recovery S            time a new stable field needs (while rotating) to be adopted
+    --gyro-scale-tol FRAC       gyro scale-factor tolerance behind the heading gain schedule
+                                (default 0.03; 0 = constant gains)
+    --gyro-scale-tau S          time constant of the mean vertical rate for that schedule
     --out FILE                  write q_enu_from_sensor per row (t_s,qw,qx,qy,qz); with several
                                 inputs, FILE gets the input's stem appended (FILE_stem.csv)
     -h, --help                  this text
@@ -106,6 +109,8 @@ fn parse_args(argv: &[String]) -> Result<Option<Args>, String> {
             "--mag-norm-tol" => a.cfg.mag_rejection.norm_tol = num(arg, val(arg)?)?,
             "--mag-dip-tol" => a.cfg.mag_rejection.dip_tol_deg = num(arg, val(arg)?)?,
             "--mag-recovery" => a.cfg.mag_rejection.recovery_s = num(arg, val(arg)?)?,
+            "--gyro-scale-tol" => a.cfg.gyro_scale_tol = num(arg, val(arg)?)?,
+            "--gyro-scale-tau" => a.cfg.gyro_scale_tau_s = num(arg, val(arg)?)?,
             "--out" => a.out = Some(val(arg)?),
             s if s.starts_with('-') => return Err(format!("unknown option `{s}` (see --help)")),
             s => a.files.push(s.to_string()),
