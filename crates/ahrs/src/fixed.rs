@@ -448,11 +448,11 @@ impl FixedConfig {
             bias_max_q20: float_to_q(cfg.bias.max_rps, 20),
             acc_lo: sq_u64(g * (1.0 - cfg.accel_rejection.norm_tol)),
             acc_hi: sq_u64(g * (1.0 + cfg.accel_rejection.norm_tol)),
-            cos_acc_q30: f30(libm::cosf(cfg.accel_rejection.angle_deg.to_radians())),
+            cos_acc_q30: f30(crate::quat::cos_deg(cfg.accel_rejection.angle_deg)),
             acc_recovery_q20: s_to_q20(cfg.accel_rejection.recovery_s),
             mag_lo_q16: sq_u64((1.0 - mr.norm_tol) * 256.0),
             mag_hi_q16: sq_u64((1.0 + mr.norm_tol) * 256.0),
-            sin_dip_tol_q30: f30(libm::sinf(mr.dip_tol_deg.to_radians())),
+            sin_dip_tol_q30: f30(crate::quat::sin_deg(mr.dip_tol_deg)),
             mag_recovery_q20: s_to_q20(mr.recovery_s),
             mag_min_rate_sq_q40: sq_q40(mr.recovery_min_rate_rps),
         }
@@ -712,7 +712,9 @@ impl MadgwickFixed {
                     .zip(self.bias_q20.iter_mut())
                     .zip(w)
                 {
-                    *acc = (*acc + ((k * i64::from(w)) >> 10)).clamp(-max, max);
+                    // `max(-max).min(max)`, not `clamp`: no panic path for a
+                    // misconfigured negative limit, no formatting code linked.
+                    *acc = (*acc + ((k * i64::from(w)) >> 10)).max(-max).min(max);
                     *b = sat32((*acc + (1 << 19)) >> 20);
                 }
             }

@@ -122,8 +122,8 @@ impl Madgwick {
             mag_cand_s: 0.0,
             mag_cand_valid: false,
             rate_lp_down_rps: 0.0,
-            cos_accel_angle: libm::cosf(cfg.accel_rejection.angle_deg.to_radians()),
-            sin_dip_tol: libm::sinf(cfg.mag_rejection.dip_tol_deg.to_radians()),
+            cos_accel_angle: crate::quat::cos_deg(cfg.accel_rejection.angle_deg),
+            sin_dip_tol: crate::quat::sin_deg(cfg.mag_rejection.dip_tol_deg),
         }
     }
 

@@ -218,3 +218,60 @@ pub(crate) fn mat_vec(m: &[[f32; 3]; 3], v: [f32; 3]) -> [f32; 3] {
         m[2][0] * v[0] + m[2][1] * v[1] + m[2][2] * v[2],
     ]
 }
+
+/// sin of an angle in degrees, for configuration thresholds (0°..180°;
+/// clamped to that range, NaN gives 0).
+///
+/// A Taylor series to x¹¹ on [−π/2, π/2] (error < 2e-7) instead of
+/// `libm::sinf`, whose argument reduction (`rem_pio2f`) and f64 helpers
+/// cost ~6.5 KiB of flash on a Cortex-M3 without FPU for a value computed
+/// once per configuration.
+pub(crate) fn sin_deg(deg: f32) -> f32 {
+    // sin(x) = sin(π − x): fold [90°, 180°] onto [0°, 90°].
+    let d = if deg.is_nan() {
+        0.0
+    } else {
+        deg.clamp(0.0, 180.0)
+    };
+    let d = if d > 90.0 { 180.0 - d } else { d };
+    let x = d * (core::f32::consts::PI / 180.0);
+    let x2 = x * x;
+    // Horner form of x − x³/3! + x⁵/5! − x⁷/7! + x⁹/9! − x¹¹/11!.
+    x * (1.0
+        - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0 * (1.0 - x2 / 110.0)))))
+}
+
+/// cos of an angle in degrees, for configuration thresholds (0°..180°;
+/// clamped to that range): cos(x) = sin(90° − x), with the odd symmetry of
+/// sin for x > 90°.
+pub(crate) fn cos_deg(deg: f32) -> f32 {
+    let d = if deg.is_nan() {
+        0.0
+    } else {
+        deg.clamp(0.0, 180.0)
+    };
+    if d <= 90.0 {
+        sin_deg(90.0 - d)
+    } else {
+        -sin_deg(d - 90.0)
+    }
+}
+
+#[cfg(test)]
+mod trig_tests {
+    use super::{cos_deg, sin_deg};
+
+    #[test]
+    fn config_trig_matches_libm() {
+        let mut d = 0.0f32;
+        while d <= 180.0 {
+            let r = d.to_radians();
+            assert!((sin_deg(d) - libm::sinf(r)).abs() < 1e-6, "sin {d}");
+            assert!((cos_deg(d) - libm::cosf(r)).abs() < 1e-6, "cos {d}");
+            d += 0.25;
+        }
+        assert_eq!(sin_deg(f32::NAN), 0.0);
+        assert!((cos_deg(-10.0) - 1.0).abs() < 1e-6);
+        assert!((cos_deg(400.0) + 1.0).abs() < 1e-6);
+    }
+}
