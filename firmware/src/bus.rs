@@ -1,35 +1,53 @@
-//! The I2C1 bus shared by the three chips, and its stuck-bus recovery.
+//! The I2C1 bus shared by the three chips: a small register-level master
+//! (polling, every wait bounded by a DWT timeout) and the stuck-bus
+//! recovery.
 //!
-//! The `BlockingI2c` lives in a `critical_section::Mutex`; each driver owns
-//! a zero-sized [`BusHandle`] that borrows it for one transfer. All drivers
-//! sit in the single RTIC `sensors` resource, so RTIC's priority ceiling
-//! already serialises them; the critical section only makes the static
+//! The HAL's `BlockingI2c` is not used: its transfer code (~1.5 KiB) and a
+//! bounds check that links `core::fmt` (~0.7 KiB) cost more flash than
+//! these few register sequences (RM0008 §26.3.3, with the STM32F10xx
+//! errata's 1-, 2- and N-byte read endings). Each driver owns a zero-sized
+//! [`BusHandle`]; a transfer runs in a critical section. All drivers sit in
+//! the single RTIC `sensors` resource, so RTIC's priority ceiling already
+//! serialises them; the critical section only makes the register access
 //! sound (and masks interrupts for one transfer, ≤ 0.5 ms at 400 kHz).
 
-use core::cell::RefCell;
-
-use critical_section::Mutex;
+use cortex_m::peripheral::DWT;
 use embedded_hal::delay::DelayNs;
 use embedded_hal::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Operation};
 use flight::health::{recover_bus, RecoveryError, RecoveryPins, RecoveryReport};
-use stm32f1xx_hal::i2c::{BlockingI2c, Error as HalError};
-use stm32f1xx_hal::pac::{self, I2C1};
+use stm32f1xx_hal::pac;
 
 use crate::delay::AsmDelay;
 
-/// The concrete bus type.
-pub type Bus = BlockingI2c<I2C1>;
+/// Longest wait for one bus event (a byte is 25 µs at 400 kHz; clock
+/// stretching by the chips is far shorter): 1 ms in CPU cycles.
+const TIMEOUT_CYCLES: u32 = crate::delay::CPU_HZ / 1_000;
 
-static BUS: Mutex<RefCell<Option<Bus>>> = Mutex::new(RefCell::new(None));
+/// APB1 clock (I2C1's kernel clock), MHz.
+const PCLK1_MHZ: u16 = 36;
+/// CCR for 400 kHz fast mode, duty 2:1 (t_low = 2 t_high): PCLK1 / (3 · 400 kHz).
+const CCR_FAST_400K: u16 = (1 << 15) | (PCLK1_MHZ as u32 * 1_000_000 / (3 * 400_000)) as u16;
+/// TRISE for fast mode: 300 ns · PCLK1 + 1.
+const TRISE_FAST: u16 = PCLK1_MHZ * 300 / 1_000 + 1;
 
-/// Puts the configured bus into the shared slot.
-pub fn install(bus: Bus) {
-    critical_section::with(|cs| {
-        if let Ok(mut slot) = BUS.borrow(cs).try_borrow_mut() {
-            *slot = Some(bus);
-        }
-    });
-}
+// SR1 flags.
+const SB: u16 = 1 << 0;
+const ADDR: u16 = 1 << 1;
+const BTF: u16 = 1 << 2;
+const RXNE: u16 = 1 << 6;
+const TXE: u16 = 1 << 7;
+const BERR: u16 = 1 << 8;
+const ARLO: u16 = 1 << 9;
+const AF: u16 = 1 << 10;
+const OVR: u16 = 1 << 11;
+const SR1_ERRORS: u16 = BERR | ARLO | AF | OVR;
+// CR1 bits.
+const CR1_PE: u16 = 1 << 0;
+const CR1_START: u16 = 1 << 8;
+const CR1_STOP: u16 = 1 << 9;
+const CR1_ACK: u16 = 1 << 10;
+const CR1_POS: u16 = 1 << 11;
+const CR1_SWRST: u16 = 1 << 15;
 
 /// Errors of a [`BusHandle`] transfer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
@@ -44,26 +62,9 @@ pub enum BusError {
     Arbitration,
     /// Overrun / underrun.
     Overrun,
-    /// Other peripheral error (CRC).
-    Other,
-    /// The bus is not installed or is being recovered.
-    Unavailable,
-    /// An operation sequence the STM32F1 HAL cannot do (only write, read and
-    /// write-then-read are supported; its `transaction` is unimplemented).
+    /// An operation sequence this master does not do (only write, read and
+    /// write-then-read are needed by the drivers).
     Unsupported,
-}
-
-impl From<HalError> for BusError {
-    fn from(e: HalError) -> Self {
-        match e {
-            HalError::NoAcknowledge(_) => Self::Nack,
-            HalError::Timeout => Self::Timeout,
-            HalError::Bus => Self::Bus,
-            HalError::ArbitrationLoss => Self::Arbitration,
-            HalError::Overrun => Self::Overrun,
-            _ => Self::Other,
-        }
-    }
 }
 
 impl embedded_hal::i2c::Error for BusError {
@@ -74,6 +75,224 @@ impl embedded_hal::i2c::Error for BusError {
             Self::Arbitration => ErrorKind::ArbitrationLoss,
             Self::Overrun => ErrorKind::Overrun,
             _ => ErrorKind::Other,
+        }
+    }
+}
+
+fn i2c1() -> &'static pac::i2c1::RegisterBlock {
+    // SAFETY: I2C1 is used only by this module, and only inside critical
+    // sections (`BusHandle::transaction`, `recover`, and `init` before
+    // interrupts are enabled), so accesses never interleave.
+    #[allow(unsafe_code)]
+    unsafe {
+        &*pac::I2C1::ptr()
+    }
+}
+
+/// Resets I2C1 and programs it for 400 kHz fast mode (PCLK1 = 36 MHz).
+fn configure(i2c: &pac::i2c1::RegisterBlock) {
+    // SAFETY (all raw writes below): documented register values for the
+    // 36 MHz APB1 clock (RM0008 §26.6): FREQ = 36, CCR, TRISE, then PE.
+    #[allow(unsafe_code)]
+    unsafe {
+        i2c.cr1().write(|w| w.bits(CR1_SWRST));
+        i2c.cr1().write(|w| w.bits(0));
+        i2c.cr2().write(|w| w.bits(PCLK1_MHZ));
+        i2c.ccr().write(|w| w.bits(CCR_FAST_400K));
+        i2c.trise().write(|w| w.bits(TRISE_FAST));
+        i2c.cr1().write(|w| w.bits(CR1_PE));
+    }
+}
+
+/// CRL nibble for PB6/PB7: general-purpose output, open drain, 2 MHz.
+const CRL_GPIO_OD: u32 = 0b0110;
+/// CRL nibble for PB6/PB7: alternate function, open drain, 50 MHz.
+const CRL_AF_OD: u32 = 0b1111;
+const CRL_PB67_MASK: u32 = 0xFF00_0000;
+
+fn set_pb67_mode(gpiob: &pac::gpiob::RegisterBlock, nibble: u32) {
+    // SAFETY: read-modify-write of CRL (callers hold a critical section or
+    // run in `init`); only the PB6/PB7 nibbles change.
+    #[allow(unsafe_code)]
+    gpiob.crl().modify(|r, w| unsafe {
+        w.bits((r.bits() & !CRL_PB67_MASK) | (nibble << 24) | (nibble << 28))
+    });
+}
+
+fn gpiob() -> &'static pac::gpiob::RegisterBlock {
+    // SAFETY: only PB6/PB7 are touched through this (BSRR bits, CRL
+    // nibbles), pins nothing else in the firmware uses.
+    #[allow(unsafe_code)]
+    unsafe {
+        &*pac::GPIOB::ptr()
+    }
+}
+
+/// Enables and configures I2C1 on PB6 (SCL) / PB7 (SDA), 400 kHz. Call in
+/// `init` after the clocks (APB1 = 36 MHz) and GPIOB are enabled, and
+/// before any transfer.
+pub fn init(rcc: &pac::RCC) {
+    rcc.apb1enr().modify(|_, w| w.i2c1en().set_bit());
+    rcc.apb1rstr().modify(|_, w| w.i2c1rst().set_bit());
+    rcc.apb1rstr().modify(|_, w| w.i2c1rst().clear_bit());
+    set_pb67_mode(gpiob(), CRL_AF_OD);
+    configure(i2c1());
+}
+
+/// Waits until all of `flags` are set in SR1, failing on a bus error
+/// (after generating STOP on a NACK) or after [`TIMEOUT_CYCLES`].
+#[inline(never)]
+fn wait(i2c: &pac::i2c1::RegisterBlock, flags: u16) -> Result<(), BusError> {
+    let t0 = DWT::cycle_count();
+    loop {
+        let sr1 = i2c.sr1().read().bits();
+        if sr1 & SR1_ERRORS != 0 {
+            // SAFETY: writing 0 clears the rc_w0 error flags; the other
+            // SR1 bits are read-only.
+            #[allow(unsafe_code)]
+            i2c.sr1().write(|w| unsafe { w.bits(!SR1_ERRORS) });
+            return Err(if sr1 & AF != 0 {
+                i2c.cr1().modify(|_, w| w.stop().set_bit());
+                BusError::Nack
+            } else if sr1 & ARLO != 0 {
+                BusError::Arbitration
+            } else if sr1 & BERR != 0 {
+                BusError::Bus
+            } else {
+                BusError::Overrun
+            });
+        }
+        if sr1 & flags == flags {
+            return Ok(());
+        }
+        if DWT::cycle_count().wrapping_sub(t0) > TIMEOUT_CYCLES {
+            return Err(BusError::Timeout);
+        }
+    }
+}
+
+fn cr1_set(i2c: &pac::i2c1::RegisterBlock, bits: u16) {
+    // SAFETY: sets control bits of CR1 (START/STOP/ACK/POS) as RM0008's
+    // master sequences prescribe.
+    #[allow(unsafe_code)]
+    i2c.cr1().modify(|r, w| unsafe { w.bits(r.bits() | bits) });
+}
+
+fn cr1_clear(i2c: &pac::i2c1::RegisterBlock, bits: u16) {
+    // SAFETY: as above, clearing.
+    #[allow(unsafe_code)]
+    i2c.cr1().modify(|r, w| unsafe { w.bits(r.bits() & !bits) });
+}
+
+fn read_dr(i2c: &pac::i2c1::RegisterBlock) -> u8 {
+    i2c.dr().read().bits() as u8
+}
+
+/// (Repeated) START, then the address byte; returns once ADDR is set
+/// (not yet cleared: the read endings differ in when they clear it).
+fn start(i2c: &pac::i2c1::RegisterBlock, addr_byte: u8) -> Result<(), BusError> {
+    cr1_set(i2c, CR1_START);
+    wait(i2c, SB)?;
+    // SAFETY: DR takes the 8-bit address byte.
+    #[allow(unsafe_code)]
+    i2c.dr().write(|w| unsafe { w.bits(u16::from(addr_byte)) });
+    wait(i2c, ADDR)
+}
+
+/// Clears ADDR (read SR1 then SR2).
+fn clear_addr(i2c: &pac::i2c1::RegisterBlock) {
+    let _ = i2c.sr1().read().bits();
+    let _ = i2c.sr2().read().bits();
+}
+
+/// STOP, then waits until the hardware has sent it (CR1.STOP clears).
+fn stop(i2c: &pac::i2c1::RegisterBlock) -> Result<(), BusError> {
+    cr1_set(i2c, CR1_STOP);
+    let t0 = DWT::cycle_count();
+    while i2c.cr1().read().bits() & CR1_STOP != 0 {
+        if DWT::cycle_count().wrapping_sub(t0) > TIMEOUT_CYCLES {
+            return Err(BusError::Timeout);
+        }
+    }
+    Ok(())
+}
+
+/// Master write; ends with STOP if `stop_after`, else leaves the bus held
+/// (BTF) for a repeated START.
+fn write(
+    i2c: &pac::i2c1::RegisterBlock,
+    address: u8,
+    bytes: &[u8],
+    stop_after: bool,
+) -> Result<(), BusError> {
+    start(i2c, address << 1)?;
+    clear_addr(i2c);
+    for &b in bytes {
+        wait(i2c, TXE)?;
+        // SAFETY: DR takes one data byte.
+        #[allow(unsafe_code)]
+        i2c.dr().write(|w| unsafe { w.bits(u16::from(b)) });
+    }
+    wait(i2c, BTF)?;
+    if stop_after {
+        stop(i2c)?;
+    }
+    Ok(())
+}
+
+/// Master read with STOP, using RM0008's endings for 1, 2 and ≥ 3 bytes
+/// (NACK and STOP programmed before the last byte arrives).
+fn read(i2c: &pac::i2c1::RegisterBlock, address: u8, buf: &mut [u8]) -> Result<(), BusError> {
+    let addr_byte = (address << 1) | 1;
+    match buf {
+        [] => {
+            start(i2c, addr_byte)?;
+            clear_addr(i2c);
+            stop(i2c)
+        }
+        [only] => {
+            cr1_clear(i2c, CR1_ACK | CR1_POS);
+            start(i2c, addr_byte)?;
+            clear_addr(i2c);
+            cr1_set(i2c, CR1_STOP);
+            wait(i2c, RXNE)?;
+            *only = read_dr(i2c);
+            Ok(())
+        }
+        [first, second] => {
+            cr1_set(i2c, CR1_ACK | CR1_POS);
+            let r = (|| {
+                start(i2c, addr_byte)?;
+                clear_addr(i2c);
+                cr1_clear(i2c, CR1_ACK);
+                wait(i2c, BTF)?;
+                cr1_set(i2c, CR1_STOP);
+                *first = read_dr(i2c);
+                *second = read_dr(i2c);
+                Ok(())
+            })();
+            cr1_clear(i2c, CR1_POS);
+            r
+        }
+        [head @ .., n2, n1, n0] => {
+            cr1_clear(i2c, CR1_POS);
+            cr1_set(i2c, CR1_ACK);
+            start(i2c, addr_byte)?;
+            clear_addr(i2c);
+            for b in head {
+                wait(i2c, RXNE)?;
+                *b = read_dr(i2c);
+            }
+            // Data N−2 in DR, N−1 in the shift register.
+            wait(i2c, BTF)?;
+            cr1_clear(i2c, CR1_ACK);
+            *n2 = read_dr(i2c);
+            wait(i2c, BTF)?;
+            cr1_set(i2c, CR1_STOP);
+            *n1 = read_dr(i2c);
+            wait(i2c, RXNE)?;
+            *n0 = read_dr(i2c);
+            Ok(())
         }
     }
 }
@@ -92,19 +311,23 @@ impl I2c for BusHandle {
         address: u8,
         operations: &mut [Operation<'_>],
     ) -> Result<(), BusError> {
-        critical_section::with(|cs| {
-            let mut slot = BUS
-                .borrow(cs)
-                .try_borrow_mut()
-                .map_err(|_| BusError::Unavailable)?;
-            let bus = slot.as_mut().ok_or(BusError::Unavailable)?;
+        critical_section::with(|_| {
+            let i2c = i2c1();
             let r = match operations {
-                [Operation::Write(w)] => bus.write(address, w),
-                [Operation::Read(r)] => bus.read(address, r),
-                [Operation::Write(w), Operation::Read(r)] => bus.write_read(address, w, r),
+                [Operation::Write(w)] => write(i2c, address, w, true),
+                [Operation::Read(r)] => read(i2c, address, r),
+                [Operation::Write(w), Operation::Read(r)] => {
+                    write(i2c, address, w, false).and_then(|()| read(i2c, address, r))
+                }
                 _ => return Err(BusError::Unsupported),
             };
-            r.map_err(BusError::from)
+            if r.is_err() {
+                // Leave the bus released and the next transfer a clean
+                // start: STOP (best effort), ACK/POS back to reset.
+                let _ = stop(i2c);
+                cr1_clear(i2c, CR1_ACK | CR1_POS);
+            }
+            r
         })
     }
 }
@@ -136,62 +359,23 @@ impl RecoveryPins for Pb67<'_> {
     }
 }
 
-/// CRL nibble for PB6/PB7: general-purpose output, open drain, 2 MHz.
-const CRL_GPIO_OD: u32 = 0b0110;
-/// CRL nibble for PB6/PB7: alternate function, open drain, 50 MHz (as the HAL sets it).
-const CRL_AF_OD: u32 = 0b1111;
-const CRL_PB67_MASK: u32 = 0xFF00_0000;
-
 /// Frees a stuck bus (STM32F10xx errata 2.13.7 workaround): with I2C1
 /// disabled, PB6/PB7 become open-drain GPIO, SCL is clocked until SDA is
 /// released and a STOP is generated ([`flight::health::recover_bus`]);
 /// then the pins go back to alternate function and I2C1 is reset with
-/// SWRST and re-programmed with the register values the HAL had set.
-/// Runs in a critical section (~0.2 ms).
+/// SWRST and re-programmed. Runs in a critical section (~0.2 ms).
 pub fn recover() -> Result<RecoveryReport, RecoveryError> {
     critical_section::with(|_| {
-        // SAFETY: the only owner of I2C1 and of PB6/PB7 is the `BlockingI2c`
-        // in `BUS`, which cannot run while we hold the critical section
-        // (single core, interrupts masked). We touch only I2C1's registers
-        // and GPIOB's PB6/PB7 configuration bits, restoring both before
-        // returning, so the HAL's view of them stays valid.
-        #[allow(unsafe_code)]
-        let (gpiob, i2c) = unsafe { (&*pac::GPIOB::ptr(), &*pac::I2C1::ptr()) };
-        let cr1 = i2c.cr1().read().bits();
-        let cr2 = i2c.cr2().read().bits();
-        let ccr = i2c.ccr().read().bits();
-        let trise = i2c.trise().read().bits();
-        let oar1 = i2c.oar1().read().bits();
-        i2c.cr1().modify(|_, w| w.pe().clear_bit());
-
+        let (gpiob, i2c) = (gpiob(), i2c1());
+        cr1_clear(i2c, CR1_PE);
         let mut pins = Pb67 { gpiob };
         pins.set_scl(true);
         pins.set_sda(true);
-        // SAFETY: read-modify-write of CRL inside the critical section;
-        // only the PB6/PB7 nibbles change.
-        #[allow(unsafe_code)]
-        gpiob.crl().modify(|r, w| unsafe {
-            w.bits((r.bits() & !CRL_PB67_MASK) | (CRL_GPIO_OD << 24) | (CRL_GPIO_OD << 28))
-        });
+        set_pb67_mode(gpiob, CRL_GPIO_OD);
         let result = recover_bus(&mut pins, &mut AsmDelay);
-        #[allow(unsafe_code)]
-        gpiob.crl().modify(|r, w| unsafe {
-            w.bits((r.bits() & !CRL_PB67_MASK) | (CRL_AF_OD << 24) | (CRL_AF_OD << 28))
-        });
-
-        i2c.cr1().write(|w| w.swrst().set_bit());
+        set_pb67_mode(gpiob, CRL_AF_OD);
         AsmDelay.delay_us(2);
-        i2c.cr1().write(|w| w.swrst().clear_bit());
-        // SAFETY: restoring the exact values the HAL's init wrote.
-        #[allow(unsafe_code)]
-        unsafe {
-            i2c.cr2().write(|w| w.bits(cr2));
-            i2c.ccr().write(|w| w.bits(ccr));
-            i2c.trise().write(|w| w.bits(trise));
-            i2c.oar1().write(|w| w.bits(oar1));
-            i2c.cr1()
-                .write(|w| w.bits(cr1 & !(1 << 15) & !(1 << 9) & !(1 << 8)));
-        }
+        configure(i2c);
         result
     })
 }

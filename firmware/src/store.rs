@@ -26,7 +26,12 @@ impl CalibrationStore for FlashPage<'_> {
 
     fn read(&mut self, offset: u32, buf: &mut [u8]) -> Result<(), Error> {
         let src = self.writer.read(PAGE_OFFSET + offset, buf.len())?;
-        buf.copy_from_slice(src);
+        // Element copy, not `copy_from_slice`: the HAL returns exactly
+        // `buf.len()` bytes, and the length-mismatch panic path would link
+        // `core::fmt` (~0.7 KiB).
+        for (d, s) in buf.iter_mut().zip(src) {
+            *d = *s;
+        }
         Ok(())
     }
 

@@ -34,6 +34,12 @@ pub const G_MPS2: f32 = 9.806_65;
 const DEG_PER_RAD: f32 = 180.0 / core::f32::consts::PI;
 const RAD_PER_DEG: f32 = core::f32::consts::PI / 180.0;
 
+/// Barometer readings averaged for the take-off pressure reference (height
+/// 0): one MS5611 reading carries ~1.5 Pa (≈ 0.13 m) of noise, which a
+/// single-reading reference would turn into a constant height offset; the
+/// mean of 64 (~0.6 s at 100 Hz) cuts it eightfold.
+pub const P0_AVERAGE_SAMPLES: u16 = 64;
+
 /// Which AHRS implementation this build uses.
 pub const AHRS_KIND: &str = backend::KIND;
 
@@ -167,6 +173,10 @@ pub struct Pipeline {
     gyro_rps_per_lsb: f32,
     mag_fresh: u16,
     baro: Option<CheapBaro>,
+    /// Sum of the first pressures, Pa (the reference is their mean).
+    p0_sum_pa: i32,
+    /// Pressures summed in `p0_sum_pa`.
+    p0_n: u16,
     vertical: VerticalEstimator,
     alt_hold: AltitudeHold,
     attitude: AttitudeController,
@@ -223,6 +233,8 @@ impl Pipeline {
             gyro_rps_per_lsb,
             mag_fresh: 0,
             baro: None,
+            p0_sum_pa: 0,
+            p0_n: 0,
             vertical: VerticalEstimator::new(cfg.vertical)?,
             alt_hold: AltitudeHold::new(cfg.altitude_hold)?,
             attitude: AttitudeController::new(cfg.attitude)?,
@@ -371,21 +383,34 @@ impl Pipeline {
         self.out.mag_samples = self.out.mag_samples.wrapping_add(1);
     }
 
-    /// A barometer pressure, Pa. The first one sets the take-off reference
-    /// (height 0).
+    /// A barometer pressure, Pa. The mean of the first
+    /// [`P0_AVERAGE_SAMPLES`] readings sets the take-off reference (height
+    /// 0); the vertical estimator starts with the last of them.
     pub fn baro_step(&mut self, pressure_pa: i32) {
         if !self.cfg.altitude {
             return;
         }
         let baro = match self.baro {
             Some(b) => b,
-            None => match CheapBaro::new(pressure_pa as f32) {
-                Ok(b) => {
-                    self.baro = Some(b);
-                    b
+            None => {
+                // Integer sum: 64 readings of ≤ 2^17 Pa cannot reach 2^31;
+                // saturation only guards against nonsense input.
+                self.p0_sum_pa = self.p0_sum_pa.saturating_add(pressure_pa);
+                self.p0_n = self.p0_n.saturating_add(1);
+                if self.p0_n < P0_AVERAGE_SAMPLES {
+                    return;
                 }
-                Err(_) => return,
-            },
+                let p0_pa = self.p0_sum_pa as f32 / f32::from(self.p0_n);
+                self.p0_sum_pa = 0;
+                self.p0_n = 0;
+                match CheapBaro::new(p0_pa) {
+                    Ok(b) => {
+                        self.baro = Some(b);
+                        b
+                    }
+                    Err(_) => return,
+                }
+            }
         };
         let h = baro.height_m(pressure_pa);
         if self.vertical.update_baro(h).is_ok() {
@@ -753,6 +778,51 @@ mod tests {
         assert!(o.vertical_speed_mps.abs() < 0.3, "{o:?}");
         // Below target? no: above the 1 m target → throttle below hover.
         assert!(o.throttle < 0.5, "{o:?}");
+    }
+
+    #[test]
+    fn take_off_reference_is_the_mean_of_the_first_readings() {
+        let mut p = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
+        let p0 = 100_000;
+        // Reading noise of ±12 Pa (±1 m): the first reading alone is 12 Pa
+        // high, which a single-reading reference turns into a 1 m offset.
+        let noisy = |i: u16| p0 + if i.is_multiple_of(2) { 12 } else { -12 };
+        for i in 0..P0_AVERAGE_SAMPLES - 1 {
+            p.baro_step(noisy(i));
+        }
+        assert_eq!(p.outputs().baro_samples, 0, "no height before the mean");
+        p.baro_step(noisy(P0_AVERAGE_SAMPLES - 1));
+        assert_eq!(p.outputs().baro_samples, 1);
+        // Then the true pressure, still: the height must settle at 0, not
+        // at the −1 m the first reading would have given.
+        for i in 0..3000 {
+            if p.imu_step(&sample([0, 0, 8192], [0; 3])) {
+                p.control_step();
+            }
+            if i % 10 == 0 {
+                p.baro_step(p0);
+            }
+        }
+        let h = p.outputs().altitude_m;
+        assert!(h.abs() < 0.05, "height above the mean reference: {h} m");
+    }
+
+    #[test]
+    fn take_off_reference_ignores_a_rejected_mean() {
+        let mut p = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
+        // Nonsense pressures (negative): no reference, no height, no panic.
+        for _ in 0..2 * P0_AVERAGE_SAMPLES {
+            p.baro_step(-5);
+        }
+        assert_eq!(p.outputs().baro_samples, 0);
+        for _ in 0..P0_AVERAGE_SAMPLES {
+            p.baro_step(i32::MAX);
+        }
+        // Then real readings start a fresh mean.
+        for _ in 0..P0_AVERAGE_SAMPLES {
+            p.baro_step(100_000);
+        }
+        assert_eq!(p.outputs().baro_samples, 1);
     }
 
     #[test]
