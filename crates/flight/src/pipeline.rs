@@ -657,42 +657,42 @@ mod tests {
         assert_eq!(p.calibrate_accel_counts([i16::MIN, i16::MAX, 0])[1], 16383);
     }
 
-    #[test]
-    fn tilt_and_yaw_rate_come_out_in_body_frd() {
-        let mut p = Pipeline::new(
+    /// A pipeline with the IMU-only AHRS and default calibration.
+    fn imu_only() -> Pipeline {
+        Pipeline::new(
             PipelineConfig {
                 ahrs_mode: AhrsMode::ImuOnly,
                 ..PipelineConfig::new()
             },
             &Default::default(),
         )
-        .unwrap();
+        .unwrap()
+    }
+
+    /// Feeds `n` identical 1 kHz samples, with the control step as the
+    /// firmware schedules it.
+    fn run(p: &mut Pipeline, accel: [i16; 3], gyro: [i16; 3], n: usize) {
+        for _ in 0..n {
+            if p.imu_step(&sample(accel, gyro)) {
+                p.control_step();
+            }
+        }
+    }
+
+    #[test]
+    fn tilt_and_yaw_rate_come_out_in_body_frd() {
+        let mut p = imu_only();
         // Rolled right wing down by 30°: in FRD gravity (down) appears on +y_body
         // and the specific force (up) on −y_body, i.e. +y_mpu (y_body = −y_mpu).
         let (s, c) = (0.5f32, 0.866_025_4f32);
         let acc = [0i16, (8192.0 * s) as i16, (8192.0 * c) as i16];
-        for _ in 0..4000 {
-            if p.imu_step(&sample(acc, [0; 3])) {
-                p.control_step();
-            }
-        }
+        run(&mut p, acc, [0; 3], 4000);
         let o = p.outputs();
         assert!((o.roll_deg - 30.0).abs() < 1.0, "{o:?}");
         assert!(o.pitch_deg.abs() < 1.0, "{o:?}");
         // Yaw rate about body z (down) = −z_mpu: 32.8 counts = 1 °/s on −z_mpu.
-        let mut p = Pipeline::new(
-            PipelineConfig {
-                ahrs_mode: AhrsMode::ImuOnly,
-                ..PipelineConfig::new()
-            },
-            &Default::default(),
-        )
-        .unwrap();
-        for _ in 0..1000 {
-            if p.imu_step(&sample([0, 0, 8192], [0, 0, -328])) {
-                p.control_step();
-            }
-        }
+        let mut p = imu_only();
+        run(&mut p, [0, 0, 8192], [0, 0, -328], 1000);
         let yaw = p.outputs().yaw_deg;
         assert!(
             (yaw - 10.0).abs() < 0.5,
@@ -702,20 +702,9 @@ mod tests {
 
     #[test]
     fn gyro_bias_is_removed() {
-        let mut p = Pipeline::new(
-            PipelineConfig {
-                ahrs_mode: AhrsMode::ImuOnly,
-                ..PipelineConfig::new()
-            },
-            &Default::default(),
-        )
-        .unwrap();
+        let mut p = imu_only();
         p.set_gyro_bias_counts([0, 0, 100]);
-        for _ in 0..1000 {
-            if p.imu_step(&sample([0, 0, 8192], [0, 0, 100])) {
-                p.control_step();
-            }
-        }
+        run(&mut p, [0, 0, 8192], [0, 0, 100], 1000);
         assert!(p.outputs().yaw_deg.abs() < 0.05);
     }
 
