@@ -74,11 +74,6 @@ where
         self.i2c
     }
 
-    /// Give the bus back (same as [`release`](Self::release)).
-    pub fn destroy(self) -> I2C {
-        self.release()
-    }
-
     /// The 7-bit bus address in use.
     pub fn address(&self) -> u8 {
         self.address

@@ -113,11 +113,6 @@ where
         self.i2c
     }
 
-    /// Give the bus back (same as [`release`](Self::release)).
-    pub fn destroy(self) -> I2C {
-        self.release()
-    }
-
     /// The 7-bit bus address in use.
     pub fn address(&self) -> u8 {
         self.address
@@ -409,7 +404,7 @@ where
         }
         let n = i64::from(n);
         let mean = |s: i64| -> i16 {
-            // Round half away from zero... as floor((2s + n) / 2n): nearest, ties up.
+            // Nearest integer, ties towards +inf: floor((2s + n) / 2n).
             let m = (2 * s + n).div_euclid(2 * n);
             i16::try_from(m).unwrap_or(if m < 0 { i16::MIN } else { i16::MAX })
         };

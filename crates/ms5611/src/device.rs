@@ -50,11 +50,6 @@ where
         self.i2c
     }
 
-    /// Give the bus back (same as [`Ms5611::release`]).
-    pub fn destroy(self) -> I2C {
-        self.release()
-    }
-
     /// The configured bus address.
     pub fn address(&self) -> Address {
         self.address
