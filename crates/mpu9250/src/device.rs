@@ -1,13 +1,17 @@
 //! The bus-facing driver.
 
 use embedded_hal::delay::DelayNs;
-use embedded_hal::i2c::I2c;
+#[cfg(feature = "async")]
+use embedded_hal_async::delay::DelayNs as AsyncDelayNs;
 
 use crate::config::{Address, Config, ConfigError, InterruptConfig, Variant};
 use crate::data::{
     apply_gyro_bias, convert, parse_sample, rescale_gyro_bias, RawSample, Sample, Scale,
 };
 use crate::error::{Error, Motion};
+#[cfg(feature = "async")]
+use crate::interface::InterfaceAsync;
+use crate::interface::{Interface, SpiInterface};
 use crate::register as reg;
 
 /// Interval between PWR_MGMT_1 polls while waiting for H_RESET to clear, ms.
@@ -63,14 +67,19 @@ impl BiasCalibration {
     }
 }
 
-/// MPU-9250 driver over an [`I2c`] bus.
+/// MPU-9250 driver over an I2C bus or an SPI device ([`Interface`]).
 ///
 /// Holds the configuration, the gyro bias (raw counts at the configured gyro
 /// range) and the bypass state; all three survive [`init`](Self::init), which
 /// resets the chip and rewrites every register from them.
+///
+/// With the `async` feature, `Mpu9250Async` is the same driver over
+/// `embedded-hal-async` (every bus method is an `async fn`), generated from
+/// the same source.
+#[maybe_async_cfg::maybe(sync(keep_self), async(feature = "async"))]
 #[derive(Debug)]
-pub struct Mpu9250<I2C> {
-    i2c: I2C,
+pub struct Mpu9250<DI> {
+    bus: DI,
     address: u8,
     config: Config,
     scale: Scale,
@@ -80,10 +89,12 @@ pub struct Mpu9250<I2C> {
     initialized: bool,
 }
 
-impl<I2C, E> Mpu9250<I2C>
-where
-    I2C: I2c<Error = E>,
-{
+#[maybe_async_cfg::maybe(
+    idents(Mpu9250(sync, async = "Mpu9250Async")),
+    sync(keep_self),
+    async(feature = "async", keep_self)
+)]
+impl<DI> Mpu9250<DI> {
     /// Create the driver. No bus traffic; call [`init`](Self::init) next.
     ///
     /// ```
@@ -94,10 +105,10 @@ where
     /// assert_eq!(imu.address(), 0x68);
     /// i2c.done();
     /// ```
-    pub fn new(i2c: I2C, address: Address) -> Self {
+    pub fn new(i2c: DI, address: Address) -> Self {
         let config = Config::new();
         Self {
-            i2c,
+            bus: i2c,
             address: address.addr(),
             scale: Scale::from_config(&config),
             config,
@@ -108,12 +119,18 @@ where
         }
     }
 
-    /// Give the bus back.
-    pub fn release(self) -> I2C {
-        self.i2c
+    /// Same as [`new`](Self::new): the driver on an I2C bus at `address`.
+    pub fn new_with_i2c(i2c: DI, address: Address) -> Self {
+        Self::new(i2c, address)
     }
 
-    /// The 7-bit bus address in use.
+    /// Give the bus back (on SPI the [`SpiInterface`]; its `release` gives
+    /// the SPI device).
+    pub fn release(self) -> DI {
+        self.bus
+    }
+
+    /// The 7-bit bus address in use (meaningless on SPI).
     pub fn address(&self) -> u8 {
         self.address
     }
@@ -138,15 +155,58 @@ where
         self.bypass
     }
 
+    /// The stored gyro bias, counts at the configured gyro range (MPU frame).
+    pub fn gyro_bias(&self) -> [i16; 3] {
+        self.gyro_bias
+    }
+
+    /// The stored gyro bias in °/s.
+    pub fn gyro_bias_dps(&self) -> [f32; 3] {
+        let k = self.scale.dps_per_lsb;
+        [
+            f32::from(self.gyro_bias[0]) * k,
+            f32::from(self.gyro_bias[1]) * k,
+            f32::from(self.gyro_bias[2]) * k,
+        ]
+    }
+
+    /// Set the gyro bias, counts at the configured gyro range. It is a driver
+    /// field (never written to the chip's offset registers) and survives `init`.
+    pub fn set_gyro_bias(&mut self, bias_counts: [i16; 3]) {
+        self.gyro_bias = bias_counts;
+    }
+}
+
+#[maybe_async_cfg::maybe(
+    idents(Mpu9250(sync, async = "Mpu9250Async")),
+    sync(keep_self),
+    async(feature = "async", keep_self)
+)]
+impl<SPI> Mpu9250<SpiInterface<SPI>> {
+    /// The driver on an SPI device (mode 0 or 3). [`init`](Self::init) sets
+    /// USER_CTRL I2C_IF_DIS so the chip ignores I2C traffic; the I2C bypass is
+    /// then unavailable (reach the AK8963 through the internal I2C master).
+    pub fn new_with_spi(spi: SPI) -> Self {
+        Self::new(SpiInterface::new(spi), Address::Ad0Low)
+    }
+}
+
+#[maybe_async_cfg::maybe(
+    idents(
+        Mpu9250(sync, async = "Mpu9250Async"),
+        Interface(sync, async = "InterfaceAsync"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    ),
+    sync(keep_self),
+    async(feature = "async", keep_self)
+)]
+impl<DI, E> Mpu9250<DI>
+where
+    DI: Interface<Error = E>,
+{
     /// Read WHO_AM_I and classify it.
-    pub fn who_am_i(&mut self) -> Result<Variant, Error<E>> {
-        let id = self.read_reg(reg::WHO_AM_I)?;
-        match id {
-            reg::WHO_AM_I_MPU9250 => Ok(Variant::Mpu9250),
-            reg::WHO_AM_I_MPU9255 => Ok(Variant::Mpu9255),
-            reg::WHO_AM_I_MPU6500 => Err(Error::Mpu6500Detected),
-            other => Err(Error::WrongChipId(other)),
-        }
+    pub async fn who_am_i(&mut self) -> Result<Variant, Error<E>> {
+        classify(self.read_reg(reg::WHO_AM_I).await?)
     }
 
     /// Check the chip, reset it, configure it and read every configuration
@@ -190,7 +250,7 @@ where
     /// assert_eq!(imu.init(&mut NoopDelay::new(), &Config::default()), Ok(Variant::Mpu9250));
     /// i2c.done();
     /// ```
-    pub fn init<D: DelayNs>(
+    pub async fn init<D: DelayNs>(
         &mut self,
         delay: &mut D,
         config: &Config,
@@ -203,23 +263,24 @@ where
         self.config = *config;
         self.scale = Scale::from_config(config);
 
-        let variant = self.who_am_i()?;
+        let variant = self.who_am_i().await?;
         self.variant = Some(variant);
-        self.write_reg(reg::PWR_MGMT_1, reg::PWR_MGMT_1_H_RESET)?;
-        self.wait_reset(delay)?;
-        for (register, value) in self.config.register_values(self.bypass) {
-            self.write_reg(register, value)?;
+        self.write_reg(reg::PWR_MGMT_1, reg::PWR_MGMT_1_H_RESET)
+            .await?;
+        self.wait_reset(delay).await?;
+        for (register, value) in self.register_values() {
+            self.write_reg(register, value).await?;
         }
-        self.check_registers()?;
+        self.check_registers().await?;
         self.initialized = true;
         Ok(variant)
     }
 
-    fn wait_reset<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
+    async fn wait_reset<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
         for _ in 0..RESET_MAX_POLLS {
-            delay.delay_ms(RESET_POLL_INTERVAL_MS);
+            delay.delay_ms(RESET_POLL_INTERVAL_MS).await;
             // The chip may NACK while it reboots: that only means "not yet".
-            if let Ok(v) = self.read_reg(reg::PWR_MGMT_1) {
+            if let Ok(v) = self.read_reg(reg::PWR_MGMT_1).await {
                 if v & reg::PWR_MGMT_1_H_RESET == 0 {
                     return Ok(());
                 }
@@ -233,32 +294,53 @@ where
     /// [`set_interrupts`](Self::set_interrupts) changed). Call it periodically
     /// to detect a chip that reset itself in flight; on
     /// [`Error::ConfigMismatch`] re-run `init`.
-    pub fn verify_config(&mut self) -> Result<(), Error<E>> {
+    pub async fn verify_config(&mut self) -> Result<(), Error<E>> {
         if !self.initialized {
             return Err(Error::NotInitialized);
         }
-        self.check_registers()
+        self.check_registers().await
     }
 
-    fn check_registers(&mut self) -> Result<(), Error<E>> {
-        let expected = self.config.register_values(self.bypass);
+    /// [`Config::register_values`] with the transport's and the driver's
+    /// own USER_CTRL bits (I2C_IF_DIS on SPI).
+    fn register_values(&self) -> [(u8, u8); 10] {
+        let mut values = self.config.register_values(self.bypass);
+        for (register, value) in values.iter_mut() {
+            if *register == reg::USER_CTRL {
+                *value |= self.user_ctrl();
+            }
+        }
+        values
+    }
+
+    /// USER_CTRL bits this driver keeps set besides the configuration's.
+    fn user_ctrl(&self) -> u8 {
+        if DI::SPI {
+            reg::USER_CTRL_I2C_IF_DIS
+        } else {
+            0
+        }
+    }
+
+    async fn check_registers(&mut self) -> Result<(), Error<E>> {
+        let expected = self.register_values();
         let mut a = [0u8; 5];
-        self.read_regs(reg::SMPLRT_DIV, &mut a)?;
+        self.read_regs(reg::SMPLRT_DIV, &mut a).await?;
         compare(reg::SMPLRT_DIV, &a, &expected)?;
         let mut b = [0u8; 2];
-        self.read_regs(reg::INT_PIN_CFG, &mut b)?;
+        self.read_regs(reg::INT_PIN_CFG, &mut b).await?;
         compare(reg::INT_PIN_CFG, &b, &expected)?;
         let mut c = [0u8; 3];
-        self.read_regs(reg::USER_CTRL, &mut c)?;
+        self.read_regs(reg::USER_CTRL, &mut c).await?;
         compare(reg::USER_CTRL, &c, &expected)?;
         Ok(())
     }
 
     /// Read the 14-byte ACCEL_XOUT_H..GYRO_ZOUT_L block in one burst: counts,
     /// no bias removed, MPU sensor frame.
-    pub fn read_raw(&mut self) -> Result<RawSample, Error<E>> {
+    pub async fn read_raw(&mut self) -> Result<RawSample, Error<E>> {
         let mut buf = [0u8; reg::SAMPLE_LEN];
-        self.read_regs(reg::ACCEL_XOUT_H, &mut buf)?;
+        self.read_regs(reg::ACCEL_XOUT_H, &mut buf).await?;
         Ok(parse_sample(&buf))
     }
 
@@ -290,50 +372,30 @@ where
     /// i2c.done();
     /// # Ok::<(), mpu9250::Error<embedded_hal::i2c::ErrorKind>>(())
     /// ```
-    pub fn read(&mut self) -> Result<Sample, Error<E>> {
+    pub async fn read(&mut self) -> Result<Sample, Error<E>> {
         if !self.initialized {
             return Err(Error::NotInitialized);
         }
-        let raw = self.read_raw()?;
+        let raw = self.read_raw().await?;
         Ok(convert(&apply_gyro_bias(raw, self.gyro_bias), &self.scale))
     }
 
     /// Read one sample with the gyro bias removed, still in counts (for an
     /// integer pipeline; see [`GyroRange::lsb_per_dps_x10`](crate::GyroRange::lsb_per_dps_x10)).
-    pub fn read_raw_unbiased(&mut self) -> Result<RawSample, Error<E>> {
-        let raw = self.read_raw()?;
+    pub async fn read_raw_unbiased(&mut self) -> Result<RawSample, Error<E>> {
+        let raw = self.read_raw().await?;
         Ok(apply_gyro_bias(raw, self.gyro_bias))
-    }
-
-    /// The stored gyro bias, counts at the configured gyro range (MPU frame).
-    pub fn gyro_bias(&self) -> [i16; 3] {
-        self.gyro_bias
-    }
-
-    /// The stored gyro bias in °/s.
-    pub fn gyro_bias_dps(&self) -> [f32; 3] {
-        let k = self.scale.dps_per_lsb;
-        [
-            f32::from(self.gyro_bias[0]) * k,
-            f32::from(self.gyro_bias[1]) * k,
-            f32::from(self.gyro_bias[2]) * k,
-        ]
-    }
-
-    /// Set the gyro bias, counts at the configured gyro range. It is a driver
-    /// field (never written to the chip's offset registers) and survives `init`.
-    pub fn set_gyro_bias(&mut self, bias_counts: [i16; 3]) {
-        self.gyro_bias = bias_counts;
     }
 
     /// Average `n_samples` gyro samples at rest and store the mean as the gyro
     /// bias, with the default motion limits of [`BiasCalibration::new`].
-    pub fn calibrate_gyro_bias<D: DelayNs>(
+    pub async fn calibrate_gyro_bias<D: DelayNs>(
         &mut self,
         delay: &mut D,
         n_samples: u16,
     ) -> Result<[i16; 3], Error<E>> {
         self.calibrate_gyro_bias_with(delay, &BiasCalibration::new(n_samples))
+            .await
     }
 
     /// Average `settings.samples` raw gyro samples, one per sample period
@@ -341,7 +403,7 @@ where
     /// rounded mean as the bias. Fails with [`Error::Moved`] (bias unchanged)
     /// when any gyro axis' max − min exceeds the limit or any sample's
     /// accelerometer magnitude is outside 1 g ± the tolerance.
-    pub fn calibrate_gyro_bias_with<D: DelayNs>(
+    pub async fn calibrate_gyro_bias_with<D: DelayNs>(
         &mut self,
         delay: &mut D,
         settings: &BiasCalibration,
@@ -367,8 +429,8 @@ where
         let mut min = [i16::MAX; 3];
         let mut max = [i16::MIN; 3];
         for _ in 0..n {
-            delay.delay_us(period_us);
-            let raw = self.read_raw()?;
+            delay.delay_us(period_us).await;
+            let raw = self.read_raw().await?;
             let mag_sq: i64 = raw.accel.iter().map(|&c| i64::from(c) * i64::from(c)).sum();
             if mag_sq < lo_sq || mag_sq > hi_sq {
                 let mag = u64::try_from(mag_sq).unwrap_or(0).isqrt();
@@ -415,53 +477,73 @@ where
 
     /// Write the interrupt configuration (INT_PIN_CFG, keeping BYPASS_EN as
     /// set; then INT_ENABLE). It is kept for later `init`/`verify_config`.
-    pub fn set_interrupts(&mut self, interrupt: InterruptConfig) -> Result<(), Error<E>> {
+    pub async fn set_interrupts(&mut self, interrupt: InterruptConfig) -> Result<(), Error<E>> {
         self.config.interrupt = interrupt;
-        self.write_reg(reg::INT_PIN_CFG, interrupt.int_pin_cfg(self.bypass))?;
+        self.write_reg(reg::INT_PIN_CFG, interrupt.int_pin_cfg(self.bypass))
+            .await?;
         self.write_reg(reg::INT_ENABLE, interrupt.int_enable_bits())
+            .await
     }
 
     /// Read INT_STATUS (this clears the latched flags and, with
     /// [`IntClear::OnStatusRead`](crate::IntClear::OnStatusRead), the INT pin).
-    pub fn read_int_status(&mut self) -> Result<IntStatus, Error<E>> {
-        Ok(IntStatus(self.read_reg(reg::INT_STATUS)?))
+    pub async fn read_int_status(&mut self) -> Result<IntStatus, Error<E>> {
+        Ok(IntStatus(self.read_reg(reg::INT_STATUS).await?))
     }
 
     /// Whether a new sample is ready (reads INT_STATUS, see [`read_int_status`](Self::read_int_status)).
-    pub fn data_ready(&mut self) -> Result<bool, Error<E>> {
-        Ok(self.read_int_status()?.data_ready())
+    pub async fn data_ready(&mut self) -> Result<bool, Error<E>> {
+        Ok(self.read_int_status().await?.data_ready())
     }
 
     /// Enable or disable I2C bypass so the host reaches the AK8963 (0x0C) directly.
     ///
-    /// Enabling writes USER_CTRL = 0 (I2C_MST_EN cleared; this driver never
-    /// uses the FIFO or the I2C master) and then INT_PIN_CFG with BYPASS_EN
-    /// plus the interrupt bits of the current configuration; disabling writes
-    /// INT_PIN_CFG without BYPASS_EN. The state survives `init`.
-    pub fn set_bypass(&mut self, enable: bool) -> Result<(), Error<E>> {
+    /// Enabling writes USER_CTRL = 0 (I2C_MST_EN cleared: the bypass and the
+    /// internal I2C master exclude each other) and then INT_PIN_CFG with
+    /// BYPASS_EN plus the interrupt bits of the current configuration;
+    /// disabling writes INT_PIN_CFG without BYPASS_EN. The state survives
+    /// `init`. On SPI the bypass would connect the AK8963 to pins that carry
+    /// SPI: [`Error::BypassOnSpi`], nothing written.
+    pub async fn set_bypass(&mut self, enable: bool) -> Result<(), Error<E>> {
+        if enable && DI::SPI {
+            return Err(Error::BypassOnSpi);
+        }
         self.bypass = enable;
         if enable {
-            self.write_reg(reg::USER_CTRL, 0x00)?;
+            self.write_reg(reg::USER_CTRL, self.user_ctrl()).await?;
         }
         self.write_reg(reg::INT_PIN_CFG, self.config.interrupt.int_pin_cfg(enable))
+            .await
     }
 
-    fn write_reg(&mut self, register: u8, value: u8) -> Result<(), Error<E>> {
-        self.i2c
-            .write(self.address, &[register, value])
+    async fn write_reg(&mut self, register: u8, value: u8) -> Result<(), Error<E>> {
+        self.bus
+            .write_register(self.address, register, value)
+            .await
             .map_err(Error::Bus)
     }
 
-    fn read_reg(&mut self, register: u8) -> Result<u8, Error<E>> {
+    async fn read_reg(&mut self, register: u8) -> Result<u8, Error<E>> {
         let mut b = [0u8; 1];
-        self.read_regs(register, &mut b)?;
+        self.read_regs(register, &mut b).await?;
         Ok(b[0])
     }
 
-    fn read_regs(&mut self, start: u8, buf: &mut [u8]) -> Result<(), Error<E>> {
-        self.i2c
-            .write_read(self.address, &[start], buf)
+    async fn read_regs(&mut self, start: u8, buf: &mut [u8]) -> Result<(), Error<E>> {
+        self.bus
+            .read_registers(self.address, start, buf)
+            .await
             .map_err(Error::Bus)
+    }
+}
+
+/// The chip a WHO_AM_I value names.
+fn classify<E>(id: u8) -> Result<Variant, Error<E>> {
+    match id {
+        reg::WHO_AM_I_MPU9250 => Ok(Variant::Mpu9250),
+        reg::WHO_AM_I_MPU9255 => Ok(Variant::Mpu9255),
+        reg::WHO_AM_I_MPU6500 => Err(Error::Mpu6500Detected),
+        other => Err(Error::WrongChipId(other)),
     }
 }
 

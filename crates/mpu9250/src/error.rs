@@ -24,11 +24,11 @@ pub enum Motion {
     },
 }
 
-/// Every way a driver call can fail. `E` is the I2C bus error.
+/// Every way a driver call can fail. `E` is the bus (I2C or SPI) error.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error<E> {
-    /// The I2C bus reported an error (NACK, arbitration loss, ...).
+    /// The bus reported an error (I2C NACK, arbitration loss, SPI fault, ...).
     Bus(E),
     /// WHO_AM_I returned an id that is not an MPU-9250/9255/6500.
     WrongChipId(u8),
@@ -52,6 +52,8 @@ pub enum Error<E> {
     NotInitialized,
     /// The requested configuration is not valid; nothing was written.
     InvalidConfig(ConfigError),
+    /// The I2C bypass was asked for while the chip is on SPI.
+    BypassOnSpi,
 }
 
 impl<E> From<ConfigError> for Error<E> {
@@ -109,6 +111,9 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
             Error::Moved(m) => write!(f, "device moved during gyro calibration: {m}"),
             Error::NotInitialized => f.write_str("driver not initialised"),
             Error::InvalidConfig(e) => write!(f, "invalid configuration: {e}"),
+            Error::BypassOnSpi => {
+                f.write_str("I2C bypass requested on SPI (use the internal I2C master)")
+            }
         }
     }
 }
