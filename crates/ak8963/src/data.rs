@@ -27,6 +27,9 @@ pub struct Overflow;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Rejected {
+    /// ST1 DRDY was clear: no new measurement (only from
+    /// [`parse_status_block`]; the data bytes are stale).
+    NotReady,
     /// ST2 HOFL was set or the reading exceeds the measurement range.
     Overflow,
     /// ST2 BITM (the output width the chip used) differs from the configured
@@ -138,6 +141,39 @@ pub const fn parse_measurement(
         resolution,
         data_overrun: false,
     })
+}
+
+/// Parse the 8-byte ST1..ST2 block (ST1, HXL..HZH, ST2), as the MPU-9250's
+/// internal I2C master copies it into EXT_SENS_DATA_00..07 every sample when
+/// its slave 0 reads 8 bytes from ST1. The same checks as a direct read:
+/// DRDY clear is [`Rejected::NotReady`], then HOFL / range
+/// ([`Rejected::Overflow`]) and BITM ([`Rejected::ResolutionMismatch`]);
+/// ST1 DOR is returned as [`RawMag::data_overrun`].
+///
+/// ```
+/// use ak8963::{parse_status_block, Rejected, Resolution};
+/// let m = parse_status_block(&[0x01, 200, 0, 0x9C, 0xFF, 0, 0, 0x10], Resolution::Bits16).unwrap();
+/// assert_eq!(m.counts, [200, -100, 0]);
+/// assert_eq!(parse_status_block(&[0x00, 200, 0, 0, 0, 0, 0, 0x10], Resolution::Bits16), Err(Rejected::NotReady));
+/// ```
+pub const fn parse_status_block(
+    bytes: &[u8; reg::STATUS_BLOCK_LEN],
+    resolution: Resolution,
+) -> Result<RawMag, Rejected> {
+    let st1 = parse_st1(bytes[0]);
+    if !st1.data_ready {
+        return Err(Rejected::NotReady);
+    }
+    let measurement = [
+        bytes[1], bytes[2], bytes[3], bytes[4], bytes[5], bytes[6], bytes[7],
+    ];
+    match parse_measurement(&measurement, resolution) {
+        Ok(mut raw) => {
+            raw.data_overrun = st1.data_overrun;
+            Ok(raw)
+        }
+        Err(e) => Err(e),
+    }
 }
 
 /// Whether |X| + |Y| + |Z| (counts × sensitivity, before the factory

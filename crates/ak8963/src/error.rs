@@ -67,6 +67,7 @@ impl<E> From<Overflow> for Error<E> {
 impl<E> From<Rejected> for Error<E> {
     fn from(r: Rejected) -> Self {
         match r {
+            Rejected::NotReady => Error::NotReady,
             Rejected::Overflow => Error::Overflow,
             Rejected::ResolutionMismatch { configured } => Error::ResolutionMismatch { configured },
         }
