@@ -4,7 +4,10 @@ use embedded_hal::delay::DelayNs;
 #[cfg(feature = "async")]
 use embedded_hal_async::delay::DelayNs as AsyncDelayNs;
 
-use crate::config::{Address, Config, ConfigError, InterruptConfig, Variant};
+use crate::config::{
+    AccelBandwidth, AccelRange, Address, Config, ConfigError, GyroBandwidth, GyroRange,
+    InterruptConfig, Variant,
+};
 use crate::data::{
     apply_gyro_bias, convert, parse_sample, rescale_gyro_bias, RawSample, Sample, Scale,
 };
@@ -18,6 +21,9 @@ use crate::register as reg;
 pub const RESET_POLL_INTERVAL_MS: u32 = 10;
 /// Maximum number of PWR_MGMT_1 polls after a reset (bounds the wait to 200 ms).
 pub const RESET_MAX_POLLS: u8 = 20;
+
+/// Samples per FIFO burst read (bounds the stack buffer to 112 bytes).
+pub const FIFO_BURST_SAMPLES: usize = 8;
 
 /// INT_STATUS contents.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -84,6 +90,7 @@ pub struct Mpu9250<DI> {
     config: Config,
     scale: Scale,
     bypass: bool,
+    fifo: bool,
     gyro_bias: [i16; 3],
     variant: Option<Variant>,
     initialized: bool,
@@ -113,6 +120,7 @@ impl<DI> Mpu9250<DI> {
             scale: Scale::from_config(&config),
             config,
             bypass: false,
+            fifo: false,
             gyro_bias: [0; 3],
             variant: None,
             initialized: false,
@@ -153,6 +161,11 @@ impl<DI> Mpu9250<DI> {
     /// Whether I2C bypass (AK8963 on the host bus) is requested.
     pub fn bypass(&self) -> bool {
         self.bypass
+    }
+
+    /// Whether the FIFO records samples (see [`set_fifo`](Self::set_fifo)).
+    pub fn fifo(&self) -> bool {
+        self.fifo
     }
 
     /// The stored gyro bias, counts at the configured gyro range (MPU frame).
@@ -271,6 +284,9 @@ where
         for (register, value) in self.register_values() {
             self.write_reg(register, value).await?;
         }
+        if self.fifo {
+            self.write_reg(reg::FIFO_EN, reg::FIFO_EN_SAMPLE).await?;
+        }
         self.check_registers().await?;
         self.initialized = true;
         Ok(variant)
@@ -302,12 +318,15 @@ where
     }
 
     /// [`Config::register_values`] with the transport's and the driver's
-    /// own USER_CTRL bits (I2C_IF_DIS on SPI).
+    /// own bits: USER_CTRL I2C_IF_DIS on SPI, FIFO_EN and CONFIG FIFO_MODE
+    /// with the FIFO on.
     fn register_values(&self) -> [(u8, u8); 10] {
         let mut values = self.config.register_values(self.bypass);
         for (register, value) in values.iter_mut() {
             if *register == reg::USER_CTRL {
                 *value |= self.user_ctrl();
+            } else if *register == reg::CONFIG && self.fifo {
+                *value |= reg::CONFIG_FIFO_MODE;
             }
         }
         values
@@ -315,11 +334,14 @@ where
 
     /// USER_CTRL bits this driver keeps set besides the configuration's.
     fn user_ctrl(&self) -> u8 {
+        let mut bits = 0;
         if DI::SPI {
-            reg::USER_CTRL_I2C_IF_DIS
-        } else {
-            0
+            bits |= reg::USER_CTRL_I2C_IF_DIS;
         }
+        if self.fifo {
+            bits |= reg::USER_CTRL_FIFO_EN;
+        }
+        bits
     }
 
     async fn check_registers(&mut self) -> Result<(), Error<E>> {
@@ -333,7 +355,182 @@ where
         let mut c = [0u8; 3];
         self.read_regs(reg::USER_CTRL, &mut c).await?;
         compare(reg::USER_CTRL, &c, &expected)?;
+        if self.fifo {
+            let found = self.read_reg(reg::FIFO_EN).await?;
+            compare(
+                reg::FIFO_EN,
+                &[found],
+                &[(reg::FIFO_EN, reg::FIFO_EN_SAMPLE)],
+            )?;
+        }
         Ok(())
+    }
+
+    /// Write one configuration register and read it back.
+    async fn write_verified(&mut self, register: u8, value: u8) -> Result<(), Error<E>> {
+        self.write_reg(register, value).await?;
+        let found = self.read_reg(register).await?;
+        compare(register, &[found], &[(register, value)])
+    }
+
+    /// Adopt `config` after writing and verifying the one register it
+    /// changes. A bus error on the write keeps the previous configuration; a
+    /// read-back mismatch is reported with the new configuration adopted (the
+    /// chip may run it), so [`verify_config`](Self::verify_config) keeps
+    /// reporting it until a re-`init`.
+    async fn set_one(&mut self, config: Config, register: u8) -> Result<(), Error<E>> {
+        if !self.initialized {
+            return Err(Error::NotInitialized);
+        }
+        config.validate()?;
+        let previous = self.config;
+        self.config = config;
+        let value = self
+            .register_values()
+            .iter()
+            .find(|(r, _)| *r == register)
+            .map_or(0, |&(_, v)| v);
+        self.config = previous;
+        self.write_reg(register, value).await?;
+        self.gyro_bias =
+            rescale_gyro_bias(self.gyro_bias, self.config.gyro_range, config.gyro_range);
+        self.config = config;
+        self.scale = Scale::from_config(&config);
+        let found = self.read_reg(register).await?;
+        compare(register, &[found], &[(register, value)])
+    }
+
+    /// Change the accelerometer range: writes and verifies ACCEL_CONFIG only.
+    pub async fn set_accel_range(&mut self, range: AccelRange) -> Result<(), Error<E>> {
+        self.set_one(self.config.accel_range(range), reg::ACCEL_CONFIG)
+            .await
+    }
+
+    /// Change the gyroscope range: writes and verifies GYRO_CONFIG only; the
+    /// gyro bias is rescaled to keep its meaning in °/s.
+    pub async fn set_gyro_range(&mut self, range: GyroRange) -> Result<(), Error<E>> {
+        self.set_one(self.config.gyro_range(range), reg::GYRO_CONFIG)
+            .await
+    }
+
+    /// Change the gyroscope/temperature DLPF: writes and verifies CONFIG only.
+    /// A bandwidth at which a non-zero divider would be ignored is refused
+    /// before any bus traffic ([`ConfigError::DividerIgnored`]).
+    pub async fn set_gyro_bandwidth(&mut self, bandwidth: GyroBandwidth) -> Result<(), Error<E>> {
+        self.set_one(self.config.gyro_bandwidth(bandwidth), reg::CONFIG)
+            .await
+    }
+
+    /// Change the accelerometer DLPF: writes and verifies ACCEL_CONFIG2 only.
+    pub async fn set_accel_bandwidth(&mut self, bandwidth: AccelBandwidth) -> Result<(), Error<E>> {
+        self.set_one(self.config.accel_bandwidth(bandwidth), reg::ACCEL_CONFIG2)
+            .await
+    }
+
+    /// Change SMPLRT_DIV (output rate 1 kHz / (1 + divider)): writes and
+    /// verifies SMPLRT_DIV only.
+    pub async fn set_sample_rate_divider(&mut self, divider: u8) -> Result<(), Error<E>> {
+        self.set_one(self.config.sample_rate_divider(divider), reg::SMPLRT_DIV)
+            .await
+    }
+
+    /// Turn the FIFO on or off. On: every sample (accel, temperature, gyro:
+    /// the 14 bytes of [`read_raw`](Self::read_raw), in the same order) is
+    /// queued; CONFIG FIFO_MODE makes a full FIFO drop new samples rather
+    /// than overwrite old ones, so the queue never holds a torn sample.
+    /// The FIFO is emptied, then CONFIG, FIFO_EN and USER_CTRL are written
+    /// and verified. The state survives `init`. Read with
+    /// [`read_fifo`](Self::read_fifo).
+    pub async fn set_fifo(&mut self, enable: bool) -> Result<(), Error<E>> {
+        if !self.initialized {
+            return Err(Error::NotInitialized);
+        }
+        // Stop recording and empty the queue first so that no partial
+        // sample is left at the head.
+        self.write_reg(reg::FIFO_EN, 0).await?;
+        self.write_reg(
+            reg::USER_CTRL,
+            self.user_ctrl() & !reg::USER_CTRL_FIFO_EN | reg::USER_CTRL_FIFO_RST,
+        )
+        .await?;
+        self.fifo = enable;
+        let config = self
+            .register_values()
+            .iter()
+            .find(|(r, _)| *r == reg::CONFIG)
+            .map_or(0, |&(_, v)| v);
+        self.write_verified(reg::CONFIG, config).await?;
+        if enable {
+            self.write_verified(reg::USER_CTRL, self.user_ctrl())
+                .await?;
+            self.write_verified(reg::FIFO_EN, reg::FIFO_EN_SAMPLE).await
+        } else {
+            self.write_verified(reg::USER_CTRL, self.user_ctrl()).await
+        }
+    }
+
+    /// Bytes queued in the FIFO (FIFO_COUNTH/L).
+    pub async fn fifo_count(&mut self) -> Result<u16, Error<E>> {
+        let mut b = [0u8; 2];
+        self.read_regs(reg::FIFO_COUNTH, &mut b).await?;
+        Ok(u16::from_be_bytes([b[0] & reg::FIFO_COUNTH_MASK, b[1]]))
+    }
+
+    /// Empty the FIFO (FIFO recording paused, FIFO_RST, recording resumed).
+    pub async fn reset_fifo(&mut self) -> Result<(), Error<E>> {
+        self.write_reg(reg::FIFO_EN, 0).await?;
+        self.write_reg(reg::USER_CTRL, self.user_ctrl() | reg::USER_CTRL_FIFO_RST)
+            .await?;
+        self.write_reg(reg::FIFO_EN, reg::FIFO_EN_SAMPLE).await
+    }
+
+    /// Pop whole samples from the FIFO into `out` (oldest first; counts, MPU
+    /// frame, no bias removed), in bursts of whole samples. Returns how many
+    /// were stored; samples beyond `out.len()` stay queued.
+    ///
+    /// A FIFO that cannot take one more sample counts as overflowed (samples
+    /// were or are about to be dropped, as PX4 treats it), and a byte count
+    /// that is not a whole number of samples means the queue is torn: both
+    /// empty the FIFO and return [`Error::FifoOverflow`] /
+    /// [`Error::FifoMisaligned`], so a host that missed its deadline always
+    /// learns that samples were lost.
+    pub async fn read_fifo(&mut self, out: &mut [RawSample]) -> Result<usize, Error<E>> {
+        if !self.fifo {
+            return Err(Error::FifoDisabled);
+        }
+        let count_bytes = self.fifo_count().await?;
+        let sample_len = reg::SAMPLE_LEN as u16;
+        if count_bytes > reg::FIFO_SIZE - sample_len {
+            self.reset_fifo().await?;
+            return Err(Error::FifoOverflow { count_bytes });
+        }
+        if count_bytes % sample_len != 0 {
+            self.reset_fifo().await?;
+            return Err(Error::FifoMisaligned { count_bytes });
+        }
+        let wanted = usize::from(count_bytes / sample_len).min(out.len());
+        let mut buf = [0u8; FIFO_BURST_SAMPLES * reg::SAMPLE_LEN];
+        let mut stored = 0;
+        while stored < wanted {
+            let n = (wanted - stored).min(FIFO_BURST_SAMPLES);
+            let Some(bytes) = buf.get_mut(..n * reg::SAMPLE_LEN) else {
+                break;
+            };
+            // A bus error here loses the popped bytes and may leave a torn
+            // sample at the head; the next call sees the count misaligned.
+            self.read_regs(reg::FIFO_R_W, bytes).await?;
+            for (slot, sample) in out
+                .iter_mut()
+                .skip(stored)
+                .zip(bytes.chunks_exact(reg::SAMPLE_LEN))
+            {
+                if let Ok(sample) = <&[u8; reg::SAMPLE_LEN]>::try_from(sample) {
+                    *slot = parse_sample(sample);
+                }
+            }
+            stored += n;
+        }
+        Ok(stored)
     }
 
     /// Read the 14-byte ACCEL_XOUT_H..GYRO_ZOUT_L block in one burst: counts,

@@ -54,6 +54,20 @@ pub enum Error<E> {
     InvalidConfig(ConfigError),
     /// The I2C bypass was asked for while the chip is on SPI.
     BypassOnSpi,
+    /// The FIFO was read while it is off ([`set_fifo`](crate::Mpu9250::set_fifo)).
+    FifoDisabled,
+    /// The FIFO could not take another sample: samples were dropped. The
+    /// FIFO has been emptied; reading resumes with the next sample.
+    FifoOverflow {
+        /// FIFO byte count found.
+        count_bytes: u16,
+    },
+    /// The FIFO byte count was not a whole number of samples (a torn sample,
+    /// for example after a failed burst). The FIFO has been emptied.
+    FifoMisaligned {
+        /// FIFO byte count found.
+        count_bytes: u16,
+    },
 }
 
 impl<E> From<ConfigError> for Error<E> {
@@ -111,6 +125,17 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
             Error::Moved(m) => write!(f, "device moved during gyro calibration: {m}"),
             Error::NotInitialized => f.write_str("driver not initialised"),
             Error::InvalidConfig(e) => write!(f, "invalid configuration: {e}"),
+            Error::FifoDisabled => f.write_str("FIFO read while the FIFO is off"),
+            Error::FifoOverflow { count_bytes } => {
+                write!(
+                    f,
+                    "FIFO overflow at {count_bytes} bytes: samples lost, FIFO reset"
+                )
+            }
+            Error::FifoMisaligned { count_bytes } => write!(
+                f,
+                "FIFO holds {count_bytes} bytes, not whole samples: FIFO reset"
+            ),
             Error::BypassOnSpi => {
                 f.write_str("I2C bypass requested on SPI (use the internal I2C master)")
             }

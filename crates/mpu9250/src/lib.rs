@@ -70,7 +70,10 @@ pub use data::{
 };
 #[cfg(feature = "async")]
 pub use device::Mpu9250Async;
-pub use device::{BiasCalibration, IntStatus, Mpu9250, RESET_MAX_POLLS, RESET_POLL_INTERVAL_MS};
+pub use device::{
+    BiasCalibration, IntStatus, Mpu9250, FIFO_BURST_SAMPLES, RESET_MAX_POLLS,
+    RESET_POLL_INTERVAL_MS,
+};
 pub use error::{Error, Motion};
 #[cfg(feature = "async")]
 pub use interface::InterfaceAsync;
