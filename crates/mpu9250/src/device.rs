@@ -17,6 +17,13 @@ use crate::interface::InterfaceAsync;
 use crate::interface::{Interface, SpiInterface};
 use crate::register as reg;
 
+mod master;
+#[cfg(feature = "ak8963")]
+pub use master::AuxBus;
+#[cfg(all(feature = "ak8963", feature = "async"))]
+pub use master::AuxBusAsync;
+pub use master::{SlaveRead, AUX_POLL_INTERVAL_US};
+
 /// Interval between PWR_MGMT_1 polls while waiting for H_RESET to clear, ms.
 pub const RESET_POLL_INTERVAL_MS: u32 = 10;
 /// Maximum number of PWR_MGMT_1 polls after a reset (bounds the wait to 200 ms).
@@ -91,6 +98,8 @@ pub struct Mpu9250<DI> {
     scale: Scale,
     bypass: bool,
     fifo: bool,
+    master: bool,
+    slave0: Option<SlaveRead>,
     gyro_bias: [i16; 3],
     variant: Option<Variant>,
     initialized: bool,
@@ -121,6 +130,8 @@ impl<DI> Mpu9250<DI> {
             config,
             bypass: false,
             fifo: false,
+            master: false,
+            slave0: None,
             gyro_bias: [0; 3],
             variant: None,
             initialized: false,
@@ -287,6 +298,9 @@ where
         if self.fifo {
             self.write_reg(reg::FIFO_EN, reg::FIFO_EN_SAMPLE).await?;
         }
+        for (register, value) in self.master_values().into_iter().flatten() {
+            self.write_reg(register, value).await?;
+        }
         self.check_registers().await?;
         self.initialized = true;
         Ok(variant)
@@ -340,6 +354,9 @@ where
         }
         if self.fifo {
             bits |= reg::USER_CTRL_FIFO_EN;
+        }
+        if self.master {
+            bits |= reg::USER_CTRL_I2C_MST_EN;
         }
         bits
     }
@@ -704,6 +721,9 @@ where
     pub async fn set_bypass(&mut self, enable: bool) -> Result<(), Error<E>> {
         if enable && DI::SPI {
             return Err(Error::BypassOnSpi);
+        }
+        if enable && self.master {
+            return Err(Error::MasterWithBypass);
         }
         self.bypass = enable;
         if enable {

@@ -54,6 +54,17 @@ pub enum Error<E> {
     InvalidConfig(ConfigError),
     /// The I2C bypass was asked for while the chip is on SPI.
     BypassOnSpi,
+    /// The internal I2C master and the bypass were both asked for; they
+    /// exclude each other (USER_CTRL I2C_MST_EN must be 0 for the bypass).
+    MasterWithBypass,
+    /// An auxiliary-bus call while the internal I2C master is off.
+    MasterDisabled,
+    /// The chip on the auxiliary bus did not acknowledge (I2C_SLV4_NACK).
+    AuxNack,
+    /// The internal master lost arbitration on the auxiliary bus.
+    AuxLostArbitration,
+    /// Slave 4 did not finish within two sample periods plus 1 ms.
+    AuxTimeout,
     /// The FIFO was read while it is off ([`set_fifo`](crate::Mpu9250::set_fifo)).
     FifoDisabled,
     /// The FIFO could not take another sample: samples were dropped. The
@@ -83,6 +94,9 @@ impl fmt::Display for ConfigError {
                 "sample-rate divider is ignored at gyro bandwidth 250 Hz / 3600 Hz (8 kHz)",
             ),
             ConfigError::NoSamples => f.write_str("zero samples requested"),
+            ConfigError::SlaveReadLength => {
+                f.write_str("slave read length outside 1..=15 (24 for EXT_SENS_DATA)")
+            }
         }
     }
 }
@@ -125,6 +139,13 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
             Error::Moved(m) => write!(f, "device moved during gyro calibration: {m}"),
             Error::NotInitialized => f.write_str("driver not initialised"),
             Error::InvalidConfig(e) => write!(f, "invalid configuration: {e}"),
+            Error::MasterWithBypass => {
+                f.write_str("internal I2C master and bypass exclude each other")
+            }
+            Error::MasterDisabled => f.write_str("internal I2C master is off"),
+            Error::AuxNack => f.write_str("auxiliary-bus chip did not acknowledge"),
+            Error::AuxLostArbitration => f.write_str("auxiliary bus arbitration lost"),
+            Error::AuxTimeout => f.write_str("auxiliary-bus transfer did not finish"),
             Error::FifoDisabled => f.write_str("FIFO read while the FIFO is off"),
             Error::FifoOverflow { count_bytes } => {
                 write!(

@@ -68,11 +68,15 @@ pub use data::{
     apply_gyro_bias, convert, dps_to_rps, parse_sample, rescale_gyro_bias, temp_c, temp_centi_c,
     RawSample, Sample, Scale, RAD_PER_DEG, TEMP_LSB_PER_C, TEMP_OFFSET_C,
 };
+#[cfg(feature = "ak8963")]
+pub use device::AuxBus;
+#[cfg(all(feature = "ak8963", feature = "async"))]
+pub use device::AuxBusAsync;
 #[cfg(feature = "async")]
 pub use device::Mpu9250Async;
 pub use device::{
-    BiasCalibration, IntStatus, Mpu9250, FIFO_BURST_SAMPLES, RESET_MAX_POLLS,
-    RESET_POLL_INTERVAL_MS,
+    BiasCalibration, IntStatus, Mpu9250, SlaveRead, AUX_POLL_INTERVAL_US, FIFO_BURST_SAMPLES,
+    RESET_MAX_POLLS, RESET_POLL_INTERVAL_MS,
 };
 pub use error::{Error, Motion};
 #[cfg(feature = "async")]
