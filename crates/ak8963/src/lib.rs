@@ -1,5 +1,25 @@
-//! AK8963 magnetometer driver for embedded-hal 1.0 I2C (the magnetometer
-//! inside the MPU-9250, reached through the MPU-9250's I2C bypass at 0x0C).
+//! AK8963 magnetometer driver for embedded-hal 1.0 (the magnetometer inside
+//! the MPU-9250, reached through the MPU-9250's I2C bypass at 0x0C, or
+//! through its internal I2C master with any [`Interface`]); blocking or
+//! (feature `async`) async.
+//!
+//! ```no_run
+//! use embedded_hal::{delay::DelayNs, i2c::I2c};
+//! use ak8963::{Ak8963, Config, Error};
+//!
+//! fn log_field<B: I2c, D: DelayNs>(bus: B, delay: &mut D) -> Result<(), Error<B::Error>> {
+//!     let mut mag = Ak8963::new(bus); // the MPU-9250's bypass is on
+//!     mag.init(delay, &Config::default())?;
+//!     loop {
+//!         match mag.read() {
+//!             Ok(s) => { let _ = s.field_mpu_ut(); } // µT, MPU frame
+//!             Err(Error::NotReady) => {}
+//!             Err(e) => return Err(e),
+//!         }
+//!         delay.delay_ms(10);
+//!     }
+//! }
+//! ```
 //!
 //! What it does:
 //! * checks WIA (0x48), soft-resets, reads the fuse-ROM sensitivity
@@ -9,20 +29,24 @@
 //! * reads ST1 (DRDY clear → [`Error::NotReady`], nothing consumed; DOR →
 //!   [`RawMag::data_overrun`] / [`Sample::data_overrun`], data still valid),
 //!   then HXL..ST2 in one 7-byte little-endian burst (ST2 HOFL →
-//!   [`Error::Overflow`], sample dropped, next measurement unblocked);
+//!   [`Error::Overflow`], sample dropped, next measurement unblocked; ST2 BITM
+//!   not matching the configured resolution → [`Error::ResolutionMismatch`],
+//!   sample dropped);
 //! * converts counts to µT with the factory adjustment
 //!   `(ASA − 128) / 256 + 1`, then applies a hard/soft-iron correction
 //!   [`HardSoftIron`] (`M · (field − offset)`);
 //! * maps the AK8963 frame to the MPU frame ([`to_mpu_frame`]);
 //! * runs the datasheet self-test ([`Ak8963::self_test`]).
 //!
-//! Pure functions ([`parse_st1`], [`parse_measurement`], [`adjustment_factor`],
+//! Pure functions ([`parse_st1`], [`parse_measurement`], [`parse_status_block`]
+//! for the ST1..ST2 block the MPU-9250's internal master copies, [`adjustment_factor`],
 //! [`adjustment_q8`], [`ut_per_lsb`], [`convert`], [`exceeds_range`]) work
 //! without a bus (DMA or IRQ transports, integer pipelines).
 //!
 //! What it does not do: enable the MPU-9250 bypass (see
-//! `mpu9250::Mpu9250::set_bypass`), the MPU-9250's I2C-master/slave-0 path,
-//! fitting a calibration (see the `calibration` crate), SPI.
+//! `mpu9250::Mpu9250::set_bypass`) or its internal master (`mpu9250::AuxBus`
+//! implements [`Interface`] over it), fit a calibration (see the
+//! `calibration` crate), or talk SPI to a stand-alone AK8963.
 //!
 //! **Frames.** Everything here is in the AK8963 sensor frame:
 //! x_mag = y_mpu, y_mag = x_mpu, z_mag = −z_mpu (MPU-9250 datasheet §9.1).
@@ -31,7 +55,7 @@
 //! **Measurement range.** The datasheet's overflow condition is
 //! |X| + |Y| + |Z| > 4912 µT (before the factory adjustment); the chip then
 //! sets ST2 HOFL. [`parse_measurement`] treats HOFL, and a reading whose sum
-//! exceeds the range ([`exceeds_range`]), as [`Overflow`].
+//! exceeds the range ([`exceeds_range`]), as [`Rejected::Overflow`].
 //!
 //! ```
 //! use embedded_hal_mock::eh1::delay::NoopDelay;

@@ -1,4 +1,20 @@
-//! MPU-9250 accelerometer / gyroscope / temperature driver for embedded-hal 1.0 I2C.
+//! MPU-9250 accelerometer / gyroscope / temperature driver for embedded-hal 1.0:
+//! I2C or SPI, blocking or (feature `async`) async.
+//!
+//! ```no_run
+//! use embedded_hal::{delay::DelayNs, i2c::I2c};
+//! use mpu9250::{Address, Config, Error, Mpu9250};
+//!
+//! fn log_samples<B: I2c, D: DelayNs>(bus: B, delay: &mut D) -> Result<(), Error<B::Error>> {
+//!     let mut imu = Mpu9250::new(bus, Address::Ad0Low); // or Mpu9250::new_with_spi(spi)
+//!     imu.init(delay, &Config::default())?;
+//!     loop {
+//!         let s = imu.read()?; // g, °/s, °C in the MPU sensor frame
+//!         let _ = (s.accel_g, s.gyro_dps, s.temp_c);
+//!         delay.delay_ms(1);
+//!     }
+//! }
+//! ```
 //!
 //! What it does:
 //! * checks WHO_AM_I (MPU-9250 0x71, MPU-9255 0x73; the MPU-6500 0x70, which has
@@ -14,10 +30,20 @@
 //! * keeps a gyro bias in raw counts ([`Mpu9250::calibrate_gyro_bias`] with
 //!   motion rejection) that survives re-initialisation;
 //! * configures the data-ready interrupt and the I2C bypass that puts the
-//!   AK8963 (see the `ak8963` crate) on the host bus.
+//!   AK8963 (see the `ak8963` crate) on the host bus;
+//! * talks SPI ([`Mpu9250::new_with_spi`], see [`Interface`]) and, with the
+//!   `async` feature, the same API as `Mpu9250Async` over `embedded-hal-async`;
+//! * changes one setting at a time, written and read back
+//!   ([`Mpu9250::set_accel_range`] and its siblings);
+//! * queues whole samples in the FIFO ([`Mpu9250::set_fifo`],
+//!   [`Mpu9250::read_fifo`]) and reports an overflow or a torn queue as an
+//!   error after resetting it;
+//! * drives the internal I2C master ([`Mpu9250::set_i2c_master`], slave 4
+//!   single transfers, slave 0 periodic reads into EXT_SENS_DATA), the way to
+//!   the AK8963 when the chip is on SPI (`AuxBus`, feature `ak8963`).
 //!
-//! What it does not do: the FIFO, the internal I2C master, the DMP,
-//! wake-on-motion, self-test, SPI, or writing the chip's offset registers.
+//! What it does not do: the DMP, wake-on-motion, the factory self-test, or
+//! writing the chip's offset registers.
 //!
 //! **Frame**: every vector is in the MPU sensor frame (datasheet §9.1, axes
 //! printed on the package): right-handed, z out of the top face; at rest, face

@@ -1,6 +1,20 @@
 //! MS5611-01BA03 barometric pressure sensor driver (embedded-hal 1.0, I²C or
 //! SPI, blocking or async).
 //!
+//! ```no_run
+//! use embedded_hal::{delay::DelayNs, i2c::I2c};
+//! use ms5611::{Address, Error, Ms5611, Osr};
+//!
+//! fn log_pressure<B: I2c, D: DelayNs>(bus: B, delay: &mut D) -> Result<(), Error<B::Error>> {
+//!     let mut baro = Ms5611::new(bus, Address::CsbLow); // or Ms5611::new_with_spi(spi)
+//!     baro.init(delay)?;
+//!     loop {
+//!         let m = baro.measure(delay, Osr::Osr4096)?; // Pa and 0.01 °C
+//!         let _ = (m.pressure_pa, m.temperature_centi_c);
+//!     }
+//! }
+//! ```
+//!
 //! What it does:
 //!
 //! * Talks to the chip at 0x76 or 0x77 ([`Address`]): reset, PROM read with

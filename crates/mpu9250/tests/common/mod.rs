@@ -94,6 +94,8 @@ pub fn spi(ops: &[Op]) -> Vec<SpiT<u8>> {
 
 /// Run a future that never waits on anything but the mocks (which are
 /// always ready) to completion.
+// Tests run on the workspace's pinned toolchain, not the crate's MSRV.
+#[allow(clippy::incompatible_msrv)]
 pub fn block_on<F: core::future::Future>(f: F) -> F::Output {
     let mut f = core::pin::pin!(f);
     let mut cx = core::task::Context::from_waker(core::task::Waker::noop());
