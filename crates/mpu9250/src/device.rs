@@ -29,6 +29,101 @@ pub const RESET_POLL_INTERVAL_MS: u32 = 10;
 /// Maximum number of PWR_MGMT_1 polls after a reset (bounds the wait to 200 ms).
 pub const RESET_MAX_POLLS: u8 = 20;
 
+/// Samples averaged per self-test phase (the application note's 200).
+pub const SELF_TEST_SAMPLES: u16 = 200;
+/// Wait after switching the self-test on or off, ms.
+pub const SELF_TEST_SETTLE_MS: u32 = 20;
+
+/// Registers for the self-test: 1 kHz, gyro DLPF 92 Hz, ±250 °/s, accel
+/// DLPF 99 Hz, ±2 g.
+const SELF_TEST_SETUP: [(u8, u8); 5] = [
+    (reg::SMPLRT_DIV, 0),
+    (reg::CONFIG, 2),
+    (reg::GYRO_CONFIG, 0),
+    (reg::ACCEL_CONFIG2, 2),
+    (reg::ACCEL_CONFIG, 0),
+];
+
+/// Self-test outcome in counts at ±250 °/s (131 LSB/(°/s)) and ±2 g
+/// (16384 LSB/g).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SelfTest {
+    /// Mean gyro output with the self-test off.
+    pub gyro_offset_lsb: [i32; 3],
+    /// Gyro self-test response (on − off).
+    pub gyro_response_lsb: [i32; 3],
+    /// Accel self-test response (on − off).
+    pub accel_response_lsb: [i32; 3],
+    /// Factory gyro response from the self-test codes (0 = no code).
+    pub gyro_factory_lsb: [u32; 3],
+    /// Factory accel response from the self-test codes (0 = no code).
+    pub accel_factory_lsb: [u32; 3],
+}
+
+impl SelfTest {
+    /// The application note's pass criteria (see [`Mpu9250::self_test`]).
+    pub fn passed(&self) -> bool {
+        const GYRO_MIN_LSB: i64 = 60 * 131;
+        const GYRO_MAX_OFFSET_LSB: i32 = 20 * 131;
+        // 225 mg and 675 mg at 16384 LSB/g.
+        const ACCEL_MIN_LSB: i64 = 3686;
+        const ACCEL_MAX_LSB: i64 = 11059;
+        let gyro = self
+            .gyro_response_lsb
+            .iter()
+            .zip(self.gyro_factory_lsb)
+            .all(|(&r, f)| {
+                let r = i64::from(r);
+                if f == 0 {
+                    r.abs() >= GYRO_MIN_LSB
+                } else {
+                    2 * r > i64::from(f)
+                }
+            });
+        let offset = self
+            .gyro_offset_lsb
+            .iter()
+            .all(|o| o.unsigned_abs() <= GYRO_MAX_OFFSET_LSB.unsigned_abs());
+        let accel = self
+            .accel_response_lsb
+            .iter()
+            .zip(self.accel_factory_lsb)
+            .all(|(&r, f)| {
+                let r = i64::from(r);
+                let f = i64::from(f);
+                if f == 0 {
+                    (ACCEL_MIN_LSB..=ACCEL_MAX_LSB).contains(&r.abs())
+                } else {
+                    2 * r > f && 2 * r < 3 * f
+                }
+            });
+        gyro && offset && accel
+    }
+}
+
+/// Factory self-test response in LSB at the self-test ranges for a
+/// SELF_TEST_* code: `2620 × 1.01^(code − 1)`, 0 for code 0 (no trim).
+pub fn factory_trim_lsb(code: u8) -> u32 {
+    if code == 0 {
+        return 0;
+    }
+    let mut v = 2620.0f32;
+    for _ in 1..code {
+        v *= 1.01;
+    }
+    // Below 2620 × 1.01^254 ≈ 32 800: the cast cannot saturate.
+    (v + 0.5) as u32
+}
+
+fn sub3(a: [i32; 3], b: [i32; 3]) -> [i32; 3] {
+    [
+        a[0].saturating_sub(b[0]),
+        a[1].saturating_sub(b[1]),
+        a[2].saturating_sub(b[2]),
+    ]
+}
+
 /// Samples per FIFO burst read (bounds the stack buffer to 112 bytes).
 pub const FIFO_BURST_SAMPLES: usize = 8;
 
@@ -687,6 +782,93 @@ where
         let bias = [mean(sum[0]), mean(sum[1]), mean(sum[2])];
         self.gyro_bias = bias;
         Ok(bias)
+    }
+
+    /// Factory self-test (MPU-9250 self-test application note,
+    /// AN-MPU-9250A-03): at ±250 °/s / ±2 g, 1 kHz, DLPF 92 Hz / 99 Hz,
+    /// average [`SELF_TEST_SAMPLES`] samples with the self-test off and again
+    /// with it on (after [`SELF_TEST_SETTLE_MS`]); the difference on each
+    /// axis is the self-test response, compared with the factory trim
+    /// `2620 × 1.01^(code − 1)` LSB from SELF_TEST_X/Y/Z_GYRO/ACCEL. Passes when
+    /// every gyro response is above half its trim (at least 60 °/s when the
+    /// code is 0) and the gyro offset is within 20 °/s, and every accel
+    /// response is within 0.5..1.5 of its trim (225..675 mg when the code is
+    /// 0). Keep the board still while it runs (about 0.5 s).
+    ///
+    /// Afterwards the configuration registers are rewritten from the
+    /// driver's configuration and read back, also after a failure or a bus
+    /// error mid-way (the first error is returned).
+    pub async fn self_test<D: DelayNs>(&mut self, delay: &mut D) -> Result<SelfTest, Error<E>> {
+        if !self.initialized {
+            return Err(Error::NotInitialized);
+        }
+        let measured = self.self_test_measure(delay).await;
+        let mut restored = Ok(());
+        for (register, value) in self.register_values() {
+            if let Err(e) = self.write_reg(register, value).await {
+                restored = Err(e);
+            }
+        }
+        if restored.is_ok() {
+            restored = self.check_registers().await;
+        }
+        let report = measured?;
+        restored?;
+        if report.passed() {
+            Ok(report)
+        } else {
+            Err(Error::SelfTestFailed(report))
+        }
+    }
+
+    async fn self_test_measure<D: DelayNs>(&mut self, delay: &mut D) -> Result<SelfTest, Error<E>> {
+        for (register, value) in SELF_TEST_SETUP {
+            self.write_reg(register, value).await?;
+        }
+        delay.delay_ms(SELF_TEST_SETTLE_MS).await;
+        let (gyro_os, accel_os) = self.self_test_average(delay).await?;
+        self.write_reg(reg::GYRO_CONFIG, reg::SELF_TEST_XYZ).await?;
+        self.write_reg(reg::ACCEL_CONFIG, reg::SELF_TEST_XYZ)
+            .await?;
+        delay.delay_ms(SELF_TEST_SETTLE_MS).await;
+        let (gyro_st, accel_st) = self.self_test_average(delay).await?;
+        self.write_reg(reg::GYRO_CONFIG, 0).await?;
+        self.write_reg(reg::ACCEL_CONFIG, 0).await?;
+        delay.delay_ms(SELF_TEST_SETTLE_MS).await;
+        let mut gyro_code = [0u8; 3];
+        self.read_regs(reg::SELF_TEST_X_GYRO, &mut gyro_code)
+            .await?;
+        let mut accel_code = [0u8; 3];
+        self.read_regs(reg::SELF_TEST_X_ACCEL, &mut accel_code)
+            .await?;
+        Ok(SelfTest {
+            gyro_offset_lsb: gyro_os,
+            gyro_response_lsb: sub3(gyro_st, gyro_os),
+            accel_response_lsb: sub3(accel_st, accel_os),
+            gyro_factory_lsb: gyro_code.map(factory_trim_lsb),
+            accel_factory_lsb: accel_code.map(factory_trim_lsb),
+        })
+    }
+
+    /// Mean gyro and accel counts over [`SELF_TEST_SAMPLES`] samples, 1 ms apart.
+    async fn self_test_average<D: DelayNs>(
+        &mut self,
+        delay: &mut D,
+    ) -> Result<([i32; 3], [i32; 3]), Error<E>> {
+        let mut gyro = [0i32; 3];
+        let mut accel = [0i32; 3];
+        for _ in 0..SELF_TEST_SAMPLES {
+            delay.delay_ms(1).await;
+            let raw = self.read_raw().await?;
+            for (sum, v) in gyro.iter_mut().zip(raw.gyro) {
+                *sum += i32::from(v);
+            }
+            for (sum, v) in accel.iter_mut().zip(raw.accel) {
+                *sum += i32::from(v);
+            }
+        }
+        let n = i32::from(SELF_TEST_SAMPLES);
+        Ok((gyro.map(|s| s / n), accel.map(|s| s / n)))
     }
 
     /// Write the interrupt configuration (INT_PIN_CFG, keeping BYPASS_EN as

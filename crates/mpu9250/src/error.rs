@@ -52,6 +52,8 @@ pub enum Error<E> {
     NotInitialized,
     /// The requested configuration is not valid; nothing was written.
     InvalidConfig(ConfigError),
+    /// The factory self-test failed its criteria; the measurements are attached.
+    SelfTestFailed(crate::SelfTest),
     /// The I2C bypass was asked for while the chip is on SPI.
     BypassOnSpi,
     /// The internal I2C master and the bypass were both asked for; they
@@ -156,6 +158,15 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
             Error::FifoMisaligned { count_bytes } => write!(
                 f,
                 "FIFO holds {count_bytes} bytes, not whole samples: FIFO reset"
+            ),
+            Error::SelfTestFailed(r) => write!(
+                f,
+                "self-test failed: gyro response {:?} (factory {:?}, offset {:?}), accel response {:?} (factory {:?}) LSB",
+                r.gyro_response_lsb,
+                r.gyro_factory_lsb,
+                r.gyro_offset_lsb,
+                r.accel_response_lsb,
+                r.accel_factory_lsb
             ),
             Error::BypassOnSpi => {
                 f.write_str("I2C bypass requested on SPI (use the internal I2C master)")

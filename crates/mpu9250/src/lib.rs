@@ -42,8 +42,11 @@
 //!   single transfers, slave 0 periodic reads into EXT_SENS_DATA), the way to
 //!   the AK8963 when the chip is on SPI (`AuxBus`, feature `ak8963`).
 //!
-//! What it does not do: the DMP, wake-on-motion, the factory self-test, or
-//! writing the chip's offset registers.
+//! * runs the factory self-test ([`Mpu9250::self_test`]) against the trim
+//!   codes.
+//!
+//! What it does not do: the DMP, wake-on-motion, or writing the chip's
+//! offset registers.
 //!
 //! **Frame**: every vector is in the MPU sensor frame (datasheet §9.1, axes
 //! printed on the package): right-handed, z out of the top face; at rest, face
@@ -101,8 +104,9 @@ pub use device::AuxBusAsync;
 #[cfg(feature = "async")]
 pub use device::Mpu9250Async;
 pub use device::{
-    BiasCalibration, IntStatus, Mpu9250, SlaveRead, AUX_POLL_INTERVAL_US, FIFO_BURST_SAMPLES,
-    RESET_MAX_POLLS, RESET_POLL_INTERVAL_MS,
+    factory_trim_lsb, BiasCalibration, IntStatus, Mpu9250, SelfTest, SlaveRead,
+    AUX_POLL_INTERVAL_US, FIFO_BURST_SAMPLES, RESET_MAX_POLLS, RESET_POLL_INTERVAL_MS,
+    SELF_TEST_SAMPLES, SELF_TEST_SETTLE_MS,
 };
 pub use error::{Error, Motion};
 #[cfg(feature = "async")]
