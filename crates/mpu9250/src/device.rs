@@ -17,11 +17,13 @@ use crate::interface::InterfaceAsync;
 use crate::interface::{Interface, SpiInterface};
 use crate::register as reg;
 
+#[cfg(feature = "master")]
 mod master;
 #[cfg(feature = "ak8963")]
 pub use master::AuxBus;
 #[cfg(all(feature = "ak8963", feature = "async"))]
 pub use master::AuxBusAsync;
+#[cfg(feature = "master")]
 pub use master::{SlaveRead, AUX_POLL_INTERVAL_US};
 
 /// Interval between PWR_MGMT_1 polls while waiting for H_RESET to clear, ms.
@@ -61,44 +63,64 @@ pub struct SelfTest {
     pub accel_factory_lsb: [u32; 3],
 }
 
+/// Which self-test criterion failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SelfTestCheck {
+    /// Gyro response below half the factory trim (or below 60 °/s without a code).
+    GyroResponse,
+    /// Gyro output with the self-test off beyond 20 °/s.
+    GyroOffset,
+    /// Accel response outside 0.5..1.5 of the factory trim (or 225..675 mg without a code).
+    AccelResponse,
+}
+
 impl SelfTest {
-    /// The application note's pass criteria (see [`Mpu9250::self_test`]).
-    pub fn passed(&self) -> bool {
+    /// The first failing criterion and its axis (0 = x), if any (see
+    /// [`Mpu9250::self_test`]).
+    pub fn first_failure(&self) -> Option<(SelfTestCheck, u8)> {
         const GYRO_MIN_LSB: i64 = 60 * 131;
-        const GYRO_MAX_OFFSET_LSB: i32 = 20 * 131;
+        const GYRO_MAX_OFFSET_LSB: u32 = 20 * 131;
         // 225 mg and 675 mg at 16384 LSB/g.
         const ACCEL_MIN_LSB: i64 = 3686;
         const ACCEL_MAX_LSB: i64 = 11059;
-        let gyro = self
-            .gyro_response_lsb
-            .iter()
-            .zip(self.gyro_factory_lsb)
-            .all(|(&r, f)| {
-                let r = i64::from(r);
-                if f == 0 {
-                    r.abs() >= GYRO_MIN_LSB
-                } else {
-                    2 * r > i64::from(f)
-                }
-            });
-        let offset = self
-            .gyro_offset_lsb
-            .iter()
-            .all(|o| o.unsigned_abs() <= GYRO_MAX_OFFSET_LSB.unsigned_abs());
-        let accel = self
-            .accel_response_lsb
-            .iter()
-            .zip(self.accel_factory_lsb)
-            .all(|(&r, f)| {
-                let r = i64::from(r);
-                let f = i64::from(f);
-                if f == 0 {
-                    (ACCEL_MIN_LSB..=ACCEL_MAX_LSB).contains(&r.abs())
-                } else {
-                    2 * r > f && 2 * r < 3 * f
-                }
-            });
-        gyro && offset && accel
+        for axis in 0..3u8 {
+            let i = usize::from(axis);
+            let r = i64::from(self.gyro_response_lsb[i]);
+            let f = i64::from(self.gyro_factory_lsb[i]);
+            let ok = if f == 0 {
+                r.abs() >= GYRO_MIN_LSB
+            } else {
+                2 * r > f
+            };
+            if !ok {
+                return Some((SelfTestCheck::GyroResponse, axis));
+            }
+        }
+        for axis in 0..3u8 {
+            if self.gyro_offset_lsb[usize::from(axis)].unsigned_abs() > GYRO_MAX_OFFSET_LSB {
+                return Some((SelfTestCheck::GyroOffset, axis));
+            }
+        }
+        for axis in 0..3u8 {
+            let i = usize::from(axis);
+            let r = i64::from(self.accel_response_lsb[i]);
+            let f = i64::from(self.accel_factory_lsb[i]);
+            let ok = if f == 0 {
+                (ACCEL_MIN_LSB..=ACCEL_MAX_LSB).contains(&r.abs())
+            } else {
+                2 * r > f && 2 * r < 3 * f
+            };
+            if !ok {
+                return Some((SelfTestCheck::AccelResponse, axis));
+            }
+        }
+        None
+    }
+
+    /// Whether every criterion passed.
+    pub fn passed(&self) -> bool {
+        self.first_failure().is_none()
     }
 }
 
@@ -192,9 +214,12 @@ pub struct Mpu9250<DI> {
     config: Config,
     scale: Scale,
     bypass: bool,
+    #[cfg(feature = "fifo")]
     fifo: bool,
+    #[cfg(feature = "master")]
     master: bool,
-    slave0: Option<SlaveRead>,
+    #[cfg(feature = "master")]
+    slave0: Option<master::SlaveRead>,
     gyro_bias: [i16; 3],
     variant: Option<Variant>,
     initialized: bool,
@@ -224,8 +249,11 @@ impl<DI> Mpu9250<DI> {
             scale: Scale::from_config(&config),
             config,
             bypass: false,
+            #[cfg(feature = "fifo")]
             fifo: false,
+            #[cfg(feature = "master")]
             master: false,
+            #[cfg(feature = "master")]
             slave0: None,
             gyro_bias: [0; 3],
             variant: None,
@@ -270,8 +298,26 @@ impl<DI> Mpu9250<DI> {
     }
 
     /// Whether the FIFO records samples (see [`set_fifo`](Self::set_fifo)).
+    #[cfg(feature = "fifo")]
     pub fn fifo(&self) -> bool {
         self.fifo
+    }
+
+    /// FIFO on: always `false` without the `fifo` feature, so a build that
+    /// does not use the FIFO carries none of its code.
+    fn fifo_on(&self) -> bool {
+        #[cfg(feature = "fifo")]
+        return self.fifo;
+        #[cfg(not(feature = "fifo"))]
+        return false;
+    }
+
+    /// Internal I2C master on (always `false` without the `master` feature).
+    fn master_on(&self) -> bool {
+        #[cfg(feature = "master")]
+        return self.master;
+        #[cfg(not(feature = "master"))]
+        return false;
     }
 
     /// The stored gyro bias, counts at the configured gyro range (MPU frame).
@@ -390,9 +436,10 @@ where
         for (register, value) in self.register_values() {
             self.write_reg(register, value).await?;
         }
-        if self.fifo {
+        if self.fifo_on() {
             self.write_reg(reg::FIFO_EN, reg::FIFO_EN_SAMPLE).await?;
         }
+        #[cfg(feature = "master")]
         for (register, value) in self.master_values().into_iter().flatten() {
             self.write_reg(register, value).await?;
         }
@@ -434,7 +481,7 @@ where
         for (register, value) in values.iter_mut() {
             if *register == reg::USER_CTRL {
                 *value |= self.user_ctrl();
-            } else if *register == reg::CONFIG && self.fifo {
+            } else if *register == reg::CONFIG && self.fifo_on() {
                 *value |= reg::CONFIG_FIFO_MODE;
             }
         }
@@ -447,10 +494,10 @@ where
         if DI::SPI {
             bits |= reg::USER_CTRL_I2C_IF_DIS;
         }
-        if self.fifo {
+        if self.fifo_on() {
             bits |= reg::USER_CTRL_FIFO_EN;
         }
-        if self.master {
+        if self.master_on() {
             bits |= reg::USER_CTRL_I2C_MST_EN;
         }
         bits
@@ -467,7 +514,7 @@ where
         let mut c = [0u8; 3];
         self.read_regs(reg::USER_CTRL, &mut c).await?;
         compare(reg::USER_CTRL, &c, &expected)?;
-        if self.fifo {
+        if self.fifo_on() {
             let found = self.read_reg(reg::FIFO_EN).await?;
             compare(
                 reg::FIFO_EN,
@@ -479,6 +526,7 @@ where
     }
 
     /// Write one configuration register and read it back.
+    #[cfg(any(feature = "fifo", feature = "master"))]
     async fn write_verified(&mut self, register: u8, value: u8) -> Result<(), Error<E>> {
         self.write_reg(register, value).await?;
         let found = self.read_reg(register).await?;
@@ -553,6 +601,7 @@ where
     /// The FIFO is emptied, then CONFIG, FIFO_EN and USER_CTRL are written
     /// and verified. The state survives `init`. Read with
     /// [`read_fifo`](Self::read_fifo).
+    #[cfg(feature = "fifo")]
     pub async fn set_fifo(&mut self, enable: bool) -> Result<(), Error<E>> {
         if !self.initialized {
             return Err(Error::NotInitialized);
@@ -582,6 +631,7 @@ where
     }
 
     /// Bytes queued in the FIFO (FIFO_COUNTH/L).
+    #[cfg(feature = "fifo")]
     pub async fn fifo_count(&mut self) -> Result<u16, Error<E>> {
         let mut b = [0u8; 2];
         self.read_regs(reg::FIFO_COUNTH, &mut b).await?;
@@ -589,6 +639,7 @@ where
     }
 
     /// Empty the FIFO (FIFO recording paused, FIFO_RST, recording resumed).
+    #[cfg(feature = "fifo")]
     pub async fn reset_fifo(&mut self) -> Result<(), Error<E>> {
         self.write_reg(reg::FIFO_EN, 0).await?;
         self.write_reg(reg::USER_CTRL, self.user_ctrl() | reg::USER_CTRL_FIFO_RST)
@@ -606,6 +657,7 @@ where
     /// empty the FIFO and return [`Error::FifoOverflow`] /
     /// [`Error::FifoMisaligned`], so a host that missed its deadline always
     /// learns that samples were lost.
+    #[cfg(feature = "fifo")]
     pub async fn read_fifo(&mut self, out: &mut [RawSample]) -> Result<usize, Error<E>> {
         if !self.fifo {
             return Err(Error::FifoDisabled);
@@ -793,12 +845,25 @@ where
     /// every gyro response is above half its trim (at least 60 °/s when the
     /// code is 0) and the gyro offset is within 20 °/s, and every accel
     /// response is within 0.5..1.5 of its trim (225..675 mg when the code is
-    /// 0). Keep the board still while it runs (about 0.5 s).
-    ///
-    /// Afterwards the configuration registers are rewritten from the
-    /// driver's configuration and read back, also after a failure or a bus
-    /// error mid-way (the first error is returned).
+    /// 0); otherwise [`Error::SelfTestFailed`] names the first failing check
+    /// (the numbers: [`self_test_report`](Self::self_test_report)). Keep the
+    /// board still while it runs (about 0.5 s).
     pub async fn self_test<D: DelayNs>(&mut self, delay: &mut D) -> Result<SelfTest, Error<E>> {
+        let report = self.self_test_report(delay).await?;
+        match report.first_failure() {
+            None => Ok(report),
+            Some((check, axis)) => Err(Error::SelfTestFailed { check, axis }),
+        }
+    }
+
+    /// The self-test measurements of [`self_test`](Self::self_test) without
+    /// the verdict. Afterwards the configuration registers are rewritten from
+    /// the driver's configuration and read back, also after a bus error
+    /// mid-way (the first error is returned).
+    pub async fn self_test_report<D: DelayNs>(
+        &mut self,
+        delay: &mut D,
+    ) -> Result<SelfTest, Error<E>> {
         if !self.initialized {
             return Err(Error::NotInitialized);
         }
@@ -814,11 +879,7 @@ where
         }
         let report = measured?;
         restored?;
-        if report.passed() {
-            Ok(report)
-        } else {
-            Err(Error::SelfTestFailed(report))
-        }
+        Ok(report)
     }
 
     async fn self_test_measure<D: DelayNs>(&mut self, delay: &mut D) -> Result<SelfTest, Error<E>> {
@@ -904,7 +965,7 @@ where
         if enable && DI::SPI {
             return Err(Error::BypassOnSpi);
         }
-        if enable && self.master {
+        if enable && self.master_on() {
             return Err(Error::MasterWithBypass);
         }
         self.bypass = enable;

@@ -52,8 +52,14 @@ pub enum Error<E> {
     NotInitialized,
     /// The requested configuration is not valid; nothing was written.
     InvalidConfig(ConfigError),
-    /// The factory self-test failed its criteria; the measurements are attached.
-    SelfTestFailed(crate::SelfTest),
+    /// The factory self-test failed a criterion (the measurements:
+    /// [`self_test_report`](crate::Mpu9250::self_test_report)).
+    SelfTestFailed {
+        /// The first criterion that failed.
+        check: crate::SelfTestCheck,
+        /// Its axis (0 = x, 1 = y, 2 = z).
+        axis: u8,
+    },
     /// The I2C bypass was asked for while the chip is on SPI.
     BypassOnSpi,
     /// The internal I2C master and the bypass were both asked for; they
@@ -67,7 +73,7 @@ pub enum Error<E> {
     AuxLostArbitration,
     /// Slave 4 did not finish within two sample periods plus 1 ms.
     AuxTimeout,
-    /// The FIFO was read while it is off ([`set_fifo`](crate::Mpu9250::set_fifo)).
+    /// The FIFO was read while it is off (`set_fifo`, feature `fifo`).
     FifoDisabled,
     /// The FIFO could not take another sample: samples were dropped. The
     /// FIFO has been emptied; reading resumes with the next sample.
@@ -159,15 +165,9 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
                 f,
                 "FIFO holds {count_bytes} bytes, not whole samples: FIFO reset"
             ),
-            Error::SelfTestFailed(r) => write!(
-                f,
-                "self-test failed: gyro response {:?} (factory {:?}, offset {:?}), accel response {:?} (factory {:?}) LSB",
-                r.gyro_response_lsb,
-                r.gyro_factory_lsb,
-                r.gyro_offset_lsb,
-                r.accel_response_lsb,
-                r.accel_factory_lsb
-            ),
+            Error::SelfTestFailed { check, axis } => {
+                write!(f, "self-test failed: {check:?} on axis {axis}")
+            }
             Error::BypassOnSpi => {
                 f.write_str("I2C bypass requested on SPI (use the internal I2C master)")
             }

@@ -35,13 +35,13 @@
 //!   `async` feature, the same API as `Mpu9250Async` over `embedded-hal-async`;
 //! * changes one setting at a time, written and read back
 //!   ([`Mpu9250::set_accel_range`] and its siblings);
-//! * queues whole samples in the FIFO ([`Mpu9250::set_fifo`],
-//!   [`Mpu9250::read_fifo`]) and reports an overflow or a torn queue as an
-//!   error after resetting it;
-//! * drives the internal I2C master ([`Mpu9250::set_i2c_master`], slave 4
-//!   single transfers, slave 0 periodic reads into EXT_SENS_DATA), the way to
-//!   the AK8963 when the chip is on SPI (`AuxBus`, feature `ak8963`).
-//!
+//! * queues whole samples in the FIFO (`set_fifo`, `read_fifo`; feature
+//!   `fifo`) and reports an overflow or a torn queue as an error after
+//!   resetting it;
+//! * drives the internal I2C master (`set_i2c_master`, slave 4 single
+//!   transfers, slave 0 periodic reads into EXT_SENS_DATA; feature `master`),
+//!   the way to the AK8963 when the chip is on SPI (`AuxBus`, feature
+//!   `ak8963`);
 //! * runs the factory self-test ([`Mpu9250::self_test`]) against the trim
 //!   codes.
 //!
@@ -104,10 +104,12 @@ pub use device::AuxBusAsync;
 #[cfg(feature = "async")]
 pub use device::Mpu9250Async;
 pub use device::{
-    factory_trim_lsb, BiasCalibration, IntStatus, Mpu9250, SelfTest, SlaveRead,
-    AUX_POLL_INTERVAL_US, FIFO_BURST_SAMPLES, RESET_MAX_POLLS, RESET_POLL_INTERVAL_MS,
-    SELF_TEST_SAMPLES, SELF_TEST_SETTLE_MS,
+    factory_trim_lsb, BiasCalibration, IntStatus, Mpu9250, SelfTest, SelfTestCheck,
+    FIFO_BURST_SAMPLES, RESET_MAX_POLLS, RESET_POLL_INTERVAL_MS, SELF_TEST_SAMPLES,
+    SELF_TEST_SETTLE_MS,
 };
+#[cfg(feature = "master")]
+pub use device::{SlaveRead, AUX_POLL_INTERVAL_US};
 pub use error::{Error, Motion};
 #[cfg(feature = "async")]
 pub use interface::InterfaceAsync;

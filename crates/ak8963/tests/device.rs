@@ -2,50 +2,18 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use ak8963::*;
-use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
+use embedded_hal::i2c::ErrorKind;
 use embedded_hal_mock::eh1::delay::{CheckedDelay, NoopDelay, Transaction as D};
 use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
 
-const A: u8 = 0x0C;
-const NACK: ErrorKind = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
-
-/// Default-config init, bytes written out by hand from the datasheet.
-fn init_seq(asa: [u8; 3], cntl1: u8) -> Vec<T> {
-    vec![
-        T::write_read(A, vec![0x00], vec![0x48]),
-        T::write(A, vec![0x0B, 0x01]),
-        T::write_read(A, vec![0x0B], vec![0x00]),
-        T::write(A, vec![0x0A, 0x00]),
-        T::write(A, vec![0x0A, 0x0F]),
-        T::write_read(A, vec![0x10], asa.to_vec()),
-        T::write(A, vec![0x0A, 0x00]),
-        T::write(A, vec![0x0A, cntl1]),
-        T::write_read(A, vec![0x0A], vec![cntl1]),
-    ]
-}
-
-fn le(v: [i16; 3], st2: u8) -> Vec<u8> {
-    let mut b = Vec::new();
-    for x in v {
-        b.extend_from_slice(&x.to_le_bytes());
-    }
-    b.push(st2);
-    b
-}
+mod common;
+use common::*;
 
 #[track_caller]
 fn close(a: [f32; 3], b: [f32; 3]) {
     for i in 0..3 {
         assert!((a[i] - b[i]).abs() < 1e-4, "{a:?} != {b:?}");
     }
-}
-
-fn st1(v: u8) -> T {
-    T::write_read(A, vec![0x02], vec![v])
-}
-
-fn data(v: [i16; 3], st2: u8) -> T {
-    T::write_read(A, vec![0x03], le(v, st2))
 }
 
 fn inited(asa: [u8; 3], extra: Vec<T>) -> (Mock, Ak8963<Mock>) {

@@ -1,6 +1,6 @@
-//! Second-review tests: second-order compensation at 10 °C and −20 °C with
-//! independently computed expectations, ADC 0 at every OSR, recovery after
-//! faults through the public API.
+//! Faults through the public API and recovery after them (ADC 0 at every OSR,
+//! NACKs, PROM bit flips), and the second-order compensation at 10 °C and
+//! −20 °C against independently computed expectations.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, missing_docs)]
 
 use core::num::NonZeroU16;

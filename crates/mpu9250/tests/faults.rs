@@ -1,5 +1,5 @@
-//! Second-review tests: fault cases through the public API, recovery after a
-//! fault, and datasheet scale factors checked through `read`.
+//! Faults through the public API and recovery after them, and the datasheet
+//! scale factors checked through `read`.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};

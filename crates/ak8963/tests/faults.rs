@@ -1,5 +1,6 @@
-//! Second-review tests: fault cases through the public API, recovery after a
-//! fault, ASA extremes, overflow and data-ready handling.
+//! Faults through the public API and recovery after them: NACKs at every
+//! step, bursts that die half-way, failed mode changes, ASA extremes,
+//! overflow and data-ready handling.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 use ak8963::*;
