@@ -3,6 +3,8 @@
 // Tests may unwrap and panic (workspace rules).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod common;
+use common::{conversion, prom_reads};
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
 use embedded_hal_mock::eh1::delay::{CheckedDelay, NoopDelay, Transaction as D};
 use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
@@ -18,28 +20,6 @@ fn nack() -> ErrorKind {
 
 fn datasheet_prom() -> Prom {
     Prom::from_coefficients(DATASHEET_C)
-}
-
-fn be24(v: u32) -> Vec<u8> {
-    v.to_be_bytes()[1..].to_vec()
-}
-
-/// The 16 transactions of a PROM read answering `words`.
-fn prom_reads(addr: u8, words: &[u16; 8]) -> Vec<T> {
-    let mut ex = Vec::new();
-    for (i, w) in words.iter().enumerate() {
-        ex.push(T::write(addr, vec![0xA0 + 2 * i as u8]));
-        ex.push(T::read(addr, w.to_be_bytes().to_vec()));
-    }
-    ex
-}
-
-fn conversion(addr: u8, cmd: u8, value: u32) -> Vec<T> {
-    vec![
-        T::write(addr, vec![cmd]),
-        T::write(addr, vec![0x00]),
-        T::read(addr, be24(value)),
-    ]
 }
 
 #[test]

@@ -3,6 +3,8 @@
 //! −20 °C against independently computed expectations.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, missing_docs)]
 
+mod common;
+use common::{be24, conversion, prom_reads};
 use core::num::NonZeroU16;
 
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
@@ -15,27 +17,6 @@ const NACK: ErrorKind = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Data);
 
 fn prom() -> Prom {
     Prom::from_coefficients(C)
-}
-
-fn be24(v: u32) -> Vec<u8> {
-    v.to_be_bytes()[1..].to_vec()
-}
-
-fn conversion(addr: u8, cmd: u8, value: u32) -> Vec<T> {
-    vec![
-        T::write(addr, vec![cmd]),
-        T::write(addr, vec![0x00]),
-        T::read(addr, be24(value)),
-    ]
-}
-
-fn prom_reads(addr: u8, words: &[u16; 8]) -> Vec<T> {
-    let mut ex = Vec::new();
-    for (i, w) in words.iter().enumerate() {
-        ex.push(T::write(addr, vec![0xA0 + 2 * i as u8]));
-        ex.push(T::read(addr, w.to_be_bytes().to_vec()));
-    }
-    ex
 }
 
 // Expected values below were computed by hand-transcribing the datasheet

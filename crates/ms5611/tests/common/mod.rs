@@ -45,6 +45,21 @@ pub fn conversion_ops(cmd: u8, value: u32) -> Vec<Op> {
     ]
 }
 
+/// A 24-bit ADC value as the chip sends it (big-endian).
+pub fn be24(v: u32) -> Vec<u8> {
+    v.to_be_bytes()[1..].to_vec()
+}
+
+/// The 16 I2C transactions of a PROM read answering `words`.
+pub fn prom_reads(addr: u8, words: &[u16; 8]) -> Vec<I2cT> {
+    i2c(addr, &init_ops(words)[1..])
+}
+
+/// A conversion start and the ADC read answering `value`, as I2C transactions.
+pub fn conversion(addr: u8, cmd: u8, value: u32) -> Vec<I2cT> {
+    i2c(addr, &conversion_ops(cmd, value))
+}
+
 /// The ops as I2C transactions at `addr`: the answer is a separate read.
 pub fn i2c(addr: u8, ops: &[Op]) -> Vec<I2cT> {
     let mut t = Vec::new();
