@@ -35,6 +35,7 @@ pub mod mpu9250;
 pub mod ms5611;
 pub mod physics;
 pub mod rng;
+pub mod spi;
 pub mod world;
 
 pub use bus::{magnet_pass, Chip, Fault, SimBus, SimBusError, SimConfig, AK8963_ADDRESS};
@@ -42,4 +43,5 @@ pub use clock::{SimClock, SimDelay};
 pub use errors::SensorErrors;
 pub use math::{Quat, Vec3};
 pub use physics::{Environment, MagneticField, Trajectory, TruthSample};
+pub use spi::{SimSpi, SimSpiError, SpiChip};
 pub use world::{MagnetPass, Vibration};
