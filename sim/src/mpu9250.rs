@@ -33,6 +33,8 @@ pub mod reg {
     pub const PWR_MGMT_2: u8 = 0x6C;
     pub const FIFO_COUNTH: u8 = 0x72;
     pub const FIFO_COUNTL: u8 = 0x73;
+    pub const FIFO_R_W: u8 = 0x74;
+    pub const FIFO_EN: u8 = 0x23;
     pub const WHO_AM_I: u8 = 0x75;
 }
 
@@ -87,7 +89,14 @@ pub struct Mpu9250Model {
     pub who_am_i_override: Option<u8>,
     samples: u64,
     last_physical: Option<crate::world::ImuPhysical>,
+    fifo: std::collections::VecDeque<u8>,
 }
+
+/// FIFO size of the MPU-9250, bytes.
+pub const FIFO_SIZE: usize = 512;
+/// Samples produced at most when the clock jumps with the FIFO on (one more
+/// than a full FIFO of the smallest entries, 2 bytes).
+const FIFO_MAX_CATCH_UP: u64 = FIFO_SIZE as u64 / 2 + 1;
 
 impl Default for Mpu9250Model {
     fn default() -> Self {
@@ -110,6 +119,7 @@ impl Mpu9250Model {
             who_am_i_override: None,
             samples: 0,
             last_physical: None,
+            fifo: std::collections::VecDeque::with_capacity(FIFO_SIZE),
         }
     }
 
@@ -252,9 +262,50 @@ impl Mpu9250Model {
             to_i16_sat((phys.temp_c - 21.0) * TEMP_LSB_PER_C),
         );
         self.regs[reg::INT_STATUS as usize] |= 0x01;
+        self.push_fifo();
         self.last_sample_ns = Some(t_ns);
         self.last_physical = Some(phys);
         self.samples += 1;
+    }
+
+    /// Bytes queued in the FIFO.
+    pub fn fifo_len(&self) -> usize {
+        self.fifo.len()
+    }
+
+    /// Queue the enabled outputs of the sample just produced (register map,
+    /// FIFO_EN: stored in register order, accel, temperature, gyro x/y/z).
+    /// A full FIFO drops further bytes with CONFIG FIFO_MODE set and the
+    /// oldest bytes without it; either way INT_STATUS FIFO_OFLOW_INT is set.
+    fn push_fifo(&mut self) {
+        if self.regs[reg::USER_CTRL as usize] & 0x40 == 0 {
+            return;
+        }
+        let en = self.regs[reg::FIFO_EN as usize];
+        let blocks: [(u8, u8, usize); 5] = [
+            (0x08, reg::ACCEL_XOUT_H, 6),
+            (0x80, reg::TEMP_OUT_H, 2),
+            (0x40, reg::GYRO_XOUT_H, 2),
+            (0x20, reg::GYRO_XOUT_H + 2, 2),
+            (0x10, reg::GYRO_XOUT_H + 4, 2),
+        ];
+        let keep_old = self.regs[reg::CONFIG as usize] & 0x40 != 0;
+        for (bit, start, len) in blocks {
+            if en & bit == 0 {
+                continue;
+            }
+            for i in 0..len {
+                let b = self.regs[usize::from(start) + i];
+                if self.fifo.len() == FIFO_SIZE {
+                    self.regs[reg::INT_STATUS as usize] |= 0x10;
+                    if keep_old {
+                        continue;
+                    }
+                    self.fifo.pop_front();
+                }
+                self.fifo.push_back(b);
+            }
+        }
     }
 
     fn on_register_write(&mut self, r: u8, v: u8, now_ns: u64) {
@@ -272,6 +323,9 @@ impl Mpu9250Model {
             reg::USER_CTRL => {
                 if v & 0x01 != 0 {
                     self.clear_data();
+                }
+                if v & 0x04 != 0 {
+                    self.fifo.clear();
                 }
                 // FIFO_RST, I2C_MST_RST, SIG_COND_RST self-clear.
                 self.regs[r as usize] = v & !0x07;
@@ -315,6 +369,13 @@ impl Device for Mpu9250Model {
                 // Stuck output: data-ready keeps firing, the data registers keep their old values.
                 self.regs[reg::INT_STATUS as usize] |= 0x01;
                 self.last_sample_ns = Some(t);
+            } else if self.regs[reg::USER_CTRL as usize] & 0x40 != 0 {
+                // With the FIFO on every sample of the jump is queued; more
+                // than a full FIFO's worth cannot change what it holds.
+                let queued = n.min(FIFO_MAX_CATCH_UP);
+                for j in (n - queued)..n {
+                    self.produce_sample(t - (n - 1 - j) * period, world);
+                }
             } else {
                 self.produce_sample(t, world);
             }
@@ -344,7 +405,21 @@ impl Device for Mpu9250Model {
         }
         let any_read_clears = self.regs[reg::INT_PIN_CFG as usize] & 0x10 != 0;
         if r == reg::INT_STATUS || any_read_clears {
-            self.regs[reg::INT_STATUS as usize] &= !0x01;
+            self.regs[reg::INT_STATUS as usize] &= !0x11;
+        }
+        match r {
+            // Counts in bytes, 13 bits; read-only views of the queue.
+            reg::FIFO_COUNTH => {
+                self.ptr = (self.ptr + 1) & 0x7F;
+                return ((self.fifo.len() >> 8) & 0x1F) as u8;
+            }
+            reg::FIFO_COUNTL => {
+                self.ptr = (self.ptr + 1) & 0x7F;
+                return (self.fifo.len() & 0xFF) as u8;
+            }
+            // Bursts keep popping the FIFO: the address does not advance.
+            reg::FIFO_R_W => return self.fifo.pop_front().unwrap_or(0),
+            _ => {}
         }
         self.ptr = (self.ptr + 1) & 0x7F;
         v
@@ -352,6 +427,7 @@ impl Device for Mpu9250Model {
 
     fn power_on_reset(&mut self, now_ns: u64) {
         self.regs = reset_registers();
+        self.fifo.clear();
         self.sleeping = false;
         self.reset_done_ns = None;
         self.next_sample_ns = now_ns + self.sample_period_ns();

@@ -60,3 +60,37 @@ fn ms5611_over_spi_reads_the_same_prom_and_pressure() {
     assert!((a.pressure_pa - b.pressure_pa).abs() <= 2, "{a:?} {b:?}");
     assert!((a.temperature_centi_c - b.temperature_centi_c).abs() <= 1);
 }
+
+/// The model's FIFO through the real driver on SPI: whole samples in order
+/// (the newest equals the data registers), then an overflow after the host
+/// sleeps too long, detected and reset, then clean samples again.
+#[test]
+fn mpu9250_fifo_over_spi() {
+    let (clock, bus, mut delay) = rig();
+    let mut imu = ::mpu9250::Mpu9250::new_with_spi(SimSpi::new(&bus, SpiChip::Mpu9250, 1_000_000));
+    imu.init(&mut delay, &::mpu9250::Config::default()).unwrap();
+    imu.set_fifo(true).unwrap();
+    let start = bus.state().mpu.sample_count();
+    for _ in 0..10 {
+        bus.advance_to_next_mpu_sample();
+    }
+    let queued = bus.state().mpu.sample_count() - start;
+    let mut out = [::mpu9250::RawSample::default(); 40];
+    let n = imu.read_fifo(&mut out).unwrap();
+    assert_eq!(n as u64, queued);
+    assert_eq!(out[n - 1], imu.read_raw().unwrap());
+
+    // 40 samples × 14 bytes > 512: the host missed its deadline.
+    clock.advance_ns(40 * 1_000_000);
+    assert!(matches!(
+        imu.read_fifo(&mut out),
+        Err(::mpu9250::Error::FifoOverflow { .. })
+    ));
+    assert_eq!(bus.state().mpu.fifo_len(), 0);
+    for _ in 0..3 {
+        bus.advance_to_next_mpu_sample();
+    }
+    let n = imu.read_fifo(&mut out).unwrap();
+    assert!((2..=4).contains(&n), "{n}");
+    assert_eq!(out[n - 1], imu.read_raw().unwrap());
+}
