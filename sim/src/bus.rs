@@ -169,10 +169,11 @@ pub struct BusState {
 }
 
 impl BusState {
-    fn update_all(&mut self, now_ns: u64) {
+    pub(crate) fn update_all(&mut self, now_ns: u64) {
         self.mpu.update(now_ns, &mut self.world);
         self.ak.update(now_ns, &mut self.world);
         self.ms.update(now_ns, &mut self.world);
+        crate::aux_master::step(&mut self.mpu, &mut self.ak, now_ns, &mut self.world);
     }
 }
 

@@ -26,6 +26,7 @@
 //! ```
 
 pub mod ak8963;
+pub mod aux_master;
 pub mod bus;
 pub mod clock;
 pub mod device;

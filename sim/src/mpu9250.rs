@@ -90,6 +90,8 @@ pub struct Mpu9250Model {
     samples: u64,
     last_physical: Option<crate::world::ImuPhysical>,
     fifo: std::collections::VecDeque<u8>,
+    /// Sample count the internal I2C master last ran at (see `aux_master`).
+    pub(crate) master_samples_seen: u64,
 }
 
 /// FIFO size of the MPU-9250, bytes.
@@ -120,6 +122,7 @@ impl Mpu9250Model {
             samples: 0,
             last_physical: None,
             fifo: std::collections::VecDeque::with_capacity(FIFO_SIZE),
+            master_samples_seen: 0,
         }
     }
 
@@ -268,6 +271,13 @@ impl Mpu9250Model {
         self.samples += 1;
     }
 
+    /// Set a register without side effects (the internal master's results).
+    pub(crate) fn set_register(&mut self, addr: u8, v: u8) {
+        if let Some(r) = self.regs.get_mut(usize::from(addr)) {
+            *r = v;
+        }
+    }
+
     /// Bytes queued in the FIFO.
     pub fn fifo_len(&self) -> usize {
         self.fifo.len()
@@ -408,6 +418,8 @@ impl Device for Mpu9250Model {
             self.regs[reg::INT_STATUS as usize] &= !0x11;
         }
         match r {
+            // I2C_MST_STATUS flags clear when read.
+            0x36 => self.regs[0x36] = 0,
             // Counts in bytes, 13 bits; read-only views of the queue.
             reg::FIFO_COUNTH => {
                 self.ptr = (self.ptr + 1) & 0x7F;

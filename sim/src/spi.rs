@@ -61,9 +61,7 @@ impl SimSpi {
         {
             let mut guard = self.bus.state_mut();
             let s = &mut *guard;
-            s.mpu.update(now, &mut s.world);
-            s.ak.update(now, &mut s.world);
-            s.ms.update(now, &mut s.world);
+            s.update_all(now);
             let world = &mut s.world;
             let dev: &mut dyn Device = match self.chip {
                 SpiChip::Mpu9250 => &mut s.mpu,
