@@ -38,7 +38,7 @@ What runs, in order (each a separate session of the same simulated board):
 
 /// Command-line options (see `--help`).
 #[derive(Parser, Debug)]
-#[command(name = "sim", version, about = ABOUT, after_help = demo::faults::help())]
+#[command(name = "sim", version, about = ABOUT, after_help = demo::faults::help(), allow_negative_numbers = true)]
 struct Cli {
     /// The flight to simulate.
     #[arg(short, long, value_name = "NAME", default_value = "hover",
