@@ -554,3 +554,43 @@ fn write_out(
         other => other,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::{CommandFactory, Parser};
+    use proptest::prelude::*;
+
+    #[test]
+    fn the_argument_definitions_are_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    /// Option-like and value-like words.
+    fn word() -> impl Strategy<Value = String> {
+        prop_oneof![
+            Just("--duration".to_string()),
+            Just("--beta".to_string()),
+            Just("--fault".to_string()),
+            Just("--out".to_string()),
+            Just("--plot".to_string()),
+            Just("--filter".to_string()),
+            Just("-".to_string()),
+            Just("--".to_string()),
+            "-?[0-9.eE+-]{0,8}",
+            "--[a-z-]{1,14}(=[^\\x00]{0,8})?",
+            "[^\\x00]{0,12}",
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
+
+        /// Whatever the command line, parsing gives options or an error, never a panic.
+        #[test]
+        fn any_command_line_parses_or_errs(args in proptest::collection::vec(word(), 0..8)) {
+            let argv = std::iter::once("prog".to_string()).chain(args);
+            let _ = Cli::try_parse_from(argv);
+        }
+    }
+}
