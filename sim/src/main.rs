@@ -10,7 +10,7 @@
 mod demo;
 
 use clap::Parser;
-use demo::console::say;
+use demo::console::{note, say};
 use demo::output::CsvWriter;
 use demo::plot::{PlotFormat, PlotSeries};
 use demo::run::{run, RecordSink, RunOptions, RunResult, ScheduledFault};
@@ -125,18 +125,18 @@ fn main() -> ExitCode {
     let (opts, outputs) = match validate(&cli) {
         Ok(v) => v,
         Err(e) => {
-            eprintln!("sim: {e}");
+            note!("sim: {e}");
             return ExitCode::from(2);
         }
     };
     match execute(&opts, outputs) {
         Ok(()) if demo::console::stdout_failed() => {
-            eprintln!("sim: writing to stdout failed");
+            note!("sim: writing to stdout failed");
             ExitCode::FAILURE
         }
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("sim: {e}");
+            note!("sim: {e}");
             ExitCode::FAILURE
         }
     }
@@ -324,6 +324,12 @@ fn print_summary(opts: &RunOptions, r: &RunResult) {
         opts.duration_s,
         s.wall_s
     );
+    if s.missed > 0 {
+        say!(
+            "{} data-ready interrupts without a sample (the IMU read failed)",
+            s.missed
+        );
+    }
 }
 
 fn print_calibrations(opts: &RunOptions, r: &RunResult) {

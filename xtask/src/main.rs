@@ -74,6 +74,15 @@ fn main() -> ExitCode {
     }
 }
 
+/// `println!` without the panic on a closed stdout (`cargo xtask size | head`):
+/// output stops, the command's result still decides the exit status.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
 /// Workspace root (the parent of this crate's folder).
 pub fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -179,17 +188,17 @@ fn size(elf: Option<PathBuf>) -> Result<(), String> {
         ));
     }
     let s = elf_sizes(&elf)?;
-    println!("firmware size ({})", elf.display());
-    println!("  text  {:>7} B", s.text);
-    println!("  data  {:>7} B", s.data);
-    println!("  bss   {:>7} B", s.bss);
-    println!(
+    say!("firmware size ({})", elf.display());
+    say!("  text  {:>7} B", s.text);
+    say!("  data  {:>7} B", s.data);
+    say!("  bss   {:>7} B", s.bss);
+    say!(
         "  flash {:>7} B of {} B budget ({:.1} %)",
         s.flash(),
         FLASH_BUDGET,
         100.0 * s.flash() as f64 / FLASH_BUDGET as f64
     );
-    println!(
+    say!(
         "  ram   {:>7} B of {} B budget ({:.1} %) static; the stack takes the rest of 20 KiB",
         s.ram(),
         RAM_BUDGET,

@@ -1,9 +1,10 @@
 //! Drives a simulated flight through the [`Stack`](super::stack::Stack) and
 //! scores it against the truth.
 
-use super::console::say;
+use super::console::{note, say};
 use super::stack::{self, AccelCalRun, MagCalRun, Stack};
 use sim::{Environment, Fault, Quat, SensorErrors, SimBus, SimClock, SimConfig, Trajectory};
+use std::io::Write;
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -70,6 +71,8 @@ pub struct Summary {
     pub vspeed_rms_mps: f64,
     /// Samples scored.
     pub samples: usize,
+    /// MPU data-ready interrupts whose read failed (bus faults): no sample.
+    pub missed: usize,
     /// Wall-clock time of the run (s).
     pub wall_s: f64,
 }
@@ -158,6 +161,7 @@ pub fn run(opts: &RunOptions, sinks: &mut [&mut dyn RecordSink]) -> Result<RunRe
     let flight = fly(opts, &base, &record, sinks, wall)?;
     let mut summary = flight.scorer.summary();
     summary.wall_s = wall.elapsed().as_secs_f64();
+    summary.missed = flight.missed;
     Ok(RunResult {
         accel_cal,
         mag_cal,
@@ -182,6 +186,7 @@ fn ground_calibrations(
 struct Flight {
     scorer: Scorer,
     gyro_bias: Option<GyroBiasRun>,
+    missed: usize,
 }
 
 /// The flight as the firmware runs it: boot probe, stored calibration,
@@ -206,6 +211,7 @@ fn fly(
     let mut out = Flight {
         scorer: Scorer::default(),
         gyro_bias: None,
+        missed: 0,
     };
     let mut next_print = 0.0;
     while clock.now_s() < opts.duration_s {
@@ -215,7 +221,11 @@ fn fly(
         }
         bus.advance_to_next_mpu_sample();
         progress.tick(clock.now_s());
+        if !bus.data_ready() {
+            continue;
+        }
         let Some(r) = sample(&bus, &clock, &mut stack, &mut out.gyro_bias) else {
+            out.missed += 1;
             continue;
         };
         if opts.print_every_s > 0.0 && r.t_s >= next_print {
@@ -231,17 +241,14 @@ fn fly(
     Ok(out)
 }
 
-/// One MPU data-ready through the stack, with its truth; `None` when there
-/// was no sample (not ready, read failed).
+/// One MPU data-ready through the stack, with its truth; `None` when the
+/// read failed.
 fn sample(
     bus: &SimBus,
     clock: &SimClock,
     stack: &mut Stack,
     gyro_bias: &mut Option<GyroBiasRun>,
 ) -> Option<Record> {
-    if !bus.data_ready() {
-        return None;
-    }
     let est = stack.on_data_ready(clock.now_us())?;
     let truth = bus.truth_at_last_mpu_sample()?;
     if let (None, Some(measured_rps)) = (*gyro_bias, stack.gyro_bias_rps()) {
@@ -308,16 +315,16 @@ impl Progress {
             self.duration_s
         );
         if self.tty {
-            eprint!("\r{text}");
+            let _ = write!(std::io::stderr(), "\r{text}");
         } else {
-            eprintln!("{text}");
+            note!("{text}");
         }
         self.shown = true;
     }
 
     fn finish(&self) {
         if self.shown && self.tty {
-            eprintln!();
+            note!("");
         }
     }
 }
@@ -489,6 +496,7 @@ impl Scorer {
             height_rms_m: rms(self.height_sq, self.heights),
             vspeed_rms_mps: rms(self.vspeed_sq, self.vspeeds),
             samples: self.samples,
+            missed: 0,
             wall_s: 0.0,
         }
     }

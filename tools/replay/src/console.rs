@@ -45,6 +45,20 @@ pub fn stdout_failed() -> bool {
     STATE.load(Ordering::Relaxed) == 2
 }
 
+/// Writes one line to stderr. Unlike `eprintln!` it does not panic when
+/// stderr is a closed pipe: there is nowhere left to report that.
+pub fn err_line(args: std::fmt::Arguments<'_>) {
+    let _ = writeln!(std::io::stderr().lock(), "{args}");
+}
+
+/// `eprintln!` that never panics (see [`err_line`]).
+macro_rules! note {
+    ($($arg:tt)*) => {
+        $crate::console::err_line(format_args!($($arg)*))
+    };
+}
+pub(crate) use note;
+
 /// `println!` that never panics (see the module docs).
 macro_rules! say {
     ($($arg:tt)*) => {

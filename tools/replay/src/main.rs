@@ -8,7 +8,7 @@
 mod console;
 
 use clap::Parser;
-use console::say;
+use console::{note, say};
 use replay::{read, run, score, FilterKind, Mode, ReadOptions, Recording, Score};
 use std::fs::File;
 use std::io::{Read, Write};
@@ -367,13 +367,13 @@ fn main() -> ExitCode {
     let plan = match plan(&cli) {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("replay: {e}");
+            note!("replay: {e}");
             return ExitCode::from(2);
         }
     };
     let failed = replay_all(plan);
     if console::stdout_failed() {
-        eprintln!("replay: writing to stdout failed");
+        note!("replay: writing to stdout failed");
         return ExitCode::FAILURE;
     }
     if failed > 0 {
@@ -417,14 +417,14 @@ fn replay_all(plan: Plan) -> usize {
             }
             Ok((rows, None)) => say!("{:<40} {:>8} (no reference to score against)", name, rows),
             Err(e) => {
-                eprintln!("replay: {name}: {e}");
+                note!("replay: {name}: {e}");
                 failed.push(name);
             }
         }
     }
     print_mean(&scores);
     if !failed.is_empty() {
-        eprintln!(
+        note!(
             "replay: {} file(s) failed, not in the mean: {}",
             failed.len(),
             failed.join(", ")
@@ -513,10 +513,10 @@ fn replay_recording(
 
 fn report(input: &Path, rec: &Recording) {
     for w in &rec.warnings {
-        eprintln!("replay: {}: warning: {w}", input.display());
+        note!("replay: {}: warning: {w}", input.display());
     }
     if rec.skipped_rows > 0 {
-        eprintln!(
+        note!(
             "replay: {}: skipped {} invalid row(s) of {}",
             input.display(),
             rec.skipped_rows,
@@ -524,7 +524,7 @@ fn report(input: &Path, rec: &Recording) {
         );
     }
     if rec.segments.len() > 1 {
-        eprintln!(
+        note!(
             "replay: {}: {} segments (header repeated), each replayed from a fresh filter",
             input.display(),
             rec.segments.len()
