@@ -896,9 +896,10 @@ impl I2c1 {
             self.sync_lines();
         }
         let stop_pending = self.cr1 & cr1::STOP != 0;
-        if stop_pending && value & cr1::STOP != 0 {
+        if stop_pending && value & cr1::STOP != 0 && self.msl {
             // RM0008: no CR1 write until STOP has cleared, or a second STOP
-            // may be requested.
+            // may be requested. (Writing STOP back while no transfer will
+            // consume it is the same request.)
             self.second_stop = true;
         }
         let stop_on_wire = matches!(self.phase, Phase::Stop { .. });
