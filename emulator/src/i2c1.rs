@@ -238,9 +238,10 @@ pub struct I2c1 {
     lines: (bool, bool),
     /// Line levels as the peripheral sees them through its filter.
     seen: (bool, bool),
-    filter_stuck: bool,
-    /// While stuck: each line has been driven low / back high since.
-    unstick: [(bool, bool); 2],
+    /// Errata lock-up: the filter output of (SCL, SDA) is tied low.
+    filter_stuck: [bool; 2],
+    /// While stuck: the line has been low since (its next rise unlocks it).
+    seen_low_while_stuck: [bool; 2],
     spurious_berr: bool,
     /// Another master owns the bus (after arbitration loss) until then.
     other_master_until: Option<u64>,
@@ -277,8 +278,8 @@ impl I2c1 {
             sda_pin: PinMode::Input,
             lines: (true, true),
             seen: (true, true),
-            filter_stuck: false,
-            unstick: [(false, false); 2],
+            filter_stuck: [false; 2],
+            seen_low_while_stuck: [false; 2],
             spurious_berr: false,
             other_master_until: None,
         };
@@ -297,8 +298,8 @@ impl I2c1 {
         self.advance(now_ns);
         match fault {
             PeripheralFault::BusyLockup => {
-                self.filter_stuck = true;
-                self.unstick = [(false, false); 2];
+                self.filter_stuck = [true; 2];
+                self.seen_low_while_stuck = [false; 2];
                 self.sync_lines();
             }
             PeripheralFault::SpuriousBerr => self.spurious_berr = true,
@@ -444,11 +445,11 @@ impl I2c1 {
         let read = byte & 1 != 0;
         // With the pins not connected the ACK slot reads the pull-up: NACK.
         let result = self.pins_af().then(|| self.bus.wire_start(byte));
+        self.tra = !read;
         match result {
             Some(Ok(())) => {
                 self.flags |= sr1::ADDR;
                 self.addr_armed = false;
-                self.tra = !read;
                 self.pos_ack = self.cr1 & cr1::ACK != 0;
                 self.phase = Phase::AddrHold;
             }
@@ -696,27 +697,32 @@ impl I2c1 {
         let lines = self.bus.wire_lines(scl_out, sda_out);
         self.lines = lines;
         let prev = self.seen;
-        if self.filter_stuck {
-            for (k, level) in [lines.0, lines.1].into_iter().enumerate() {
-                if let Some(u) = self.unstick.get_mut(k) {
-                    if !level {
-                        u.0 = true;
-                    } else if u.0 {
-                        u.1 = true;
-                    }
+        // The errata: a stuck filter output follows its line again after
+        // the line's next transition, i.e. once it has been low and rises.
+        // That jump is not a STOP to the peripheral: BUSY stays set until
+        // SWRST.
+        let mut unlocked = false;
+        for (k, level) in [lines.0, lines.1].into_iter().enumerate() {
+            let (Some(stuck), Some(low)) = (
+                self.filter_stuck.get_mut(k),
+                self.seen_low_while_stuck.get_mut(k),
+            ) else {
+                continue;
+            };
+            if *stuck {
+                if !level {
+                    *low = true;
+                } else if *low {
+                    *stuck = false;
+                    unlocked = true;
                 }
             }
-            if self.unstick.iter().all(|u| u.0 && u.1) {
-                // The errata's sequence toggled both lines: the filter
-                // follows the pins again, BUSY stays set until SWRST.
-                self.filter_stuck = false;
-                self.busy = true;
-                self.seen = lines;
-                return;
-            }
-            self.seen = (false, false);
-        } else {
-            self.seen = lines;
+        }
+        let [scl_stuck, sda_stuck] = self.filter_stuck;
+        self.seen = (lines.0 && !scl_stuck, lines.1 && !sda_stuck);
+        if unlocked {
+            self.busy = true;
+            return;
         }
         if !self.seen.0 || !self.seen.1 {
             self.busy = true;
@@ -768,9 +774,10 @@ impl I2c1 {
         if btf {
             v |= sr1::BTF;
         }
+        // RM0008 SR1.TxE: not set during the address phase, nor after a NACK.
         let tx_phase = matches!(
             self.phase,
-            Phase::AddrHold | Phase::TxIdle | Phase::TxByte { .. } | Phase::TxStall | Phase::Nacked
+            Phase::AddrHold | Phase::TxIdle | Phase::TxByte { .. } | Phase::TxStall
         );
         if self.tra && self.msl && tx_phase && self.dr_tx.is_none() {
             v |= sr1::TXE;

@@ -276,6 +276,19 @@ fn busy_lockup_survives_swrst_and_pe_alone() {
     back_to_af(&mut r);
     swrst_and_configure(&mut r);
     assert!(r.busy(), "SDA was never driven low");
+    // Nor does an RCC reset of the peripheral (the filter is in the I/O).
+    r.i2c.peripheral_reset();
+    r.configure();
+    assert!(r.busy());
+    // SDA toggled as well: unlocked, and SWRST clears BUSY.
+    r.clear_cr1(cr1::PE);
+    r.gpio(true, false);
+    r.gpio(true, true);
+    back_to_af(&mut r);
+    assert!(r.busy(), "until SWRST");
+    swrst_and_configure(&mut r);
+    assert!(!r.busy());
+    assert_eq!(r.who_am_i(), Some(0x71));
 }
 
 #[test]

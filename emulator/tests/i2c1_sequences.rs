@@ -232,9 +232,17 @@ fn address_nack_sets_af_and_holds_until_stop() {
     r.wr(reg::DR, 0x50 << 1);
     assert_eq!(r.poll_sr1(sr1::AF | sr1::ADDR, 100_000), Some(9 * BIT_NS));
     assert_eq!(r.rd(reg::SR1), sr1::AF);
-    assert_eq!(r.sr2(), sr2::MSL | sr2::BUSY, "still master");
+    assert_eq!(
+        r.sr2(),
+        sr2::MSL | sr2::BUSY | sr2::TRA,
+        "still master; TRA from the R/W bit"
+    );
     r.wait(50 * BIT_NS);
-    assert_eq!(r.sr2(), sr2::MSL | sr2::BUSY, "waits for software");
+    assert_eq!(
+        r.sr2(),
+        sr2::MSL | sr2::BUSY | sr2::TRA,
+        "waits for software"
+    );
     r.set_cr1(cr1::STOP);
     assert_eq!(r.wait_stop_cleared(10_000), Some(BIT_NS));
     assert_eq!(r.sr2(), 0);
