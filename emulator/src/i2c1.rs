@@ -38,6 +38,21 @@
 //! BUSY. Spurious BERR (errata): [`PeripheralFault::SpuriousBerr`] sets
 //! BERR during the next byte and changes nothing else.
 //!
+//! ```
+//! use emulator::i2c1::{cr1, reg, sr1, I2c1, PinMode};
+//! use sim::{SimBus, SimClock, SimConfig};
+//!
+//! let bus = SimBus::new(&SimClock::new(), SimConfig { bus_hz: None, ..SimConfig::default() });
+//! let mut i2c = I2c1::new(bus);
+//! let af = PinMode::AlternateOpenDrain;
+//! i2c.set_pins(af, af, 0);
+//! i2c.write(reg::CR2, 36, 0); // PCLK1 = 36 MHz
+//! i2c.write(reg::CCR, 0x801E, 0); // fast mode, 400 kHz
+//! i2c.write(reg::CR1, cr1::PE | cr1::START, 0);
+//! assert_eq!(i2c.read(reg::SR1, 2_499) & sr1::SB, 0);
+//! assert_eq!(i2c.read(reg::SR1, 2_500) & sr1::SB, sr1::SB); // one SCL period later
+//! ```
+//!
 //! Not modelled: slave mode, 10-bit addresses, SMBus/PEC, DMA, NOSTRETCH,
 //! OVR, TRISE's effect on timing, line contention with a push-pull pin, the
 //! intermediate bit levels of a byte in flight.

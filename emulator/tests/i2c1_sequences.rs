@@ -313,3 +313,29 @@ fn pe_cleared_mid_transfer_takes_effect_at_the_end() {
     assert_eq!(r.rd(reg::CR1) & cr1::PE, 0);
     assert_eq!(r.i2c.bus().state().mpu.register(0x19), 0x07);
 }
+
+#[test]
+fn interrupt_requests_follow_the_enable_bits() {
+    use emulator::i2c1::cr2;
+    let mut r = Rig::new();
+    r.wr(reg::CR2, 36 | cr2::ITEVTEN | cr2::ITERREN);
+    r.set_cr1(cr1::START);
+    assert!(!r.i2c.event_irq());
+    r.wait(BIT_NS);
+    assert!(r.i2c.event_irq(), "SB is an event");
+    r.rd(reg::SR1);
+    r.wr(reg::DR, u16::from(MPU << 1));
+    r.wait(9 * BIT_NS);
+    r.clear_addr();
+    assert!(!r.i2c.event_irq(), "TXE needs ITBUFEN");
+    r.wr(reg::CR2, 36 | cr2::ITEVTEN | cr2::ITBUFEN | cr2::ITERREN);
+    assert!(r.i2c.event_irq());
+    r.set_cr1(cr1::STOP);
+    r.wait(BIT_NS);
+    assert!(!r.i2c.event_irq() && !r.i2c.error_irq());
+    r.set_cr1(cr1::START);
+    r.poll_sr1(sr1::SB, 100_000).unwrap();
+    r.wr(reg::DR, 0x50 << 1);
+    r.wait(9 * BIT_NS);
+    assert!(r.i2c.error_irq(), "AF");
+}
