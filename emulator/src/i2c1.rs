@@ -677,6 +677,10 @@ impl I2c1 {
         self.pe_off_pending = false;
         self.cr1 &= !(cr1::PE | cr1::START | cr1::STOP | cr1::ACK | cr1::POS);
         self.flags &= !(sr1::SB | sr1::ADDR);
+        // RM0008 SR1: RxNE, TxE and BTF are cleared by hardware when PE = 0.
+        self.dr_rx = None;
+        self.shift_rx = None;
+        self.dr_tx = None;
         self.second_stop = false;
         self.msl = false;
         self.tra = false;

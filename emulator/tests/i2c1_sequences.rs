@@ -311,6 +311,17 @@ fn pe_cleared_mid_transfer_takes_effect_at_the_end() {
     assert_ne!(r.rd(reg::CR1) & cr1::PE, 0, "still enabled mid-transfer");
     r.wait(30 * BIT_NS);
     assert_eq!(r.rd(reg::CR1) & cr1::PE, 0);
+    // A byte left in DR is dropped with PE = 0 (RxNE cleared by hardware).
+    r.set_cr1(cr1::PE);
+    r.write_bytes(MPU, &[0x75]).unwrap();
+    r.start_address((MPU << 1) | 1);
+    r.clear_cr1(cr1::ACK);
+    r.clear_addr();
+    r.set_cr1(cr1::STOP);
+    r.wait(20 * BIT_NS);
+    assert_eq!(r.rd(reg::SR1), sr1::RXNE);
+    r.clear_cr1(cr1::PE);
+    assert_eq!(r.rd(reg::SR1), 0);
     assert_eq!(r.i2c.bus().state().mpu.register(0x19), 0x07);
 }
 
