@@ -328,10 +328,34 @@ fn pins_taken_mid_write_release_the_bus() {
     r.wait(4 * BIT_NS);
     r.gpio(true, true);
     assert!(r.i2c.sda_high(r.t), "a chip receiving does not hold SDA");
+    assert_ne!(
+        r.sr2() & sr2::MSL,
+        0,
+        "the peripheral still thinks it is master"
+    );
+    r.wait(100 * BIT_NS);
+    assert_eq!(
+        r.rd(reg::SR1) & sr1::BTF,
+        0,
+        "and waits for an SCL it cannot drive"
+    );
     r.wr(reg::CR1, cr1::SWRST);
     r.wr(reg::CR1, 0);
     back_to_af(&mut r);
     r.configure();
+    assert_eq!(r.who_am_i(), Some(0x71));
+    // The same with PE = 0 instead of SWRST: the stranded transfer is
+    // dropped, but no STOP was seen, so BUSY stays until one is made.
+    r.start_address(MPU << 1);
+    r.clear_addr();
+    r.gpio(true, true);
+    r.clear_cr1(cr1::PE);
+    assert_eq!(r.sr2(), sr2::BUSY);
+    r.gpio(true, false);
+    r.gpio(true, true);
+    assert_eq!(r.sr2(), 0, "a STOP by hand");
+    back_to_af(&mut r);
+    r.set_cr1(cr1::PE);
     assert_eq!(r.who_am_i(), Some(0x71));
 }
 
