@@ -5,7 +5,7 @@ use super::run::ScheduledFault;
 use sim::{Chip, Fault, Vibration, AK8963_ADDRESS};
 
 /// A fault kind by name: (name, what it does).
-pub const KINDS: [(&str, &str); 16] = [
+pub const KINDS: [(&str, &str); 18] = [
     (
         "magnet",
         "a magnet passes the board: 60 µT peak on body x, 4 s wide, peaking 2 s after T",
@@ -48,6 +48,14 @@ pub const KINDS: [(&str, &str); 16] = [
         "stuck-bus",
         "SDA held low: every transaction fails to the end of the run",
     ),
+    (
+        "scl-stuck",
+        "SCL held low (a shorted line): no transaction to the end of the run",
+    ),
+    (
+        "holds-sda-imu",
+        "the MPU-9250 is left mid-byte holding SDA low until SCL is clocked",
+    ),
     ("wrong-id-mag", "the AK8963 reports WIA 0x00 from T on"),
     (
         "reset-imu",
@@ -84,6 +92,8 @@ fn fault(kind: &str, at_s: f64) -> Option<Fault> {
         "bus-error" => Fault::BusErrorMidTransfer { after_bytes: 2 },
         "arbitration-loss" => Fault::ArbitrationLoss { transactions: 5 },
         "stuck-bus" => Fault::StuckBus,
+        "scl-stuck" => Fault::SclStuckLow,
+        "holds-sda-imu" => Fault::SlaveHoldsSda(Chip::Mpu9250),
         "wrong-id-mag" => Fault::WrongChipId {
             chip: Chip::Ak8963,
             id: 0x00,
