@@ -342,6 +342,7 @@ fn open_outputs(base: &Path, files: &[PathBuf]) -> Result<Vec<Output>, String> {
     }
     let inputs: Vec<PathBuf> = files.iter().map(|f| canonical(f)).collect();
     let paths: Vec<PathBuf> = files.iter().map(|f| out_path(base, f, files)).collect();
+    check_distinct(&paths, files)?;
     for p in &paths {
         if inputs.contains(&canonical(p)) {
             return Err(format!(
@@ -360,6 +361,22 @@ fn open_outputs(base: &Path, files: &[PathBuf]) -> Result<Vec<Output>, String> {
         outs.push((p, Box::new(f)));
     }
     Ok(outs)
+}
+
+/// Two inputs whose paths flatten to the same name (`a_b/x.csv`,
+/// `a/b/x.csv`) would share an output: refuse rather than overwrite.
+fn check_distinct(paths: &[PathBuf], files: &[PathBuf]) -> Result<(), String> {
+    for (i, p) in paths.iter().enumerate() {
+        if let Some(j) = paths[..i].iter().position(|q| canonical(q) == canonical(p)) {
+            return Err(format!(
+                "--out: inputs {} and {} would both write {}; replay them in separate runs",
+                files[j].display(),
+                files[i].display(),
+                p.display()
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn main() -> ExitCode {
@@ -585,6 +602,26 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
+
+        /// Distinct inputs get distinct outputs, or the plan is refused.
+        #[test]
+        fn output_names_never_collide(
+            names in proptest::collection::btree_set("[ab_]{1,3}(/[ab_]{1,3}){0,2}", 2..6)
+        ) {
+            let files: Vec<std::path::PathBuf> =
+                names.iter().map(|n| format!("{n}.csv").into()).collect();
+            let outs: Vec<_> = files
+                .iter()
+                .map(|f| super::out_path(std::path::Path::new("q.csv"), f, &files))
+                .collect();
+            if super::check_distinct(&outs, &files).is_ok() {
+                let set: std::collections::BTreeSet<_> = outs.iter().collect();
+                prop_assert_eq!(set.len(), outs.len());
+            }
+            for o in &outs {
+                prop_assert!(!files.contains(o));
+            }
+        }
 
         /// Whatever the command line, parsing gives options or an error, never a panic.
         #[test]
