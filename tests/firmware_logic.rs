@@ -242,36 +242,33 @@ fn wrong_chips_are_named() {
 }
 
 #[test]
-fn transient_bus_faults_are_retried_and_counted() {
+fn transient_bus_faults_skip_the_sample_and_are_counted() {
     let mut rig = Rig::new(SimConfig::default());
     let (mut s, report) = boot(&mut rig);
     let mut p = pipeline_for(&s, &report, &CalibrationRecord::default());
     let mut lp = Loop::new();
     lp.run(&rig, &mut s, &mut p, 50);
-    // One glitch: the read is retried and succeeds.
+    // One glitch: that sample is skipped and counted, never retried.
+    let (t0, _) = rig.bus.transaction_counts();
     rig.bus
         .inject(Fault::BusErrorMidTransfer { after_bytes: 3 });
+    rig.bus.advance_to_next_mpu_sample();
+    assert!(s.read_imu().is_none());
+    let (t1, _) = rig.bus.transaction_counts();
+    assert_eq!(t1 - t0, 1, "exactly one transfer for a failed sample");
+    assert_eq!(s.mpu_health.counters().retries, 0);
+    assert_eq!(s.mpu_health.counters().errors, 1);
     lp.run(&rig, &mut s, &mut p, 1);
     assert_eq!(lp.imu_fail, 0);
-    assert_eq!(s.mpu_health.counters().retries, 1);
-    assert_eq!(s.mpu_health.counters().errors, 0);
-    // Two NACKs in a row on the MPU: both retries consumed, still fine.
-    rig.bus.inject(Fault::Nack {
-        address: MPU,
-        transactions: Some(2),
-    });
-    lp.run(&rig, &mut s, &mut p, 1);
-    assert_eq!(lp.imu_fail, 0);
-    assert_eq!(s.mpu_health.counters().retries, 3);
     // A longer outage: samples are lost and counted; after 5 failed samples
     // a re-initialisation is scheduled; once the chip answers again it works.
     rig.bus.inject(Fault::Nack {
         address: MPU,
-        transactions: Some(15),
+        transactions: Some(5),
     });
     lp.run(&rig, &mut s, &mut p, 5);
     assert_eq!(lp.imu_fail, 5);
-    assert_eq!(s.mpu_health.counters().errors, 5);
+    assert_eq!(s.mpu_health.counters().errors, 6);
     assert_eq!(s.mpu_health.state(), SensorState::Degraded);
     assert!(s.service_due());
     let rep = s.service(&mut rig.delay);
@@ -280,6 +277,7 @@ fn transient_bus_faults_are_retried_and_counted() {
     assert_eq!(lp.imu_fail, 5);
     assert_eq!(s.mpu_health.state(), SensorState::Ok);
     assert_eq!(s.mpu_health.counters().reinits, 1);
+    assert_eq!(s.mpu_health.counters().retries, 0);
 }
 
 #[test]
