@@ -7,10 +7,10 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use e2e::Rig;
+use e2e::{Rig, StuckSda};
 use embedded_hal::delay::DelayNs;
 use flight::boot::{AhrsMode, BiasStatus, Chip as BootChip, ProbeFailure, StartupGyroBias};
-use flight::health::{recover_bus, RecoveryPins, SensorState};
+use flight::health::{recover_bus, SensorState};
 use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
 use flight::schedule::{DtClock, LoopStats, MicrosClock, SampleScheduler};
 use flight::sensors::{MagRead, Sensors, SensorsConfig};
@@ -324,40 +324,6 @@ fn chip_reset_in_flight_is_detected_and_reinitialised() {
     );
 }
 
-/// Open-drain PB6/PB7 model: a slave holding SDA low shifts one bit per SCL
-/// falling edge; when it lets go, the simulated bus is un-stuck.
-struct StuckSlave<'a> {
-    bus: &'a SimBus,
-    scl: bool,
-    sda: bool,
-    hold: u8,
-    clocks: u8,
-    stop_seen: bool,
-}
-
-impl RecoveryPins for StuckSlave<'_> {
-    fn set_scl(&mut self, high: bool) {
-        if self.scl && !high {
-            self.clocks += 1;
-            self.hold = self.hold.saturating_sub(1);
-        }
-        self.scl = high;
-    }
-    fn set_sda(&mut self, high: bool) {
-        if high && !self.sda && self.scl && self.hold == 0 {
-            self.stop_seen = true;
-            self.bus.clear_faults();
-        }
-        self.sda = high;
-    }
-    fn scl_is_high(&mut self) -> bool {
-        self.scl
-    }
-    fn sda_is_high(&mut self) -> bool {
-        self.sda && self.hold == 0
-    }
-}
-
 #[test]
 fn stuck_bus_is_detected_recovered_and_chips_reinitialised() {
     let mut rig = Rig::new(SimConfig::default());
@@ -381,14 +347,7 @@ fn stuck_bus_is_detected_recovered_and_chips_reinitialised() {
         s.baro_health
     );
 
-    let mut pins = StuckSlave {
-        bus: &rig.bus,
-        scl: true,
-        sda: true,
-        hold: 8,
-        clocks: 0,
-        stop_seen: false,
-    };
+    let mut pins = StuckSda::new(&rig.bus, 8);
     let r = recover_bus(&mut pins, &mut rig.delay).unwrap();
     assert_eq!(r.clocks, 8);
     assert!(pins.stop_seen, "STOP generated after SDA release");

@@ -182,6 +182,12 @@ impl Backoff {
         self.interval_ms
     }
 
+    /// Makes an attempt due at `now_ms` (what it depends on just came up)
+    /// without changing the interval.
+    pub fn due_now(&mut self, now_ms: u32) {
+        self.next_ms = Some(now_ms);
+    }
+
     /// Back to the first interval (the device was found).
     pub fn reset(&mut self) {
         self.interval_ms = self.first_ms;

@@ -593,7 +593,13 @@ impl<I: I2c> Sensors<I> {
             }
             self.mpu_settle_until_ms = None;
             let ok = mpu_settled(&mut self.mpu).is_ok();
-            if !ok {
+            if ok {
+                // The AK8963 is reachable again through the bypass: if it
+                // is missing, probe it now rather than at its back-off.
+                if let Some(b) = self.reprobe.get_mut(1) {
+                    b.due_now(now_ms);
+                }
+            } else {
                 self.mpu_health.error();
                 self.reinit_pending[0] = true;
             }
