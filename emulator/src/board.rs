@@ -286,7 +286,8 @@ impl Hw {
             0x4000_3000..=0x4000_33FF => self.iwdg.read(a - 0x4000_3000, now),
             0x4000_5400..=0x4000_5420 => {
                 self.sync_clock();
-                Some(u32::from(self.i2c.read(a - 0x4000_5400, now)))
+                let v = self.i2c.read(a - 0x4000_5400, now);
+                Some(u32::from(v))
             }
             0x4001_0000..=0x4001_03FF => self.afio.read(a - 0x4001_0000),
             0x4001_0400..=0x4001_07FF => self.exti.read(a - 0x4001_0400),
@@ -415,6 +416,12 @@ impl Hw {
 /// Re-pends IRQs whose peripheral line is asserted (EXTI pending bits):
 /// an NVIC input that is still high after its handler returns pends again.
 pub fn refresh_irq_lines(hw: &mut Hw) {
+    // I2C1_EV (31) and I2C1_ER (32), RM0008 §26.4 table 122.
+    for (irq, on) in [(31, hw.i2c.event_irq()), (32, hw.i2c.error_irq())] {
+        if on && !hw.nvic.active.contains(&(IRQ0 + irq)) {
+            hw.nvic.pending[IRQ0 + irq] = true;
+        }
+    }
     for line in 0..19 {
         if let Some(irq) = irq_of_line(line) {
             let n = IRQ0 + irq;
