@@ -35,6 +35,7 @@ pub mod mpu9250;
 pub mod ms5611;
 pub mod physics;
 pub mod rng;
+pub mod wire;
 pub mod world;
 
 pub use bus::{magnet_pass, Chip, Fault, SimBus, SimBusError, SimConfig, AK8963_ADDRESS};
