@@ -362,8 +362,9 @@ fn read(i2c: &pac::i2c1::RegisterBlock, address: u8, buf: &mut [u8]) -> Result<(
                 cr1_set(i2c, CR1_STOP);
                 *first = read_dr(i2c);
             });
+            // POS stays set: clearing it now would write CR1 with STOP
+            // pending; every read clears it before its START.
             *second = read_dr(i2c);
-            cr1_clear(i2c, CR1_POS);
             Ok(())
         }
         [head @ .., n2, n1, n0] => {
@@ -392,12 +393,14 @@ fn read(i2c: &pac::i2c1::RegisterBlock, address: u8, buf: &mut [u8]) -> Result<(
 }
 
 /// Ends an aborted transfer: NACK first, then one STOP (unless one is
-/// already pending), then the bounded wait for it; if the STOP never goes
+/// already pending, when CR1 is left alone), then the bounded wait for it; if the STOP never goes
 /// out, SWRST + reprogram leaves the cell clean for the next transfer (the
 /// service task recovers the bus itself).
 fn abort(i2c: &pac::i2c1::RegisterBlock) {
-    cr1_clear(i2c, CR1_ACK | CR1_POS);
+    // With a STOP already pending (the read ending had set it), CR1 must
+    // not be written at all until it has gone out.
     if i2c.cr1().read().bits() & CR1_STOP == 0 {
+        cr1_clear(i2c, CR1_ACK | CR1_POS);
         cr1_set(i2c, CR1_STOP);
     }
     if wait_stop_sent(i2c).is_err() {
