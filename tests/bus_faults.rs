@@ -12,7 +12,7 @@
 use e2e::{Rig, StuckSda};
 use flight::boot::{AhrsMode, BootReport, Chip, ProbeFailure};
 use flight::health::{recover_bus, unlock_busy_flag, SensorState};
-use flight::sensors::{Maintenance, Sensors, SensorsConfig};
+use flight::sensors::{Maintenance, Sensors};
 use sim::{Fault, SimBus, SimConfig};
 
 const MPU: u8 = 0x68;
@@ -22,13 +22,7 @@ const MS: u8 = 0x77;
 const SERVICE_PERIOD_MS: u64 = 10;
 
 fn boot(rig: &mut Rig) -> (Sensors<SimBus>, BootReport) {
-    Sensors::boot(
-        rig.bus.clone(),
-        rig.bus.clone(),
-        rig.bus.clone(),
-        &mut rig.delay,
-        SensorsConfig::default(),
-    )
+    e2e::boot_sensors(rig)
 }
 
 /// What happened over a stretch of simulated time.
