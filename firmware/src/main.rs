@@ -227,7 +227,8 @@ mod app {
             Shared {
                 sensors,
                 pipeline,
-                clock: MicrosClock::new(cpu_hz(), now),
+                // Counted from when CYCCNT started, a few ms after reset.
+                clock: MicrosClock::new(cpu_hz(), 0),
                 stats: LoopStats::new(now),
                 session,
                 bias: BiasStatus::GaveUp,
