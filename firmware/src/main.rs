@@ -49,7 +49,7 @@
 //! logged). On a panic the handler turns the LED off, logs the location
 //! over defmt and traps into HardFault, which waits for the watchdog reset.
 //!
-//! Flash: 49,068 B of the 48 KiB budget (`cargo fw && cargo xtask size`,
+//! Flash: 49,064 B of the 48 KiB budget (`cargo fw && cargo xtask size`,
 //! release profile at `opt-level = "z"`); static RAM 3.9 KiB. To fit, the
 //! I2C master is our own register-level driver (`bus.rs`) rather than the
 //! HAL's blocking one, and the magnetometer calibration on the board is the
