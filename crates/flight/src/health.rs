@@ -123,6 +123,14 @@ impl SensorHealth {
         }
     }
 
+    /// A working sensor that keeps the counters of an earlier life (a chip
+    /// that was missing and answered a re-probe).
+    pub const fn with_counters(policy: HealthPolicy, counters: HealthCounters) -> Self {
+        let mut h = Self::new(policy);
+        h.counters = counters;
+        h
+    }
+
     /// A sensor that was not found at boot.
     pub const fn missing(policy: HealthPolicy) -> Self {
         let mut h = Self::new(policy);
@@ -242,6 +250,20 @@ impl SensorHealth {
         }
     }
 
+    /// Records the outcome of one attempt, without retrying: the 1 kHz
+    /// path counts a failed read and skips the sample. Returns the result
+    /// unchanged; the [`Action`] for an error is available from
+    /// [`pending_action`](Self::pending_action).
+    pub fn record<T, E>(&mut self, r: Result<T, E>) -> Result<T, E> {
+        match &r {
+            Ok(_) => self.success(),
+            Err(_) => {
+                self.error();
+            }
+        }
+        r
+    }
+
     /// Runs `op` up to `1 + max_retries` times, counting retries, and
     /// records the final outcome ([`success`](Self::success) or
     /// [`error`](Self::error)). Returns the last result; the
@@ -331,6 +353,11 @@ pub enum RecoveryError {
     SclStuckLow,
     /// SDA still low after [`MAX_RECOVERY_CLOCKS`] pulses.
     SdaStuckLow,
+    /// SDA did not follow the pin when driven low (a short to the supply
+    /// or the pin is not in open-drain output mode).
+    SdaNotDriven,
+    /// SCL did not follow the pin when driven low.
+    SclNotDriven,
 }
 
 /// Upper bound on SCL pulses (9 suffice for a slave mid-byte; margin for a
@@ -385,6 +412,51 @@ pub fn recover_bus<P: RecoveryPins, D: DelayNs>(
         return Err(RecoveryError::SdaStuckLow);
     }
     Ok(RecoveryReport { clocks })
+}
+
+/// Unlocks the STM32F1 I2C cell's BUSY flag when its analog noise
+/// filters latched a wrong level (errata ES096 2.13.7: BUSY stays set
+/// although both lines are high, and neither SWRST nor a reset clears
+/// it). Forces one transition through each filter and checks each level
+/// on the input register, in the errata's order: both released and high;
+/// SDA low; SCL low; SCL high; SDA high (a START then a STOP on the wire,
+/// harmless to the slaves). With the pins as open-drain GPIO and the I2C
+/// peripheral disabled; the caller then sets SWRST, clears it and
+/// reprograms the peripheral.
+pub fn unlock_busy_flag<P: RecoveryPins, D: DelayNs>(
+    pins: &mut P,
+    delay: &mut D,
+) -> Result<(), RecoveryError> {
+    pins.set_scl(true);
+    pins.set_sda(true);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if !pins.scl_is_high() {
+        return Err(RecoveryError::SclStuckLow);
+    }
+    if !pins.sda_is_high() {
+        return Err(RecoveryError::SdaStuckLow);
+    }
+    pins.set_sda(false);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if pins.sda_is_high() {
+        return Err(RecoveryError::SdaNotDriven);
+    }
+    pins.set_scl(false);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if pins.scl_is_high() {
+        return Err(RecoveryError::SclNotDriven);
+    }
+    pins.set_scl(true);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if !pins.scl_is_high() {
+        return Err(RecoveryError::SclStuckLow);
+    }
+    pins.set_sda(true);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if !pins.sda_is_high() {
+        return Err(RecoveryError::SdaStuckLow);
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -543,6 +615,38 @@ mod tests {
             recover_bus(&mut free, &mut NoDelay),
             Ok(RecoveryReport { clocks: 0 })
         );
+    }
+
+    #[test]
+    fn busy_unlock_follows_the_errata_order() {
+        let mut bus = StuckSlave::new(0);
+        assert_eq!(unlock_busy_flag(&mut bus, &mut NoDelay), Ok(()));
+        // Release both, SDA low, SCL low, SCL high, SDA high (ES096 2.13.7).
+        assert_eq!(&bus.log[..bus.n], b"CDdcCD");
+        assert!(bus.scl && bus.sda_master);
+        // A slave still holding SDA: refused before any edge is forced.
+        let mut held = StuckSlave::new(3);
+        assert_eq!(
+            unlock_busy_flag(&mut held, &mut NoDelay),
+            Err(RecoveryError::SdaStuckLow)
+        );
+        assert_eq!(&held.log[..held.n], b"CD");
+        let mut short = StuckSlave::new(0);
+        short.scl_short = true;
+        assert_eq!(
+            unlock_busy_flag(&mut short, &mut NoDelay),
+            Err(RecoveryError::SclStuckLow)
+        );
+    }
+
+    #[test]
+    fn record_counts_one_attempt_without_retry() {
+        let mut h = SensorHealth::new(policy());
+        assert_eq!(h.record::<(), u8>(Err(3)), Err(3));
+        assert_eq!(h.counters().errors, 1);
+        assert_eq!(h.counters().retries, 0);
+        assert_eq!(h.record::<u8, u8>(Ok(1)), Ok(1));
+        assert_eq!(h.consecutive_errors(), 0);
     }
 
     #[test]

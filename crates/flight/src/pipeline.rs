@@ -26,6 +26,7 @@ use control::vertical::{Config as VerticalConfig, VerticalEstimator};
 use fc_ahrs::Quaternion;
 
 use crate::boot::AhrsMode;
+use crate::calmode::RawLogRow;
 use crate::mounting::Mounting;
 use crate::storage::{CalibrationRecord, ValidParts};
 
@@ -285,6 +286,12 @@ impl Pipeline {
         self.cfg.altitude = altitude;
     }
 
+    /// Replaces the AK8963 scale (µT per count, factory adjustment
+    /// included), for a magnetometer that was found after boot.
+    pub fn set_mag_ut_per_lsb(&mut self, ut_per_lsb: [f32; 3]) {
+        self.cfg.mag_ut_per_lsb = ut_per_lsb;
+    }
+
     /// Calibrated accelerometer sample, counts, MPU frame (integer:
     /// `(raw − offset) · scale_q14 >> 14`).
     #[inline]
@@ -371,6 +378,31 @@ impl Pipeline {
             m[1][0] * c[0] + m[1][1] * c[1] + m[1][2] * c[2],
             m[2][0] * c[0] + m[2][1] * c[1] + m[2][2] * c[2],
         ]
+    }
+
+    /// One raw-log row from a raw sample: gyro bias removed (rad/s),
+    /// accelerometer calibration applied (m/s²), magnetometer corrected
+    /// (µT; NaN without a fresh reading), all in the MPU frame, at `t_s`
+    /// seconds since boot.
+    pub fn raw_log_row(
+        &self,
+        t_s: f32,
+        accel: [i16; 3],
+        gyro: [i16; 3],
+        mag_counts: Option<[i16; 3]>,
+    ) -> RawLogRow {
+        let k_g = self.cfg.gyro_dps_per_lsb * (core::f32::consts::PI / 180.0);
+        let mut gyr_rps = [0.0; 3];
+        for ((o, g), b) in gyr_rps.iter_mut().zip(gyro).zip(self.gyro_bias) {
+            *o = i32::from(g).saturating_sub(b) as f32 * k_g;
+        }
+        let k_a = self.cfg.accel_g_per_lsb * G_MPS2;
+        RawLogRow {
+            t_s,
+            gyr_rps,
+            acc_mps2: self.calibrate_accel_counts(accel).map(|c| c as f32 * k_a),
+            mag_ut: mag_counts.map_or([f32::NAN; 3], |c| self.mag_counts_to_mpu_ut(c)),
+        }
     }
 
     /// The 100 Hz magnetometer step (counts, AK8963 frame).
