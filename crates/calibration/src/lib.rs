@@ -63,7 +63,9 @@ mod minmax;
 mod stats;
 
 pub use accel::{AccelSixPosition, AccelSixPositionConfig, Position, Progress, SixPositionEvent};
-pub use correction::{AccelCalibration, GyroBias, MagCalibration};
+pub use correction::{
+    AccelCalibration, GyroBias, MagCalibration, MagCalibrationQ16, MAG_Q16_MAX_GAIN,
+};
 pub use ellipsoid::{EllipsoidFit, EllipsoidFitConfig, EllipsoidSolution, COVERAGE_BINS};
 pub use error::{Error, MotionCheck};
 pub use gyro::{GyroBiasConfig, GyroBiasEstimator};
