@@ -19,6 +19,7 @@
 //! | [`calmode`] | magnetometer (ellipsoid or min/max) and accelerometer calibration sessions, button decoder, raw-log rows |
 //! | [`pipeline`] | the 1 kHz / 100 Hz processing chain (fixed-point AHRS by default, f32 with `f32-ahrs`) |
 //! | [`mounting`] | MPU frame → body FRD signed axis permutation |
+//! | [`angles`] | integer Euler angles and the down axis from the Q30 quaternion |
 //!
 //! ```
 //! use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
@@ -37,6 +38,7 @@
     )
 )]
 
+pub mod angles;
 pub mod boot;
 pub mod calmode;
 pub mod crc32;
