@@ -58,7 +58,7 @@ pub const COVERAGE_BINS: u8 = 14;
 pub const COVERAGE_COS: f64 = 0.866_025_403_784_438_6;
 
 /// The coverage directions (not normalised).
-const DIRECTIONS: [[i8; 3]; 14] = [
+pub(crate) const DIRECTIONS: [[i8; 3]; 14] = [
     [1, 0, 0],
     [-1, 0, 0],
     [0, 1, 0],
@@ -84,7 +84,7 @@ pub const PIVOT_MIN: f64 = 1.0e-9;
 const BLOCK: u32 = 64;
 
 /// Number of accumulated monomials (degrees 1..=4 in three variables).
-const N_MOMENTS: usize = 34;
+pub(crate) const N_MOMENTS: usize = 34;
 
 /// Settings for [`EllipsoidFit`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -520,7 +520,7 @@ impl EllipsoidFit {
 
 /// Exponents (a, b, c) of the accumulated monomials, in accumulation order
 /// (graded, then a descending, then b descending).
-const EXPONENTS: [[u8; 3]; N_MOMENTS] = [
+pub(crate) const EXPONENTS: [[u8; 3]; N_MOMENTS] = [
     [1, 0, 0],
     [0, 1, 0],
     [0, 0, 1],
@@ -559,7 +559,7 @@ const EXPONENTS: [[u8; 3]; N_MOMENTS] = [
 
 /// Index of monomial `xᵃyᵇzᶜ` in [`Moments::mean`] (0 = constant), `None`
 /// above degree 4.
-fn moment_index(a: u8, b: u8, c: u8) -> Option<usize> {
+pub(crate) fn moment_index(a: u8, b: u8, c: u8) -> Option<usize> {
     let (a, b, c) = (usize::from(a), usize::from(b), usize::from(c));
     let d = a + b + c;
     let offset = [0usize, 1, 4, 10, 20].get(d).copied()?;
@@ -601,14 +601,14 @@ impl Moments {
 }
 
 /// A polynomial term: exponents and coefficient.
-type Term = ([u8; 3], f64);
+pub(crate) type Term = ([u8; 3], f64);
 
 const X2: [u8; 3] = [2, 0, 0];
 const Y2: [u8; 3] = [0, 2, 0];
 const Z2: [u8; 3] = [0, 0, 2];
 
 /// Petrov regressors (trace-constrained general quadric).
-const REGRESSORS: [&[Term]; 9] = [
+pub(crate) const REGRESSORS: [&[Term]; 9] = [
     &[(X2, 1.0), (Y2, 1.0), (Z2, -2.0)],
     &[(X2, 1.0), (Z2, 1.0), (Y2, -2.0)],
     &[([1, 1, 0], 2.0)],
@@ -621,7 +621,7 @@ const REGRESSORS: [&[Term]; 9] = [
 ];
 
 /// Regression target `x² + y² + z²`.
-const TARGET: &[Term] = &[(X2, 1.0), (Y2, 1.0), (Z2, 1.0)];
+pub(crate) const TARGET: &[Term] = &[(X2, 1.0), (Y2, 1.0), (Z2, 1.0)];
 
 /// Fit result in scaled coordinates.
 struct Fit {

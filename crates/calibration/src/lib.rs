@@ -13,6 +13,7 @@
 //! | [`GyroBiasEstimator`] | [`GyroBias`] | `raw − bias` |
 //! | [`MagMinMax`] | [`MagCalibration`] (diagonal) | `soft_iron · (raw − offset)` |
 //! | [`EllipsoidFit`] | [`EllipsoidSolution`] → [`MagCalibration`] (full) | `soft_iron · (raw − offset)` |
+//! | [`EllipsoidFitF32`] (board: integer moments, `f32` solve) | the same | the same |
 //! | [`AccelSixPosition`] | [`AccelCalibration`] | `scale ⊙ (raw − offset)` |
 //!
 //! # Units and frames
@@ -57,6 +58,7 @@
 mod accel;
 mod correction;
 mod ellipsoid;
+mod ellipsoid_f32;
 mod error;
 mod gyro;
 mod minmax;
@@ -67,6 +69,7 @@ pub use correction::{
     AccelCalibration, GyroBias, MagCalibration, MagCalibrationQ16, MAG_Q16_MAX_GAIN,
 };
 pub use ellipsoid::{EllipsoidFit, EllipsoidFitConfig, EllipsoidSolution, COVERAGE_BINS};
+pub use ellipsoid_f32::{EllipsoidFitF32, MAX_SAMPLES_F32, PIVOT_MIN_F32};
 pub use error::{Error, MotionCheck};
 pub use gyro::{GyroBiasConfig, GyroBiasEstimator};
 pub use minmax::{MagMinMax, MagMinMaxConfig};
