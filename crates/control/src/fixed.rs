@@ -38,6 +38,10 @@ use crate::controllers::{AltitudeHoldConfig, AttitudeConfig, AxisConfig};
 use crate::error::{check_dt, finite, Error};
 use crate::pid::PidConfig;
 
+// Limits are combined with `max`/`min` rather than `clamp`, whose
+// `min <= max` assertion would link a panic path into the firmware (the
+// limits are validated at construction).
+
 /// `1.0` in Q30.
 pub const ONE_Q30: i32 = 1 << 30;
 /// π in Q16.
@@ -128,7 +132,7 @@ impl PidQ {
             output_max_q30: to_q30(cfg.output_max)?,
             integral_min_q30,
             integral_max_q30,
-            integral_q30: 0.clamp(integral_min_q30, integral_max_q30),
+            integral_q30: 0.max(integral_min_q30).min(integral_max_q30),
             dmeas_filt_q16: 0,
             prev_meas_q16: 0,
             has_prev: false,
@@ -170,12 +174,13 @@ impl PidQ {
         let integral = if toward_saturation {
             self.integral_q30
         } else {
-            sat32(i + di).clamp(self.integral_min_q30, self.integral_max_q30)
+            sat32(i + di)
+                .max(self.integral_min_q30)
+                .min(self.integral_max_q30)
         };
-        let out = (p + i64::from(integral) + d + ff).clamp(
-            i64::from(self.output_min_q30),
-            i64::from(self.output_max_q30),
-        ) as i32;
+        let out = (p + i64::from(integral) + d + ff)
+            .max(i64::from(self.output_min_q30))
+            .min(i64::from(self.output_max_q30)) as i32;
         self.integral_q30 = integral;
         self.dmeas_filt_q16 = dmeas;
         self.prev_meas_q16 = measurement_q16;
@@ -206,7 +211,8 @@ impl AxisQ {
     /// Rate setpoint, Q16 rad/s, for an angle error in Q16 rad.
     fn rate_setpoint(&self, err_q16: i32) -> i32 {
         sat32(mul_q24_q16(self.angle_kp_q24, err_q16) >> 14)
-            .clamp(-self.max_rate_q16, self.max_rate_q16)
+            .max(-self.max_rate_q16)
+            .min(self.max_rate_q16)
     }
 }
 
@@ -315,7 +321,8 @@ impl AltitudeHoldQ {
     pub fn update(&mut self, target_q16: i32, height_q16: i32, velocity_q16: i32) -> i32 {
         let err = target_q16.saturating_sub(height_q16);
         let v_sp = sat32(mul_q24_q16(self.height_kp_q24, err) >> 14)
-            .clamp(-self.max_descent_q16, self.max_climb_q16);
+            .max(-self.max_descent_q16)
+            .min(self.max_climb_q16);
         self.speed.update(v_sp, velocity_q16, self.hover_q30)
     }
 }

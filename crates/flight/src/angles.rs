@@ -40,7 +40,9 @@ pub fn atan2_q16(y: i32, x: i32) -> i32 {
     // den >> 16 ∈ [2¹⁵, 2¹⁶) and the quotient is t = num/den in Q16.
     let sh = den.leading_zeros();
     let (num, den) = (num << sh, den << sh);
-    let t_q16 = (num / (den >> 16)).min(1 << 16);
+    // den >> 16 ≥ 2¹⁵, so the division never fails; `checked_div` keeps
+    // the panic path out of the firmware.
+    let t_q16 = num.checked_div(den >> 16).unwrap_or(0).min(1 << 16);
     let t = i64::from(t_q16) << 14; // Q30
     let t2 = (t * t) >> 30;
     let mut p = ATAN_Q30[4];

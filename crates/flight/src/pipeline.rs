@@ -601,7 +601,12 @@ fn mag_counts_to_body_q16(
         cal.mounting
             .apply_f32(no_offset.apply([0.0, 0.0, -16.0 * s2])),
     ];
-    let m = [0, 1, 2].map(|r| cols.map(|c| c[r]));
+    let [c0, c1, c2] = cols;
+    let m = [
+        [c0[0], c1[0], c2[0]],
+        [c0[1], c1[1], c2[1]],
+        [c0[2], c1[2], c2[2]],
+    ];
     // The offset in AK8963 counts: P⁻¹ S⁻¹ · offset_mpu.
     let [ox, oy, oz] = cal.mag_offset_ut;
     let offset_counts = [oy / s0, ox / s1, -oz / s2];
