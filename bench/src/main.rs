@@ -199,6 +199,19 @@ mod suite {
             &s,
             |c, s| c.apply(s.mag_ut),
         );
+        // The same correction folded with 0.15 µT counts into 1/16 µT, as
+        // `flight`'s mag_step applies it.
+        let m = mag.soft_iron.map(|r| r.map(|v| v * 0.15 * 16.0));
+        let mut mag_q =
+            calibration::MagCalibrationQ16::from_affine(m, mag.offset.map(|o| o / 0.15))
+                .unwrap_or_default();
+        let counts: [[i32; 3]; CALLS] = s.map(|s| s.mag_ut.map(|u| (u / 0.15) as i32));
+        case(
+            "calibration::MagCalibrationQ16::apply (pipeline form)",
+            &mut mag_q,
+            &counts,
+            |c, m| c.apply(*m),
+        );
     }
 
     fn ms5611_cases() {

@@ -50,6 +50,8 @@ const FIXED_MARG_PLAIN: &str = "fc_ahrs::MadgwickFixed MARG (plain)";
 const F32_MARG_ON: &str = "fc_ahrs::Madgwick f32 MARG (rejection on)";
 const F32_MARG_PLAIN: &str = "fc_ahrs::Madgwick f32 MARG (plain)";
 const PIPELINE: &str = "flight pipeline: per 1 kHz sample (frame / 10)";
+const CONTROL_STEP: &str = "flight::Pipeline::control_step (100 Hz)";
+const MAG_APPLY: &str = "calibration::MagCalibrationQ16::apply (pipeline form)";
 /// The measured 10 ms frame the per-sample row is derived from.
 const FRAME: &str = "flight pipeline: 10 ms frame (10 IMU + mag + baro + control)";
 const FRAME_SAMPLES: u64 = 10;
@@ -74,7 +76,9 @@ fn budgets() -> Vec<(&'static str, Vec<Limit>)> {
             FIXED_MARG_PLAIN,
             vec![Limit::Max(2_000), Limit::FractionOf(F32_MARG_PLAIN, 5)],
         ),
-        (PIPELINE, vec![Limit::Max(7_200)]),
+        (PIPELINE, vec![Limit::Max(3_000)]),
+        (CONTROL_STEP, vec![Limit::Max(4_000)]),
+        (MAG_APPLY, vec![Limit::Max(300)]),
     ]
 }
 
@@ -912,8 +916,11 @@ mod tests {
         assert!(matches!(status(FIXED_MARG_PLAIN), Some(Status::Over(_))));
         assert_eq!(status(PIPELINE), Some(Status::Pending));
         assert_eq!(status(F32_MARG_ON), Some(Status::NoBudget));
-        let rows = evaluate(&[case(PIPELINE, 7_201)]);
+        let rows = evaluate(&[case(PIPELINE, 3_001)]);
         assert!(matches!(rows[0].status, Status::Over(_)));
+        let rows = evaluate(&[case(CONTROL_STEP, 4_000), case(MAG_APPLY, 301)]);
+        assert_eq!(rows[0].status, Status::Ok);
+        assert!(matches!(rows[1].status, Status::Over(_)));
     }
 
     #[test]
