@@ -32,6 +32,10 @@
 //! rms error within 1 %, the same coverage; a planar sweep is refused with
 //! the same error as by the host fit.
 //!
+//! The code mirrors `ellipsoid.rs` step by step (the same checks in the
+//! same order, `f32` for `f64`) so the two read side by side; what both use
+//! (coverage record, range check, exponent table, sort) lives there once.
+//!
 //! Then, as the host fit: centre `c = −M⁻¹b`, shape `S = M / (cᵀMc − J)`,
 //! symmetric eigen-decomposition (cyclic Jacobi in `f32`), `W = R · V
 //! diag(√λ) Vᵀ` with `R` the mean semi-axis, and the rms error from the
@@ -39,7 +43,9 @@
 //! directions, 30°), before the fit from the min/max box and after it from
 //! the fitted centre and `W`.
 
-use crate::ellipsoid::{moment_index, COVERAGE_COS, DIRECTIONS, EXPONENTS, N_MOMENTS};
+use crate::ellipsoid::{
+    check_ranges, moment_index, sort3, Coverage, COVERAGE_COS, DIRECTIONS, EXPONENTS, N_MOMENTS,
+};
 use crate::{
     check_input, EllipsoidFitConfig, EllipsoidSolution, Error, MagCalibration, COVERAGE_BINS,
 };
@@ -97,10 +103,7 @@ pub struct EllipsoidFitF32 {
     sums: [i64; N_MOMENTS],
     count: u32,
     rejected: u32,
-    min: [f32; 3],
-    max: [f32; 3],
-    support: [[f32; 3]; 14],
-    support_proj: [f32; 14],
+    cov: Coverage,
 }
 
 impl EllipsoidFitF32 {
@@ -120,10 +123,7 @@ impl EllipsoidFitF32 {
             sums: [0; N_MOMENTS],
             count: 0,
             rejected: 0,
-            min: [0.0; 3],
-            max: [0.0; 3],
-            support: [[0.0; 3]; 14],
-            support_proj: [0.0; 14],
+            cov: Coverage::new(),
         })
     }
 
@@ -145,11 +145,7 @@ impl EllipsoidFitF32 {
 
     /// Per-axis max − min so far (input unit).
     pub fn ranges(&self) -> [f32; 3] {
-        [
-            self.max[0] - self.min[0],
-            self.max[1] - self.min[1],
-            self.max[2] - self.min[2],
-        ]
+        self.cov.ranges()
     }
 
     /// Add a sample (input unit). [`Error::NonFinite`],
@@ -179,12 +175,10 @@ impl EllipsoidFitF32 {
         }
         if self.count == 0 {
             self.origin = m;
-            self.min = m;
-            self.max = m;
         }
         self.accumulate(q);
+        self.cov.push(m, self.count == 0);
         self.count = self.count.saturating_add(1);
-        self.update_coverage(m);
         Ok(())
     }
 
@@ -209,34 +203,6 @@ impl EllipsoidFitF32 {
         }
     }
 
-    fn update_coverage(&mut self, m: [f32; 3]) {
-        for ((&v, lo), hi) in m.iter().zip(&mut self.min).zip(&mut self.max) {
-            if v < *lo {
-                *lo = v;
-            }
-            if v > *hi {
-                *hi = v;
-            }
-        }
-        let [x, y, z] = m;
-        let (s, d) = (x + y, x - y);
-        let (ppp, ppm, pmp, pmm) = (s + z, s - z, d + z, d - z);
-        let proj = [
-            x, -x, y, -y, z, -z, ppp, -ppp, ppm, -ppm, pmp, -pmp, pmm, -pmm,
-        ];
-        let first = self.count <= 1;
-        for ((p, best), sup) in proj
-            .iter()
-            .zip(&mut self.support_proj)
-            .zip(&mut self.support)
-        {
-            if first || *p > *best {
-                *best = *p;
-                *sup = m;
-            }
-        }
-    }
-
     fn box_coverage(&self) -> u8 {
         if self.count == 0 {
             return 0;
@@ -246,8 +212,8 @@ impl EllipsoidFitF32 {
         for (((c, ih), lo), hi) in center
             .iter_mut()
             .zip(&mut inv_half)
-            .zip(&self.min)
-            .zip(&self.max)
+            .zip(&self.cov.min)
+            .zip(&self.cov.max)
         {
             *c = 0.5 * (lo + hi);
             let half = 0.5 * (hi - lo);
@@ -270,7 +236,7 @@ impl EllipsoidFitF32 {
         const COS: f32 = COVERAGE_COS as f32;
         let cos = COS;
         let mut covered = 0u8;
-        for (dir, sup) in DIRECTIONS.iter().zip(&self.support) {
+        for (dir, sup) in DIRECTIONS.iter().zip(&self.cov.support) {
             let d = dir.map(f32::from);
             let want = mul_t(&w_inv, d);
             let got = mul(w, sub(*sup, center));
@@ -296,17 +262,7 @@ impl EllipsoidFitF32 {
                 need,
             });
         }
-        let mut axis = 0u8;
-        for range in self.ranges() {
-            if range.is_nan() || range < self.config.min_range || range <= 0.0 {
-                return Err(Error::RangeTooSmall {
-                    axis,
-                    range,
-                    min: self.config.min_range,
-                });
-            }
-            axis = axis.saturating_add(1);
-        }
+        check_ranges(self.ranges(), self.config.min_range)?;
         let bins_needed = self.config.bins_needed;
         let bins_hit = self.box_coverage();
         if bins_hit < bins_needed {
@@ -644,20 +600,6 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
 
 fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn sort3(v: &mut [f32; 3]) {
-    let [mut a, mut b, mut c] = *v;
-    if a > b {
-        core::mem::swap(&mut a, &mut b);
-    }
-    if b > c {
-        core::mem::swap(&mut b, &mut c);
-    }
-    if a > b {
-        core::mem::swap(&mut a, &mut b);
-    }
-    *v = [a, b, c];
 }
 
 const _: () = assert!(COVERAGE_BINS as usize == DIRECTIONS.len());
