@@ -1,47 +1,5 @@
-//! The ellipsoid fit for the board: the same model, coverage check and
-//! fit-quality figure as [`EllipsoidFit`](crate::EllipsoidFit), with exact
-//! integer moments and an `f32` solve, so it links no `f64` arithmetic and
-//! no linear-algebra crate.
-//!
-//! # Method
-//!
-//! Samples are quantised relative to the first accepted one,
-//! `x = round((m − p₀) / quantum)` (`|x| ≤ 4096` per axis), and the 34
-//! monomials of degree 1..=4 are summed in `i64` — exactly: `4096⁴ · 30 000
-//! < 2⁶³`, so at most [`MAX_SAMPLES_F32`] samples are taken. The rounding
-//! adds uniform noise of `quantum / √12` per axis (0.036 µT at the
-//! 0.125 µT the firmware uses, below the AK8963's 0.15 µT step).
-//!
-//! At `finish` the sums become means rescaled by the RMS distance `s`
-//! (f32), and the trace-constrained quadric (Petrov's regressors, as the
-//! host fit) is solved from its 9×9 normal equations: Jacobi-equilibrated
-//! to a unit diagonal, then an in-place Cholesky decomposition in `f32`.
-//!
-//! # Conditioning
-//!
-//! Equilibration gives the normal matrix a unit diagonal, so its Cholesky
-//! pivots² are the fractions of each regressor's variance the previous ones
-//! leave unexplained, and their smallest bounds the condition number. A
-//! pivot² below [`PIVOT_MIN_F32`] (1e-5: a condition number above ~10⁵,
-//! where `f32`'s 6e-8 relative precision would leave fewer than three
-//! significant digits in the solution) is refused as [`Error::Singular`]
-//! instead of being solved badly. The moments themselves are exact. The
-//! e2e tests compare with the `f64` host fit on the simulator's distortions
-//! (figure-eight, 40 s, soft iron ±15 %, hard iron up to 45 µT): offsets
-//! within 0.05 µT, soft-iron elements within 1e-3, radius within 0.02 µT,
-//! rms error within 1 %, the same coverage; a planar sweep is refused with
-//! the same error as by the host fit.
-//!
-//! The code mirrors `ellipsoid.rs` step by step (the same checks in the
-//! same order, `f32` for `f64`) so the two read side by side; what both use
-//! (coverage record, range check, exponent table, sort) lives there once.
-//!
-//! Then, as the host fit: centre `c = −M⁻¹b`, shape `S = M / (cᵀMc − J)`,
-//! symmetric eigen-decomposition (cyclic Jacobi in `f32`), `W = R · V
-//! diag(√λ) Vᵀ` with `R` the mean semi-axis, and the rms error from the
-//! moments. The coverage is judged exactly as by the host fit (14
-//! directions, 30°), before the fit from the min/max box and after it from
-//! the fitted centre and `W`.
+//! The ellipsoid fit for the board; the method is documented on
+//! [`EllipsoidFitF32`].
 
 use crate::ellipsoid::{
     check_ranges, moment_index, sort3, Coverage, COVERAGE_COS, DIRECTIONS, EXPONENTS, N_MOMENTS,
@@ -88,9 +46,74 @@ const TARGET_F32: &[TermF32] = &[(X2, 1.0), (Y2, 1.0), (Z2, 1.0)];
 /// constants bounded by the array lengths (3 and 9), so none is out of range.
 type M3 = [[f32; 3]; 3];
 
-/// Incremental ellipsoid fit with integer moments and an `f32` solve; see
-/// the [module docs](self). Same configuration, errors and
-/// [`EllipsoidSolution`] as [`EllipsoidFit`](crate::EllipsoidFit).
+/// The ellipsoid fit for the board: the same model, coverage check and
+/// fit-quality figure as [`EllipsoidFit`](crate::EllipsoidFit), with exact
+/// integer moments and an `f32` solve, so it links no `f64` arithmetic and
+/// no linear-algebra crate.
+///
+/// # Method
+///
+/// Samples are quantised relative to the first accepted one,
+/// `x = round((m − p₀) / quantum)` (`|x| ≤ 4096` per axis), and the 34
+/// monomials of degree 1..=4 are summed in `i64` — exactly: `4096⁴ · 30 000
+/// < 2⁶³`, so at most [`MAX_SAMPLES_F32`] samples are taken. The rounding
+/// adds uniform noise of `quantum / √12` per axis (0.036 µT at the
+/// 0.125 µT the firmware uses, below the AK8963's 0.15 µT step).
+///
+/// At `finish` the sums become means rescaled by the RMS distance `s`
+/// (f32), and the trace-constrained quadric (Petrov's regressors, as the
+/// host fit) is solved from its 9×9 normal equations: Jacobi-equilibrated
+/// to a unit diagonal, then an in-place Cholesky decomposition in `f32`.
+///
+/// # Conditioning
+///
+/// Equilibration gives the normal matrix a unit diagonal, so its Cholesky
+/// pivots² are the fractions of each regressor's variance the previous ones
+/// leave unexplained, and their smallest bounds the condition number. A
+/// pivot² below [`PIVOT_MIN_F32`] (1e-5: a condition number above ~10⁵,
+/// where `f32`'s 6e-8 relative precision would leave fewer than three
+/// significant digits in the solution) is refused as [`Error::Singular`]
+/// instead of being solved badly. The moments themselves are exact. The
+/// e2e tests compare with the `f64` host fit on the simulator's distortions
+/// (figure-eight, 40 s, soft iron ±15 %, hard iron up to 45 µT): offsets
+/// within 0.05 µT, soft-iron elements within 1e-3, radius within 0.02 µT,
+/// rms error within 1 %, the same coverage; a planar sweep is refused with
+/// the same error as by the host fit.
+///
+/// The code mirrors `ellipsoid.rs` step by step (the same checks in the
+/// same order, `f32` for `f64`) so the two read side by side; what both use
+/// (coverage record, range check, exponent table, sort) lives there once.
+///
+/// Then, as the host fit: centre `c = −M⁻¹b`, shape `S = M / (cᵀMc − J)`,
+/// symmetric eigen-decomposition (cyclic Jacobi in `f32`), `W = R · V
+/// diag(√λ) Vᵀ` with `R` the mean semi-axis, and the rms error from the
+/// moments. The coverage is judged exactly as by the host fit (14
+/// directions, 30°), before the fit from the min/max box and after it from
+/// the fitted centre and `W`.
+///
+/// Same configuration, errors and [`EllipsoidSolution`] as
+/// [`EllipsoidFit`](crate::EllipsoidFit).
+///
+/// ```
+/// use calibration::{EllipsoidFitConfig, EllipsoidFitF32};
+///
+/// let mut fit = EllipsoidFitF32::new(EllipsoidFitConfig::MICROTESLA, 0.125)?;
+/// // 50 µT field, hard-iron offset (12, -7, 30) µT, z squeezed to 80 %.
+/// for i in 0..40 {
+///     let t = -0.95 + 1.9 * (i as f32 + 0.5) / 40.0;
+///     let r = libm::sqrtf(1.0 - t * t);
+///     for j in 0..20 {
+///         let phi = j as f32 * 0.314_159_27 + i as f32 * 0.1;
+///         let h = [r * libm::cosf(phi), r * libm::sinf(phi), t];
+///         fit.push([12.0 + 50.0 * h[0], -7.0 + 50.0 * h[1], 30.0 + 40.0 * h[2]])?;
+///     }
+/// }
+/// let sol = fit.finish()?;
+/// assert!((sol.calibration.offset[2] - 30.0).abs() < 0.05);
+/// let c = sol.calibration.apply([12.0, -7.0, 70.0]); // +z pole
+/// assert!((c[2] - sol.radius).abs() < 0.01 * sol.radius);
+/// # Ok::<(), calibration::Error>(())
+/// ```
 ///
 /// State 568 bytes (`size_of` on the host): 34 `i64` sums, the reference sample, the min/max box
 /// and 14 support points.
