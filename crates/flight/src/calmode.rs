@@ -1,8 +1,11 @@
 //! Calibration modes as state machines with progress reporting, the PA0
 //! button decoder that selects them, and the raw-log row format.
 //!
-//! * Magnetometer figure-eight: wraps [`calibration::EllipsoidFit`]; progress
-//!   is the direction coverage (bins hit of [`calibration::COVERAGE_BINS`]).
+//! * Magnetometer figure-eight: wraps [`calibration::EllipsoidFitF32`] (the
+//!   ellipsoid fit with integer moments and an `f32` solve, small enough
+//!   for the board); progress is the direction coverage (bins hit of
+//!   [`calibration::COVERAGE_BINS`]). [`MagMinMaxMode`] is the per-axis
+//!   alternative; both have `standard()` so the firmware picks one by type.
 //! * Accelerometer six-position: wraps [`calibration::AccelSixPosition`];
 //!   progress is the set of captured positions.
 //! * Raw log: stream calibrated sensor values in the BROAD CSV column order
@@ -21,15 +24,15 @@
 
 use crate::storage::{CalibrationRecord, ValidParts};
 use calibration::{
-    AccelCalibration, AccelSixPosition, AccelSixPositionConfig, EllipsoidFit, EllipsoidFitConfig,
-    Error as CalError, MagCalibration, MagMinMax, MagMinMaxConfig, Position, SixPositionEvent,
-    COVERAGE_BINS,
+    AccelCalibration, AccelSixPosition, AccelSixPositionConfig, EllipsoidFitConfig,
+    EllipsoidFitF32, Error as CalError, MagCalibration, MagMinMax, MagMinMaxConfig, Position,
+    SixPositionEvent, COVERAGE_BINS,
 };
 
 /// Figure-eight magnetometer calibration (samples in µT, MPU frame).
 #[derive(Clone, Debug)]
 pub struct MagCalMode {
-    fit: EllipsoidFit,
+    fit: EllipsoidFitF32,
     bins_needed: u8,
     min_samples: u32,
 }
@@ -48,12 +51,22 @@ pub struct MagProgress {
     pub percent: u8,
 }
 
+/// Moment quantum of the board's ellipsoid fit, µT: below the AK8963's
+/// 0.15 µT step, and samples may lie up to 4096 quanta (512 µT) from the
+/// first one.
+pub const MAG_FIT_QUANTUM_UT: f32 = 0.125;
+
 impl MagCalMode {
+    /// The session the firmware uses: [`EllipsoidFitConfig::MICROTESLA`].
+    pub fn standard() -> Result<Self, CalError> {
+        Self::new(EllipsoidFitConfig::MICROTESLA)
+    }
+
     /// A fresh session with [`EllipsoidFitConfig::MICROTESLA`]-style
     /// thresholds (`config` is validated by the fit).
     pub fn new(config: EllipsoidFitConfig) -> Result<Self, CalError> {
         Ok(Self {
-            fit: EllipsoidFit::new(config)?,
+            fit: EllipsoidFitF32::new(config, MAG_FIT_QUANTUM_UT)?,
             bins_needed: config.bins_needed.min(COVERAGE_BINS),
             min_samples: config.min_samples.max(10),
         })
@@ -84,7 +97,7 @@ impl MagCalMode {
         self.progress().percent >= 100
     }
 
-    /// Fits the ellipsoid (a few ms of f64 work: call from a low-priority
+    /// Fits the ellipsoid (one-off `f32` work: call from a low-priority
     /// context).
     pub fn finish(&self) -> Result<MagCalibration, CalError> {
         self.fit.finish().map(|s| s.calibration)
@@ -93,7 +106,7 @@ impl MagCalMode {
 
 /// Light-weight magnetometer calibration (samples in µT, MPU frame): per-axis
 /// min/max ([`calibration::MagMinMax`]: hard iron + diagonal soft iron), all
-/// `f32`, for builds that cannot afford the ellipsoid fit's `f64` solver.
+/// `f32`; less flash than [`MagCalMode`] but no cross-axis soft iron.
 /// Progress = the smallest per-axis sweep relative to the required range.
 #[derive(Clone, Debug)]
 pub struct MagMinMaxMode {
@@ -103,6 +116,11 @@ pub struct MagMinMaxMode {
 }
 
 impl MagMinMaxMode {
+    /// The session for µT: every axis sweeps 40 µT, 300 samples.
+    pub fn standard() -> Result<Self, CalError> {
+        Self::new(40.0, 300)
+    }
+
     /// Every axis must sweep `min_range_ut` (a full figure-eight sweeps about
     /// twice the local field, 50–130 µT) over at least `min_samples` samples.
     pub fn new(min_range_ut: f32, min_samples: u32) -> Result<Self, CalError> {
@@ -548,7 +566,8 @@ mod tests {
 }
 
 /// A magnetometer calibration [`CalSession`] can run: [`MagMinMaxMode`]
-/// (small, `f32`) or [`MagCalMode`] (ellipsoid fit, `f64` solver).
+/// (small, `f32`) or [`MagCalMode`] (ellipsoid fit, integer moments and an
+/// `f32` solve).
 pub trait MagCalibrator: Sized {
     /// A fresh session with the firmware's thresholds (`None` if they are
     /// refused).
@@ -564,10 +583,8 @@ pub trait MagCalibrator: Sized {
 }
 
 impl MagCalibrator for MagMinMaxMode {
-    /// Every axis swept over 40 µT (a figure-eight sweeps about twice the
-    /// local field), at least 300 samples (3 s at 100 Hz).
     fn start() -> Option<Self> {
-        Self::new(40.0, 300).ok()
+        Self::standard().ok()
     }
     fn push(&mut self, mag_ut: [f32; 3]) -> MagProgress {
         MagMinMaxMode::push(self, mag_ut)
@@ -585,7 +602,7 @@ impl MagCalibrator for MagMinMaxMode {
 
 impl MagCalibrator for MagCalMode {
     fn start() -> Option<Self> {
-        Self::new(EllipsoidFitConfig::default()).ok()
+        Self::standard().ok()
     }
     fn push(&mut self, mag_ut: [f32; 3]) -> MagProgress {
         MagCalMode::push(self, mag_ut)

@@ -20,6 +20,7 @@
 //! | [`sample`] | one 1 kHz sample end to end: start-up bias, pipeline steps, calibration and raw-log values |
 //! | [`pipeline`] | the 1 kHz / 100 Hz processing chain (fixed-point AHRS by default, f32 with `f32-ahrs`) |
 //! | [`mounting`] | MPU frame → body FRD signed axis permutation |
+//! | [`angles`] | integer Euler angles and the down axis from the Q30 quaternion |
 //!
 //! ```
 //! use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
@@ -38,6 +39,7 @@
     )
 )]
 
+pub mod angles;
 pub mod boot;
 pub mod calmode;
 pub mod crc32;
