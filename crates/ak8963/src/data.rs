@@ -23,6 +23,31 @@ pub const MEASUREMENT_RANGE_NT: i32 = 4_912_000;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Overflow;
 
+/// Why [`parse_measurement`] rejected a measurement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Rejected {
+    /// ST1 DRDY was clear: no new measurement (only from
+    /// [`parse_status_block`]; the data bytes are stale).
+    NotReady,
+    /// ST2 HOFL was set or the reading exceeds the measurement range.
+    Overflow,
+    /// ST2 BITM (the output width the chip used) differs from the configured
+    /// resolution: the counts would be scaled by the wrong factor, and the
+    /// chip's CNTL1 no longer holds what was written (a reset or a corrupted
+    /// write). PX4 drops such samples too.
+    ResolutionMismatch {
+        /// The resolution the driver was configured for.
+        configured: Resolution,
+    },
+}
+
+impl From<Overflow> for Rejected {
+    fn from(_: Overflow) -> Self {
+        Rejected::Overflow
+    }
+}
+
 /// One measurement in counts, AK8963 sensor frame, without factory adjustment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -76,32 +101,79 @@ pub const fn parse_st1(st1: u8) -> St1 {
 
 /// Parse the 7-byte HXL..ST2 burst (little-endian X, Y, Z, then ST2).
 ///
-/// Returns [`Overflow`] when ST2 HOFL is set or when |X| + |Y| + |Z| exceeds
-/// the 4912 µT measurement range (see [`exceeds_range`]).
+/// Returns [`Rejected::Overflow`] when ST2 HOFL is set or when |X| + |Y| + |Z|
+/// exceeds the 4912 µT measurement range (see [`exceeds_range`]), and
+/// [`Rejected::ResolutionMismatch`] when ST2 BITM disagrees with `resolution`.
 ///
 /// ```
-/// use ak8963::{parse_measurement, Overflow, Resolution};
+/// use ak8963::{parse_measurement, Rejected, Resolution};
 /// let m = parse_measurement(&[0x10, 0x00, 0xF0, 0xFF, 0x00, 0x01, 0x10], Resolution::Bits16).unwrap();
 /// assert_eq!(m.counts, [16, -16, 256]);
-/// assert_eq!(parse_measurement(&[0, 0, 0, 0, 0, 0, 0x18], Resolution::Bits16), Err(Overflow));
+/// assert_eq!(parse_measurement(&[0, 0, 0, 0, 0, 0, 0x18], Resolution::Bits16), Err(Rejected::Overflow));
+/// // BITM clear: the chip measured in 14 bit although 16 bit was configured.
+/// assert_eq!(
+///     parse_measurement(&[0x10, 0x00, 0xF0, 0xFF, 0x00, 0x01, 0x00], Resolution::Bits16),
+///     Err(Rejected::ResolutionMismatch { configured: Resolution::Bits16 })
+/// );
 /// ```
 pub const fn parse_measurement(
     bytes: &[u8; reg::MEASUREMENT_LEN],
     resolution: Resolution,
-) -> Result<RawMag, Overflow> {
+) -> Result<RawMag, Rejected> {
     let counts = [
         i16::from_le_bytes([bytes[0], bytes[1]]),
         i16::from_le_bytes([bytes[2], bytes[3]]),
         i16::from_le_bytes([bytes[4], bytes[5]]),
     ];
-    if bytes[6] & reg::ST2_HOFL != 0 || exceeds_range(counts, resolution) {
-        return Err(Overflow);
+    let st2 = bytes[6];
+    // HOFL first: an overflowing sample is dropped whatever its width.
+    if st2 & reg::ST2_HOFL != 0 || exceeds_range(counts, resolution) {
+        return Err(Rejected::Overflow);
+    }
+    let bitm_16 = st2 & reg::ST2_BITM != 0;
+    if bitm_16 != matches!(resolution, Resolution::Bits16) {
+        return Err(Rejected::ResolutionMismatch {
+            configured: resolution,
+        });
     }
     Ok(RawMag {
         counts,
         resolution,
         data_overrun: false,
     })
+}
+
+/// Parse the 8-byte ST1..ST2 block (ST1, HXL..HZH, ST2), as the MPU-9250's
+/// internal I2C master copies it into EXT_SENS_DATA_00..07 every sample when
+/// its slave 0 reads 8 bytes from ST1. The same checks as a direct read:
+/// DRDY clear is [`Rejected::NotReady`], then HOFL / range
+/// ([`Rejected::Overflow`]) and BITM ([`Rejected::ResolutionMismatch`]);
+/// ST1 DOR is returned as [`RawMag::data_overrun`].
+///
+/// ```
+/// use ak8963::{parse_status_block, Rejected, Resolution};
+/// let m = parse_status_block(&[0x01, 200, 0, 0x9C, 0xFF, 0, 0, 0x10], Resolution::Bits16).unwrap();
+/// assert_eq!(m.counts, [200, -100, 0]);
+/// assert_eq!(parse_status_block(&[0x00, 200, 0, 0, 0, 0, 0, 0x10], Resolution::Bits16), Err(Rejected::NotReady));
+/// ```
+pub const fn parse_status_block(
+    bytes: &[u8; reg::STATUS_BLOCK_LEN],
+    resolution: Resolution,
+) -> Result<RawMag, Rejected> {
+    let st1 = parse_st1(bytes[0]);
+    if !st1.data_ready {
+        return Err(Rejected::NotReady);
+    }
+    let measurement = [
+        bytes[1], bytes[2], bytes[3], bytes[4], bytes[5], bytes[6], bytes[7],
+    ];
+    match parse_measurement(&measurement, resolution) {
+        Ok(mut raw) => {
+            raw.data_overrun = st1.data_overrun;
+            Ok(raw)
+        }
+        Err(e) => Err(e),
+    }
 }
 
 /// Whether |X| + |Y| + |Z| (counts × sensitivity, before the factory

@@ -1,7 +1,12 @@
 //! The bus-facing driver.
 
 use embedded_hal::delay::DelayNs;
-use embedded_hal::i2c::I2c;
+#[cfg(feature = "async")]
+use embedded_hal_async::delay::DelayNs as AsyncDelayNs;
+
+use crate::interface::Interface;
+#[cfg(feature = "async")]
+use crate::interface::InterfaceAsync;
 
 use crate::config::{Config, Mode, Resolution};
 use crate::data::{
@@ -23,13 +28,18 @@ pub const SELF_TEST_POLL_INTERVAL_US: u32 = 1_000;
 /// Maximum ST1 polls during the self-test (single measurement takes ≤ 9 ms).
 pub const SELF_TEST_MAX_POLLS: u8 = 20;
 
-/// AK8963 driver over an [`I2c`] bus (through the MPU-9250's I2C bypass).
+/// AK8963 driver over an I2C bus (through the MPU-9250's I2C bypass) or any
+/// other [`Interface`].
 ///
 /// Holds the configuration, the fuse-ROM adjustment and the hard/soft-iron
 /// calibration; the calibration survives [`init`](Self::init).
+///
+/// With the `async` feature, `Ak8963Async` is the same driver over
+/// `embedded-hal-async`, generated from the same source.
+#[maybe_async_cfg::maybe(sync(keep_self), async(feature = "async"))]
 #[derive(Debug)]
-pub struct Ak8963<I2C> {
-    i2c: I2C,
+pub struct Ak8963<DI> {
+    bus: DI,
     address: u8,
     config: Config,
     asa: [u8; 3],
@@ -38,10 +48,12 @@ pub struct Ak8963<I2C> {
     initialized: bool,
 }
 
-impl<I2C, E> Ak8963<I2C>
-where
-    I2C: I2c<Error = E>,
-{
+#[maybe_async_cfg::maybe(
+    idents(Ak8963(sync, async = "Ak8963Async")),
+    sync(keep_self),
+    async(feature = "async", keep_self)
+)]
+impl<DI> Ak8963<DI> {
     /// Create the driver at address 0x0C. No bus traffic; call [`init`](Self::init) next.
     ///
     /// ```
@@ -51,15 +63,15 @@ where
     /// assert_eq!(mag.address(), 0x0C);
     /// i2c.done();
     /// ```
-    pub fn new(i2c: I2C) -> Self {
+    pub fn new(i2c: DI) -> Self {
         Self::new_with_address(i2c, reg::ADDRESS)
     }
 
     /// Create the driver at another address (stand-alone AK8963 with CAD pins set).
-    pub fn new_with_address(i2c: I2C, address: u8) -> Self {
+    pub fn new_with_address(i2c: DI, address: u8) -> Self {
         let config = Config::new();
         Self {
-            i2c,
+            bus: i2c,
             address,
             config,
             asa: [128; 3],
@@ -70,13 +82,8 @@ where
     }
 
     /// Give the bus back.
-    pub fn release(self) -> I2C {
-        self.i2c
-    }
-
-    /// Give the bus back (same as [`release`](Self::release)).
-    pub fn destroy(self) -> I2C {
-        self.release()
+    pub fn release(self) -> DI {
+        self.bus
     }
 
     /// The 7-bit bus address in use.
@@ -118,10 +125,24 @@ where
     pub fn set_calibration(&mut self, calibration: HardSoftIron) {
         self.calibration = calibration;
     }
+}
 
+#[maybe_async_cfg::maybe(
+    idents(
+        Ak8963(sync, async = "Ak8963Async"),
+        Interface(sync, async = "InterfaceAsync"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    ),
+    sync(keep_self),
+    async(feature = "async", keep_self)
+)]
+impl<DI, E> Ak8963<DI>
+where
+    DI: Interface<Error = E>,
+{
     /// Read WIA.
-    pub fn who_am_i(&mut self) -> Result<u8, Error<E>> {
-        self.read_reg(reg::WIA)
+    pub async fn who_am_i(&mut self) -> Result<u8, Error<E>> {
+        self.read_reg(reg::WIA).await
     }
 
     /// Check WIA, soft-reset, read the fuse ROM and start `config`.
@@ -155,36 +176,40 @@ where
     /// assert_eq!(mag.asa(), [0xB0, 0x80, 0xAA]);
     /// i2c.done();
     /// ```
-    pub fn init<D: DelayNs>(&mut self, delay: &mut D, config: &Config) -> Result<(), Error<E>> {
+    pub async fn init<D: DelayNs>(
+        &mut self,
+        delay: &mut D,
+        config: &Config,
+    ) -> Result<(), Error<E>> {
         self.initialized = false;
-        let id = self.who_am_i()?;
+        let id = self.who_am_i().await?;
         if id != reg::WIA_VALUE {
             return Err(Error::WrongId(id));
         }
-        self.write_reg(reg::CNTL2, reg::CNTL2_SRST)?;
-        self.wait_reset(delay)?;
+        self.write_reg(reg::CNTL2, reg::CNTL2_SRST).await?;
+        self.wait_reset(delay).await?;
 
-        self.write_cntl1(delay, reg::MODE_POWER_DOWN)?;
-        self.write_cntl1(delay, reg::MODE_FUSE_ROM)?;
+        self.write_cntl1(delay, reg::MODE_POWER_DOWN).await?;
+        self.write_cntl1(delay, reg::MODE_FUSE_ROM).await?;
         let mut asa = [0u8; 3];
-        self.read_regs(reg::ASAX, &mut asa)?;
-        self.write_cntl1(delay, reg::MODE_POWER_DOWN)?;
+        self.read_regs(reg::ASAX, &mut asa).await?;
+        self.write_cntl1(delay, reg::MODE_POWER_DOWN).await?;
         if !asa.iter().all(|&a| asa_valid(a)) {
             return Err(Error::BadFuseRom { asa });
         }
         self.asa = asa;
         self.apply_config(config);
 
-        self.write_cntl1(delay, config.cntl1())?;
-        self.check_cntl1()?;
+        self.write_cntl1(delay, config.cntl1()).await?;
+        self.check_cntl1().await?;
         self.initialized = true;
         Ok(())
     }
 
-    fn wait_reset<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
+    async fn wait_reset<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
         for _ in 0..RESET_MAX_POLLS {
-            delay.delay_us(RESET_POLL_INTERVAL_US);
-            if let Ok(v) = self.read_reg(reg::CNTL2) {
+            delay.delay_us(RESET_POLL_INTERVAL_US).await;
+            if let Ok(v) = self.read_reg(reg::CNTL2).await {
                 if v & reg::CNTL2_SRST == 0 {
                     return Ok(());
                 }
@@ -205,58 +230,62 @@ where
     /// The driver adopts `config` (and its µT scale) only once the new CNTL1
     /// value was written; on a bus error before that it keeps the previous
     /// configuration.
-    pub fn set_config<D: DelayNs>(
+    pub async fn set_config<D: DelayNs>(
         &mut self,
         delay: &mut D,
         config: &Config,
     ) -> Result<(), Error<E>> {
-        self.write_cntl1(delay, reg::MODE_POWER_DOWN)?;
-        self.write_cntl1(delay, config.cntl1())?;
+        self.write_cntl1(delay, reg::MODE_POWER_DOWN).await?;
+        self.write_cntl1(delay, config.cntl1()).await?;
         // Only now does the chip run `config`: adopting it earlier would
         // convert the old mode's data with the new resolution's scale after
         // a failed write. If the power-down went through but the new value
         // did not, the chip idles and `verify_config` reports the mismatch.
         self.apply_config(config);
-        self.check_cntl1()
+        self.check_cntl1().await
     }
 
     /// Change only the mode (see [`set_config`](Self::set_config)).
-    pub fn set_mode<D: DelayNs>(&mut self, delay: &mut D, mode: Mode) -> Result<(), Error<E>> {
+    pub async fn set_mode<D: DelayNs>(
+        &mut self,
+        delay: &mut D,
+        mode: Mode,
+    ) -> Result<(), Error<E>> {
         let config = self.config.mode(mode);
-        self.set_config(delay, &config)
+        self.set_config(delay, &config).await
     }
 
     /// Change only the resolution (see [`set_config`](Self::set_config)).
-    pub fn set_resolution<D: DelayNs>(
+    pub async fn set_resolution<D: DelayNs>(
         &mut self,
         delay: &mut D,
         resolution: Resolution,
     ) -> Result<(), Error<E>> {
         let config = self.config.resolution(resolution);
-        self.set_config(delay, &config)
+        self.set_config(delay, &config).await
     }
 
     /// Start one measurement in [`Mode::Single`] (ready after at most 9 ms;
     /// the chip then returns to power-down by itself). The chip must be in
     /// power-down, which it is after a previous single measurement; from any
     /// other mode use [`set_mode`](Self::set_mode)`(Mode::Single)` instead.
-    pub fn trigger_single(&mut self) -> Result<(), Error<E>> {
+    pub async fn trigger_single(&mut self) -> Result<(), Error<E>> {
         self.config = self.config.mode(Mode::Single);
-        self.write_reg(reg::CNTL1, self.config.cntl1())
+        self.write_reg(reg::CNTL1, self.config.cntl1()).await
     }
 
     /// Read CNTL1 and compare it with the configuration (single mode may
     /// read as power-down). Call it periodically to detect a chip that reset
     /// itself; on [`Error::ConfigMismatch`] re-run [`init`](Self::init).
-    pub fn verify_config(&mut self) -> Result<(), Error<E>> {
+    pub async fn verify_config(&mut self) -> Result<(), Error<E>> {
         if !self.initialized {
             return Err(Error::NotInitialized);
         }
-        self.check_cntl1()
+        self.check_cntl1().await
     }
 
-    fn check_cntl1(&mut self) -> Result<(), Error<E>> {
-        let found = self.read_reg(reg::CNTL1)?;
+    async fn check_cntl1(&mut self) -> Result<(), Error<E>> {
+        let found = self.read_reg(reg::CNTL1).await?;
         if self.config.cntl1_matches(found) {
             Ok(())
         } else {
@@ -269,8 +298,8 @@ where
     }
 
     /// Read and decode ST1 (does not consume a measurement).
-    pub fn status(&mut self) -> Result<St1, Error<E>> {
-        Ok(parse_st1(self.read_reg(reg::ST1)?))
+    pub async fn status(&mut self) -> Result<St1, Error<E>> {
+        Ok(parse_st1(self.read_reg(reg::ST1).await?))
     }
 
     /// Read one measurement in counts (AK8963 frame, no adjustment).
@@ -282,19 +311,19 @@ where
     /// as [`RawMag::data_overrun`] (the data is still valid). If the burst
     /// fails, ST2 is read once more on its own so that the chip's data
     /// protection is released, and the burst's bus error is returned.
-    pub fn read_raw(&mut self) -> Result<RawMag, Error<E>> {
-        let st1 = self.status()?;
+    pub async fn read_raw(&mut self) -> Result<RawMag, Error<E>> {
+        let st1 = self.status().await?;
         if !st1.data_ready {
             return Err(Error::NotReady);
         }
         let mut buf = [0u8; reg::MEASUREMENT_LEN];
-        if let Err(e) = self.read_regs(reg::HXL, &mut buf) {
+        if let Err(e) = self.read_regs(reg::HXL, &mut buf).await {
             // The burst may have died after the chip saw the start of the
             // data read: DRDY is then cleared and the data registers stay
             // protected until ST2 is read, so DRDY would never rise again.
             // Reading ST2 ends that read (best effort; the burst's own error
             // is the one reported).
-            let _ = self.read_reg(reg::ST2);
+            let _ = self.read_reg(reg::ST2).await;
             return Err(e);
         }
         let mut raw = parse_measurement(&buf, self.config.resolution)?;
@@ -330,11 +359,11 @@ where
     /// i2c.done();
     /// # Ok::<(), ak8963::Error<embedded_hal::i2c::ErrorKind>>(())
     /// ```
-    pub fn read(&mut self) -> Result<Sample, Error<E>> {
+    pub async fn read(&mut self) -> Result<Sample, Error<E>> {
         if !self.initialized {
             return Err(Error::NotInitialized);
         }
-        let raw = self.read_raw()?;
+        let raw = self.read_raw().await?;
         Ok(convert(&raw, &self.ut_per_lsb, &self.calibration))
     }
 
@@ -350,13 +379,13 @@ where
     /// fails, the chip is left in power-down (not measuring with the
     /// self-test field on) and [`verify_config`](Self::verify_config) reports
     /// it; re-run [`init`](Self::init).
-    pub fn self_test<D: DelayNs>(&mut self, delay: &mut D) -> Result<[i32; 3], Error<E>> {
+    pub async fn self_test<D: DelayNs>(&mut self, delay: &mut D) -> Result<[i32; 3], Error<E>> {
         if !self.initialized {
             return Err(Error::NotInitialized);
         }
         let res = self.config.resolution;
-        let measured = self.self_test_measure(delay, res);
-        let cleaned = self.self_test_cleanup(delay);
+        let measured = self.self_test_measure(delay, res).await;
+        let cleaned = self.self_test_cleanup(delay).await;
         let buf = measured?;
         cleaned?;
         let Some(buf) = buf else {
@@ -384,33 +413,34 @@ where
     }
 
     /// Self-test steps up to the data read; `None` when DRDY never came.
-    fn self_test_measure<D: DelayNs>(
+    async fn self_test_measure<D: DelayNs>(
         &mut self,
         delay: &mut D,
         res: Resolution,
     ) -> Result<Option<[u8; reg::MEASUREMENT_LEN]>, Error<E>> {
-        self.write_cntl1(delay, reg::MODE_POWER_DOWN)?;
-        self.write_reg(reg::ASTC, reg::ASTC_SELF)?;
-        self.write_cntl1(delay, res.bits() | reg::MODE_SELF_TEST)?;
+        self.write_cntl1(delay, reg::MODE_POWER_DOWN).await?;
+        self.write_reg(reg::ASTC, reg::ASTC_SELF).await?;
+        self.write_cntl1(delay, res.bits() | reg::MODE_SELF_TEST)
+            .await?;
         for _ in 0..SELF_TEST_MAX_POLLS {
-            if self.status()?.data_ready {
+            if self.status().await?.data_ready {
                 let mut buf = [0u8; reg::MEASUREMENT_LEN];
-                self.read_regs(reg::HXL, &mut buf)?;
+                self.read_regs(reg::HXL, &mut buf).await?;
                 return Ok(Some(buf));
             }
-            delay.delay_us(SELF_TEST_POLL_INTERVAL_US);
+            delay.delay_us(SELF_TEST_POLL_INTERVAL_US).await;
         }
         Ok(None)
     }
 
     /// ASTC SELF = 0, power-down, configured mode (the last only if SELF was
     /// cleared). Every step is attempted; the first error is returned.
-    fn self_test_cleanup<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
-        let self_off = self.write_reg(reg::ASTC, 0);
-        let power_down = self.write_cntl1(delay, reg::MODE_POWER_DOWN);
+    async fn self_test_cleanup<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
+        let self_off = self.write_reg(reg::ASTC, 0).await;
+        let power_down = self.write_cntl1(delay, reg::MODE_POWER_DOWN).await;
         let restore = if self_off.is_ok() {
             let cntl1 = self.config.cntl1();
-            self.write_cntl1(delay, cntl1)
+            self.write_cntl1(delay, cntl1).await
         } else {
             Ok(())
         };
@@ -418,27 +448,29 @@ where
     }
 
     /// Write CNTL1 = `value`, then wait [`MODE_CHANGE_DELAY_US`].
-    fn write_cntl1<D: DelayNs>(&mut self, delay: &mut D, value: u8) -> Result<(), Error<E>> {
-        self.write_reg(reg::CNTL1, value)?;
-        delay.delay_us(MODE_CHANGE_DELAY_US);
+    async fn write_cntl1<D: DelayNs>(&mut self, delay: &mut D, value: u8) -> Result<(), Error<E>> {
+        self.write_reg(reg::CNTL1, value).await?;
+        delay.delay_us(MODE_CHANGE_DELAY_US).await;
         Ok(())
     }
 
-    fn write_reg(&mut self, register: u8, value: u8) -> Result<(), Error<E>> {
-        self.i2c
-            .write(self.address, &[register, value])
+    async fn write_reg(&mut self, register: u8, value: u8) -> Result<(), Error<E>> {
+        self.bus
+            .write_register(self.address, register, value)
+            .await
             .map_err(Error::Bus)
     }
 
-    fn read_reg(&mut self, register: u8) -> Result<u8, Error<E>> {
+    async fn read_reg(&mut self, register: u8) -> Result<u8, Error<E>> {
         let mut b = [0u8; 1];
-        self.read_regs(register, &mut b)?;
+        self.read_regs(register, &mut b).await?;
         Ok(b[0])
     }
 
-    fn read_regs(&mut self, start: u8, buf: &mut [u8]) -> Result<(), Error<E>> {
-        self.i2c
-            .write_read(self.address, &[start], buf)
+    async fn read_regs(&mut self, start: u8, buf: &mut [u8]) -> Result<(), Error<E>> {
+        self.bus
+            .read_registers(self.address, start, buf)
+            .await
             .map_err(Error::Bus)
     }
 }

@@ -2,7 +2,8 @@
 
 use core::fmt;
 
-use crate::data::{CalibrationError, Overflow};
+use crate::config::Resolution;
+use crate::data::{CalibrationError, Overflow, Rejected};
 
 /// Every way a driver call can fail. `E` is the I2C bus error.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -27,6 +28,13 @@ pub enum Error<E> {
     /// ST2 HOFL was set (|X|+|Y|+|Z| > 4912 µT): the measurement was dropped.
     /// ST2 has been read, so the next measurement proceeds normally.
     Overflow,
+    /// ST2 BITM says the chip measured at another resolution than the
+    /// configured one (its CNTL1 changed behind the driver's back): the
+    /// sample was dropped; re-initialise.
+    ResolutionMismatch {
+        /// The resolution the driver was configured for.
+        configured: Resolution,
+    },
     /// CNTL1 read back differently from what was written (bus corruption or a
     /// chip reset): re-initialise.
     ConfigMismatch {
@@ -53,6 +61,16 @@ pub enum Error<E> {
 impl<E> From<Overflow> for Error<E> {
     fn from(_: Overflow) -> Self {
         Error::Overflow
+    }
+}
+
+impl<E> From<Rejected> for Error<E> {
+    fn from(r: Rejected) -> Self {
+        match r {
+            Rejected::NotReady => Error::NotReady,
+            Rejected::Overflow => Error::Overflow,
+            Rejected::ResolutionMismatch { configured } => Error::ResolutionMismatch { configured },
+        }
     }
 }
 
@@ -91,6 +109,14 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
             ),
             Error::NotReady => f.write_str("no new measurement (DRDY clear)"),
             Error::Overflow => Overflow.fmt(f),
+            Error::ResolutionMismatch { configured } => write!(
+                f,
+                "ST2 BITM does not match the configured {}-bit output",
+                match configured {
+                    Resolution::Bits14 => 14,
+                    Resolution::Bits16 => 16,
+                }
+            ),
             Error::ConfigMismatch {
                 register,
                 expected,

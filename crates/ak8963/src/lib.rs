@@ -63,16 +63,23 @@ mod config;
 mod data;
 mod device;
 mod error;
+mod interface;
 pub mod register;
 
 pub use config::{Config, Mode, Resolution};
 pub use data::{
     adjustment_factor, adjustment_q8, asa_valid, convert, counts_to_ut, exceeds_range,
-    parse_measurement, parse_st1, to_mpu_frame, to_mpu_frame_counts, ut_per_lsb, CalibrationError,
-    HardSoftIron, Overflow, RawMag, Sample, St1, MEASUREMENT_RANGE_NT, MEASUREMENT_RANGE_UT,
+    parse_measurement, parse_st1, parse_status_block, to_mpu_frame, to_mpu_frame_counts,
+    ut_per_lsb, CalibrationError, HardSoftIron, Overflow, RawMag, Rejected, Sample, St1,
+    MEASUREMENT_RANGE_NT, MEASUREMENT_RANGE_UT,
 };
+#[cfg(feature = "async")]
+pub use device::Ak8963Async;
 pub use device::{
     Ak8963, MODE_CHANGE_DELAY_US, RESET_MAX_POLLS, RESET_POLL_INTERVAL_US, SELF_TEST_MAX_POLLS,
     SELF_TEST_POLL_INTERVAL_US,
 };
 pub use error::Error;
+pub use interface::Interface;
+#[cfg(feature = "async")]
+pub use interface::InterfaceAsync;

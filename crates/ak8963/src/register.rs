@@ -36,6 +36,8 @@ pub const ASAZ: u8 = 0x12;
 /// WIA value of the AK8963.
 pub const WIA_VALUE: u8 = 0x48;
 
+/// Length of the ST1..ST2 block (ST1, the measurement, ST2).
+pub const STATUS_BLOCK_LEN: usize = 8;
 /// Length of the HXL..ST2 burst.
 pub const MEASUREMENT_LEN: usize = 7;
 

@@ -325,6 +325,44 @@ fn read_14bit_scale() {
 }
 
 #[test]
+fn st2_bitm_must_match_the_configured_resolution() {
+    // 16 bit configured, the chip reports 14-bit output (BITM clear): the
+    // counts would be scaled 4x too small, so the sample is dropped.
+    let (mut i2c, mut mag) = inited(
+        [0x80; 3],
+        vec![
+            st1(0x01),
+            data([100, 0, 0], 0x00),
+            st1(0x01),
+            data([100, 0, 0], 0x10),
+        ],
+    );
+    assert_eq!(
+        mag.read(),
+        Err(Error::ResolutionMismatch {
+            configured: Resolution::Bits16
+        })
+    );
+    assert!((mag.read().unwrap().field_ut[0] - 15.0).abs() < 1e-4);
+    i2c.done();
+
+    // 14 bit configured, BITM set.
+    let c = Config::new().resolution(Resolution::Bits14);
+    let mut t = init_seq([0x80; 3], 0x06);
+    t.extend([st1(0x01), data([100, 0, 0], 0x10)]);
+    let mut i2c = Mock::new(&t);
+    let mut mag = Ak8963::new(i2c.clone());
+    mag.init(&mut NoopDelay::new(), &c).unwrap();
+    assert_eq!(
+        mag.read_raw(),
+        Err(Error::ResolutionMismatch {
+            configured: Resolution::Bits14
+        })
+    );
+    i2c.done();
+}
+
+#[test]
 fn not_ready_reads_only_st1() {
     let (mut i2c, mut mag) = inited(
         [0x80; 3],
@@ -406,7 +444,7 @@ fn parse_is_little_endian() {
         Resolution::Bits16,
     );
     // 0x8000 = -32768 exceeds the range
-    assert_eq!(m, Err(Overflow));
+    assert_eq!(m, Err(Rejected::Overflow));
     let m = parse_measurement(
         &[0x34, 0x12, 0xFF, 0xFF, 0x00, 0xF0, 0x10],
         Resolution::Bits16,
@@ -658,7 +696,9 @@ mod props {
             let bytes: [u8; 7] = le(v, st2).try_into().unwrap();
             let r = parse_measurement(&bytes, Resolution::Bits16);
             if st2 & 0x08 != 0 || exceeds_range(v, Resolution::Bits16) {
-                prop_assert_eq!(r, Err(Overflow));
+                prop_assert_eq!(r, Err(Rejected::Overflow));
+            } else if st2 & 0x10 == 0 {
+                prop_assert_eq!(r, Err(Rejected::ResolutionMismatch { configured: Resolution::Bits16 }));
             } else {
                 prop_assert_eq!(r.unwrap().counts, v);
             }

@@ -325,8 +325,8 @@ fn hard_soft_iron_full_matrix() {
 }
 
 #[test]
-fn release_and_destroy_return_the_bus() {
+fn release_returns_the_bus() {
     let mag = Ak8963::new_with_address(Mock::new(&[]), 0x0D);
     assert_eq!(mag.address(), 0x0D);
-    mag.destroy().done();
+    mag.release().done();
 }

@@ -446,6 +446,9 @@ pub enum ConfigError {
     DividerIgnored,
     /// A zero sample count (or other zero-sized request) for gyro-bias calibration.
     NoSamples,
+    /// A slave-0 read of 0 or more than 15 bytes, or more than the 24 bytes
+    /// of EXT_SENS_DATA requested.
+    SlaveReadLength,
 }
 
 /// Driver configuration, built with the `const` builder methods.

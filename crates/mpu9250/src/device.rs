@@ -1,19 +1,36 @@
 //! The bus-facing driver.
 
 use embedded_hal::delay::DelayNs;
-use embedded_hal::i2c::I2c;
+#[cfg(feature = "async")]
+use embedded_hal_async::delay::DelayNs as AsyncDelayNs;
 
-use crate::config::{Address, Config, ConfigError, InterruptConfig, Variant};
+use crate::config::{
+    AccelBandwidth, AccelRange, Address, Config, ConfigError, GyroBandwidth, GyroRange,
+    InterruptConfig, Variant,
+};
 use crate::data::{
     apply_gyro_bias, convert, parse_sample, rescale_gyro_bias, RawSample, Sample, Scale,
 };
 use crate::error::{Error, Motion};
+#[cfg(feature = "async")]
+use crate::interface::InterfaceAsync;
+use crate::interface::{Interface, SpiInterface};
 use crate::register as reg;
+
+mod master;
+#[cfg(feature = "ak8963")]
+pub use master::AuxBus;
+#[cfg(all(feature = "ak8963", feature = "async"))]
+pub use master::AuxBusAsync;
+pub use master::{SlaveRead, AUX_POLL_INTERVAL_US};
 
 /// Interval between PWR_MGMT_1 polls while waiting for H_RESET to clear, ms.
 pub const RESET_POLL_INTERVAL_MS: u32 = 10;
 /// Maximum number of PWR_MGMT_1 polls after a reset (bounds the wait to 200 ms).
 pub const RESET_MAX_POLLS: u8 = 20;
+
+/// Samples per FIFO burst read (bounds the stack buffer to 112 bytes).
+pub const FIFO_BURST_SAMPLES: usize = 8;
 
 /// INT_STATUS contents.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -63,27 +80,37 @@ impl BiasCalibration {
     }
 }
 
-/// MPU-9250 driver over an [`I2c`] bus.
+/// MPU-9250 driver over an I2C bus or an SPI device ([`Interface`]).
 ///
 /// Holds the configuration, the gyro bias (raw counts at the configured gyro
 /// range) and the bypass state; all three survive [`init`](Self::init), which
 /// resets the chip and rewrites every register from them.
+///
+/// With the `async` feature, `Mpu9250Async` is the same driver over
+/// `embedded-hal-async` (every bus method is an `async fn`), generated from
+/// the same source.
+#[maybe_async_cfg::maybe(sync(keep_self), async(feature = "async"))]
 #[derive(Debug)]
-pub struct Mpu9250<I2C> {
-    i2c: I2C,
+pub struct Mpu9250<DI> {
+    bus: DI,
     address: u8,
     config: Config,
     scale: Scale,
     bypass: bool,
+    fifo: bool,
+    master: bool,
+    slave0: Option<SlaveRead>,
     gyro_bias: [i16; 3],
     variant: Option<Variant>,
     initialized: bool,
 }
 
-impl<I2C, E> Mpu9250<I2C>
-where
-    I2C: I2c<Error = E>,
-{
+#[maybe_async_cfg::maybe(
+    idents(Mpu9250(sync, async = "Mpu9250Async")),
+    sync(keep_self),
+    async(feature = "async", keep_self)
+)]
+impl<DI> Mpu9250<DI> {
     /// Create the driver. No bus traffic; call [`init`](Self::init) next.
     ///
     /// ```
@@ -94,31 +121,35 @@ where
     /// assert_eq!(imu.address(), 0x68);
     /// i2c.done();
     /// ```
-    pub fn new(i2c: I2C, address: Address) -> Self {
+    pub fn new(i2c: DI, address: Address) -> Self {
         let config = Config::new();
         Self {
-            i2c,
+            bus: i2c,
             address: address.addr(),
             scale: Scale::from_config(&config),
             config,
             bypass: false,
+            fifo: false,
+            master: false,
+            slave0: None,
             gyro_bias: [0; 3],
             variant: None,
             initialized: false,
         }
     }
 
-    /// Give the bus back.
-    pub fn release(self) -> I2C {
-        self.i2c
+    /// Same as [`new`](Self::new): the driver on an I2C bus at `address`.
+    pub fn new_with_i2c(i2c: DI, address: Address) -> Self {
+        Self::new(i2c, address)
     }
 
-    /// Give the bus back (same as [`release`](Self::release)).
-    pub fn destroy(self) -> I2C {
-        self.release()
+    /// Give the bus back (on SPI the [`SpiInterface`]; its `release` gives
+    /// the SPI device).
+    pub fn release(self) -> DI {
+        self.bus
     }
 
-    /// The 7-bit bus address in use.
+    /// The 7-bit bus address in use (meaningless on SPI).
     pub fn address(&self) -> u8 {
         self.address
     }
@@ -143,15 +174,63 @@ where
         self.bypass
     }
 
+    /// Whether the FIFO records samples (see [`set_fifo`](Self::set_fifo)).
+    pub fn fifo(&self) -> bool {
+        self.fifo
+    }
+
+    /// The stored gyro bias, counts at the configured gyro range (MPU frame).
+    pub fn gyro_bias(&self) -> [i16; 3] {
+        self.gyro_bias
+    }
+
+    /// The stored gyro bias in °/s.
+    pub fn gyro_bias_dps(&self) -> [f32; 3] {
+        let k = self.scale.dps_per_lsb;
+        [
+            f32::from(self.gyro_bias[0]) * k,
+            f32::from(self.gyro_bias[1]) * k,
+            f32::from(self.gyro_bias[2]) * k,
+        ]
+    }
+
+    /// Set the gyro bias, counts at the configured gyro range. It is a driver
+    /// field (never written to the chip's offset registers) and survives `init`.
+    pub fn set_gyro_bias(&mut self, bias_counts: [i16; 3]) {
+        self.gyro_bias = bias_counts;
+    }
+}
+
+#[maybe_async_cfg::maybe(
+    idents(Mpu9250(sync, async = "Mpu9250Async")),
+    sync(keep_self),
+    async(feature = "async", keep_self)
+)]
+impl<SPI> Mpu9250<SpiInterface<SPI>> {
+    /// The driver on an SPI device (mode 0 or 3). [`init`](Self::init) sets
+    /// USER_CTRL I2C_IF_DIS so the chip ignores I2C traffic; the I2C bypass is
+    /// then unavailable (reach the AK8963 through the internal I2C master).
+    pub fn new_with_spi(spi: SPI) -> Self {
+        Self::new(SpiInterface::new(spi), Address::Ad0Low)
+    }
+}
+
+#[maybe_async_cfg::maybe(
+    idents(
+        Mpu9250(sync, async = "Mpu9250Async"),
+        Interface(sync, async = "InterfaceAsync"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    ),
+    sync(keep_self),
+    async(feature = "async", keep_self)
+)]
+impl<DI, E> Mpu9250<DI>
+where
+    DI: Interface<Error = E>,
+{
     /// Read WHO_AM_I and classify it.
-    pub fn who_am_i(&mut self) -> Result<Variant, Error<E>> {
-        let id = self.read_reg(reg::WHO_AM_I)?;
-        match id {
-            reg::WHO_AM_I_MPU9250 => Ok(Variant::Mpu9250),
-            reg::WHO_AM_I_MPU9255 => Ok(Variant::Mpu9255),
-            reg::WHO_AM_I_MPU6500 => Err(Error::Mpu6500Detected),
-            other => Err(Error::WrongChipId(other)),
-        }
+    pub async fn who_am_i(&mut self) -> Result<Variant, Error<E>> {
+        classify(self.read_reg(reg::WHO_AM_I).await?)
     }
 
     /// Check the chip, reset it, configure it and read every configuration
@@ -195,7 +274,7 @@ where
     /// assert_eq!(imu.init(&mut NoopDelay::new(), &Config::default()), Ok(Variant::Mpu9250));
     /// i2c.done();
     /// ```
-    pub fn init<D: DelayNs>(
+    pub async fn init<D: DelayNs>(
         &mut self,
         delay: &mut D,
         config: &Config,
@@ -208,23 +287,30 @@ where
         self.config = *config;
         self.scale = Scale::from_config(config);
 
-        let variant = self.who_am_i()?;
+        let variant = self.who_am_i().await?;
         self.variant = Some(variant);
-        self.write_reg(reg::PWR_MGMT_1, reg::PWR_MGMT_1_H_RESET)?;
-        self.wait_reset(delay)?;
-        for (register, value) in self.config.register_values(self.bypass) {
-            self.write_reg(register, value)?;
+        self.write_reg(reg::PWR_MGMT_1, reg::PWR_MGMT_1_H_RESET)
+            .await?;
+        self.wait_reset(delay).await?;
+        for (register, value) in self.register_values() {
+            self.write_reg(register, value).await?;
         }
-        self.check_registers()?;
+        if self.fifo {
+            self.write_reg(reg::FIFO_EN, reg::FIFO_EN_SAMPLE).await?;
+        }
+        for (register, value) in self.master_values().into_iter().flatten() {
+            self.write_reg(register, value).await?;
+        }
+        self.check_registers().await?;
         self.initialized = true;
         Ok(variant)
     }
 
-    fn wait_reset<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
+    async fn wait_reset<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
         for _ in 0..RESET_MAX_POLLS {
-            delay.delay_ms(RESET_POLL_INTERVAL_MS);
+            delay.delay_ms(RESET_POLL_INTERVAL_MS).await;
             // The chip may NACK while it reboots: that only means "not yet".
-            if let Ok(v) = self.read_reg(reg::PWR_MGMT_1) {
+            if let Ok(v) = self.read_reg(reg::PWR_MGMT_1).await {
                 if v & reg::PWR_MGMT_1_H_RESET == 0 {
                     return Ok(());
                 }
@@ -238,32 +324,237 @@ where
     /// [`set_interrupts`](Self::set_interrupts) changed). Call it periodically
     /// to detect a chip that reset itself in flight; on
     /// [`Error::ConfigMismatch`] re-run `init`.
-    pub fn verify_config(&mut self) -> Result<(), Error<E>> {
+    pub async fn verify_config(&mut self) -> Result<(), Error<E>> {
         if !self.initialized {
             return Err(Error::NotInitialized);
         }
-        self.check_registers()
+        self.check_registers().await
     }
 
-    fn check_registers(&mut self) -> Result<(), Error<E>> {
-        let expected = self.config.register_values(self.bypass);
+    /// [`Config::register_values`] with the transport's and the driver's
+    /// own bits: USER_CTRL I2C_IF_DIS on SPI, FIFO_EN and CONFIG FIFO_MODE
+    /// with the FIFO on.
+    fn register_values(&self) -> [(u8, u8); 10] {
+        let mut values = self.config.register_values(self.bypass);
+        for (register, value) in values.iter_mut() {
+            if *register == reg::USER_CTRL {
+                *value |= self.user_ctrl();
+            } else if *register == reg::CONFIG && self.fifo {
+                *value |= reg::CONFIG_FIFO_MODE;
+            }
+        }
+        values
+    }
+
+    /// USER_CTRL bits this driver keeps set besides the configuration's.
+    fn user_ctrl(&self) -> u8 {
+        let mut bits = 0;
+        if DI::SPI {
+            bits |= reg::USER_CTRL_I2C_IF_DIS;
+        }
+        if self.fifo {
+            bits |= reg::USER_CTRL_FIFO_EN;
+        }
+        if self.master {
+            bits |= reg::USER_CTRL_I2C_MST_EN;
+        }
+        bits
+    }
+
+    async fn check_registers(&mut self) -> Result<(), Error<E>> {
+        let expected = self.register_values();
         let mut a = [0u8; 5];
-        self.read_regs(reg::SMPLRT_DIV, &mut a)?;
+        self.read_regs(reg::SMPLRT_DIV, &mut a).await?;
         compare(reg::SMPLRT_DIV, &a, &expected)?;
         let mut b = [0u8; 2];
-        self.read_regs(reg::INT_PIN_CFG, &mut b)?;
+        self.read_regs(reg::INT_PIN_CFG, &mut b).await?;
         compare(reg::INT_PIN_CFG, &b, &expected)?;
         let mut c = [0u8; 3];
-        self.read_regs(reg::USER_CTRL, &mut c)?;
+        self.read_regs(reg::USER_CTRL, &mut c).await?;
         compare(reg::USER_CTRL, &c, &expected)?;
+        if self.fifo {
+            let found = self.read_reg(reg::FIFO_EN).await?;
+            compare(
+                reg::FIFO_EN,
+                &[found],
+                &[(reg::FIFO_EN, reg::FIFO_EN_SAMPLE)],
+            )?;
+        }
         Ok(())
+    }
+
+    /// Write one configuration register and read it back.
+    async fn write_verified(&mut self, register: u8, value: u8) -> Result<(), Error<E>> {
+        self.write_reg(register, value).await?;
+        let found = self.read_reg(register).await?;
+        compare(register, &[found], &[(register, value)])
+    }
+
+    /// Adopt `config` after writing and verifying the one register it
+    /// changes. A bus error on the write keeps the previous configuration; a
+    /// read-back mismatch is reported with the new configuration adopted (the
+    /// chip may run it), so [`verify_config`](Self::verify_config) keeps
+    /// reporting it until a re-`init`.
+    async fn set_one(&mut self, config: Config, register: u8) -> Result<(), Error<E>> {
+        if !self.initialized {
+            return Err(Error::NotInitialized);
+        }
+        config.validate()?;
+        let previous = self.config;
+        self.config = config;
+        let value = self
+            .register_values()
+            .iter()
+            .find(|(r, _)| *r == register)
+            .map_or(0, |&(_, v)| v);
+        self.config = previous;
+        self.write_reg(register, value).await?;
+        self.gyro_bias =
+            rescale_gyro_bias(self.gyro_bias, self.config.gyro_range, config.gyro_range);
+        self.config = config;
+        self.scale = Scale::from_config(&config);
+        let found = self.read_reg(register).await?;
+        compare(register, &[found], &[(register, value)])
+    }
+
+    /// Change the accelerometer range: writes and verifies ACCEL_CONFIG only.
+    pub async fn set_accel_range(&mut self, range: AccelRange) -> Result<(), Error<E>> {
+        self.set_one(self.config.accel_range(range), reg::ACCEL_CONFIG)
+            .await
+    }
+
+    /// Change the gyroscope range: writes and verifies GYRO_CONFIG only; the
+    /// gyro bias is rescaled to keep its meaning in °/s.
+    pub async fn set_gyro_range(&mut self, range: GyroRange) -> Result<(), Error<E>> {
+        self.set_one(self.config.gyro_range(range), reg::GYRO_CONFIG)
+            .await
+    }
+
+    /// Change the gyroscope/temperature DLPF: writes and verifies CONFIG only.
+    /// A bandwidth at which a non-zero divider would be ignored is refused
+    /// before any bus traffic ([`ConfigError::DividerIgnored`]).
+    pub async fn set_gyro_bandwidth(&mut self, bandwidth: GyroBandwidth) -> Result<(), Error<E>> {
+        self.set_one(self.config.gyro_bandwidth(bandwidth), reg::CONFIG)
+            .await
+    }
+
+    /// Change the accelerometer DLPF: writes and verifies ACCEL_CONFIG2 only.
+    pub async fn set_accel_bandwidth(&mut self, bandwidth: AccelBandwidth) -> Result<(), Error<E>> {
+        self.set_one(self.config.accel_bandwidth(bandwidth), reg::ACCEL_CONFIG2)
+            .await
+    }
+
+    /// Change SMPLRT_DIV (output rate 1 kHz / (1 + divider)): writes and
+    /// verifies SMPLRT_DIV only.
+    pub async fn set_sample_rate_divider(&mut self, divider: u8) -> Result<(), Error<E>> {
+        self.set_one(self.config.sample_rate_divider(divider), reg::SMPLRT_DIV)
+            .await
+    }
+
+    /// Turn the FIFO on or off. On: every sample (accel, temperature, gyro:
+    /// the 14 bytes of [`read_raw`](Self::read_raw), in the same order) is
+    /// queued; CONFIG FIFO_MODE makes a full FIFO drop new samples rather
+    /// than overwrite old ones, so the queue never holds a torn sample.
+    /// The FIFO is emptied, then CONFIG, FIFO_EN and USER_CTRL are written
+    /// and verified. The state survives `init`. Read with
+    /// [`read_fifo`](Self::read_fifo).
+    pub async fn set_fifo(&mut self, enable: bool) -> Result<(), Error<E>> {
+        if !self.initialized {
+            return Err(Error::NotInitialized);
+        }
+        // Stop recording and empty the queue first so that no partial
+        // sample is left at the head.
+        self.write_reg(reg::FIFO_EN, 0).await?;
+        self.write_reg(
+            reg::USER_CTRL,
+            self.user_ctrl() & !reg::USER_CTRL_FIFO_EN | reg::USER_CTRL_FIFO_RST,
+        )
+        .await?;
+        self.fifo = enable;
+        let config = self
+            .register_values()
+            .iter()
+            .find(|(r, _)| *r == reg::CONFIG)
+            .map_or(0, |&(_, v)| v);
+        self.write_verified(reg::CONFIG, config).await?;
+        if enable {
+            self.write_verified(reg::USER_CTRL, self.user_ctrl())
+                .await?;
+            self.write_verified(reg::FIFO_EN, reg::FIFO_EN_SAMPLE).await
+        } else {
+            self.write_verified(reg::USER_CTRL, self.user_ctrl()).await
+        }
+    }
+
+    /// Bytes queued in the FIFO (FIFO_COUNTH/L).
+    pub async fn fifo_count(&mut self) -> Result<u16, Error<E>> {
+        let mut b = [0u8; 2];
+        self.read_regs(reg::FIFO_COUNTH, &mut b).await?;
+        Ok(u16::from_be_bytes([b[0] & reg::FIFO_COUNTH_MASK, b[1]]))
+    }
+
+    /// Empty the FIFO (FIFO recording paused, FIFO_RST, recording resumed).
+    pub async fn reset_fifo(&mut self) -> Result<(), Error<E>> {
+        self.write_reg(reg::FIFO_EN, 0).await?;
+        self.write_reg(reg::USER_CTRL, self.user_ctrl() | reg::USER_CTRL_FIFO_RST)
+            .await?;
+        self.write_reg(reg::FIFO_EN, reg::FIFO_EN_SAMPLE).await
+    }
+
+    /// Pop whole samples from the FIFO into `out` (oldest first; counts, MPU
+    /// frame, no bias removed), in bursts of whole samples. Returns how many
+    /// were stored; samples beyond `out.len()` stay queued.
+    ///
+    /// A FIFO that cannot take one more sample counts as overflowed (samples
+    /// were or are about to be dropped, as PX4 treats it), and a byte count
+    /// that is not a whole number of samples means the queue is torn: both
+    /// empty the FIFO and return [`Error::FifoOverflow`] /
+    /// [`Error::FifoMisaligned`], so a host that missed its deadline always
+    /// learns that samples were lost.
+    pub async fn read_fifo(&mut self, out: &mut [RawSample]) -> Result<usize, Error<E>> {
+        if !self.fifo {
+            return Err(Error::FifoDisabled);
+        }
+        let count_bytes = self.fifo_count().await?;
+        let sample_len = reg::SAMPLE_LEN as u16;
+        if count_bytes > reg::FIFO_SIZE - sample_len {
+            self.reset_fifo().await?;
+            return Err(Error::FifoOverflow { count_bytes });
+        }
+        if count_bytes % sample_len != 0 {
+            self.reset_fifo().await?;
+            return Err(Error::FifoMisaligned { count_bytes });
+        }
+        let wanted = usize::from(count_bytes / sample_len).min(out.len());
+        let mut buf = [0u8; FIFO_BURST_SAMPLES * reg::SAMPLE_LEN];
+        let mut stored = 0;
+        while stored < wanted {
+            let n = (wanted - stored).min(FIFO_BURST_SAMPLES);
+            let Some(bytes) = buf.get_mut(..n * reg::SAMPLE_LEN) else {
+                break;
+            };
+            // A bus error here loses the popped bytes and may leave a torn
+            // sample at the head; the next call sees the count misaligned.
+            self.read_regs(reg::FIFO_R_W, bytes).await?;
+            for (slot, sample) in out
+                .iter_mut()
+                .skip(stored)
+                .zip(bytes.chunks_exact(reg::SAMPLE_LEN))
+            {
+                if let Ok(sample) = <&[u8; reg::SAMPLE_LEN]>::try_from(sample) {
+                    *slot = parse_sample(sample);
+                }
+            }
+            stored += n;
+        }
+        Ok(stored)
     }
 
     /// Read the 14-byte ACCEL_XOUT_H..GYRO_ZOUT_L block in one burst: counts,
     /// no bias removed, MPU sensor frame.
-    pub fn read_raw(&mut self) -> Result<RawSample, Error<E>> {
+    pub async fn read_raw(&mut self) -> Result<RawSample, Error<E>> {
         let mut buf = [0u8; reg::SAMPLE_LEN];
-        self.read_regs(reg::ACCEL_XOUT_H, &mut buf)?;
+        self.read_regs(reg::ACCEL_XOUT_H, &mut buf).await?;
         Ok(parse_sample(&buf))
     }
 
@@ -295,50 +586,30 @@ where
     /// i2c.done();
     /// # Ok::<(), mpu9250::Error<embedded_hal::i2c::ErrorKind>>(())
     /// ```
-    pub fn read(&mut self) -> Result<Sample, Error<E>> {
+    pub async fn read(&mut self) -> Result<Sample, Error<E>> {
         if !self.initialized {
             return Err(Error::NotInitialized);
         }
-        let raw = self.read_raw()?;
+        let raw = self.read_raw().await?;
         Ok(convert(&apply_gyro_bias(raw, self.gyro_bias), &self.scale))
     }
 
     /// Read one sample with the gyro bias removed, still in counts (for an
     /// integer pipeline; see [`GyroRange::lsb_per_dps_x10`](crate::GyroRange::lsb_per_dps_x10)).
-    pub fn read_raw_unbiased(&mut self) -> Result<RawSample, Error<E>> {
-        let raw = self.read_raw()?;
+    pub async fn read_raw_unbiased(&mut self) -> Result<RawSample, Error<E>> {
+        let raw = self.read_raw().await?;
         Ok(apply_gyro_bias(raw, self.gyro_bias))
-    }
-
-    /// The stored gyro bias, counts at the configured gyro range (MPU frame).
-    pub fn gyro_bias(&self) -> [i16; 3] {
-        self.gyro_bias
-    }
-
-    /// The stored gyro bias in °/s.
-    pub fn gyro_bias_dps(&self) -> [f32; 3] {
-        let k = self.scale.dps_per_lsb;
-        [
-            f32::from(self.gyro_bias[0]) * k,
-            f32::from(self.gyro_bias[1]) * k,
-            f32::from(self.gyro_bias[2]) * k,
-        ]
-    }
-
-    /// Set the gyro bias, counts at the configured gyro range. It is a driver
-    /// field (never written to the chip's offset registers) and survives `init`.
-    pub fn set_gyro_bias(&mut self, bias_counts: [i16; 3]) {
-        self.gyro_bias = bias_counts;
     }
 
     /// Average `n_samples` gyro samples at rest and store the mean as the gyro
     /// bias, with the default motion limits of [`BiasCalibration::new`].
-    pub fn calibrate_gyro_bias<D: DelayNs>(
+    pub async fn calibrate_gyro_bias<D: DelayNs>(
         &mut self,
         delay: &mut D,
         n_samples: u16,
     ) -> Result<[i16; 3], Error<E>> {
         self.calibrate_gyro_bias_with(delay, &BiasCalibration::new(n_samples))
+            .await
     }
 
     /// Average `settings.samples` raw gyro samples, one per sample period
@@ -346,7 +617,7 @@ where
     /// rounded mean as the bias. Fails with [`Error::Moved`] (bias unchanged)
     /// when any gyro axis' max − min exceeds the limit or any sample's
     /// accelerometer magnitude is outside 1 g ± the tolerance.
-    pub fn calibrate_gyro_bias_with<D: DelayNs>(
+    pub async fn calibrate_gyro_bias_with<D: DelayNs>(
         &mut self,
         delay: &mut D,
         settings: &BiasCalibration,
@@ -372,8 +643,8 @@ where
         let mut min = [i16::MAX; 3];
         let mut max = [i16::MIN; 3];
         for _ in 0..n {
-            delay.delay_us(period_us);
-            let raw = self.read_raw()?;
+            delay.delay_us(period_us).await;
+            let raw = self.read_raw().await?;
             let mag_sq: i64 = raw.accel.iter().map(|&c| i64::from(c) * i64::from(c)).sum();
             if mag_sq < lo_sq || mag_sq > hi_sq {
                 let mag = u64::try_from(mag_sq).unwrap_or(0).isqrt();
@@ -409,7 +680,7 @@ where
         }
         let n = i64::from(n);
         let mean = |s: i64| -> i16 {
-            // Round half away from zero... as floor((2s + n) / 2n): nearest, ties up.
+            // Nearest integer, ties towards +inf: floor((2s + n) / 2n).
             let m = (2 * s + n).div_euclid(2 * n);
             i16::try_from(m).unwrap_or(if m < 0 { i16::MIN } else { i16::MAX })
         };
@@ -420,53 +691,76 @@ where
 
     /// Write the interrupt configuration (INT_PIN_CFG, keeping BYPASS_EN as
     /// set; then INT_ENABLE). It is kept for later `init`/`verify_config`.
-    pub fn set_interrupts(&mut self, interrupt: InterruptConfig) -> Result<(), Error<E>> {
+    pub async fn set_interrupts(&mut self, interrupt: InterruptConfig) -> Result<(), Error<E>> {
         self.config.interrupt = interrupt;
-        self.write_reg(reg::INT_PIN_CFG, interrupt.int_pin_cfg(self.bypass))?;
+        self.write_reg(reg::INT_PIN_CFG, interrupt.int_pin_cfg(self.bypass))
+            .await?;
         self.write_reg(reg::INT_ENABLE, interrupt.int_enable_bits())
+            .await
     }
 
     /// Read INT_STATUS (this clears the latched flags and, with
     /// [`IntClear::OnStatusRead`](crate::IntClear::OnStatusRead), the INT pin).
-    pub fn read_int_status(&mut self) -> Result<IntStatus, Error<E>> {
-        Ok(IntStatus(self.read_reg(reg::INT_STATUS)?))
+    pub async fn read_int_status(&mut self) -> Result<IntStatus, Error<E>> {
+        Ok(IntStatus(self.read_reg(reg::INT_STATUS).await?))
     }
 
     /// Whether a new sample is ready (reads INT_STATUS, see [`read_int_status`](Self::read_int_status)).
-    pub fn data_ready(&mut self) -> Result<bool, Error<E>> {
-        Ok(self.read_int_status()?.data_ready())
+    pub async fn data_ready(&mut self) -> Result<bool, Error<E>> {
+        Ok(self.read_int_status().await?.data_ready())
     }
 
     /// Enable or disable I2C bypass so the host reaches the AK8963 (0x0C) directly.
     ///
-    /// Enabling writes USER_CTRL = 0 (I2C_MST_EN cleared; this driver never
-    /// uses the FIFO or the I2C master) and then INT_PIN_CFG with BYPASS_EN
-    /// plus the interrupt bits of the current configuration; disabling writes
-    /// INT_PIN_CFG without BYPASS_EN. The state survives `init`.
-    pub fn set_bypass(&mut self, enable: bool) -> Result<(), Error<E>> {
+    /// Enabling writes USER_CTRL = 0 (I2C_MST_EN cleared: the bypass and the
+    /// internal I2C master exclude each other) and then INT_PIN_CFG with
+    /// BYPASS_EN plus the interrupt bits of the current configuration;
+    /// disabling writes INT_PIN_CFG without BYPASS_EN. The state survives
+    /// `init`. On SPI the bypass would connect the AK8963 to pins that carry
+    /// SPI: [`Error::BypassOnSpi`], nothing written.
+    pub async fn set_bypass(&mut self, enable: bool) -> Result<(), Error<E>> {
+        if enable && DI::SPI {
+            return Err(Error::BypassOnSpi);
+        }
+        if enable && self.master {
+            return Err(Error::MasterWithBypass);
+        }
         self.bypass = enable;
         if enable {
-            self.write_reg(reg::USER_CTRL, 0x00)?;
+            self.write_reg(reg::USER_CTRL, self.user_ctrl()).await?;
         }
         self.write_reg(reg::INT_PIN_CFG, self.config.interrupt.int_pin_cfg(enable))
+            .await
     }
 
-    fn write_reg(&mut self, register: u8, value: u8) -> Result<(), Error<E>> {
-        self.i2c
-            .write(self.address, &[register, value])
+    async fn write_reg(&mut self, register: u8, value: u8) -> Result<(), Error<E>> {
+        self.bus
+            .write_register(self.address, register, value)
+            .await
             .map_err(Error::Bus)
     }
 
-    fn read_reg(&mut self, register: u8) -> Result<u8, Error<E>> {
+    async fn read_reg(&mut self, register: u8) -> Result<u8, Error<E>> {
         let mut b = [0u8; 1];
-        self.read_regs(register, &mut b)?;
+        self.read_regs(register, &mut b).await?;
         Ok(b[0])
     }
 
-    fn read_regs(&mut self, start: u8, buf: &mut [u8]) -> Result<(), Error<E>> {
-        self.i2c
-            .write_read(self.address, &[start], buf)
+    async fn read_regs(&mut self, start: u8, buf: &mut [u8]) -> Result<(), Error<E>> {
+        self.bus
+            .read_registers(self.address, start, buf)
+            .await
             .map_err(Error::Bus)
+    }
+}
+
+/// The chip a WHO_AM_I value names.
+fn classify<E>(id: u8) -> Result<Variant, Error<E>> {
+    match id {
+        reg::WHO_AM_I_MPU9250 => Ok(Variant::Mpu9250),
+        reg::WHO_AM_I_MPU9255 => Ok(Variant::Mpu9255),
+        reg::WHO_AM_I_MPU6500 => Err(Error::Mpu6500Detected),
+        other => Err(Error::WrongChipId(other)),
     }
 }
 

@@ -24,11 +24,11 @@ pub enum Motion {
     },
 }
 
-/// Every way a driver call can fail. `E` is the I2C bus error.
+/// Every way a driver call can fail. `E` is the bus (I2C or SPI) error.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error<E> {
-    /// The I2C bus reported an error (NACK, arbitration loss, ...).
+    /// The bus reported an error (I2C NACK, arbitration loss, SPI fault, ...).
     Bus(E),
     /// WHO_AM_I returned an id that is not an MPU-9250/9255/6500.
     WrongChipId(u8),
@@ -52,6 +52,33 @@ pub enum Error<E> {
     NotInitialized,
     /// The requested configuration is not valid; nothing was written.
     InvalidConfig(ConfigError),
+    /// The I2C bypass was asked for while the chip is on SPI.
+    BypassOnSpi,
+    /// The internal I2C master and the bypass were both asked for; they
+    /// exclude each other (USER_CTRL I2C_MST_EN must be 0 for the bypass).
+    MasterWithBypass,
+    /// An auxiliary-bus call while the internal I2C master is off.
+    MasterDisabled,
+    /// The chip on the auxiliary bus did not acknowledge (I2C_SLV4_NACK).
+    AuxNack,
+    /// The internal master lost arbitration on the auxiliary bus.
+    AuxLostArbitration,
+    /// Slave 4 did not finish within two sample periods plus 1 ms.
+    AuxTimeout,
+    /// The FIFO was read while it is off ([`set_fifo`](crate::Mpu9250::set_fifo)).
+    FifoDisabled,
+    /// The FIFO could not take another sample: samples were dropped. The
+    /// FIFO has been emptied; reading resumes with the next sample.
+    FifoOverflow {
+        /// FIFO byte count found.
+        count_bytes: u16,
+    },
+    /// The FIFO byte count was not a whole number of samples (a torn sample,
+    /// for example after a failed burst). The FIFO has been emptied.
+    FifoMisaligned {
+        /// FIFO byte count found.
+        count_bytes: u16,
+    },
 }
 
 impl<E> From<ConfigError> for Error<E> {
@@ -67,6 +94,9 @@ impl fmt::Display for ConfigError {
                 "sample-rate divider is ignored at gyro bandwidth 250 Hz / 3600 Hz (8 kHz)",
             ),
             ConfigError::NoSamples => f.write_str("zero samples requested"),
+            ConfigError::SlaveReadLength => {
+                f.write_str("slave read length outside 1..=15 (24 for EXT_SENS_DATA)")
+            }
         }
     }
 }
@@ -109,6 +139,27 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
             Error::Moved(m) => write!(f, "device moved during gyro calibration: {m}"),
             Error::NotInitialized => f.write_str("driver not initialised"),
             Error::InvalidConfig(e) => write!(f, "invalid configuration: {e}"),
+            Error::MasterWithBypass => {
+                f.write_str("internal I2C master and bypass exclude each other")
+            }
+            Error::MasterDisabled => f.write_str("internal I2C master is off"),
+            Error::AuxNack => f.write_str("auxiliary-bus chip did not acknowledge"),
+            Error::AuxLostArbitration => f.write_str("auxiliary bus arbitration lost"),
+            Error::AuxTimeout => f.write_str("auxiliary-bus transfer did not finish"),
+            Error::FifoDisabled => f.write_str("FIFO read while the FIFO is off"),
+            Error::FifoOverflow { count_bytes } => {
+                write!(
+                    f,
+                    "FIFO overflow at {count_bytes} bytes: samples lost, FIFO reset"
+                )
+            }
+            Error::FifoMisaligned { count_bytes } => write!(
+                f,
+                "FIFO holds {count_bytes} bytes, not whole samples: FIFO reset"
+            ),
+            Error::BypassOnSpi => {
+                f.write_str("I2C bypass requested on SPI (use the internal I2C master)")
+            }
         }
     }
 }

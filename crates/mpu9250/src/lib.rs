@@ -57,6 +57,7 @@ mod config;
 mod data;
 mod device;
 mod error;
+mod interface;
 pub mod register;
 
 pub use config::{
@@ -67,5 +68,17 @@ pub use data::{
     apply_gyro_bias, convert, dps_to_rps, parse_sample, rescale_gyro_bias, temp_c, temp_centi_c,
     RawSample, Sample, Scale, RAD_PER_DEG, TEMP_LSB_PER_C, TEMP_OFFSET_C,
 };
-pub use device::{BiasCalibration, IntStatus, Mpu9250, RESET_MAX_POLLS, RESET_POLL_INTERVAL_MS};
+#[cfg(feature = "ak8963")]
+pub use device::AuxBus;
+#[cfg(all(feature = "ak8963", feature = "async"))]
+pub use device::AuxBusAsync;
+#[cfg(feature = "async")]
+pub use device::Mpu9250Async;
+pub use device::{
+    BiasCalibration, IntStatus, Mpu9250, SlaveRead, AUX_POLL_INTERVAL_US, FIFO_BURST_SAMPLES,
+    RESET_MAX_POLLS, RESET_POLL_INTERVAL_MS,
+};
 pub use error::{Error, Motion};
+#[cfg(feature = "async")]
+pub use interface::InterfaceAsync;
+pub use interface::{Interface, SpiInterface, SPI_READ};

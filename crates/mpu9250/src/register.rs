@@ -15,6 +15,32 @@ pub const GYRO_CONFIG: u8 = 0x1B;
 pub const ACCEL_CONFIG: u8 = 0x1C;
 /// ACCEL_CONFIG 2 (29): ACCEL_FCHOICE_B, A_DLPF_CFG.
 pub const ACCEL_CONFIG2: u8 = 0x1D;
+/// SELF_TEST_X_GYRO (0): factory self-test code of the gyro x axis (y, z follow).
+pub const SELF_TEST_X_GYRO: u8 = 0x00;
+/// SELF_TEST_X_ACCEL (13): factory self-test code of the accel x axis (y, z follow).
+pub const SELF_TEST_X_ACCEL: u8 = 0x0D;
+/// FIFO_EN (35): which data the FIFO records.
+pub const FIFO_EN: u8 = 0x23;
+/// I2C_MST_CTRL (36): internal I2C master clock, stop between reads, wait for data.
+pub const I2C_MST_CTRL: u8 = 0x24;
+/// I2C_SLV0_ADDR (37): slave 0 address, bit 7 = read.
+pub const I2C_SLV0_ADDR: u8 = 0x25;
+/// I2C_SLV0_REG (38): slave 0 first register.
+pub const I2C_SLV0_REG: u8 = 0x26;
+/// I2C_SLV0_CTRL (39): slave 0 enable and length.
+pub const I2C_SLV0_CTRL: u8 = 0x27;
+/// I2C_SLV4_ADDR (49): slave 4 address, bit 7 = read.
+pub const I2C_SLV4_ADDR: u8 = 0x31;
+/// I2C_SLV4_REG (50): slave 4 register.
+pub const I2C_SLV4_REG: u8 = 0x32;
+/// I2C_SLV4_DO (51): byte slave 4 writes.
+pub const I2C_SLV4_DO: u8 = 0x33;
+/// I2C_SLV4_CTRL (52): slave 4 enable (one transfer), I2C_MST_DLY.
+pub const I2C_SLV4_CTRL: u8 = 0x34;
+/// I2C_SLV4_DI (53): byte slave 4 read.
+pub const I2C_SLV4_DI: u8 = 0x35;
+/// I2C_MST_STATUS (54): slave 4 done / NACK flags (cleared by reading).
+pub const I2C_MST_STATUS: u8 = 0x36;
 /// INT_PIN_CFG (55): INT pin / bypass enable configuration.
 pub const INT_PIN_CFG: u8 = 0x37;
 /// INT_ENABLE (56): interrupt enables.
@@ -29,12 +55,20 @@ pub const TEMP_OUT_H: u8 = 0x41;
 pub const GYRO_XOUT_H: u8 = 0x43;
 /// GYRO_ZOUT_L (72): last byte of the 14-byte block.
 pub const GYRO_ZOUT_L: u8 = 0x48;
+/// EXT_SENS_DATA_00 (73): first of 24 bytes the internal master read.
+pub const EXT_SENS_DATA_00: u8 = 0x49;
+/// I2C_MST_DELAY_CTRL (103): DELAY_ES_SHADOW, per-slave reduced access rate.
+pub const I2C_MST_DELAY_CTRL: u8 = 0x67;
 /// USER_CTRL (106): FIFO_EN, I2C_MST_EN, I2C_IF_DIS, resets.
 pub const USER_CTRL: u8 = 0x6A;
 /// PWR_MGMT_1 (107): H_RESET, SLEEP, CYCLE, GYRO_STANDBY, PD_PTAT, CLKSEL.
 pub const PWR_MGMT_1: u8 = 0x6B;
 /// PWR_MGMT_2 (108): DIS_XA..DIS_ZG (1 = axis disabled).
 pub const PWR_MGMT_2: u8 = 0x6C;
+/// FIFO_COUNTH (114): bits 12:8 of the FIFO byte count (FIFO_COUNTL follows).
+pub const FIFO_COUNTH: u8 = 0x72;
+/// FIFO_R_W (116): reading pops FIFO bytes.
+pub const FIFO_R_W: u8 = 0x74;
 /// WHO_AM_I (117).
 pub const WHO_AM_I: u8 = 0x75;
 
@@ -117,3 +151,52 @@ pub const USER_CTRL_FIFO_EN: u8 = 1 << 6;
 pub const USER_CTRL_I2C_MST_EN: u8 = 1 << 5;
 /// USER_CTRL bit 4: I2C_IF_DIS (SPI only).
 pub const USER_CTRL_I2C_IF_DIS: u8 = 1 << 4;
+/// USER_CTRL bit 2: FIFO_RST (self-clearing).
+pub const USER_CTRL_FIFO_RST: u8 = 1 << 2;
+/// USER_CTRL bit 1: I2C_MST_RST (self-clearing).
+pub const USER_CTRL_I2C_MST_RST: u8 = 1 << 1;
+
+/// CONFIG bit 6: FIFO_MODE, 1 = when full, further samples are not written
+/// (instead of replacing the oldest).
+pub const CONFIG_FIFO_MODE: u8 = 1 << 6;
+
+/// FIFO_EN bits for TEMP_OUT, GYRO_X/Y/ZOUT and ACCEL: the whole 14-byte sample,
+/// stored in register order (accel, temperature, gyro).
+pub const FIFO_EN_SAMPLE: u8 = 0b1111_1000;
+/// FIFO size in bytes.
+pub const FIFO_SIZE: u16 = 512;
+/// FIFO_COUNTH significant bits.
+pub const FIFO_COUNTH_MASK: u8 = 0x1F;
+
+/// I2C_SLVx_ADDR bit 7: the transfer is a read.
+pub const I2C_SLV_READ: u8 = 1 << 7;
+/// I2C_SLVx_CTRL bit 7: slave enable.
+pub const I2C_SLV_EN: u8 = 1 << 7;
+/// I2C_SLVx_CTRL length field mask (bits 3:0).
+pub const I2C_SLV_LENG_MASK: u8 = 0x0F;
+/// I2C_MST_CTRL bit 4: I2C_MST_P_NSR, a STOP (not a restart) between slave reads.
+pub const I2C_MST_CTRL_P_NSR: u8 = 1 << 4;
+/// I2C_MST_CTRL bit 6: WAIT_FOR_ES, hold the data-ready interrupt until the
+/// external sensor data has been read.
+pub const I2C_MST_CTRL_WAIT_FOR_ES: u8 = 1 << 6;
+/// I2C_MST_CTRL clock code 13: 400 kHz (8 MHz / 20).
+pub const I2C_MST_CLK_400KHZ: u8 = 13;
+/// I2C_MST_DELAY_CTRL bit 7: DELAY_ES_SHADOW, shadow the external sensor data
+/// until all slaves were read.
+pub const I2C_MST_DELAY_ES_SHADOW: u8 = 1 << 7;
+/// I2C_MST_DELAY_CTRL bit 0: I2C_SLV0_DLY_EN, slave 0 only every
+/// (1 + I2C_MST_DLY) samples.
+pub const I2C_MST_DELAY_SLV0_DLY_EN: u8 = 1 << 0;
+/// I2C_SLV4_CTRL I2C_MST_DLY field mask (bits 4:0).
+pub const I2C_SLV4_MST_DLY_MASK: u8 = 0x1F;
+/// I2C_MST_STATUS bit 6: I2C_SLV4_DONE.
+pub const I2C_MST_STATUS_SLV4_DONE: u8 = 1 << 6;
+/// I2C_MST_STATUS bit 4: I2C_SLV4_NACK.
+pub const I2C_MST_STATUS_SLV4_NACK: u8 = 1 << 4;
+/// I2C_MST_STATUS bit 5: I2C_LOST_ARB.
+pub const I2C_MST_STATUS_LOST_ARB: u8 = 1 << 5;
+/// I2C_MST_STATUS bit 0: I2C_SLV0_NACK.
+pub const I2C_MST_STATUS_SLV0_NACK: u8 = 1 << 0;
+
+/// GYRO_CONFIG / ACCEL_CONFIG bits 7:5: self-test on all three axes.
+pub const SELF_TEST_XYZ: u8 = 0b1110_0000;

@@ -313,8 +313,8 @@ fn bypass_nack_is_detected_by_verify_config() {
 }
 
 #[test]
-fn release_and_destroy_return_the_bus() {
+fn release_returns_the_bus() {
     let imu = Mpu9250::new(Mock::new(&[]), Address::Ad0High);
     assert_eq!(imu.address(), 0x69);
-    imu.destroy().done();
+    imu.release().done();
 }

@@ -1,4 +1,5 @@
-//! MS5611-01BA03 barometric pressure sensor driver (embedded-hal 1.0, I²C).
+//! MS5611-01BA03 barometric pressure sensor driver (embedded-hal 1.0, I²C or
+//! SPI, blocking or async).
 //!
 //! What it does:
 //!
@@ -17,8 +18,12 @@
 //! * Blocking helpers ([`Ms5611::init`], [`Ms5611::measure`]) take an
 //!   `embedded_hal::delay::DelayNs`.
 //!
-//! What it does not do: altitude (that is `control`'s job), filtering, or
-//! anything with SPI.
+//! * Talks I²C ([`Ms5611::new`]) or SPI ([`Ms5611::new_with_spi`], see
+//!   [`Interface`]); with the `async` feature the same driver exists as
+//!   `Ms5611Async` over `embedded-hal-async`, and the [`Sampler`] drives it
+//!   with `poll_async`.
+//!
+//! What it does not do: altitude (that is `control`'s job) or filtering.
 //!
 //! ```
 //! # use embedded_hal_mock::eh1::{i2c::{Mock, Transaction as T}, delay::NoopDelay};
@@ -51,6 +56,7 @@ pub mod command;
 mod compensation;
 mod device;
 mod error;
+mod interface;
 mod prom;
 mod sampler;
 mod types;
@@ -60,7 +66,12 @@ pub use compensation::{
     compensate, compensate_detailed, Compensation, Measurement, RawOutOfRange, ADC_LIMIT,
 };
 pub use device::Ms5611;
+#[cfg(feature = "async")]
+pub use device::Ms5611Async;
 pub use error::Error;
+#[cfg(feature = "async")]
+pub use interface::InterfaceAsync;
+pub use interface::{Interface, SpiInterface};
 pub use prom::{crc4, with_valid_crc, Prom, PromError};
 pub use sampler::{
     guard_for_bus_hz, Action, SampleError, Sampler, SamplerConfig, DEFAULT_GUARD_US, MAX_GUARD_US,

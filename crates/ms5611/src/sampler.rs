@@ -33,9 +33,9 @@
 use core::fmt;
 use core::num::NonZeroU16;
 
-use embedded_hal::i2c::I2c;
-
-use crate::{compensate, Channel, Error, Measurement, Ms5611, Osr, Prom, RawOutOfRange};
+use crate::{compensate, Channel, Error, Interface, Measurement, Ms5611, Osr, Prom, RawOutOfRange};
+#[cfg(feature = "async")]
+use crate::{InterfaceAsync, Ms5611Async};
 
 /// Default extra wait added to every conversion deadline, µs. Covers the
 /// I²C time between the caller's timestamp and the chip actually receiving
@@ -453,7 +453,19 @@ impl Sampler {
             }
         }
     }
+}
 
+#[maybe_async_cfg::maybe(
+    idents(
+        Ms5611(sync, async = "Ms5611Async"),
+        Interface(sync, async = "InterfaceAsync"),
+        poll(sync, async = "poll_async"),
+        start(sync, async = "start_async")
+    ),
+    sync(keep_self),
+    async(feature = "async", keep_self)
+)]
+impl Sampler {
     /// Drive the schedule over the bus at `now_us` (wrapping µs clock, taken
     /// just before the call). Never blocks: at most one ADC read plus one
     /// conversion command per call.
@@ -467,22 +479,22 @@ impl Sampler {
     /// failure is only counted in [`Sampler::error_count`], and the start is
     /// retried after the recovery wait (where a persisting fault is
     /// returned).
-    pub fn poll<I2C: I2c>(
+    pub async fn poll<DI: Interface>(
         &mut self,
-        dev: &mut Ms5611<I2C>,
+        dev: &mut Ms5611<DI>,
         now_us: u32,
-    ) -> Result<Option<Measurement>, Error<I2C::Error>> {
+    ) -> Result<Option<Measurement>, Error<DI::Error>> {
         let Some(prom) = dev.prom().copied() else {
             return Err(Error::NotInitialised);
         };
         match self.next_action(now_us) {
             Action::Wait { .. } => Ok(None),
             Action::Start { channel, osr } => {
-                self.start(dev, channel, osr, now_us)?;
+                Self::start(self, dev, channel, osr, now_us).await?;
                 Ok(None)
             }
             Action::Read { .. } => {
-                let raw = match dev.read_adc_raw() {
+                let raw = match dev.read_adc_raw().await {
                     Ok(raw) => raw,
                     Err(e) => {
                         self.on_bus_error(now_us);
@@ -491,7 +503,7 @@ impl Sampler {
                 };
                 let measurement = self.on_adc_read(&prom, raw, now_us)?;
                 if let Action::Start { channel, osr } = self.next_action(now_us) {
-                    if let Err(e) = self.start(dev, channel, osr, now_us) {
+                    if let Err(e) = Self::start(self, dev, channel, osr, now_us).await {
                         if measurement.is_none() {
                             return Err(e);
                         }
@@ -502,14 +514,14 @@ impl Sampler {
         }
     }
 
-    fn start<I2C: I2c>(
+    async fn start<DI: Interface>(
         &mut self,
-        dev: &mut Ms5611<I2C>,
+        dev: &mut Ms5611<DI>,
         channel: Channel,
         osr: Osr,
         now_us: u32,
-    ) -> Result<(), Error<I2C::Error>> {
-        match dev.start_conversion(channel, osr) {
+    ) -> Result<(), Error<DI::Error>> {
+        match dev.start_conversion(channel, osr).await {
             Ok(()) => {
                 self.on_conversion_started(channel, now_us);
                 Ok(())

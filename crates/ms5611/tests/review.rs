@@ -89,7 +89,7 @@ fn measure_at_minus_20_c() {
     let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbHigh, prom());
     let m = baro.measure(&mut NoopDelay::new(), Osr::Osr512).unwrap();
     assert_eq!((m.pressure_pa, m.temperature_centi_c), (90_747, -2655));
-    baro.destroy().done();
+    baro.release().done();
 }
 
 /// An ADC read of 0 is an error at every OSR, for D1 and for D2, and the

@@ -1,0 +1,55 @@
+//! Shared test helpers: the init sequence, measurement reads, NACK and a
+//! minimal executor for the async API.
+#![allow(dead_code, clippy::unwrap_used, missing_docs)]
+
+use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
+use embedded_hal_mock::eh1::i2c::Transaction as T;
+
+/// The AK8963's address inside the MPU-9250.
+pub const A: u8 = 0x0C;
+/// An address NACK (bypass off).
+pub const NACK: ErrorKind = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
+
+/// Init with fuse ROM `asa` and CNTL1 `cntl1`, bytes from the datasheet.
+pub fn init_seq(asa: [u8; 3], cntl1: u8) -> Vec<T> {
+    vec![
+        T::write_read(A, vec![0x00], vec![0x48]),
+        T::write(A, vec![0x0B, 0x01]),
+        T::write_read(A, vec![0x0B], vec![0x00]),
+        T::write(A, vec![0x0A, 0x00]),
+        T::write(A, vec![0x0A, 0x0F]),
+        T::write_read(A, vec![0x10], asa.to_vec()),
+        T::write(A, vec![0x0A, 0x00]),
+        T::write(A, vec![0x0A, cntl1]),
+        T::write_read(A, vec![0x0A], vec![cntl1]),
+    ]
+}
+
+/// HXL..HZH little-endian, then ST2.
+pub fn le(v: [i16; 3], st2: u8) -> Vec<u8> {
+    v.into_iter()
+        .flat_map(i16::to_le_bytes)
+        .chain([st2])
+        .collect()
+}
+
+/// An ST1 read answering `v`.
+pub fn st1(v: u8) -> T {
+    T::write_read(A, vec![0x02], vec![v])
+}
+
+/// The HXL..ST2 burst.
+pub fn data(v: [i16; 3], st2: u8) -> T {
+    T::write_read(A, vec![0x03], le(v, st2))
+}
+
+/// Run a future that only waits on the (always ready) mocks.
+pub fn block_on<F: core::future::Future>(f: F) -> F::Output {
+    let mut f = core::pin::pin!(f);
+    let mut cx = core::task::Context::from_waker(core::task::Waker::noop());
+    loop {
+        if let core::task::Poll::Ready(v) = f.as_mut().poll(&mut cx) {
+            return v;
+        }
+    }
+}
