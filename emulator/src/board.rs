@@ -156,6 +156,9 @@ pub enum BoardFault {
     RttReaderResumes,
     /// The button on PA0 is pressed (`true`) or released.
     Button(bool),
+    /// A fault of the I2C1 peripheral itself (errata BUSY lock-up of the
+    /// analog filter, spurious BERR).
+    I2c(crate::i2c1::PeripheralFault),
 }
 
 /// The state behind the CPU: every peripheral model and the board's wiring.
@@ -945,6 +948,11 @@ impl Board {
             BoardFault::Button(p) => hw.button_pressed = p,
             BoardFault::RttReaderStops => self.rtt.reading = false,
             BoardFault::RttReaderResumes => self.rtt.reading = true,
+            BoardFault::I2c(f) => {
+                let now = hw.now_ns();
+                hw.sync_clock();
+                hw.i2c.inject(f, now);
+            }
         }
         self.event(format!("{fault:?}"));
     }
