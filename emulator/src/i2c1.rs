@@ -23,9 +23,9 @@
 //! address was acknowledged for the first byte). STOP and a repeated START
 //! are generated after the current byte, or at once when SCL is held low
 //! waiting for software. CR1.STOP is cleared by hardware when the STOP
-//! condition has been sent; a CR1 write that carries STOP = 1 while it is
-//! still pending queues a second STOP (the manual's warning), which fires
-//! right after the next START.
+//! condition has been sent; a read-modify-write of CR1 that straddles that
+//! moment writes STOP = 1 again, a second STOP (the manual's warning),
+//! which fires right after the next START.
 //!
 //! BUSY (SR2): set when the peripheral sees SDA or SCL low, cleared when it
 //! sees a STOP, and set for the master's own transfers. The peripheral sees
@@ -37,6 +37,21 @@
 //! high again as GPIO (the errata's sequence), after which a SWRST clears
 //! BUSY. Spurious BERR (errata): [`PeripheralFault::SpuriousBerr`] sets
 //! BERR during the next byte and changes nothing else.
+//!
+//! ```
+//! use emulator::i2c1::{cr1, reg, sr1, I2c1, PinMode};
+//! use sim::{SimBus, SimClock, SimConfig};
+//!
+//! let bus = SimBus::new(&SimClock::new(), SimConfig { bus_hz: None, ..SimConfig::default() });
+//! let mut i2c = I2c1::new(bus);
+//! let af = PinMode::AlternateOpenDrain;
+//! i2c.set_pins(af, af, 0);
+//! i2c.write(reg::CR2, 36, 0); // PCLK1 = 36 MHz
+//! i2c.write(reg::CCR, 0x801E, 0); // fast mode, 400 kHz
+//! i2c.write(reg::CR1, cr1::PE | cr1::START, 0);
+//! assert_eq!(i2c.read(reg::SR1, 2_499) & sr1::SB, 0);
+//! assert_eq!(i2c.read(reg::SR1, 2_500) & sr1::SB, sr1::SB); // one SCL period later
+//! ```
 //!
 //! Not modelled: slave mode, 10-bit addresses, SMBus/PEC, DMA, NOSTRETCH,
 //! OVR, TRISE's effect on timing, line contention with a push-pull pin, the
@@ -228,8 +243,6 @@ pub struct I2c1 {
     addr_armed: bool,
     /// POS = 1: the (N)ACK decided for the next byte.
     pos_ack: bool,
-    /// A second STOP queued by a CR1 write while STOP was pending.
-    second_stop: bool,
     /// PE cleared during a transfer: takes effect when back to idle.
     pe_off_pending: bool,
     scl_pin: PinMode,
@@ -272,7 +285,6 @@ impl I2c1 {
             sb_armed: false,
             addr_armed: false,
             pos_ack: false,
-            second_stop: false,
             pe_off_pending: false,
             scl_pin: PinMode::Input,
             sda_pin: PinMode::Input,
@@ -585,9 +597,6 @@ impl I2c1 {
             self.bus.wire_stop();
         }
         self.cr1 &= !cr1::STOP;
-        if std::mem::take(&mut self.second_stop) {
-            self.cr1 |= cr1::STOP;
-        }
         self.msl = false;
         self.tra = false;
         self.busy = false;
@@ -647,7 +656,6 @@ impl I2c1 {
         self.dr_last = 0;
         self.sb_armed = false;
         self.addr_armed = false;
-        self.second_stop = false;
         self.pe_off_pending = false;
         self.spurious_berr = false;
     }
@@ -662,7 +670,10 @@ impl I2c1 {
         self.pe_off_pending = false;
         self.cr1 &= !(cr1::PE | cr1::START | cr1::STOP | cr1::ACK | cr1::POS);
         self.flags &= !(sr1::SB | sr1::ADDR);
-        self.second_stop = false;
+        // RM0008 SR1: RxNE, TxE and BTF are cleared by hardware when PE = 0.
+        self.dr_rx = None;
+        self.shift_rx = None;
+        self.dr_tx = None;
         self.msl = false;
         self.tra = false;
     }
@@ -902,13 +913,11 @@ impl I2c1 {
             self.seen = (true, true);
             self.sync_lines();
         }
-        let stop_pending = self.cr1 & cr1::STOP != 0;
-        if stop_pending && value & cr1::STOP != 0 && self.msl {
-            // RM0008: no CR1 write until STOP has cleared, or a second STOP
-            // may be requested. (Writing STOP back while no transfer will
-            // consume it is the same request.)
-            self.second_stop = true;
-        }
+        // CR1.STOP is one request bit: writing 1 while it is pending is the
+        // same request. RM0008's "second STOP" comes from a read-modify-
+        // write whose read saw STOP = 1 and whose write lands after the
+        // hardware cleared it: that write is a new request, sent right
+        // after the next START.
         let stop_on_wire = matches!(self.phase, Phase::Stop { .. });
         let mut new = value & 0xBFFB;
         if stop_on_wire {

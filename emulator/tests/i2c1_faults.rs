@@ -334,3 +334,33 @@ fn pins_taken_mid_write_release_the_bus() {
     r.configure();
     assert_eq!(r.who_am_i(), Some(0x71));
 }
+
+#[test]
+fn stop_with_ack_still_set_leaves_the_chip_holding_sda() {
+    // The last byte ACKed instead of NACKed: the chip goes on to its next
+    // byte (the MS5611 sends 0x00 past the PROM word), keeps SDA low, and
+    // the STOP cannot happen on the wire: BUSY right after the "STOP".
+    let mut r = Rig::new();
+    r.write_bytes(MS, &[0xA4]).unwrap();
+    r.set_cr1(cr1::ACK);
+    r.start_address((MS << 1) | 1);
+    r.clear_addr();
+    r.poll_sr1(sr1::RXNE, 100_000).unwrap();
+    r.rd(reg::DR);
+    r.set_cr1(cr1::STOP);
+    r.poll_sr1(sr1::RXNE, 100_000).unwrap();
+    r.rd(reg::DR);
+    assert_eq!(
+        r.wait_stop_cleared(10 * BIT_NS),
+        Some(BIT_NS),
+        "STOP bit clears"
+    );
+    assert!(!r.i2c.sda_high(r.t), "but the chip holds SDA");
+    assert!(r.busy());
+    r.clear_cr1(cr1::PE | cr1::ACK);
+    assert_eq!(r.clock_out_stuck_slave(), Some(8));
+    back_to_af(&mut r);
+    swrst_and_configure(&mut r);
+    assert!(!r.busy());
+    assert_eq!(r.who_am_i(), Some(0x71));
+}

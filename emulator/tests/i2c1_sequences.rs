@@ -261,12 +261,9 @@ fn data_nack_sets_af_without_btf() {
     assert_eq!(r.sr2(), 0, "STOP sent after the NACK");
 }
 
-#[test]
-fn cr1_write_while_stop_pending_queues_a_second_stop() {
-    // RM0008 CR1 note: no write to CR1 until STOP is cleared, or a second
-    // STOP may be requested. Here it is, and it kills the next transfer
-    // right after its START.
-    let mut r = Rig::new();
+/// A WHO_AM_I read left with its STOP on the wire; returns the CR1 value
+/// read back while STOP was still set.
+fn read_with_stop_pending(r: &mut Rig) -> u16 {
     r.write_bytes(MPU, &[0x75]).unwrap();
     r.start_address((MPU << 1) | 1);
     r.clear_cr1(cr1::ACK);
@@ -274,10 +271,23 @@ fn cr1_write_while_stop_pending_queues_a_second_stop() {
     r.set_cr1(cr1::STOP);
     r.poll_sr1(sr1::RXNE, 100_000).unwrap();
     assert_eq!(r.rd(reg::DR), 0x71);
-    // Read-modify-write of CR1 while STOP is still set.
-    r.set_cr1(cr1::ACK);
+    let cr1_now = r.rd(reg::CR1);
+    assert_ne!(cr1_now & cr1::STOP, 0, "STOP still pending");
+    cr1_now
+}
+
+#[test]
+fn stale_cr1_write_after_stop_cleared_is_a_second_stop() {
+    // RM0008 CR1 note: no write to CR1 until STOP is cleared, or a second
+    // STOP may be requested: a read-modify-write whose read saw STOP = 1
+    // and whose write lands after the hardware cleared it.
+    let mut r = Rig::new();
+    let stale = read_with_stop_pending(&mut r);
     r.wait(2 * BIT_NS);
+    assert_eq!(r.rd(reg::CR1) & cr1::STOP, 0, "the first STOP is done");
+    r.wr(reg::CR1, stale | cr1::ACK);
     assert_ne!(r.rd(reg::CR1) & cr1::STOP, 0, "a second STOP is pending");
+    // It kills the next transfer right after its START.
     r.set_cr1(cr1::START);
     r.wait(3 * BIT_NS);
     assert_eq!(r.sr2() & sr2::MSL, 0, "START then STOP at once");
@@ -288,11 +298,19 @@ fn cr1_write_while_stop_pending_queues_a_second_stop() {
         None,
         "no address phase"
     );
+}
 
-    // The same transfer, waiting for STOP to clear before touching CR1.
+#[test]
+fn cr1_write_while_stop_is_still_pending_is_the_same_request() {
     let mut r = Rig::new();
-    assert_eq!(r.who_am_i(), Some(0x71));
-    r.set_cr1(cr1::ACK);
+    let pending = read_with_stop_pending(&mut r);
+    r.wr(reg::CR1, pending | cr1::ACK);
+    assert_eq!(
+        r.wait_stop_cleared(10 * BIT_NS).map(|t| t <= BIT_NS),
+        Some(true)
+    );
+    assert_eq!(r.rd(reg::CR1), cr1::PE | cr1::ACK);
+    r.clear_cr1(cr1::ACK);
     assert_eq!(r.who_am_i(), Some(0x71));
 }
 
@@ -311,5 +329,42 @@ fn pe_cleared_mid_transfer_takes_effect_at_the_end() {
     assert_ne!(r.rd(reg::CR1) & cr1::PE, 0, "still enabled mid-transfer");
     r.wait(30 * BIT_NS);
     assert_eq!(r.rd(reg::CR1) & cr1::PE, 0);
+    // A byte left in DR is dropped with PE = 0 (RxNE cleared by hardware).
+    r.set_cr1(cr1::PE);
+    r.write_bytes(MPU, &[0x75]).unwrap();
+    r.start_address((MPU << 1) | 1);
+    r.clear_cr1(cr1::ACK);
+    r.clear_addr();
+    r.set_cr1(cr1::STOP);
+    r.wait(20 * BIT_NS);
+    assert_eq!(r.rd(reg::SR1), sr1::RXNE);
+    r.clear_cr1(cr1::PE);
+    assert_eq!(r.rd(reg::SR1), 0);
     assert_eq!(r.i2c.bus().state().mpu.register(0x19), 0x07);
+}
+
+#[test]
+fn interrupt_requests_follow_the_enable_bits() {
+    use emulator::i2c1::cr2;
+    let mut r = Rig::new();
+    r.wr(reg::CR2, 36 | cr2::ITEVTEN | cr2::ITERREN);
+    r.set_cr1(cr1::START);
+    assert!(!r.i2c.event_irq());
+    r.wait(BIT_NS);
+    assert!(r.i2c.event_irq(), "SB is an event");
+    r.rd(reg::SR1);
+    r.wr(reg::DR, u16::from(MPU << 1));
+    r.wait(9 * BIT_NS);
+    r.clear_addr();
+    assert!(!r.i2c.event_irq(), "TXE needs ITBUFEN");
+    r.wr(reg::CR2, 36 | cr2::ITEVTEN | cr2::ITBUFEN | cr2::ITERREN);
+    assert!(r.i2c.event_irq());
+    r.set_cr1(cr1::STOP);
+    r.wait(BIT_NS);
+    assert!(!r.i2c.event_irq() && !r.i2c.error_irq());
+    r.set_cr1(cr1::START);
+    r.poll_sr1(sr1::SB, 100_000).unwrap();
+    r.wr(reg::DR, 0x50 << 1);
+    r.wait(9 * BIT_NS);
+    assert!(r.i2c.error_irq(), "AF");
 }

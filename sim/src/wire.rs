@@ -130,6 +130,12 @@ impl BusState {
         }
     }
 
+    /// Between bytes of a byte-level transfer SCL is low (held by the
+    /// master) and SDA is whatever the chip drives.
+    fn mid_transfer_levels(&mut self) {
+        self.wire.last_levels = (false, !self.sda_pulled_low());
+    }
+
     fn fetch_next(&mut self, now: u64) {
         if let Some(t) = self.wire.selected {
             let (d, w) = device(self, t);
@@ -210,6 +216,7 @@ impl SimBus {
         if read {
             s.fetch_next(now);
         }
+        s.mid_transfer_levels();
         Ok(())
     }
 
@@ -224,10 +231,9 @@ impl SimBus {
             return Err(s.fail(SimBusError::Nack(NoAcknowledgeSource::Data)));
         };
         let (d, w) = device(s, t);
-        match d.write_byte(byte, now, w) {
-            Ok(()) => Ok(()),
-            Err(e) => Err(s.fail(e)),
-        }
+        let result = d.write_byte(byte, now, w);
+        s.mid_transfer_levels();
+        result.map_err(|e| s.fail(e))
     }
 
     /// The master clocks in one data byte and answers ACK (`ack`, the chip
@@ -247,14 +253,21 @@ impl SimBus {
         } else {
             s.wire.slave = SlaveLine::Idle;
         }
+        s.mid_transfer_levels();
         Ok(byte)
     }
 
     /// STOP condition: the transaction ends for the master and the chips.
+    /// A chip that is driving a 0 bit (it was ACKed and is shifting out the
+    /// next byte) keeps SDA low, so no STOP reaches it: it stays where it
+    /// is, holding the bus.
     pub fn wire_stop(&self) {
         let (now, mut guard) = self.wire_now();
         let s = &mut *guard;
-        s.end_slave(now);
+        if !s.slave_drives_sda_low() {
+            s.end_slave(now);
+        }
+        s.wire.last_levels = (!s.wire.scl_stuck, !s.sda_pulled_low());
         s.wire.in_transaction = false;
         if !s.wire.failed {
             // A glitch armed for later than this (short) transaction stays armed.
