@@ -116,7 +116,7 @@ mod app {
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
     use cortex_m::peripheral::DWT;
-    use flight::boot::{BiasStatus, BootReport, Capabilities, StartupGyroBias};
+    use flight::boot::{BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
     use flight::health::{HealthCounters, SensorState};
     use flight::pipeline::{Pipeline, PipelineConfig};
@@ -207,9 +207,9 @@ mod app {
 
         bus::init(&rcc);
         recover_bus_at_boot();
-        let (sensors, report) = probe_sensors();
+        let sensors = probe_sensors();
         let record = load_calibration(&mut flash);
-        let pipeline = build_pipeline(&sensors, &report.capabilities(), &record);
+        let pipeline = build_pipeline(&sensors, &sensors.capabilities(), &record);
         let bias = start_gyro_bias(&sensors);
         let session = start_session(&button_pin);
 
@@ -253,13 +253,10 @@ mod app {
             );
         }
         defmt::info!(
-            "boot: {=u32} MHz ({}), I2C1 400 kHz on PB6/PB7, MPU INT on PB5, AHRS: {=str}",
+            "boot: {=u32} MHz ({}), I2C1 400 kHz on PB6/PB7, MPU INT on PB5, AHRS: {=str}; a stuck I2C bus is recovered (SCL clocked, STOP, BUSY unlocked), a missing chip is re-probed every 1-32 s, a chip that returns is re-initialised and used",
             cpu_hz() / 1_000_000,
             source,
             flight::pipeline::AHRS_KIND
-        );
-        defmt::info!(
-            "boot: a stuck I2C bus is recovered (SCL clocked, STOP, BUSY unlocked); a missing chip is re-probed every 1-32 s; a chip that returns is re-initialised and used"
         );
     }
 
@@ -279,7 +276,7 @@ mod app {
     }
 
     /// Boot step: probe and configure the three chips.
-    fn probe_sensors() -> (Sensors<BusHandle>, BootReport) {
+    fn probe_sensors() -> Sensors<BusHandle> {
         let (sensors, report) = Sensors::boot(
             BusHandle,
             BusHandle,
@@ -298,8 +295,8 @@ mod app {
                 ),
             }
         }
-        log_capabilities(&report.capabilities());
-        (sensors, report)
+        log_capabilities(&sensors.capabilities());
+        sensors
     }
 
     fn log_capabilities(caps: &Capabilities) {
@@ -588,8 +585,10 @@ mod app {
                 );
             }
             // Heartbeat: 1 Hz normally, 5 Hz while calibrating.
-            let calibrating = cx.shared.session.lock(|c| c.wants()).mag_ut
-                || mode == flight::calmode::Mode::AccelCal;
+            let calibrating = matches!(
+                mode,
+                flight::calmode::Mode::MagCal | flight::calmode::Mode::AccelCal
+            );
             if tick.is_multiple_of(if calibrating { 2 } else { 10 }) {
                 cx.local.led.toggle();
             }

@@ -8,7 +8,7 @@
 use mpu9250::RawSample;
 
 use crate::boot::{BiasStatus, StartupGyroBias};
-use crate::calmode::{CalWants, RawLogRow, RAW_LOG_DIVIDER};
+use crate::calmode::{CalWants, RawLogRow};
 use crate::pipeline::{ImuInput, Pipeline};
 use crate::sensors::MagRead;
 
@@ -17,7 +17,8 @@ use crate::sensors::MagRead;
 pub struct SampleStep {
     bias: Option<StartupGyroBias>,
     bias_applied: bool,
-    raw_div: u16,
+    /// The latest magnetometer reading, for raw-log rows.
+    last_mag: Option<[i16; 3]>,
 }
 
 /// One sample as the 1 kHz task has it.
@@ -46,7 +47,8 @@ pub struct SampleOutcome {
     /// Accelerometer sample for the calibration, g, MPU frame, uncorrected
     /// (at the magnetometer rate, 100 Hz).
     pub accel_g: Option<[f32; 3]>,
-    /// A raw-log row (every [`RAW_LOG_DIVIDER`]th sample in raw-log mode).
+    /// A raw-log row (in raw-log mode, on the magnetometer's tick: 100 Hz,
+    /// with the latest magnetometer reading).
     pub row: Option<RawLogRow>,
 }
 
@@ -56,7 +58,7 @@ impl SampleStep {
         Self {
             bias,
             bias_applied: false,
-            raw_div: 0,
+            last_mag: None,
         }
     }
 
@@ -85,6 +87,7 @@ impl SampleStep {
         };
         if let Some(c) = mag_counts {
             p.mag_step(c);
+            self.last_mag = Some(c);
         }
         let input = ImuInput {
             accel: raw.accel,
@@ -102,27 +105,8 @@ impl SampleStep {
                 .map(|c| p.mag_counts_to_mpu_raw_ut(c)),
             accel_g: (wants.accel_g && read_mag)
                 .then(|| raw.accel.map(|c| f32::from(c) * g_per_lsb)),
-            row: self.raw_row(p, raw, mag_counts, now_us, wants.raw_log),
+            row: (wants.raw_log && read_mag)
+                .then(|| p.raw_log_row(now_us as f32 * 1e-6, raw.accel, raw.gyro, self.last_mag)),
         }
-    }
-
-    fn raw_row(
-        &mut self,
-        p: &Pipeline,
-        raw: &RawSample,
-        mag_counts: Option<[i16; 3]>,
-        now_us: u32,
-        on: bool,
-    ) -> Option<RawLogRow> {
-        if !on {
-            self.raw_div = 0;
-            return None;
-        }
-        self.raw_div = self.raw_div.saturating_add(1);
-        if self.raw_div < RAW_LOG_DIVIDER {
-            return None;
-        }
-        self.raw_div = 0;
-        Some(p.raw_log_row(now_us as f32 * 1e-6, raw.accel, raw.gyro, mag_counts))
     }
 }
