@@ -17,7 +17,6 @@ use crate::iwdg::{Iwdg, LSI_NOMINAL_HZ};
 use crate::rcc::{Rcc, ResetCause};
 use crate::rtt::{LogLine, RttHost, RttMode, TargetMemory};
 use crate::scs::{Dwt, Nvic, SysTick, IRQ0, SYSTICK};
-use std::collections::HashMap;
 use std::path::Path;
 use unicorn_engine::unicorn_const::{uc_error, Arch, Mode, Prot};
 use unicorn_engine::{ArmCpuModel, RegisterARM, Unicorn};
@@ -161,6 +160,15 @@ pub enum BoardFault {
     I2c(crate::i2c1::PeripheralFault),
 }
 
+/// A translated block's size in bytes, instruction count, and whether it
+/// is an idle loop.
+#[derive(Clone, Copy, Debug, Default)]
+struct BlockInfo {
+    size: u32,
+    insns: u32,
+    idle: bool,
+}
+
 /// The state behind the CPU: every peripheral model and the board's wiring.
 pub struct Hw {
     /// Instructions retired since power-on (the time base).
@@ -184,7 +192,7 @@ pub struct Hw {
     i2c: I2c1,
     clock: sim::SimClock,
     tail_base: u32,
-    blocks: HashMap<(u32, u32), (u32, bool)>,
+    blocks: Vec<BlockInfo>,
     /// Exception entries per exception number since power-on.
     pub entries: Vec<u64>,
     dbgmcu_cr: u32,
@@ -192,6 +200,7 @@ pub struct Hw {
     imu_int_cut: bool,
     stall_ns: u64,
     code_changed: bool,
+    last_poll: Option<(u32, u16, u64)>,
 }
 
 impl Hw {
@@ -289,7 +298,9 @@ impl Hw {
             0x4000_3000..=0x4000_33FF => self.iwdg.read(a - 0x4000_3000, now),
             0x4000_5400..=0x4000_5420 => {
                 self.sync_clock();
-                let v = self.i2c.read(a - 0x4000_5400, now);
+                let off = a - 0x4000_5400;
+                let v = self.i2c.read(off, now);
+                self.skip_idle_poll(off, v);
                 Some(u32::from(v))
             }
             0x4001_0000..=0x4001_03FF => self.afio.read(a - 0x4001_0000),
@@ -399,6 +410,28 @@ impl Hw {
                 true
             }
             _ => false,
+        }
+    }
+
+    /// A tight loop polling an unchanged I2C1 status or control register
+    /// (the same value read again within a few instructions) would only
+    /// spin until the peripheral's next bus event: skip to that event. Time
+    /// (and so DWT timeouts) stays exact; only the loop's iteration count
+    /// shrinks.
+    fn skip_idle_poll(&mut self, off: u32, v: u16) {
+        const POLL_WINDOW: u64 = 40;
+        let same = self.last_poll.is_some_and(|(o, pv, c)| {
+            o == off && pv == v && self.cycles.saturating_sub(c) <= POLL_WINDOW
+        });
+        self.last_poll = Some((off, v, self.cycles));
+        if !same || !matches!(off, 0x00 | 0x14 | 0x18) {
+            return;
+        }
+        if let Some(t) = self.i2c.next_event_ns() {
+            let target = ns_to_cycles(t).min(self.slice_end);
+            if target > self.cycles {
+                self.cycles = target;
+            }
         }
     }
 
@@ -663,13 +696,14 @@ impl Board {
             i2c: I2c1::new(bus.clone()),
             clock,
             tail_base,
-            blocks: HashMap::new(),
+            blocks: vec![BlockInfo::default(); FLASH_SIZE as usize / 2],
             entries: vec![0; crate::scs::EXCEPTIONS],
             dbgmcu_cr: 0,
             button_pressed: false,
             imu_int_cut: false,
             stall_ns: 0,
             code_changed: false,
+            last_poll: None,
         };
         let mut uc =
             Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, hw).map_err(uc_err)?;
@@ -781,15 +815,24 @@ impl Board {
         )
         .map_err(uc_err)?;
         uc.add_block_hook(1, 0, |uc: &mut Unicorn<'_, Hw>, addr: u64, size: u32| {
-            let key = (addr as u32, size);
-            let known = uc.get_data().blocks.get(&key).copied();
+            // Per-halfword cache of flash blocks (a hash map here cost more
+            // than the emulation itself).
+            let slot = (addr as u32).wrapping_sub(FLASH_BASE) as usize / 2;
+            let known = uc
+                .get_data()
+                .blocks
+                .get(slot)
+                .copied()
+                .filter(|b| b.size == size && b.insns > 0);
             let (n, idle) = match known {
-                Some(k) => k,
+                Some(b) => (b.insns, b.idle),
                 None => {
                     let code = uc.mem_read_as_vec(addr, size as usize).unwrap_or_default();
-                    let k = scan_block(&code, addr as u32);
-                    uc.get_data_mut().blocks.insert(key, k);
-                    k
+                    let (insns, idle) = scan_block(&code, addr as u32);
+                    if let Some(b) = uc.get_data_mut().blocks.get_mut(slot) {
+                        *b = BlockInfo { size, insns, idle };
+                    }
+                    (insns, idle)
                 }
             };
             // A stop requested here takes effect before this block runs, so
@@ -1105,7 +1148,7 @@ impl Board {
             hw.code_changed = false;
             let tail = hw.tail_base;
             let code: Vec<u8> = hw.flash.image[..(tail - FLASH_BASE) as usize].to_vec();
-            hw.blocks.clear();
+            hw.blocks.fill(BlockInfo::default());
             self.uc
                 .mem_write(u64::from(FLASH_BASE), &code)
                 .map_err(uc_err)?;
