@@ -35,6 +35,14 @@ pub fn elf() -> Option<PathBuf> {
 pub fn board_with(f: impl FnOnce(&mut BoardConfig)) -> Option<Board> {
     let path = elf()?;
     let mut config = BoardConfig::default();
+    // The RTT mode `cargo embed` sets comes from this tree's Embed.toml;
+    // FIL_RTT_MODE overrides it when FIL_ELF is a firmware from another tree.
+    if let Some(m) = std::env::var("FIL_RTT_MODE")
+        .ok()
+        .and_then(|m| emulator::RttMode::from_name(&m))
+    {
+        config.rtt_mode = Some(m);
+    }
     f(&mut config);
     Some(Board::from_elf(&path, config).unwrap_or_else(|e| panic!("board: {e}")))
 }
