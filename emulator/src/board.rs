@@ -201,6 +201,8 @@ pub struct Hw {
     stall_ns: u64,
     code_changed: bool,
     last_poll: Option<(u32, u16, u64)>,
+    /// A register access in this slice may have moved the next event.
+    resched: bool,
 }
 
 impl Hw {
@@ -299,6 +301,7 @@ impl Hw {
             0x4000_5400..=0x4000_5420 => {
                 self.sync_clock();
                 let off = a - 0x4000_5400;
+                self.resched = true;
                 let v = self.i2c.read(off, now);
                 self.skip_idle_poll(off, v);
                 Some(u32::from(v))
@@ -525,6 +528,7 @@ fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
     }
     let pend_before = hw.nvic.pending;
     let hw = uc.get_data_mut();
+    hw.resched = true;
     if !hw.periph_write(a, (value as u32) << shift, mask) {
         hw.fail(BoardError::Unmodelled {
             addr,
@@ -704,6 +708,7 @@ impl Board {
             stall_ns: 0,
             code_changed: false,
             last_poll: None,
+            resched: false,
         };
         let mut uc =
             Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, hw).map_err(uc_err)?;
@@ -840,8 +845,12 @@ impl Board {
             // of a slice always runs (progress).
             let hw = uc.get_data_mut();
             if idle {
-                // Nothing observable happens until the next event: sleep.
-                hw.cycles = hw.cycles.max(hw.slice_end);
+                // Nothing observable happens until the next event: sleep,
+                // unless a register access since the slice started may have
+                // scheduled an earlier one (then end the slice to recompute).
+                if !std::mem::take(&mut hw.resched) {
+                    hw.cycles = hw.cycles.max(hw.slice_end);
+                }
                 let _ = uc.emu_stop();
                 return;
             }
@@ -1137,6 +1146,7 @@ impl Board {
         let hw = self.uc.get_data_mut();
         hw.slice_end = slice_end;
         hw.first_block = true;
+        hw.resched = false;
         let pc = pc_of(&self.uc);
         let r = self.uc.emu_start(u64::from(pc | 1), 0, 0, 0);
         let hw = self.uc.get_data_mut();
@@ -1180,6 +1190,7 @@ impl Board {
 }
 
 #[cfg(test)]
+#[allow(clippy::panic)]
 mod tests {
     use super::*;
 
@@ -1192,6 +1203,70 @@ mod tests {
         assert_eq!(scan_block(&[0xFE, 0xE7], 0x100), (1, true));
         // nop ; b .-2 back to the nop
         assert_eq!(scan_block(&[0x00, 0xBF, 0xFD, 0xE7], 0x100), (2, true));
+    }
+
+    /// A bare image: vector table (SP, reset, SysTick → 0x120), `code` at
+    /// 0x100, a SysTick handler `adds r4, #1; bx lr` at 0x120.
+    fn bare(code: &[u16], literal: u32) -> Firmware {
+        let mut flash = vec![0xFF; FLASH_SIZE as usize];
+        let mut put = |at: usize, w: u32| flash[at..at + 4].copy_from_slice(&w.to_le_bytes());
+        put(0, 0x2000_5000);
+        put(4, 0x0800_0101);
+        put(15 * 4, 0x0800_0121);
+        for (i, h) in code.iter().enumerate() {
+            flash[0x100 + 2 * i..0x102 + 2 * i].copy_from_slice(&h.to_le_bytes());
+        }
+        flash[0x10C..0x110].copy_from_slice(&literal.to_le_bytes());
+        flash[0x120..0x124].copy_from_slice(&[0x01, 0x34, 0x70, 0x47]);
+        Firmware {
+            flash,
+            rtt_address: RAM_BASE,
+            image_end: FLASH_BASE + 0x200,
+            table: None,
+            symbols: Default::default(),
+        }
+    }
+
+    fn reg(b: &Board, r: RegisterARM) -> u32 {
+        b.uc.reg_read(r).unwrap_or(0) as u32
+    }
+
+    #[test]
+    fn systick_exceptions_stack_run_the_handler_and_unstack() {
+        // ldr r0,=SYST; movs r1,#100; str r1,[r0,#4]; movs r1,#7; str r1,[r0]; b .
+        let fw = bare(
+            &[0x4802, 0x2164, 0x6041, 0x2107, 0x6001, 0xE7FE],
+            0xE000_E010,
+        );
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        b.run_until_ns(cycles_to_ns(10_100))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let ticks = reg(&b, RegisterARM::R4);
+        // One tick every LOAD + 1 = 101 cycles from the enable.
+        assert!((97..=100).contains(&ticks), "{ticks} ticks");
+        assert_eq!(u64::from(ticks), b.exception_entries(SYSTICK));
+        assert_eq!(reg(&b, RegisterARM::SP), 0x2000_5000, "frame unstacked");
+        assert_eq!(reg(&b, RegisterARM::IPSR), 0, "back in thread mode");
+        assert_eq!(reg(&b, RegisterARM::PC), 0x0800_010A);
+    }
+
+    #[test]
+    fn unmodelled_register_stops_the_board() {
+        // ldr r0,=TIM2; ldr r1,[r0]; b .
+        let fw = bare(&[0x4802, 0x6801, 0xE7FE], 0x4000_0000);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        let e = b.run_until_ns(1_000).err();
+        assert!(
+            matches!(
+                e,
+                Some(BoardError::Unmodelled {
+                    addr: 0x4000_0000,
+                    write: None,
+                    ..
+                })
+            ),
+            "{e:?}"
+        );
     }
 
     #[test]
