@@ -668,6 +668,11 @@ impl I2c1 {
 
     fn disable(&mut self) {
         self.pe_off_pending = false;
+        // A transfer whose pins were taken away never ends by itself;
+        // disabling the peripheral drops it.
+        if self.phase == Phase::Lost {
+            self.phase = Phase::Idle;
+        }
         self.cr1 &= !(cr1::PE | cr1::START | cr1::STOP | cr1::ACK | cr1::POS);
         self.flags &= !(sr1::SB | sr1::ADDR);
         // RM0008 SR1: RxNE, TxE and BTF are cleared by hardware when PE = 0.

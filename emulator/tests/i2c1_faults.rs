@@ -328,10 +328,34 @@ fn pins_taken_mid_write_release_the_bus() {
     r.wait(4 * BIT_NS);
     r.gpio(true, true);
     assert!(r.i2c.sda_high(r.t), "a chip receiving does not hold SDA");
+    assert_ne!(
+        r.sr2() & sr2::MSL,
+        0,
+        "the peripheral still thinks it is master"
+    );
+    r.wait(100 * BIT_NS);
+    assert_eq!(
+        r.rd(reg::SR1) & sr1::BTF,
+        0,
+        "and waits for an SCL it cannot drive"
+    );
     r.wr(reg::CR1, cr1::SWRST);
     r.wr(reg::CR1, 0);
     back_to_af(&mut r);
     r.configure();
+    assert_eq!(r.who_am_i(), Some(0x71));
+    // The same with PE = 0 instead of SWRST: the stranded transfer is
+    // dropped, but no STOP was seen, so BUSY stays until one is made.
+    r.start_address(MPU << 1);
+    r.clear_addr();
+    r.gpio(true, true);
+    r.clear_cr1(cr1::PE);
+    assert_eq!(r.sr2(), sr2::BUSY);
+    r.gpio(true, false);
+    r.gpio(true, true);
+    assert_eq!(r.sr2(), 0, "a STOP by hand");
+    back_to_af(&mut r);
+    r.set_cr1(cr1::PE);
     assert_eq!(r.who_am_i(), Some(0x71));
 }
 
@@ -363,4 +387,63 @@ fn stop_with_ack_still_set_leaves_the_chip_holding_sda() {
     swrst_and_configure(&mut r);
     assert!(!r.busy());
     assert_eq!(r.who_am_i(), Some(0x71));
+}
+
+/// An MCU reset `after_ns` into a 14-byte burst read from ACCEL_XOUT_H
+/// (the IMU task's read), pins back to inputs, peripheral set up again.
+fn reset_into_burst(after_ns: u64) -> Rig {
+    let mut r = Rig::new();
+    r.write_bytes(MPU, &[0x6B, 0x00]).unwrap(); // wake: samples are non-zero
+    r.wait(5_000_000);
+    r.write_bytes(MPU, &[0x3B]).unwrap();
+    r.set_cr1(cr1::ACK);
+    r.start_address((MPU << 1) | 1);
+    r.clear_addr();
+    let t0 = r.t;
+    while r.t - t0 < after_ns {
+        if r.rd(reg::SR1) & sr1::RXNE != 0 {
+            r.rd(reg::DR);
+        }
+        r.wait(200);
+    }
+    r.i2c.peripheral_reset();
+    r.pins(PinMode::Input, PinMode::Input);
+    r.wait(100_000);
+    r
+}
+
+#[test]
+fn resets_during_a_burst_read_and_the_two_recoveries() {
+    // Sweep the reset instant over the 14 bytes. Physical truths: the chip
+    // holds SDA exactly when it was cut off on a 0 bit (sometimes, not
+    // always); nine clocks with SDA released and a STOP always free the
+    // bus; stopping the clocks as soon as SDA reads high can leave the chip
+    // mid-byte, because its next bit may be a 0 when SCL falls for the STOP.
+    let (mut held, mut free, mut early_exit_failures) = (0, 0, 0);
+    for k in 0..140u64 {
+        let after = k * 14 * 9 * BIT_NS / 140 + 37;
+        let mut r = reset_into_burst(after);
+        if r.i2c.sda_high(r.t) {
+            free += 1;
+        } else {
+            held += 1;
+        }
+        let mut early = reset_into_burst(after);
+        if early.clock_out_stuck_slave().is_none() || !early.i2c.sda_high(early.t) {
+            early_exit_failures += 1;
+        }
+        assert!(
+            r.nine_clocks_and_stop(),
+            "reset at {after} ns: SDA still low"
+        );
+        back_to_af(&mut r);
+        swrst_and_configure(&mut r);
+        assert!(!r.busy(), "reset at {after} ns");
+        assert_eq!(r.who_am_i(), Some(0x71), "reset at {after} ns");
+    }
+    assert!(held > 10 && free > 10, "held {held}, free {free}");
+    assert!(
+        early_exit_failures > 0,
+        "the early-exit recovery never failed"
+    );
 }

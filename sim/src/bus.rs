@@ -71,11 +71,15 @@ pub enum Fault {
     },
     /// One-shot: the next transaction (any address) fails with
     /// `ErrorKind::Bus` after `after_bytes` data bytes have been transferred.
+    /// On the wire: a misplaced START/STOP during that byte; the chip drops
+    /// out of the transaction (releases SDA, answers nothing until the next
+    /// START).
     BusErrorMidTransfer {
         /// Data bytes that get through before the error.
         after_bytes: usize,
     },
-    /// The next `transactions` transactions lose arbitration.
+    /// The next `transactions` transactions lose arbitration (during the
+    /// address byte: another master wins the bus).
     ArbitrationLoss {
         /// How many.
         transactions: u32,

@@ -222,6 +222,29 @@ impl Rig {
         Some(pulses)
     }
 
+    /// Recovery that always gives nine SCL pulses with SDA released (so a
+    /// chip mid-read reaches its ACK slot, sees NACK and lets go), then a
+    /// STOP by hand. Returns whether SDA is high afterwards.
+    pub fn nine_clocks_and_stop(&mut self) -> bool {
+        self.gpio(true, true);
+        self.wait(BIT_NS);
+        for _ in 0..9 {
+            self.gpio(false, true);
+            self.wait(BIT_NS / 2);
+            self.gpio(true, true);
+            self.wait(BIT_NS / 2);
+        }
+        self.gpio(false, true);
+        self.wait(BIT_NS / 2);
+        self.gpio(false, false);
+        self.wait(BIT_NS / 2);
+        self.gpio(true, false);
+        self.wait(BIT_NS / 2);
+        self.gpio(true, true);
+        self.wait(BIT_NS / 2);
+        self.i2c.sda_high(self.t)
+    }
+
     /// WHO_AM_I over a write + repeated START + 1-byte read (the manual's
     /// single-byte ending). `None` on NACK.
     pub fn who_am_i(&mut self) -> Option<u8> {
