@@ -12,7 +12,7 @@
 use e2e::{Rig, StuckSda};
 use flight::boot::{AhrsMode, BootReport, Chip, ProbeFailure};
 use flight::health::{recover_bus, unlock_busy_flag, SensorState};
-use flight::sensors::{Maintenance, Sensors, SensorsConfig};
+use flight::sensors::{Maintenance, Sensors};
 use sim::{Fault, SimBus, SimConfig};
 
 const MPU: u8 = 0x68;
@@ -22,13 +22,7 @@ const MS: u8 = 0x77;
 const SERVICE_PERIOD_MS: u64 = 10;
 
 fn boot(rig: &mut Rig) -> (Sensors<SimBus>, BootReport) {
-    Sensors::boot(
-        rig.bus.clone(),
-        rig.bus.clone(),
-        rig.bus.clone(),
-        &mut rig.delay,
-        SensorsConfig::default(),
-    )
+    e2e::boot_sensors(rig)
 }
 
 /// What happened over a stretch of simulated time.
@@ -90,8 +84,13 @@ fn run(rig: &mut Rig, s: &mut Sensors<SimBus>, ms: u64, hold: u8, log: &mut Log)
                 let mut pins = StuckSda::new(&rig.bus, hold);
                 let r = recover_bus(&mut pins, &mut rig.delay)
                     .and_then(|r| unlock_busy_flag(&mut pins, &mut rig.delay).map(|()| r));
-                log.clocks = r.expect("the pin model always lets go").clocks;
-                s.after_bus_recovery();
+                match r {
+                    Ok(r) => {
+                        log.clocks = r.clocks;
+                        s.after_bus_recovery();
+                    }
+                    Err(_) => s.bus_recovery_failed(now_ms(rig) as u32),
+                }
             }
             if step != Maintenance::Idle {
                 log.steps.push((t0 / 1_000_000, step));
@@ -380,4 +379,50 @@ fn nack_storm_costs_one_transfer_per_sample_and_ends_in_recovery() {
     let ok_before = log.samples_ok;
     run(&mut rig, &mut s, 200, 0, &mut log);
     assert!(log.samples_ok - ok_before >= 195);
+}
+
+#[test]
+fn a_bus_that_cannot_be_freed_is_retried_with_back_off() {
+    let mut rig = Rig::new(SimConfig::default());
+    let (mut s, _) = boot(&mut rig);
+    let mut log = Log::default();
+    run(&mut rig, &mut s, 100, 0, &mut log);
+    // SDA shorted low: no number of SCL clocks frees it.
+    rig.bus.inject(Fault::StuckBus);
+    let mut log = Log::default();
+    run(&mut rig, &mut s, 3_000, u8::MAX, &mut log);
+    let tries: Vec<u64> = log
+        .steps
+        .iter()
+        .filter(|(_, m)| *m == Maintenance::RecoverBus)
+        .map(|(t, _)| *t)
+        .collect();
+    // 20, 40, 80, ... ms apart, capped at 1 s: a handful in 3 s, not 300.
+    assert!((6..=10).contains(&tries.len()), "{tries:?}");
+    let gaps: Vec<u64> = tries.windows(2).map(|w| w[1] - w[0]).collect();
+    assert!(gaps.windows(2).all(|g| g[1] >= g[0]), "{gaps:?}");
+    assert!(
+        gaps.iter().all(|g| *g <= 1_000 + SERVICE_PERIOD_MS),
+        "{gaps:?}"
+    );
+    assert!(gaps.first().is_some_and(|g| *g >= 20), "{gaps:?}");
+    // After the first failed recovery nothing else is tried on the dead bus.
+    assert!(
+        log.steps
+            .iter()
+            .skip_while(|(_, m)| *m != Maintenance::RecoverBus)
+            .all(|(_, m)| *m == Maintenance::RecoverBus),
+        "{:?}",
+        log.steps
+    );
+    assert_eq!(s.bus_recoveries() as usize, tries.len());
+
+    // The short goes away: the next attempt frees the bus and all is well.
+    rig.bus.clear_faults();
+    let mut log = Log::default();
+    run(&mut rig, &mut s, 1_500, 0, &mut log);
+    assert!(log
+        .first(|m| *m == Maintenance::Settled { ok: true })
+        .is_some());
+    assert_eq!(s.mpu_health.state(), SensorState::Ok);
 }

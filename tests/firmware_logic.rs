@@ -13,7 +13,7 @@ use flight::boot::{AhrsMode, BiasStatus, Chip as BootChip, ProbeFailure, Startup
 use flight::health::{recover_bus, SensorState};
 use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
 use flight::schedule::{DtClock, LoopStats, MicrosClock, SampleScheduler};
-use flight::sensors::{MagRead, Sensors, SensorsConfig};
+use flight::sensors::{MagRead, Sensors};
 use flight::storage::{
     self, CalibrationRecord, DecodeError, LoadError, LoadOutcome, RamPage, ValidParts,
 };
@@ -24,13 +24,7 @@ const MS: u8 = 0x77;
 const AK: u8 = 0x0C;
 
 fn boot(rig: &mut Rig) -> (Sensors<SimBus>, flight::boot::BootReport) {
-    Sensors::boot(
-        rig.bus.clone(),
-        rig.bus.clone(),
-        rig.bus.clone(),
-        &mut rig.delay,
-        SensorsConfig::default(),
-    )
+    e2e::boot_sensors(rig)
 }
 
 /// Runs the 1 kHz loop like the `imu` task (plus the barometer poll of the

@@ -108,32 +108,10 @@ impl embedded_hal::i2c::Error for BusError {
 /// Transfers refused because BUSY was set before START, since the last
 /// [`take_busy_seen`].
 static BUSY_SEEN: AtomicU32 = AtomicU32::new(0);
-/// Spurious master-mode bus errors cleared (ES096), since boot.
-static BERR_CLEARED: AtomicU32 = AtomicU32::new(0);
-/// STARTs that timed out and were retried after SWRST, since boot.
-static START_RESETS: AtomicU32 = AtomicU32::new(0);
-
 /// Returns and clears the count of transfers refused on BUSY: non-zero
 /// means the bus needs [`recover`].
 pub fn take_busy_seen() -> u32 {
     BUSY_SEEN.swap(0, Ordering::Relaxed)
-}
-
-/// Bus-level counters since boot, for the health line.
-#[derive(Clone, Copy, Debug)]
-pub struct BusCounters {
-    /// Spurious BERR flags cleared without aborting.
-    pub berr_cleared: u32,
-    /// START timeouts answered with SWRST and a second START.
-    pub start_resets: u32,
-}
-
-/// The bus-level counters.
-pub fn counters() -> BusCounters {
-    BusCounters {
-        berr_cleared: BERR_CLEARED.load(Ordering::Relaxed),
-        start_resets: START_RESETS.load(Ordering::Relaxed),
-    }
 }
 
 fn i2c1() -> &'static pac::i2c1::RegisterBlock {
@@ -207,7 +185,7 @@ pub fn init(rcc: &pac::RCC) {
 
 /// Waits until all of `flags` are set in SR1. ARLO, AF and OVR abort
 /// (flags cleared, the caller ends the transfer); a lone BERR is only
-/// cleared and counted (ES096: spurious in master mode); after
+/// cleared (ES096: spurious in master mode); after
 /// [`timeout_cycles`], [`BusError::Timeout`].
 #[inline(never)]
 fn wait(i2c: &pac::i2c1::RegisterBlock, flags: u16) -> Result<(), BusError> {
@@ -229,7 +207,6 @@ fn wait(i2c: &pac::i2c1::RegisterBlock, flags: u16) -> Result<(), BusError> {
             if sr1 & OVR != 0 {
                 return Err(BusError::Overrun);
             }
-            BERR_CLEARED.fetch_add(1, Ordering::Relaxed);
         }
         if sr1 & flags == flags {
             return Ok(());
@@ -268,7 +245,6 @@ fn start_condition(i2c: &pac::i2c1::RegisterBlock) -> Result<(), BusError> {
     cr1_set(i2c, CR1_START);
     match wait(i2c, SB) {
         Err(BusError::Timeout) => {
-            START_RESETS.fetch_add(1, Ordering::Relaxed);
             configure(i2c);
             cr1_set(i2c, CR1_START);
             wait(i2c, SB)
@@ -362,8 +338,9 @@ fn read(i2c: &pac::i2c1::RegisterBlock, address: u8, buf: &mut [u8]) -> Result<(
                 cr1_set(i2c, CR1_STOP);
                 *first = read_dr(i2c);
             });
+            // POS stays set: clearing it now would write CR1 with STOP
+            // pending; every read clears it before its START.
             *second = read_dr(i2c);
-            cr1_clear(i2c, CR1_POS);
             Ok(())
         }
         [head @ .., n2, n1, n0] => {
@@ -392,12 +369,14 @@ fn read(i2c: &pac::i2c1::RegisterBlock, address: u8, buf: &mut [u8]) -> Result<(
 }
 
 /// Ends an aborted transfer: NACK first, then one STOP (unless one is
-/// already pending), then the bounded wait for it; if the STOP never goes
+/// already pending, when CR1 is left alone), then the bounded wait for it; if the STOP never goes
 /// out, SWRST + reprogram leaves the cell clean for the next transfer (the
 /// service task recovers the bus itself).
 fn abort(i2c: &pac::i2c1::RegisterBlock) {
-    cr1_clear(i2c, CR1_ACK | CR1_POS);
+    // With a STOP already pending (the read ending had set it), CR1 must
+    // not be written at all until it has gone out.
     if i2c.cr1().read().bits() & CR1_STOP == 0 {
+        cr1_clear(i2c, CR1_ACK | CR1_POS);
         cr1_set(i2c, CR1_STOP);
     }
     if wait_stop_sent(i2c).is_err() {

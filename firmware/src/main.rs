@@ -49,8 +49,8 @@
 //! logged). On a panic the handler turns the LED off, logs the location
 //! over defmt and traps into HardFault, which waits for the watchdog reset.
 //!
-//! Flash: 47,088 B of the 48 KiB budget (`cargo fw && cargo xtask size`,
-//! release profile at `opt-level = "z"`); static RAM 3.8 KiB. To fit, the
+//! Flash: 49,064 B of the 48 KiB budget (`cargo fw && cargo xtask size`,
+//! release profile at `opt-level = "z"`); static RAM 3.9 KiB. To fit, the
 //! I2C master is our own register-level driver (`bus.rs`) rather than the
 //! HAL's blocking one, and the magnetometer calibration on the board is the
 //! per-axis min/max by default (`ellipsoid-cal` feature: the full ellipsoid
@@ -227,7 +227,8 @@ mod app {
             Shared {
                 sensors,
                 pipeline,
-                clock: MicrosClock::new(cpu_hz(), now),
+                // Counted from when CYCCNT started, a few ms after reset.
+                clock: MicrosClock::new(cpu_hz(), 0),
                 stats: LoopStats::new(now),
                 session,
                 bias: BiasStatus::GaveUp,
@@ -461,7 +462,12 @@ mod app {
                 }
                 s.maintain(now_ms, &mut AsmDelay)
             });
-            on_maintenance(step, &mut cx.shared.sensors, &mut cx.shared.pipeline);
+            on_maintenance(
+                step,
+                now_ms,
+                &mut cx.shared.sensors,
+                &mut cx.shared.pipeline,
+            );
             // ≤ 10 ms between rounds: the bound on how late a recovery starts.
             let wait_us = match deadline {
                 Some(d) => (d.wrapping_sub(now_us) as i32).clamp(1_000, 10_000) as u32,
@@ -474,6 +480,7 @@ mod app {
     /// Carries out and logs what a maintenance step asked for or did.
     fn on_maintenance(
         step: Maintenance,
+        now_ms: u32,
         sensors: &mut impl rtic::Mutex<T = Sensors<BusHandle>>,
         pipeline: &mut impl rtic::Mutex<T = Option<Pipeline>>,
     ) {
@@ -482,7 +489,10 @@ mod app {
             Maintenance::RecoverBus => {
                 let (r, n) = sensors.lock(|s| {
                     let r = bus::recover();
-                    s.after_bus_recovery();
+                    match r {
+                        Ok(_) => s.after_bus_recovery(),
+                        Err(_) => s.bus_recovery_failed(now_ms),
+                    }
                     (r, s.bus_recoveries())
                 });
                 match r {
@@ -685,15 +695,8 @@ mod app {
             log_health("mpu", a.0, &a.1);
             log_health("mag", b.0, &b.1);
             log_health("baro", c.0, &c.1);
-            let bc = bus::counters();
-            defmt::info!(
-                "i2c: recoveries={=u32} start_resets={=u32} berr_cleared={=u32}",
-                n,
-                bc.start_resets,
-                bc.berr_cleared
-            );
             let b = bias.lock(|b| *b);
-            defmt::info!("gyro bias: {}", b);
+            defmt::info!("i2c recoveries: {=u32} | gyro bias: {}", n, b);
         }
         if tick.is_multiple_of(100) {
             let (used, size) = stack::high_water();

@@ -1,7 +1,9 @@
 //! Shared helpers for the end-to-end tests in this folder: a simulated board
 //! (clock, bus, delay) and small statistics.
 
+use flight::boot::BootReport;
 use flight::health::RecoveryPins;
+use flight::sensors::{Sensors, SensorsConfig};
 use sim::{SimBus, SimClock, SimConfig, SimDelay};
 
 /// A simulated board: one clock, one bus with the three chips, one delay.
@@ -22,6 +24,18 @@ impl Rig {
         let delay = clock.delay();
         Self { clock, bus, delay }
     }
+}
+
+/// The firmware's boot probing (`Sensors::boot`, default configuration)
+/// on `rig`'s bus.
+pub fn boot_sensors(rig: &mut Rig) -> (Sensors<SimBus>, BootReport) {
+    Sensors::boot(
+        rig.bus.clone(),
+        rig.bus.clone(),
+        rig.bus.clone(),
+        &mut rig.delay,
+        SensorsConfig::default(),
+    )
 }
 
 /// Mean and standard deviation.

@@ -75,7 +75,7 @@ impl SampleScheduler {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Periodic {
-    interval_us: u32,
+    interval_us: NonZeroU32,
     next_us: u32,
     missed: u32,
 }
@@ -84,7 +84,10 @@ impl Periodic {
     /// Due first at `start_us`, then every `interval_us` (at least 1).
     pub const fn new(start_us: u32, interval_us: u32) -> Self {
         Self {
-            interval_us: if interval_us == 0 { 1 } else { interval_us },
+            interval_us: match NonZeroU32::new(interval_us) {
+                Some(n) => n,
+                None => NonZeroU32::MIN,
+            },
             next_us: start_us,
             missed: 0,
         }
@@ -103,7 +106,7 @@ impl Periodic {
         self.missed = self.missed.saturating_add(skipped);
         self.next_us = self
             .next_us
-            .wrapping_add(self.interval_us.wrapping_mul(skipped.wrapping_add(1)));
+            .wrapping_add(self.interval_us.get().wrapping_mul(skipped.wrapping_add(1)));
         true
     }
 
@@ -120,7 +123,7 @@ impl Periodic {
 
     /// The interval, µs.
     pub fn interval_us(&self) -> u32 {
-        self.interval_us
+        self.interval_us.get()
     }
 }
 

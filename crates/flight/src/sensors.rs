@@ -120,6 +120,11 @@ pub enum Maintenance {
     },
 }
 
+/// First wait before retrying a bus recovery that failed, ms.
+pub const RECOVERY_RETRY_FIRST_MS: u32 = 20;
+/// Longest wait between failing bus recoveries, ms.
+pub const RECOVERY_RETRY_MAX_MS: u32 = 1_000;
+
 /// Result of a magnetometer read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -166,6 +171,9 @@ pub struct Sensors<I> {
     /// reset), then it is checked.
     mpu_settle_until_ms: Option<u32>,
     reprobe: [Backoff; 3],
+    /// Spaces out recoveries that failed (SDA held by a short, not a slave).
+    recovery_backoff: Backoff,
+    recovery_failing: bool,
 }
 
 /// PX4's post-reset check: the chip answers as an MPU-9250 and every
@@ -309,6 +317,8 @@ impl<I: I2c> Sensors<I> {
             fresh_recovery: false,
             mpu_settle_until_ms: None,
             reprobe: [Backoff::new(cfg.reprobe_first_ms, cfg.reprobe_max_ms); 3],
+            recovery_backoff: Backoff::new(RECOVERY_RETRY_FIRST_MS, RECOVERY_RETRY_MAX_MS),
+            recovery_failing: false,
         };
         (s, report)
     }
@@ -521,6 +531,8 @@ impl<I: I2c> Sensors<I> {
     pub fn after_bus_recovery(&mut self) {
         self.bus_recoveries = self.bus_recoveries.saturating_add(1);
         self.recovery_requested = false;
+        self.recovery_failing = false;
+        self.recovery_backoff.reset();
         self.fresh_recovery = true;
         for (h, p) in [
             &mut self.mpu_health,
@@ -537,7 +549,21 @@ impl<I: I2c> Sensors<I> {
         }
     }
 
-    /// Stuck-bus recoveries performed.
+    /// The caller's recovery could not free the bus (SDA or SCL held by
+    /// something that does not let go): further attempts are spaced out,
+    /// 20 ms doubling to 1 s, until one succeeds ([`after_bus_recovery`](Self::after_bus_recovery)).
+    pub fn bus_recovery_failed(&mut self, now_ms: u32) {
+        self.bus_recoveries = self.bus_recoveries.saturating_add(1);
+        if self.recovery_failing {
+            self.recovery_backoff.failed(now_ms);
+        } else {
+            self.recovery_failing = true;
+            self.recovery_backoff.reset();
+            self.recovery_backoff.due(now_ms);
+        }
+    }
+
+    /// Stuck-bus recoveries attempted.
     pub fn bus_recoveries(&self) -> u32 {
         self.bus_recoveries
     }
@@ -568,6 +594,14 @@ impl<I: I2c> Sensors<I> {
     /// most one chip's initialisation (the MPU-9250's reset poll, 10 ms
     /// typically, bounded by the driver at 200 ms).
     pub fn maintain<D: DelayNs>(&mut self, now_ms: u32, delay: &mut D) -> Maintenance {
+        if self.recovery_failing {
+            // The bus could not be freed: nothing else can work either;
+            // try again after the back-off.
+            if !self.recovery_backoff.due(now_ms) {
+                return Maintenance::Idle;
+            }
+            return Maintenance::RecoverBus;
+        }
         if self.needs_bus_recovery() {
             return Maintenance::RecoverBus;
         }
