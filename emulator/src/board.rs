@@ -17,7 +17,6 @@ use crate::iwdg::{Iwdg, LSI_NOMINAL_HZ};
 use crate::rcc::{Rcc, ResetCause};
 use crate::rtt::{LogLine, RttHost, RttMode, TargetMemory};
 use crate::scs::{Dwt, Nvic, SysTick, IRQ0, SYSTICK};
-use std::collections::HashMap;
 use std::path::Path;
 use unicorn_engine::unicorn_const::{uc_error, Arch, Mode, Prot};
 use unicorn_engine::{ArmCpuModel, RegisterARM, Unicorn};
@@ -156,6 +155,18 @@ pub enum BoardFault {
     RttReaderResumes,
     /// The button on PA0 is pressed (`true`) or released.
     Button(bool),
+    /// A fault of the I2C1 peripheral itself (errata BUSY lock-up of the
+    /// analog filter, spurious BERR).
+    I2c(crate::i2c1::PeripheralFault),
+}
+
+/// A translated block's size in bytes, instruction count, and whether it
+/// is an idle loop.
+#[derive(Clone, Copy, Debug, Default)]
+struct BlockInfo {
+    size: u32,
+    insns: u32,
+    idle: bool,
 }
 
 /// The state behind the CPU: every peripheral model and the board's wiring.
@@ -181,7 +192,7 @@ pub struct Hw {
     i2c: I2c1,
     clock: sim::SimClock,
     tail_base: u32,
-    blocks: HashMap<(u32, u32), (u32, bool)>,
+    blocks: Vec<BlockInfo>,
     /// Exception entries per exception number since power-on.
     pub entries: Vec<u64>,
     dbgmcu_cr: u32,
@@ -189,6 +200,9 @@ pub struct Hw {
     imu_int_cut: bool,
     stall_ns: u64,
     code_changed: bool,
+    last_poll: Option<(u32, u16, u64)>,
+    /// A register access in this slice may have moved the next event.
+    resched: bool,
 }
 
 impl Hw {
@@ -286,7 +300,10 @@ impl Hw {
             0x4000_3000..=0x4000_33FF => self.iwdg.read(a - 0x4000_3000, now),
             0x4000_5400..=0x4000_5420 => {
                 self.sync_clock();
-                let v = self.i2c.read(a - 0x4000_5400, now);
+                let off = a - 0x4000_5400;
+                self.resched = true;
+                let v = self.i2c.read(off, now);
+                self.skip_idle_poll(off, v);
                 Some(u32::from(v))
             }
             0x4001_0000..=0x4001_03FF => self.afio.read(a - 0x4001_0000),
@@ -399,6 +416,28 @@ impl Hw {
         }
     }
 
+    /// A tight loop polling an unchanged I2C1 status or control register
+    /// (the same value read again within a few instructions) would only
+    /// spin until the peripheral's next bus event: skip to that event. Time
+    /// (and so DWT timeouts) stays exact; only the loop's iteration count
+    /// shrinks.
+    fn skip_idle_poll(&mut self, off: u32, v: u16) {
+        const POLL_WINDOW: u64 = 40;
+        let same = self.last_poll.is_some_and(|(o, pv, c)| {
+            o == off && pv == v && self.cycles.saturating_sub(c) <= POLL_WINDOW
+        });
+        self.last_poll = Some((off, v, self.cycles));
+        if !same || !matches!(off, 0x00 | 0x14 | 0x18) {
+            return;
+        }
+        if let Some(t) = self.i2c.next_event_ns() {
+            let target = ns_to_cycles(t).min(self.slice_end);
+            if target > self.cycles {
+                self.cycles = target;
+            }
+        }
+    }
+
     fn flash_effect(&mut self, effect: FlashEffect) {
         match effect {
             FlashEffect::None => {}
@@ -489,6 +528,7 @@ fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
     }
     let pend_before = hw.nvic.pending;
     let hw = uc.get_data_mut();
+    hw.resched = true;
     if !hw.periph_write(a, (value as u32) << shift, mask) {
         hw.fail(BoardError::Unmodelled {
             addr,
@@ -660,13 +700,15 @@ impl Board {
             i2c: I2c1::new(bus.clone()),
             clock,
             tail_base,
-            blocks: HashMap::new(),
+            blocks: vec![BlockInfo::default(); FLASH_SIZE as usize / 2],
             entries: vec![0; crate::scs::EXCEPTIONS],
             dbgmcu_cr: 0,
             button_pressed: false,
             imu_int_cut: false,
             stall_ns: 0,
             code_changed: false,
+            last_poll: None,
+            resched: false,
         };
         let mut uc =
             Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, hw).map_err(uc_err)?;
@@ -778,15 +820,24 @@ impl Board {
         )
         .map_err(uc_err)?;
         uc.add_block_hook(1, 0, |uc: &mut Unicorn<'_, Hw>, addr: u64, size: u32| {
-            let key = (addr as u32, size);
-            let known = uc.get_data().blocks.get(&key).copied();
+            // Per-halfword cache of flash blocks (a hash map here cost more
+            // than the emulation itself).
+            let slot = (addr as u32).wrapping_sub(FLASH_BASE) as usize / 2;
+            let known = uc
+                .get_data()
+                .blocks
+                .get(slot)
+                .copied()
+                .filter(|b| b.size == size && b.insns > 0);
             let (n, idle) = match known {
-                Some(k) => k,
+                Some(b) => (b.insns, b.idle),
                 None => {
                     let code = uc.mem_read_as_vec(addr, size as usize).unwrap_or_default();
-                    let k = scan_block(&code, addr as u32);
-                    uc.get_data_mut().blocks.insert(key, k);
-                    k
+                    let (insns, idle) = scan_block(&code, addr as u32);
+                    if let Some(b) = uc.get_data_mut().blocks.get_mut(slot) {
+                        *b = BlockInfo { size, insns, idle };
+                    }
+                    (insns, idle)
                 }
             };
             // A stop requested here takes effect before this block runs, so
@@ -794,8 +845,12 @@ impl Board {
             // of a slice always runs (progress).
             let hw = uc.get_data_mut();
             if idle {
-                // Nothing observable happens until the next event: sleep.
-                hw.cycles = hw.cycles.max(hw.slice_end);
+                // Nothing observable happens until the next event: sleep,
+                // unless a register access since the slice started may have
+                // scheduled an earlier one (then end the slice to recompute).
+                if !std::mem::take(&mut hw.resched) {
+                    hw.cycles = hw.cycles.max(hw.slice_end);
+                }
                 let _ = uc.emu_stop();
                 return;
             }
@@ -945,6 +1000,11 @@ impl Board {
             BoardFault::Button(p) => hw.button_pressed = p,
             BoardFault::RttReaderStops => self.rtt.reading = false,
             BoardFault::RttReaderResumes => self.rtt.reading = true,
+            BoardFault::I2c(f) => {
+                let now = hw.now_ns();
+                hw.sync_clock();
+                hw.i2c.inject(f, now);
+            }
         }
         self.event(format!("{fault:?}"));
     }
@@ -1086,6 +1146,7 @@ impl Board {
         let hw = self.uc.get_data_mut();
         hw.slice_end = slice_end;
         hw.first_block = true;
+        hw.resched = false;
         let pc = pc_of(&self.uc);
         let r = self.uc.emu_start(u64::from(pc | 1), 0, 0, 0);
         let hw = self.uc.get_data_mut();
@@ -1097,7 +1158,7 @@ impl Board {
             hw.code_changed = false;
             let tail = hw.tail_base;
             let code: Vec<u8> = hw.flash.image[..(tail - FLASH_BASE) as usize].to_vec();
-            hw.blocks.clear();
+            hw.blocks.fill(BlockInfo::default());
             self.uc
                 .mem_write(u64::from(FLASH_BASE), &code)
                 .map_err(uc_err)?;
@@ -1129,6 +1190,7 @@ impl Board {
 }
 
 #[cfg(test)]
+#[allow(clippy::panic)]
 mod tests {
     use super::*;
 
@@ -1141,6 +1203,70 @@ mod tests {
         assert_eq!(scan_block(&[0xFE, 0xE7], 0x100), (1, true));
         // nop ; b .-2 back to the nop
         assert_eq!(scan_block(&[0x00, 0xBF, 0xFD, 0xE7], 0x100), (2, true));
+    }
+
+    /// A bare image: vector table (SP, reset, SysTick → 0x120), `code` at
+    /// 0x100, a SysTick handler `adds r4, #1; bx lr` at 0x120.
+    fn bare(code: &[u16], literal: u32) -> Firmware {
+        let mut flash = vec![0xFF; FLASH_SIZE as usize];
+        let mut put = |at: usize, w: u32| flash[at..at + 4].copy_from_slice(&w.to_le_bytes());
+        put(0, 0x2000_5000);
+        put(4, 0x0800_0101);
+        put(15 * 4, 0x0800_0121);
+        for (i, h) in code.iter().enumerate() {
+            flash[0x100 + 2 * i..0x102 + 2 * i].copy_from_slice(&h.to_le_bytes());
+        }
+        flash[0x10C..0x110].copy_from_slice(&literal.to_le_bytes());
+        flash[0x120..0x124].copy_from_slice(&[0x01, 0x34, 0x70, 0x47]);
+        Firmware {
+            flash,
+            rtt_address: RAM_BASE,
+            image_end: FLASH_BASE + 0x200,
+            table: None,
+            symbols: Default::default(),
+        }
+    }
+
+    fn reg(b: &Board, r: RegisterARM) -> u32 {
+        b.uc.reg_read(r).unwrap_or(0) as u32
+    }
+
+    #[test]
+    fn systick_exceptions_stack_run_the_handler_and_unstack() {
+        // ldr r0,=SYST; movs r1,#100; str r1,[r0,#4]; movs r1,#7; str r1,[r0]; b .
+        let fw = bare(
+            &[0x4802, 0x2164, 0x6041, 0x2107, 0x6001, 0xE7FE],
+            0xE000_E010,
+        );
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        b.run_until_ns(cycles_to_ns(10_100))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let ticks = reg(&b, RegisterARM::R4);
+        // One tick every LOAD + 1 = 101 cycles from the enable.
+        assert!((97..=100).contains(&ticks), "{ticks} ticks");
+        assert_eq!(u64::from(ticks), b.exception_entries(SYSTICK));
+        assert_eq!(reg(&b, RegisterARM::SP), 0x2000_5000, "frame unstacked");
+        assert_eq!(reg(&b, RegisterARM::IPSR), 0, "back in thread mode");
+        assert_eq!(reg(&b, RegisterARM::PC), 0x0800_010A);
+    }
+
+    #[test]
+    fn unmodelled_register_stops_the_board() {
+        // ldr r0,=TIM2; ldr r1,[r0]; b .
+        let fw = bare(&[0x4802, 0x6801, 0xE7FE], 0x4000_0000);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        let e = b.run_until_ns(1_000).err();
+        assert!(
+            matches!(
+                e,
+                Some(BoardError::Unmodelled {
+                    addr: 0x4000_0000,
+                    write: None,
+                    ..
+                })
+            ),
+            "{e:?}"
+        );
     }
 
     #[test]

@@ -62,8 +62,9 @@ pub struct Firmware {
     pub rtt_address: u32,
     /// Highest flash address holding code or data, exclusive.
     pub image_end: u32,
-    /// The defmt table (shared by every board running the same file).
-    pub table: &'static defmt_decoder::Table,
+    /// The defmt table (shared by every board running the same file);
+    /// `None` for a bare image (nothing is decoded).
+    pub table: Option<&'static defmt_decoder::Table>,
     /// Symbol addresses (functions with the Thumb bit cleared), for reports.
     pub symbols: HashMap<String, u32>,
 }
@@ -112,7 +113,7 @@ impl Firmware {
         let rtt_address = *symbols
             .get("_SEGGER_RTT")
             .ok_or(ElfError::MissingSymbol("_SEGGER_RTT"))?;
-        let table = table_for(data)?;
+        let table = Some(table_for(data)?);
         Ok(Self {
             flash,
             rtt_address,

@@ -82,8 +82,8 @@ const FLAGS: u32 = 20;
 /// The host reader for one board.
 pub struct RttHost {
     address: u32,
-    table: &'static Table,
-    decoder: Box<dyn StreamDecoder + Send + Sync>,
+    table: Option<&'static Table>,
+    decoder: Option<Box<dyn StreamDecoder + Send + Sync>>,
     /// Set the channel mode at attach (as `cargo embed` does).
     pub mode: Option<RttMode>,
     attached: bool,
@@ -105,11 +105,11 @@ pub trait TargetMemory {
 
 impl RttHost {
     /// A reader for the control block at `address`.
-    pub fn new(address: u32, table: &'static Table, mode: Option<RttMode>) -> Self {
+    pub fn new(address: u32, table: Option<&'static Table>, mode: Option<RttMode>) -> Self {
         Self {
             address,
             table,
-            decoder: table.new_stream_decoder(),
+            decoder: table.map(|t| t.new_stream_decoder()),
             mode,
             attached: false,
             reading: true,
@@ -119,7 +119,7 @@ impl RttHost {
 
     /// The target restarted: forget partial frames, attach again.
     pub fn target_reset(&mut self) {
-        self.decoder = self.table.new_stream_decoder();
+        self.decoder = self.table.map(|t| t.new_stream_decoder());
         self.attached = false;
     }
 
@@ -165,10 +165,13 @@ impl RttHost {
             take(0, wr);
         }
         mem.write_u32(ch + RD_OFF, wr);
-        self.decoder.received(&bytes);
+        let (Some(decoder), Some(table)) = (self.decoder.as_mut(), self.table) else {
+            return Vec::new();
+        };
+        decoder.received(&bytes);
         let mut lines = Vec::new();
         loop {
-            match self.decoder.decode() {
+            match decoder.decode() {
                 Ok(frame) => lines.push(LogLine {
                     host_time_ns: now_ns,
                     level: frame.level().map(|l| l.as_str().to_owned()),
@@ -180,7 +183,7 @@ impl RttHost {
                     self.malformed += 1;
                     // The rzcobs decoder resynchronises on the next frame
                     // separator; a raw stream cannot.
-                    if !self.table.encoding().can_recover() {
+                    if !table.encoding().can_recover() {
                         break;
                     }
                 }

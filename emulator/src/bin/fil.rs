@@ -3,6 +3,7 @@
 //! chosen simulated times.
 
 use clap::Parser;
+use emulator::i2c1::PeripheralFault;
 use emulator::{Board, BoardConfig, BoardFault, RttMode};
 use sim::{Chip, Fault, Trajectory};
 use std::io::Write;
@@ -45,6 +46,11 @@ const FAULT_HELP: &str = "Fault kinds (TIME in simulated seconds):
   nack:CHIP:N           the next N transfers to CHIP are not acknowledged
   chip-reset:CHIP       CHIP resets itself (registers back to defaults)
   stuck-bus             every transfer fails with a bus error until `clear`
+  sda-held:CHIP         CHIP is left mid-byte holding SDA low (as after a reset
+                        during a read); at TIME 0: SDA held low at power-up
+  scl-stuck             SCL held low until `clear`
+  busy-lockup           errata ES096: I2C1's analog filter locks BUSY
+  spurious-berr         errata ES096: a spurious bus error in master mode
   bus-error:N           one transfer fails after N bytes
   arbitration:N         N transfers lose arbitration
   frozen:CHIP           CHIP's data stops updating
@@ -124,6 +130,10 @@ fn parse_fault(spec: &str) -> Result<(f64, Action), String> {
         "button-down" => Action::Board(BoardFault::Button(true)),
         "button-up" => Action::Board(BoardFault::Button(false)),
         "clear" => Action::Clear,
+        "sda-held" => Action::Sim(Fault::SlaveHoldsSda(chip_arg()?.0)),
+        "scl-stuck" => Action::Sim(Fault::SclStuckLow),
+        "busy-lockup" => Action::Board(BoardFault::I2c(PeripheralFault::BusyLockup)),
+        "spurious-berr" => Action::Board(BoardFault::I2c(PeripheralFault::SpuriousBerr)),
         _ => {
             return Err(format!(
                 "`{spec}`: unknown fault kind `{kind}` (see --help)"
