@@ -72,6 +72,28 @@ fn button_selects_the_modes() {
 }
 
 #[test]
+fn releasing_the_button_held_at_boot_keeps_the_accelerometer_calibration() {
+    let mut s = Session::new(true);
+    let mut t = 0;
+    // Still held for a few seconds after reset (longer than a long press),
+    // then let go: neither is a press.
+    let mut ev = Vec::new();
+    while t < 3 * LONG_PRESS_MS {
+        ev.extend(s.on_button(t, true));
+        t += 50;
+    }
+    for _ in 0..10 {
+        ev.extend(s.on_button(t, false));
+        t += 50;
+    }
+    assert_eq!(ev, []);
+    assert_eq!(s.mode(), Mode::AccelCal);
+    // The next press is a real one: it aborts.
+    press(&mut s, &mut t, 200);
+    assert_eq!(s.mode(), Mode::Normal);
+}
+
+#[test]
 fn figure_eight_session_writes_the_hard_iron_into_the_record() {
     let mut s = Session::new(false);
     s.on_press(flight::calmode::Press::Long);

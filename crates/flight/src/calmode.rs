@@ -294,6 +294,19 @@ impl Button {
         }
     }
 
+    /// A button already held when the firmware starts (the boot-time
+    /// selection of the accelerometer calibration): letting it go is the end
+    /// of that gesture, not a short press, and holding it on is no long press.
+    pub const fn held_at_boot() -> Self {
+        Self {
+            stable: true,
+            candidate: true,
+            since_ms: 0,
+            pressed_at_ms: 0,
+            long_sent: true,
+        }
+    }
+
     /// Feeds the raw level; returns a press event when one completes.
     pub fn update(&mut self, now_ms: u32, pressed: bool) -> Option<Press> {
         if pressed != self.candidate {
@@ -690,7 +703,11 @@ impl<M: MagCalibrator> CalSession<M> {
     pub fn new(button_held_at_boot: bool) -> Self {
         let mut s = Self {
             mode: Mode::Normal,
-            button: Button::new(),
+            button: if button_held_at_boot {
+                Button::held_at_boot()
+            } else {
+                Button::new()
+            },
             mag: None,
             accel: None,
             polls: 0,
