@@ -288,7 +288,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::Madgwick f32 MARG (rejection on)",
-                    "fc_ahrs::Madgwick f32 MARG (plain)",
+                    "fc_ahrs::Madgwick f32 MARG (textbook)",
                 ),
                 &mut f,
                 &s,
@@ -298,7 +298,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::Madgwick f32 IMU (rejection on)",
-                    "fc_ahrs::Madgwick f32 IMU (plain)",
+                    "fc_ahrs::Madgwick f32 IMU (textbook)",
                 ),
                 &mut imu,
                 &s,
@@ -316,7 +316,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::MadgwickFixed MARG (rejection on)",
-                    "fc_ahrs::MadgwickFixed MARG (plain)",
+                    "fc_ahrs::MadgwickFixed MARG (textbook)",
                 ),
                 &mut f,
                 &fx,
@@ -326,7 +326,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::MadgwickFixed IMU (rejection on)",
-                    "fc_ahrs::MadgwickFixed IMU (plain)",
+                    "fc_ahrs::MadgwickFixed IMU (textbook)",
                 ),
                 &mut imu,
                 &fx,

@@ -32,7 +32,8 @@ mod madgwick;
 mod quat;
 
 pub use config::{
-    AccelRejectionConfig, BiasConfig, Config, MagRejectionConfig, UpdatePath, UpdateStatus,
+    AccelRejectionConfig, Algorithm, BiasConfig, Config, MagRejectionConfig, UpdatePath,
+    UpdateStatus,
 };
 pub use madgwick::{Madgwick, MAX_DT_S, STANDARD_GRAVITY_MPS2};
 pub use quat::Quaternion;

@@ -29,10 +29,12 @@ fn any_i32() -> impl Strategy<Value = i32> {
 }
 
 fn cfgs() -> impl Strategy<Value = Config> {
-    (any::<bool>(), any::<bool>(), any::<bool>()).prop_map(|(h, a, s)| {
+    (any::<bool>(), any::<bool>(), any::<bool>()).prop_map(|(t, a, s)| {
         let mut c = Config::DEFAULT;
-        c.mag_heading_only = h;
         c.accel_rejection.enabled = a;
+        if t {
+            c.algorithm = fc_ahrs::Algorithm::Textbook;
+        }
         if s {
             c.startup_s = 0.0;
         }

@@ -16,14 +16,15 @@ Where a reference exists, prints BROAD-style RMS errors (deg) over moving rows w
 reference, per file and the mean over files.
 
 OPTIONS:
-    --filter f32|fixed          implementation (default f32)
+    --filter f32|fixed|textbook|textbook-fixed
+                                implementation (default f32); textbook = Madgwick's 2010
+                                filter as published (one β, no extensions), in f32 or fixed
     --mode imu|marg             sensors to fuse (default marg)
     --beta RAD_S                Madgwick gain β (default from fc_ahrs::Config::DEFAULT)
     --beta-mag RAD_S            magnetometer (heading) gain
     --startup-beta RAD_S        start-up gain
     --startup-s S               start-up ramp duration (0 = off)
-    --heading-only              magnetometer corrects heading only
-    --no-heading-only           magnetometer corrects inclination too (default)
+    --tilt-tau S                time constant of each earth-frame accelerometer low-pass stage
     --no-bias-est               disable gyro bias estimation at rest
     --rest-gyro RAD_S           rest threshold on |ω|
     --rest-time S               minimum rest duration before the bias is updated
@@ -80,7 +81,19 @@ fn parse_args(argv: &[String]) -> Result<Option<Args>, String> {
                 a.kind = match val(arg)?.as_str() {
                     "f32" => FilterKind::F32,
                     "fixed" => FilterKind::Fixed,
-                    v => return Err(format!("--filter: expected f32 or fixed, got `{v}`")),
+                    "textbook" | "textbook-f32" => {
+                        a.cfg.algorithm = fc_ahrs::Algorithm::Textbook;
+                        FilterKind::F32
+                    }
+                    "textbook-fixed" => {
+                        a.cfg.algorithm = fc_ahrs::Algorithm::Textbook;
+                        FilterKind::Fixed
+                    }
+                    v => {
+                        return Err(format!(
+                            "--filter: expected f32, fixed, textbook or textbook-fixed, got `{v}`"
+                        ))
+                    }
                 }
             }
             "--mode" => {
@@ -94,14 +107,13 @@ fn parse_args(argv: &[String]) -> Result<Option<Args>, String> {
             "--beta-mag" => a.cfg.beta_mag = num(arg, val(arg)?)?,
             "--startup-beta" => a.cfg.startup_beta = num(arg, val(arg)?)?,
             "--startup-s" => a.cfg.startup_s = num(arg, val(arg)?)?,
-            "--no-heading-only" => a.cfg.mag_heading_only = false,
             "--no-bias-est" => a.cfg.bias.enabled = false,
             "--rest-gyro" => a.cfg.bias.rest_gyro_rps = num(arg, val(arg)?)?,
             "--rest-time" => a.cfg.bias.rest_time_s = num(arg, val(arg)?)?,
             "--bias-tau" => a.cfg.bias.tau_s = num(arg, val(arg)?)?,
             "--no-accel-rejection" => a.cfg.accel_rejection.enabled = false,
             "--accel-rejection" => a.cfg.accel_rejection.enabled = true,
-            "--heading-only" => a.cfg.mag_heading_only = true,
+            "--tilt-tau" => a.cfg.tilt_tau_s = num(arg, val(arg)?)?,
             "--accel-norm-tol" => a.cfg.accel_rejection.norm_tol = num(arg, val(arg)?)?,
             "--accel-angle" => a.cfg.accel_rejection.angle_deg = num(arg, val(arg)?)?,
             "--accel-recovery" => a.cfg.accel_rejection.recovery_s = num(arg, val(arg)?)?,
