@@ -167,13 +167,14 @@ fn sqrt_and_ratio(s: u64, v: i64) -> (i64, i64) {
     let y = rsqrt_q29(m);
     let sq = i64::from(sqrt_parts(m, y, k)) * if big { 4 } else { 1 };
     // v·2^30/√s = (v·2^k)·Y/2^31·2^30: |v·2^k| ≤ √(s·4^k) < 2^31 as in `scale4`.
-    let vk = (v.clamp(-i64::from(i32::MAX), i64::from(i32::MAX)) as i32) << k;
+    let vk = (v.max(-i64::from(i32::MAX)).min(i64::from(i32::MAX)) as i32) << k;
     (sq, (m64(vk, y) + (1 << 29)) >> 30)
 }
 
-/// ½ω·dt in Q30 (Q20·Q31 = Q51 → >> 22), clamped to ±½ rad (half angle) per step.
+/// ½ω·dt in Q30 (Q20·Q31 = Q51 → >> 22), clamped to ±¼ rad (half angle) per axis and
+/// step (as the f32 filter; 2000 °/s reaches it at dt = 14 ms).
 fn half_angles(w: [i32; 3], dt_q31: i32) -> [i32; 3] {
-    let h = |x: i32| (m64(x, dt_q31) >> 22).clamp(-ONE_Q30 / 2, ONE_Q30 / 2) as i32;
+    let h = |x: i32| (m64(x, dt_q31) >> 22).max(-ONE_Q30 / 4).min(ONE_Q30 / 4) as i32;
     [h(w[0]), h(w[1]), h(w[2])]
 }
 
@@ -193,8 +194,17 @@ fn sub_sat3(a: [i32; 3], b: [i32; 3]) -> [i32; 3] {
     ]
 }
 
+/// One first-order low-pass step s + k·(x − s), k in Q30 (0 ≤ k ≤ 2^30). The result
+/// lies between s and x (the difference saturated to i32 keeps its sign and does not
+/// grow), so it fits.
+#[inline(always)]
+fn lp_step(s: i32, x: i32, k: i32) -> i32 {
+    let d = sat32(i64::from(x) - i64::from(s));
+    s + (m64(k, d) >> 30) as i32
+}
+
 fn sat32(x: i64) -> i32 {
-    x.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+    x.max(i64::from(i32::MIN)).min(i64::from(i32::MAX)) as i32
 }
 
 fn mul30(a: i32, b: i32) -> i64 {
@@ -304,7 +314,7 @@ fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: Option<
         // ‖g‖ < 2^30 fits in i32. A product, not a shift: a variable 64-bit shift is a
         // library call (`__aeabi_llsl`) on the M3.
         let cap = cap_mul.map_or(i64::MAX, |k| m64(norm as i32, k));
-        let s = beta_dt_q30.min(cap).clamp(0, 1 << 29) as i32;
+        let s = beta_dt_q30.min(cap).max(0).min(1 << 29) as i32;
         // In place, per component (returning the array by value costs a `memcpy`).
         let [a0, a1, a2, a3] = acc;
         *a0 -= m64(s, u0);
@@ -415,9 +425,10 @@ pub struct FixedConfig {
     mag_min_rate_sq_q40: i64,
     inv_tilt_tau_q20: i64,
     inv_tilt_tau0_q20: i64,
-    inv_g_mant: i64,
-    inv_g_shift: u32,
-    max_tilt_step_q30: i64,
+    inv_g_q32: i32,
+    acc_pre_shift: u32,
+    acc_pre_lim: i32,
+    max_tilt_step_q26: i32,
 }
 
 /// 1/τ in Q20 (≤ 2000/s; τ ≤ 0 or NaN → 2000/s, so k = dt/τ saturates at 1 per step).
@@ -429,21 +440,24 @@ fn inv_q20(tau_s: f32) -> i64 {
     }
 }
 
-/// 1/g as m·2^−s with m ∈ (2^30, 2^31], so a·m >> s is a/g in Q27 (g the accelerometer
-/// units per g, clamped to [1, 2^32)).
-fn inv_g_parts(g: f32) -> (i64, u32) {
+/// 1/g for the accelerometer in g (Q26) with one 32-bit shift and one multiply:
+/// a/g = (a·2^p)·m / 2^32 with m = 2^(58−p)/g ∈ [2^30, 2^31) for p = 27 − ⌊log₂ g⌋ (g the
+/// accelerometer units per g; p = 0 for g ≥ 2^27, clamped to [1, 2^40]). Inputs are
+/// saturated so a·2^p fits in i32: at 2^(31−p) > 8 g, so the fixed filter sees at most
+/// 8–16 g of specific force (the MPU-9250's largest range is 16 g).
+fn inv_g_parts(g: f32) -> (i32, u32) {
     let g = if g.is_finite() {
-        g.clamp(1.0, 4.0e9)
+        g.clamp(1.0, 1.0e12)
     } else {
         1.0
     };
     let mut e = 0u32;
-    while e < 32 && (1u64 << (e + 1)) as f32 <= g {
+    while e < 40 && (1u64 << (e + 1)) as f32 <= g {
         e += 1;
     }
-    let s = e + 4;
-    let m = (1u64 << (27 + s).min(63)) as f32 / g;
-    (libm::roundf(m) as i64, s)
+    let p = 27u32.saturating_sub(e);
+    let m = (1u64 << (58 - p)) as f32 / g;
+    (libm::roundf(m).min(i32::MAX as f32) as i32, p)
 }
 
 fn s_to_q20(s: f32) -> i64 {
@@ -478,7 +492,7 @@ impl FixedConfig {
             v.saturating_mul(v)
         };
         let mr = cfg.mag_rejection;
-        let (inv_g_mant, inv_g_shift) = inv_g_parts(g);
+        let (inv_g_q32, acc_pre_shift) = inv_g_parts(g);
         Self {
             cfg: *cfg,
             beta_q24: float_to_q(cfg.beta, 24),
@@ -507,9 +521,10 @@ impl FixedConfig {
             mag_min_rate_sq_q40: sq_q40(mr.recovery_min_rate_rps),
             inv_tilt_tau_q20: inv_q20(cfg.tilt_tau_s),
             inv_tilt_tau0_q20: inv_q20(cfg.tilt_tau_s.min(crate::madgwick::STARTUP_TILT_TAU_S)),
-            inv_g_mant,
-            inv_g_shift,
-            max_tilt_step_q30: f30(crate::madgwick::MAX_TILT_STEP_RAD),
+            inv_g_q32,
+            acc_pre_shift,
+            acc_pre_lim: i32::MAX >> acc_pre_shift,
+            max_tilt_step_q26: float_to_q(crate::madgwick::MAX_TILT_STEP_RAD, 26),
         }
     }
 }
@@ -620,7 +635,7 @@ impl MadgwickFixed {
     }
 
     fn make_ref(&self, n2: u64, hz_q30: i64) -> MagRef {
-        let hz = hz_q30.clamp(-ONE_Q30, ONE_Q30);
+        let hz = hz_q30.max(-ONE_Q30).min(ONE_Q30);
         let c2 = (ONE_Q30 * ONE_Q30 - hz * hz).max(0) as u64; // cos²(dip), Q60
         let c = isqrt(c2).max(ONE_Q30 / 20); // Q30, ≥ 0.05
         let scaled =
@@ -739,9 +754,11 @@ impl MadgwickFixed {
         st.accel_invalid = acc.is_none();
 
         let w = self.estimate_bias(gyro, acc.map(|(_, n2)| n2), dt_q31, &mut st);
-        let Some(q) = renormalise(propagate(self.q, half_angles(w, dt_q31))) else {
-            return st;
-        };
+        // Gyro step, not yet renormalised: ‖q‖² ≤ 1 + 3/16 (half angles ≤ ¼ per axis),
+        // so the rows of R below stay < 2^31 (they carry ‖q‖², a common scale the
+        // corrections do not see), and one renormalisation after the corrections does.
+        let nq = propagate(self.q, half_angles(w, dt_q31));
+        let q = nq.map(|a| ((a + (1 << 29)) >> 30) as i32);
         let r = rows(q);
         self.track_vertical_rate(r[2], w, dt_q31);
         let tilt = self.correct_tilt(&r, accel, acc, dt_q31, initialising, &mut st);
@@ -756,7 +773,7 @@ impl MadgwickFixed {
             (false, false) => UpdatePath::GyroOnly,
         };
         let [tx, ty] = tilt.unwrap_or([0; 2]);
-        if !self.fuse(q, [tx, ty, heading.unwrap_or(0)]) {
+        if !self.fuse(nq, q, [tx, ty, heading.unwrap_or(0)]) {
             st.path = UpdatePath::Skipped;
             return st;
         }
@@ -787,7 +804,9 @@ impl MadgwickFixed {
         };
         if self.rest_q20 >= c.rest_time_q20 {
             st.at_rest = true;
-            let k = ((i64::from(dt_q31) * c.inv_bias_tau_q30) >> 31).clamp(0, ONE_Q30);
+            let k = ((i64::from(dt_q31) * c.inv_bias_tau_q30) >> 31)
+                .max(0)
+                .min(ONE_Q30);
             // Bias kept in Q40 so the tiny steps k·w are not lost to truncation.
             let max = i64::from(c.bias_max_q20) << 20;
             for ((acc, b), w) in self
@@ -810,12 +829,17 @@ impl MadgwickFixed {
     fn track_vertical_rate(&mut self, down: [i32; 3], w: [i32; 3], dt_q31: i32) {
         let c = &self.c;
         if c.half_scale_tol_q30 > 0 {
-            let k = ((i64::from(dt_q31) * c.inv_scale_tau_q20) >> 21).clamp(0, ONE_Q30);
+            let k = ((i64::from(dt_q31) * c.inv_scale_tau_q20) >> 21)
+                .max(0)
+                .min(ONE_Q30);
             let lp = self.rate_lp_down_q40;
-            let x_q20 = dot30(down, w).clamp(-MAX_MEAN_RATE_Q20, MAX_MEAN_RATE_Q20);
+            let x_q20 = dot30(down, w)
+                .max(-MAX_MEAN_RATE_Q20)
+                .min(MAX_MEAN_RATE_Q20);
             let e = x_q20 - (lp >> 20); // |e| ≤ 2^27, so k·e < 2^57
-            self.rate_lp_down_q40 =
-                (lp + ((k * e) >> 10)).clamp(-MAX_MEAN_RATE_Q40, MAX_MEAN_RATE_Q40);
+            self.rate_lp_down_q40 = (lp + ((k * e) >> 10))
+                .max(-MAX_MEAN_RATE_Q40)
+                .min(MAX_MEAN_RATE_Q40);
         }
     }
 
@@ -837,10 +861,12 @@ impl MadgwickFixed {
             return None;
         }
         let c = &self.c;
-        // a/g in Q27: |a·m| < 2^31·2^31, saturated to ±16 g (the sensor's largest range).
-        let g = |x: i32| sat32((i64::from(x) * c.inv_g_mant) >> c.inv_g_shift);
+        // a/g in Q26: a saturated so a·2^p fits (≥ 8 g: see `inv_g_parts`), times the
+        // Q32 mantissa, high word.
+        let lim = c.acc_pre_lim;
+        let g = |x: i32| (m64(x.max(-lim).min(lim) << c.acc_pre_shift, c.inv_g_q32) >> 32) as i32;
         let ag = [g(accel[0]), g(accel[1]), g(accel[2])];
-        // Rows of R in Q30 times Q27 → Q27; |u| ≤ ‖a/g‖ < 2^31·√3/2^30... saturated.
+        // Rows of R in Q30 times Q26 → Q26 (‖a/g‖ < √3·32, saturated).
         let u = [
             sat32(dot30(r[0], ag)),
             sat32(dot30(r[1], ag)),
@@ -852,32 +878,29 @@ impl MadgwickFixed {
         }
         // k = dt·(1/τ) in Q30 (Q31·Q20 >> 21); start-up ramps 1/τ (as the f32 filter).
         let inv_tau = if initialising && c.startup_q20 > 0 {
-            let frac = ((self.time_q20 * c.inv_startup_q30) >> 20).clamp(0, ONE_Q30);
+            let frac = ((self.time_q20 * c.inv_startup_q30) >> 20)
+                .max(0)
+                .min(ONE_Q30);
             let i0 = c.inv_tilt_tau0_q20;
             i0 + (((c.inv_tilt_tau_q20 - i0) * frac) >> 30)
         } else {
             c.inv_tilt_tau_q20
         };
-        let k = ((i64::from(dt_q31) * inv_tau) >> 21).clamp(0, ONE_Q30);
+        let k = ((i64::from(dt_q31) * inv_tau) >> 21).max(0).min(ONE_Q30) as i32;
         let [s1, s2] = &mut self.acc_lp;
-        // |u − s| < 2^32, k ≤ 2^30: products < 2^62.
-        let lp = |s: &mut i32, x: i32| {
-            *s = sat32(i64::from(*s) + ((k * (i64::from(x) - i64::from(*s))) >> 30));
-        };
-        for i in 0..3 {
-            let (Some(a1), Some(&x)) = (s1.get_mut(i), u.get(i)) else {
-                continue;
-            };
-            lp(a1, x);
-            let x1 = *a1;
-            if let Some(a2) = s2.get_mut(i) {
-                lp(a2, x1);
-            }
-        }
-        // θ = ŷ × (0, 0, −1), Q27 g → Q30 rad, at most MAX_TILT_STEP per update.
-        let lim = c.max_tilt_step_q30;
-        let th = |v: i64| (v << 3).clamp(-lim, lim) as i32;
-        Some([th(-i64::from(s2[1])), th(i64::from(s2[0]))])
+        let [u0, u1, u2] = u;
+        let [a0, a1, a2] = s1;
+        *a0 = lp_step(*a0, u0, k);
+        *a1 = lp_step(*a1, u1, k);
+        *a2 = lp_step(*a2, u2, k);
+        let [b0, b1, b2] = s2;
+        *b0 = lp_step(*b0, *a0, k);
+        *b1 = lp_step(*b1, *a1, k);
+        *b2 = lp_step(*b2, *a2, k);
+        // θ = ŷ × (0, 0, −1), Q26 g → Q30 rad, at most MAX_TILT_STEP per update.
+        let lim = c.max_tilt_step_q26;
+        let th = |v: i32| v.max(-lim).min(lim) << 4;
+        Some([th(b1.saturating_neg()), th(*b0)])
     }
 
     /// Accelerometer rejection with its recovery timeout; true if the sample is rejected.
@@ -932,18 +955,21 @@ impl MadgwickFixed {
         };
         // h = R m (eq. 45), NED, Q30.
         let h = [dot30u(r[0], m), dot30u(r[1], m), dot30u(r[2], m)]
-            .map(|x| i64::from(x).clamp(-ONE_Q30, ONE_Q30));
+            .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
         if !self.check_mag(n2, h[2], w2_q40, dt_q31, initialising, st) {
             return None;
         }
         // Heading error: sin from the east component over √(hx²+hy²), saturated.
         let hs = (h[0] * h[0] + h[1] * h[1]) as u64; // Q60
         let (_, sin_q30) = sqrt_and_ratio(hs, h[1]);
-        let e =
-            ((sin_q30 * crate::madgwick::HEADING_LINEAR_GAIN_Q16) >> 16).clamp(-ONE_Q30, ONE_Q30);
+        let e = ((sin_q30 * crate::madgwick::HEADING_LINEAR_GAIN_Q16) >> 16)
+            .max(-ONE_Q30)
+            .min(ONE_Q30);
         let c = &self.c;
         let beta_mag = if initialising && c.startup_q20 > 0 {
-            let frac = ((self.time_q20 * c.inv_startup_q30) >> 20).clamp(0, ONE_Q30);
+            let frac = ((self.time_q20 * c.inv_startup_q30) >> 20)
+                .max(0)
+                .min(ONE_Q30);
             let b = i64::from(c.beta_mag_q24);
             let sb = i64::from(c.startup_beta_q24);
             sb + (((b - sb) * frac) >> 30)
@@ -954,27 +980,28 @@ impl MadgwickFixed {
         let beta_head = (((self.rate_lp_down_q40 >> 20).abs()) * c.half_scale_tol_q30) >> 26;
         // 2β·dt: Q24·Q31 >> 24 is β·dt in Q31, i.e. 2β·dt in Q30. β_mag at a constant
         // rate towards the field, β_head proportionally (as the f32 filter).
-        let two_dt = |b: i64| (b.clamp(0, i64::from(i32::MAX)) * i64::from(dt_q31)) >> 24;
+        let two_dt = |b: i64| (b.max(0).min(i64::from(i32::MAX)) * i64::from(dt_q31)) >> 24;
         let mag_dt = two_dt(beta_mag).min(ONE_Q30);
         let head = (two_dt(beta_head).min(ONE_Q30) * e) >> 30;
         let step = head + mag_dt * sin_q30.signum();
         // A step never passes the field's heading (as the f32 filter).
         let lim = sin_q30.abs().min(ONE_Q30 / 2);
-        Some((-step).clamp(-lim, lim) as i32)
+        Some((-step).max(-lim).min(lim) as i32)
     }
 
-    /// q ← q + ½ (0, θ) ⊗ q (θ the earth-frame correction, Q30 rad), renormalised; the
-    /// low-passed accelerometer states rotate with it (s += θ × s). False if degenerate.
-    fn fuse(&mut self, q: [i32; 4], theta: [i32; 3]) -> bool {
+    /// q ← q + ½ (0, θ) ⊗ q (θ the earth-frame correction, Q30 rad) on the propagated
+    /// Q60 accumulator `acc` (q its Q30 value), renormalised; the low-passed
+    /// accelerometer states rotate with it (s += θ × s). False if degenerate.
+    fn fuse(&mut self, acc: [i64; 4], q: [i32; 4], theta: [i32; 3]) -> bool {
         let [q0, q1, q2, q3] = q;
         let [p1, p2, p3] = theta.map(|t| t >> 1);
-        let b = |x: i32| i64::from(x) << 30;
-        // |pᵢ| ≤ 2^29: each sum ≤ 2^60 + 3·2^59 < 2^62.
+        let [a0, a1, a2, a3] = acc;
+        // |p₁|, |p₂| ≤ 0.025, |p₃| ≤ ¼, ‖q‖ < 1.09: the accumulator stays < 1.4·2^60.
         let acc = [
-            b(q0) - m64(p1, q1) - m64(p2, q2) - m64(p3, q3),
-            b(q1) + m64(p1, q0) + m64(p2, q3) - m64(p3, q2),
-            b(q2) - m64(p1, q3) + m64(p2, q0) + m64(p3, q1),
-            b(q3) + m64(p1, q2) - m64(p2, q1) + m64(p3, q0),
+            a0 - m64(p1, q1) - m64(p2, q2) - m64(p3, q3),
+            a1 + m64(p1, q0) + m64(p2, q3) - m64(p3, q2),
+            a2 - m64(p1, q3) + m64(p2, q0) + m64(p3, q1),
+            a3 + m64(p1, q2) - m64(p2, q1) + m64(p3, q0),
         ];
         let Some(n) = renormalise(acc) else {
             return false;
@@ -983,7 +1010,7 @@ impl MadgwickFixed {
         for s in &mut self.acc_lp {
             let [s0, s1, s2] = *s;
             let [t0, t1, t2] = theta;
-            // θ × s: Q30·Q27 >> 30 → Q27.
+            // θ × s: Q30·Q26 >> 30 → Q26.
             let c0 = (m64(t1, s2) - m64(t2, s1)) >> 30;
             let c1 = (m64(t2, s0) - m64(t0, s2)) >> 30;
             let c2 = (m64(t0, s1) - m64(t1, s0)) >> 30;
@@ -1022,7 +1049,7 @@ impl MadgwickFixed {
                     None => st.mag_invalid = true,
                     Some((m, _)) => {
                         let h = [dot30u(r[0], m), dot30u(r[1], m), dot30u(r[2], m)]
-                            .map(|x| i64::from(x).clamp(-ONE_Q30, ONE_Q30));
+                            .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
                         let bx = isqrt((h[0] * h[0] + h[1] * h[1]) as u64);
                         let gb = mag_grad(q, r[0], r[2], m, bx as i32, h[2] as i32);
                         // |∇_g/2| < 2^28 and |∇_b/2| < 2^29 in Q24: the sum fits.
@@ -1034,8 +1061,9 @@ impl MadgwickFixed {
                 }
             }
             // β·dt: Q24·Q31 → Q30.
-            let beta_dt =
-                ((i64::from(self.c.beta_q24.max(0)) * i64::from(dt_q31)) >> 25).clamp(0, ONE_Q30);
+            let beta_dt = ((i64::from(self.c.beta_q24.max(0)) * i64::from(dt_q31)) >> 25)
+                .max(0)
+                .min(ONE_Q30);
             grad_step(&mut nq, grad, beta_dt, None);
         }
         match renormalise(nq) {

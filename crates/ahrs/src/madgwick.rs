@@ -317,10 +317,10 @@ impl Madgwick {
         st.accel_invalid = acc.is_none();
 
         let w = self.estimate_bias(gyro_rps, acc.map(|(_, n2)| n2), dt_s, &mut st);
-        let Some(q) = self.q.mul(&half_angle_step(w, dt_s)).normalized() else {
-            return st;
-        };
-        let rot = q.to_matrix(); // rows: NED axes in body coordinates
+        // Gyro step, renormalised only after the corrections (as the fixed filter): the
+        // rows of R carry ‖q‖² ≤ 1 + 3/16 as a common scale the corrections do not see.
+        let q = self.q.mul(&half_angle_step(w, dt_s));
+        let rot = q.to_matrix(); // rows: NED axes in body coordinates (× ‖q‖²)
         self.track_vertical_rate(rot[2], w, dt_s);
         let tilt = self.correct_tilt(&rot, accel, acc, dt_s, initialising, &mut st);
         let heading = match mag {
@@ -669,10 +669,11 @@ pub(crate) fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     ]
 }
 
-/// Quaternion of a gyro step, (1, ½ω·dt) (first order, eq. 12 integrated over dt).
+/// Quaternion of a gyro step, (1, ½ω·dt) (first order, eq. 12 integrated over dt), each
+/// half angle clamped to ±¼ rad (as the fixed filter).
 fn half_angle_step(w: [f32; 3], dt_s: f32) -> Quaternion {
-    let h = 0.5 * dt_s;
-    Quaternion::new(1.0, w[0] * h, w[1] * h, w[2] * h)
+    let h = |x: f32| (0.5 * x * dt_s).clamp(-0.25, 0.25);
+    Quaternion::new(1.0, h(w[0]), h(w[1]), h(w[2]))
 }
 
 /// 1/τ of the tilt low-pass stages (1/s, ≤ 2000): ramps linearly from
