@@ -24,6 +24,10 @@
 //! min(β·dt, ‖∇f‖/4, ½), as in the f32 filter. Conversions from the f32 [`crate::Config`]
 //! happen once, in [`FixedConfig::from_config`].
 
+// `max(lo).min(hi)` instead of `clamp`: `clamp` asserts lo ≤ hi (a panic path) and stays
+// an out-of-line call at the firmware's opt-level "z".
+#![allow(clippy::manual_clamp)]
+
 use crate::config::{Algorithm, Config, UpdatePath, UpdateStatus};
 use crate::Quaternion;
 
