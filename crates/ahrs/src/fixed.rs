@@ -1088,8 +1088,9 @@ impl MadgwickFixed {
         st: &mut UpdateStatus,
     ) -> bool {
         let c = &self.c;
-        let mr = c.cfg.mag_rejection;
-        let Some(re) = self.mag_ref else {
+        // By reference: copying the reference or the rejection configuration out of
+        // `self` costs a `memcpy` per update.
+        let Some(re) = self.mag_ref.as_ref() else {
             self.mag_ref = Some(self.make_ref(n2, hz));
             return true;
         };
@@ -1101,12 +1102,12 @@ impl MadgwickFixed {
             self.mag_ref = Some(self.make_ref(n2r.clamp(0, i128::from(u64::MAX)) as u64, hzr));
             return true;
         }
-        if !mr.enabled {
+        if !c.cfg.mag_rejection.enabled {
             return true;
         }
         let ok =
             |rf: &MagRef| n2 >= rf.lo && n2 <= rf.hi && (hz - rf.hz_q30).abs() <= rf.hz_tol_q30;
-        if ok(&re) {
+        if ok(re) {
             self.cand = None;
             self.cand_q20 = 0;
             return true;
