@@ -151,7 +151,7 @@ impl Config {
         algorithm: Algorithm::Full,
         beta: 0.02,
         tilt_tau_s: 3.0,
-        beta_mag: 0.0005,
+        beta_mag: 0.0015,
         startup_beta: 2.5,
         startup_s: 3.0,
         gravity_norm: 9.80665,

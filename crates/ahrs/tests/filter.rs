@@ -266,7 +266,7 @@ fn magnetic_disturbance_is_rejected_and_recovers() {
     for _ in 0..4000 {
         g.update_marg([0.0; 3], a, m, 0.001);
     }
-    // (30 s: the heading gain is small, 2·β_mag = 0.06 °/s.)
+    // (30 s: the heading gain is small, 2·β_mag = 0.17 °/s.)
     for _ in 0..30_000 {
         g.update_marg([0.0; 3], a, dist, 0.001);
     }
