@@ -176,9 +176,21 @@ fn sqrt_and_ratio(s: u64, v: i64) -> (i64, i64) {
 }
 
 /// ½ω·dt in Q30 (Q20·Q31 = Q51 → >> 22), clamped to ±¼ rad (half angle) per axis and
-/// step (as the f32 filter; 2000 °/s reaches it at dt = 14 ms).
+/// step (as the f32 filter; 2000 °/s reaches it at dt = 14 ms). The clamp tests the
+/// product's high word (¼ in Q30 is 2^50 in Q51, 2^18 in the high word): 32-bit compares.
+#[inline(always)]
 fn half_angles(w: [i32; 3], dt_q31: i32) -> [i32; 3] {
-    let h = |x: i32| (m64(x, dt_q31) >> 22).max(-ONE_Q30 / 4).min(ONE_Q30 / 4) as i32;
+    let h = |x: i32| {
+        let p = m64(x, dt_q31);
+        let hi = (p >> 32) as i32;
+        if hi >= 1 << 18 {
+            ONE_Q30 as i32 / 4
+        } else if hi < -(1 << 18) {
+            -(ONE_Q30 as i32) / 4
+        } else {
+            (p >> 22) as i32
+        }
+    };
     [h(w[0]), h(w[1]), h(w[2])]
 }
 
@@ -963,12 +975,20 @@ impl MadgwickFixed {
         if !self.check_mag(n2, h[2], w2_q40, dt_q31, initialising, st) {
             return None;
         }
-        // Heading error: sin from the east component over √(hx²+hy²), saturated.
-        let hs = (h[0] * h[0] + h[1] * h[1]) as u64; // Q60
-        let (_, sin_q30) = sqrt_and_ratio(hs, h[1]);
-        let e = ((sin_q30 * crate::madgwick::HEADING_LINEAR_GAIN_Q16) >> 16)
-            .max(-ONE_Q30)
-            .min(ONE_Q30);
+        // Heading error, as the f32 filter: the east component over the north one
+        // (tan of the error, one 32-bit division in Q10 of the linear zone: |hᵢ >> 14|
+        // ≤ 2^16, ×20 ×2^10 < 2^31), saturated to ±1; ±1 when the field points south.
+        let (h0, h1) = ((h[0] >> 14) as i32, (h[1] >> 14) as i32);
+        let e_q10 = if h0 > 0 {
+            let g = crate::madgwick::HEADING_LINEAR_GAIN;
+            ((h1 * g) << 10)
+                .checked_div(h0)
+                .unwrap_or(0)
+                .max(-1024)
+                .min(1024)
+        } else {
+            h1.signum() << 10
+        };
         let c = &self.c;
         let beta_mag = if initialising && c.startup_q20 > 0 {
             let frac = ((self.time_q20 * c.inv_startup_q30) >> 20)
@@ -986,10 +1006,11 @@ impl MadgwickFixed {
         // rate towards the field, β_head proportionally (as the f32 filter).
         let two_dt = |b: i64| (b.max(0).min(i64::from(i32::MAX)) * i64::from(dt_q31)) >> 24;
         let mag_dt = two_dt(beta_mag).min(ONE_Q30);
-        let head = (two_dt(beta_head).min(ONE_Q30) * e) >> 30;
-        let step = head + mag_dt * sin_q30.signum();
-        // A step never passes the field's heading (as the f32 filter).
-        let lim = sin_q30.abs().min(ONE_Q30 / 2);
+        let head = (two_dt(beta_head).min(ONE_Q30) * i64::from(e_q10)) >> 10;
+        let step = head + mag_dt * h[1].signum();
+        // A step never passes the field's heading (|h_E| ≤ the error's sine; as the f32
+        // filter).
+        let lim = h[1].abs().min(ONE_Q30 / 2);
         Some((-step).max(-lim).min(lim) as i32)
     }
 

@@ -29,8 +29,8 @@ pub(crate) const MAX_MEAN_RATE_RPS: f32 = 64.0;
 /// its full rate; below it the correction is proportional (so magnetometer noise of a
 /// degree or two is not chased at full rate).
 pub(crate) const HEADING_LINEAR_ZONE: f32 = 0.05;
-/// 1 / [`HEADING_LINEAR_ZONE`] in Q16, for the fixed-point filter.
-pub(crate) const HEADING_LINEAR_GAIN_Q16: i64 = (1 << 16) * 20;
+/// 1 / [`HEADING_LINEAR_ZONE`], for the fixed-point filter.
+pub(crate) const HEADING_LINEAR_GAIN: i32 = 20;
 
 /// Time constant (s) of each tilt low-pass stage at the start of the start-up phase.
 pub(crate) const STARTUP_TILT_TAU_S: f32 = 0.2;
@@ -70,6 +70,16 @@ pub struct Madgwick {
 
 fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sign(x: f32) -> f32 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
 }
 
 fn dot4(a: [f32; 4], b: [f32; 4]) -> f32 {
@@ -490,9 +500,12 @@ impl Madgwick {
         }
         // Heading error (sin, from the field's east component), saturated to ±1 beyond
         // HEADING_LINEAR_ZONE; > 0 when the estimate is east of the field.
-        let bx = libm::sqrtf(h[0] * h[0] + h[1] * h[1]);
-        let sin_err = if bx > 1e-6 { h[1] / bx } else { 0.0 };
-        let e = (sin_err / HEADING_LINEAR_ZONE).clamp(-1.0, 1.0);
+        // tan of the error in the linear zone (±1 beyond it or with the field south).
+        let e = if h[0] > 0.0 {
+            (h[1] / (h[0] * HEADING_LINEAR_ZONE)).clamp(-1.0, 1.0)
+        } else {
+            sign(h[1])
+        };
         let cfg = self.cfg;
         let beta_mag = if initialising && cfg.startup_s > 0.0 {
             cfg.startup_beta + (cfg.beta_mag - cfg.startup_beta) * (self.time_s / cfg.startup_s)
@@ -503,17 +516,11 @@ impl Madgwick {
         let beta_head = 0.5 * cfg.gyro_scale_tol.max(0.0) * self.rate_lp_down_rps.abs();
         // Earth rate 2β about the vertical (β is a quaternion rate), towards the field;
         // a step never passes the field's heading (a large gain·dt reaches it instead).
-        let lim = sin_err.abs().min(0.5);
+        // (|h_E| ≤ the sine of the error.)
+        let lim = h[1].abs().min(0.5);
         // β_mag at a constant rate (it covers the residual gyro bias), β_head
         // proportionally within HEADING_LINEAR_ZONE (it follows the turn rate).
-        let sign = if sin_err > 0.0 {
-            1.0
-        } else if sin_err < 0.0 {
-            -1.0
-        } else {
-            0.0
-        };
-        Some((-2.0 * (beta_mag * sign + beta_head * e) * dt_s).clamp(-lim, lim))
+        Some((-2.0 * (beta_mag * sign(h[1]) + beta_head * e) * dt_s).clamp(-lim, lim))
     }
 
     /// Apply the earth-frame correction θ (rad) to the propagated orientation,
