@@ -205,6 +205,10 @@ pub struct UpdateStatus {
     pub path: UpdatePath,
     /// Gyro or dt not finite / out of range.
     pub gyro_invalid: bool,
+    /// The gyro step was limited: a half angle ½ω·dt beyond ¼ rad on some axis (a long
+    /// dt at a high rate) was clamped, so part of that step's rotation is lost; the
+    /// accelerometer and magnetometer corrections then bring the estimate back.
+    pub gyro_step_clamped: bool,
     /// Accelerometer zero or not finite.
     pub accel_invalid: bool,
     /// Magnetometer zero or not finite (only for MARG updates).
@@ -228,6 +232,7 @@ impl UpdateStatus {
         Self {
             path: UpdatePath::Skipped,
             gyro_invalid: false,
+            gyro_step_clamped: false,
             accel_invalid: false,
             mag_invalid: false,
             accel_rejected: false,

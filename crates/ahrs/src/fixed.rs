@@ -1,4 +1,4 @@
-//! Madgwick AHRS in fixed point for an FPU-less Cortex-M3: the same algorithm, API shape,
+//! The attitude filter in fixed point for an FPU-less Cortex-M3: the same algorithm, API shape,
 //! status reports and features as [`crate::Madgwick`], in integer arithmetic.
 //!
 //! Q-formats (Qm.n = n fractional bits):
@@ -13,16 +13,18 @@
 //!   accelerometer units;
 //! * unit vectors, rotation-matrix entries, cosines and sines: Q2.30.
 //!
+//! * the earth-frame low-passed specific force of the tilt correction: g in Q26 `i32`.
+//!
 //! All products are 32×32→64-bit (one `SMULL`/`SMLAL` on the M3) accumulated in `i64`
 //! with one shift per result; every such sum has its overflow bound in a comment instead
-//! of saturating arithmetic. There is no division on the update path: the accelerometer,
-//! magnetometer and the two gradients are normalised with one integer reciprocal square
-//! root each (32-bit leading-zero normalisation + 48-entry table + two Newton steps in
-//! 32-bit arithmetic, < 3e-7 relative error); the quaternion is renormalised with the
+//! of saturating arithmetic. The accelerometer, magnetometer and (textbook mode) the
+//! gradient are normalised with one integer reciprocal square root each (32-bit
+//! leading-zero normalisation + 48-entry table + two Newton steps in 32-bit arithmetic,
+//! < 3e-7 relative error); the quaternion is renormalised once per update with the
 //! first-order q·(3 − ‖q‖²)/2 (every normal step: ‖q‖² is within 2^-10 of 1) or a full
-//! reciprocal square root otherwise. The gradient step per update is limited to
-//! min(β·dt, ‖∇f‖/4, ½), as in the f32 filter. Conversions from the f32 [`crate::Config`]
-//! happen once, in [`FixedConfig::from_config`].
+//! reciprocal square root otherwise. The only division is one 32-bit `SDIV` for the
+//! heading error. Conversions from the f32 [`crate::Config`] happen once, in
+//! [`FixedConfig::from_config`].
 
 // `max(lo).min(hi)` instead of `clamp`: `clamp` asserts lo ≤ hi (a panic path) and stays
 // an out-of-line call at the firmware's opt-level "z".
@@ -178,14 +180,17 @@ fn sqrt_and_ratio(s: u64, v: i64) -> (i64, i64) {
 /// ½ω·dt in Q30 (Q20·Q31 = Q51 → >> 22), clamped to ±¼ rad (half angle) per axis and
 /// step (as the f32 filter; 2000 °/s reaches it at dt = 14 ms). The clamp tests the
 /// product's high word (¼ in Q30 is 2^50 in Q51, 2^18 in the high word): 32-bit compares.
+/// `clamped` is set if a clamp acted.
 #[inline(always)]
-fn half_angles(w: [i32; 3], dt_q31: i32) -> [i32; 3] {
-    let h = |x: i32| {
+fn half_angles(w: [i32; 3], dt_q31: i32, clamped: &mut bool) -> [i32; 3] {
+    let mut h = |x: i32| {
         let p = m64(x, dt_q31);
         let hi = (p >> 32) as i32;
         if hi >= 1 << 18 {
+            *clamped = true;
             ONE_Q30 as i32 / 4
         } else if hi < -(1 << 18) {
+            *clamped = true;
             -(ONE_Q30 as i32) / 4
         } else {
             (p >> 22) as i32
@@ -773,7 +778,7 @@ impl MadgwickFixed {
         // Gyro step, not yet renormalised: ‖q‖² ≤ 1 + 3/16 (half angles ≤ ¼ per axis),
         // so the rows of R below stay < 2^31 (they carry ‖q‖², a common scale the
         // corrections do not see), and one renormalisation after the corrections does.
-        let nq = propagate(self.q, half_angles(w, dt_q31));
+        let nq = propagate(self.q, half_angles(w, dt_q31, &mut st.gyro_step_clamped));
         let q = nq.map(|a| ((a + (1 << 29)) >> 30) as i32);
         let r = rows(q);
         self.track_vertical_rate(r[2], w, dt_q31);
@@ -1059,7 +1064,7 @@ impl MadgwickFixed {
     ) -> UpdateStatus {
         let mut st = UpdateStatus::new();
         let q = self.q;
-        let mut nq = propagate(q, half_angles(gyro, dt_q31));
+        let mut nq = propagate(q, half_angles(gyro, dt_q31, &mut st.gyro_step_clamped));
         let acc = unit3(accel);
         st.accel_invalid = acc.is_none();
         st.path = UpdatePath::GyroOnly;

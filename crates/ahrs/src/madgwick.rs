@@ -1,5 +1,8 @@
-//! Madgwick's gradient-descent AHRS in f32, with start-up gain ramp, gyro bias
-//! estimation at rest, accelerometer rejection and magnetic disturbance rejection.
+//! The attitude filter in f32. [`Algorithm::Full`]: gyro integration, inclination from
+//! the specific force low-passed in the earth frame, heading-only magnetometer correction,
+//! gyro bias estimation at rest, accelerometer and magnetic disturbance rejection, each a
+//! named step of `update_inner` (the same steps as the fixed-point filter's).
+//! [`Algorithm::Textbook`]: Madgwick's gradient-descent filter as published.
 //!
 //! Equation numbers refer to S. O. H. Madgwick, "An efficient orientation filter for
 //! inertial and inertial/magnetic sensor arrays", internal report, Univ. of Bristol, 2010.
@@ -329,7 +332,9 @@ impl Madgwick {
         let w = self.estimate_bias(gyro_rps, acc.map(|(_, n2)| n2), dt_s, &mut st);
         // Gyro step, renormalised only after the corrections (as the fixed filter): the
         // rows of R carry ‖q‖² ≤ 1 + 3/16 as a common scale the corrections do not see.
-        let q = self.q.mul(&half_angle_step(w, dt_s));
+        let (step, clamped) = half_angle_step(w, dt_s);
+        st.gyro_step_clamped = clamped;
+        let q = self.q.mul(&step);
         let rot = q.to_matrix(); // rows: NED axes in body coordinates (× ‖q‖²)
         self.track_vertical_rate(rot[2], w, dt_s);
         let tilt = self.correct_tilt(&rot, accel, acc, dt_s, initialising, &mut st);
@@ -678,9 +683,11 @@ pub(crate) fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 
 /// Quaternion of a gyro step, (1, ½ω·dt) (first order, eq. 12 integrated over dt), each
 /// half angle clamped to ±¼ rad (as the fixed filter).
-fn half_angle_step(w: [f32; 3], dt_s: f32) -> Quaternion {
-    let h = |x: f32| (0.5 * x * dt_s).clamp(-0.25, 0.25);
-    Quaternion::new(1.0, h(w[0]), h(w[1]), h(w[2]))
+/// True if a clamp acted.
+fn half_angle_step(w: [f32; 3], dt_s: f32) -> (Quaternion, bool) {
+    let h = w.map(|x| 0.5 * x * dt_s);
+    let c = h.map(|x| x.clamp(-0.25, 0.25));
+    (Quaternion::new(1.0, c[0], c[1], c[2]), c != h)
 }
 
 /// 1/τ of the tilt low-pass stages (1/s, ≤ 2000): ramps linearly from

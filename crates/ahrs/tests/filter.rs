@@ -363,3 +363,30 @@ fn f32_and_fixed_agree_on_a_synthetic_sequence() {
     assert!(max_diff < 0.05f32.to_radians(), "{}", max_diff.to_degrees());
     assert!(f.quaternion().angle_to(&q) < 3.0f32.to_radians());
 }
+
+#[test]
+fn large_gyro_steps_are_clamped_reported_and_agree() {
+    // 2000 °/s about a tilted axis with steps of 10–60 ms: beyond 14 ms the half angle
+    // exceeds ¼ rad; both filters clamp the same way and say so.
+    let rate = 2000f32.to_radians();
+    let w = [rate * 0.6, -rate * 0.48, rate * 0.64];
+    let (a, m) = sense(&Quaternion::IDENTITY);
+    let q16 = |v: [f32; 3]| v.map(|x| fc_ahrs::fixed::float_to_q(x, 16));
+    let fc = FixedConfig::from_config(&Config {
+        gravity_norm: G * 65536.0,
+        ..Config::DEFAULT
+    });
+    for dt in [0.01f32, 0.02, 0.029, 0.06] {
+        let mut f = Madgwick::from_accel_mag(Config::DEFAULT, a, m);
+        let mut fx = MadgwickFixed::from_accel_mag(fc, q16(a), q16(m));
+        for _ in 0..200 {
+            let s = f.update_marg(w, a, m, dt);
+            let sx = fx.update_marg(w.map(rps_to_q20), q16(a), q16(m), dt_s_to_q31(dt));
+            let expect_clamp = 0.5 * rate * 0.64 * dt > 0.25;
+            assert_eq!(s.gyro_step_clamped, expect_clamp, "f32 dt {dt}");
+            assert_eq!(sx.gyro_step_clamped, expect_clamp, "fixed dt {dt}");
+            let d = f.quaternion().angle_to(&fx.quaternion_f32()).to_degrees();
+            assert!(d < 0.01, "dt {dt}: f32 vs fixed {d}°");
+        }
+    }
+}
