@@ -43,7 +43,28 @@ pub(crate) const STARTUP_TILT_TAU_S: f32 = 0.2;
 /// converges over several updates instead of one inexact jump.
 pub(crate) const MAX_TILT_STEP_RAD: f32 = 0.05;
 
-/// Madgwick AHRS in f32. See the crate docs for an example.
+/// A magnetic field reference: ‖m‖² in input units, the sine of the dip (hz of the unit
+/// field in NED) and the tolerance on it for the configured dip tolerance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct MagReference {
+    norm_sq: f32,
+    hz: f32,
+    hz_tol: f32,
+}
+
+impl MagReference {
+    fn new(norm_sq: f32, hz: f32, sin_dip_tol: f32) -> Self {
+        // |Δ sin(dip)| ≈ cos(dip)·Δdip
+        let c = libm::sqrtf((1.0 - hz * hz).max(0.0));
+        Self {
+            norm_sq,
+            hz,
+            hz_tol: sin_dip_tol * c.max(0.05),
+        }
+    }
+}
+
+/// The attitude filter in f32. See the crate docs for an example.
 #[derive(Debug, Clone)]
 pub struct Madgwick {
     cfg: Config,
@@ -53,14 +74,12 @@ pub struct Madgwick {
     rest_time_s: f32,
     accel_reject_s: f32,
     accel_forced: bool,
-    mag_ref_valid: bool,
-    mag_ref_norm_sq: f32,
-    mag_ref_hz: f32,
-    mag_ref_hz_tol: f32,
-    mag_cand_norm_sq: f32,
-    mag_cand_hz: f32,
+    /// The earth field's reference (`None` before any valid magnetometer sample).
+    mag_ref: Option<MagReference>,
+    /// A different field seen while the reference is rejected, and how long it has
+    /// stayed consistent while rotating (s).
+    mag_cand: Option<MagReference>,
     mag_cand_s: f32,
-    mag_cand_valid: bool,
     rate_lp_down_rps: f32,
     /// Two first-order low-pass stages of the specific force (in g) in the estimate's
     /// NED frame.
@@ -146,14 +165,9 @@ impl Madgwick {
             rest_time_s: 0.0,
             accel_reject_s: 0.0,
             accel_forced: false,
-            mag_ref_valid: false,
-            mag_ref_norm_sq: 0.0,
-            mag_ref_hz: 0.0,
-            mag_ref_hz_tol: 0.0,
-            mag_cand_norm_sq: 0.0,
-            mag_cand_hz: 0.0,
+            mag_ref: None,
+            mag_cand: None,
             mag_cand_s: 0.0,
-            mag_cand_valid: false,
             rate_lp_down_rps: 0.0,
             acc_lp: [[0.0; 3]; 2],
             acc_lp_valid: false,
@@ -211,7 +225,7 @@ impl Madgwick {
         }
         self.q = q;
         self.acc_lp_valid = false;
-        self.mag_ref_valid = false;
+        self.mag_ref = None;
         if let Some((mu, n2)) = m {
             self.set_mag_reference(n2, dot(mu, d));
         }
@@ -219,12 +233,7 @@ impl Madgwick {
     }
 
     fn set_mag_reference(&mut self, norm_sq: f32, hz: f32) {
-        self.mag_ref_valid = true;
-        self.mag_ref_norm_sq = norm_sq;
-        self.mag_ref_hz = hz;
-        // |Δ sin(dip)| ≈ cos(dip)·Δdip
-        let c = libm::sqrtf((1.0 - hz * hz).max(0.0));
-        self.mag_ref_hz_tol = self.sin_dip_tol * c.max(0.05);
+        self.mag_ref = Some(MagReference::new(norm_sq, hz, self.sin_dip_tol));
     }
 
     /// The configuration.
@@ -257,12 +266,8 @@ impl Madgwick {
     /// or `None` before any valid magnetometer sample.
     #[must_use]
     pub fn mag_reference(&self) -> Option<(f32, f32)> {
-        self.mag_ref_valid.then(|| {
-            (
-                libm::sqrtf(self.mag_ref_norm_sq),
-                libm::asinf(self.mag_ref_hz.clamp(-1.0, 1.0)),
-            )
-        })
+        self.mag_ref
+            .map(|r| (libm::sqrtf(r.norm_sq), libm::asinf(r.hz.clamp(-1.0, 1.0))))
     }
 
     /// Euler angles (roll, pitch, yaw) in radians, ZYX, of `q_ned_from_body`.
@@ -624,15 +629,15 @@ impl Madgwick {
         st: &mut UpdateStatus,
     ) -> bool {
         let mr = self.cfg.mag_rejection;
-        if !self.mag_ref_valid {
+        let Some(re) = self.mag_ref else {
             self.set_mag_reference(n2, hz);
             return true;
-        }
+        };
         if initialising {
             // Refine the reference while the start-up gain settles.
             let k = (dt_s / 1.0).clamp(0.0, 1.0);
-            let n2r = self.mag_ref_norm_sq + k * (n2 - self.mag_ref_norm_sq);
-            let hzr = self.mag_ref_hz + k * (hz - self.mag_ref_hz);
+            let n2r = re.norm_sq + k * (n2 - re.norm_sq);
+            let hzr = re.hz + k * (hz - re.hz);
             self.set_mag_reference(n2r, hzr);
             return true;
         }
@@ -641,33 +646,35 @@ impl Madgwick {
         }
         let lo = (1.0 - mr.norm_tol) * (1.0 - mr.norm_tol);
         let hi = (1.0 + mr.norm_tol) * (1.0 + mr.norm_tol);
-        let ok = |rn2: f32, rhz: f32, tol: f32| {
-            n2 >= lo * rn2 && n2 <= hi * rn2 && (hz - rhz).abs() <= tol
+        // The candidate is judged with the reference's dip tolerance.
+        let ok = |r: &MagReference| {
+            n2 >= lo * r.norm_sq && n2 <= hi * r.norm_sq && (hz - r.hz).abs() <= re.hz_tol
         };
-        if ok(self.mag_ref_norm_sq, self.mag_ref_hz, self.mag_ref_hz_tol) {
-            self.mag_cand_valid = false;
+        if ok(&re) {
+            self.mag_cand = None;
             self.mag_cand_s = 0.0;
             return true;
         }
         st.mag_rejected = true;
         // Recovery: a new field that stays consistent while rotating becomes the reference.
-        if self.mag_cand_valid && ok(self.mag_cand_norm_sq, self.mag_cand_hz, self.mag_ref_hz_tol) {
-            if w2 > mr.recovery_min_rate_rps * mr.recovery_min_rate_rps {
-                self.mag_cand_s += dt_s;
+        match self.mag_cand {
+            Some(cand) if ok(&cand) => {
+                if w2 > mr.recovery_min_rate_rps * mr.recovery_min_rate_rps {
+                    self.mag_cand_s += dt_s;
+                }
+                if self.mag_cand_s >= mr.recovery_s {
+                    self.set_mag_reference(cand.norm_sq, cand.hz);
+                    self.mag_cand = None;
+                    self.mag_cand_s = 0.0;
+                    st.mag_rejected = false;
+                    st.mag_reference_relearned = true;
+                    return true;
+                }
             }
-            if self.mag_cand_s >= mr.recovery_s {
-                self.set_mag_reference(self.mag_cand_norm_sq, self.mag_cand_hz);
-                self.mag_cand_valid = false;
+            _ => {
+                self.mag_cand = Some(MagReference::new(n2, hz, self.sin_dip_tol));
                 self.mag_cand_s = 0.0;
-                st.mag_rejected = false;
-                st.mag_reference_relearned = true;
-                return true;
             }
-        } else {
-            self.mag_cand_valid = true;
-            self.mag_cand_norm_sq = n2;
-            self.mag_cand_hz = hz;
-            self.mag_cand_s = 0.0;
         }
         false
     }
