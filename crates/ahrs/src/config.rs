@@ -136,6 +136,12 @@ pub struct MagRejectionConfig {
     /// Recovery time only accumulates while |ω| exceeds this (rad/s), so a constant
     /// disturbance while standing still is not learnt.
     pub recovery_min_rate_rps: f32,
+    /// Fallback for a disturbance that persists without becoming consistent (a magnet
+    /// riding along, a new place): after this long rejected without a break (s), the
+    /// current field is adopted as the reference (`UpdateStatus::mag_reference_relearned`).
+    /// Heading runs on the gyro meanwhile, drifting at most 2·`Config::beta_mag` per
+    /// second (the residual bias the heading gain is sized for): 60 s ≈ 10°.
+    pub fallback_s: f32,
 }
 
 impl Default for Config {
@@ -177,6 +183,7 @@ impl Config {
             dip_tol_deg: 10.0,
             recovery_s: 20.0,
             recovery_min_rate_rps: 0.35,
+            fallback_s: 60.0,
         },
     };
 }

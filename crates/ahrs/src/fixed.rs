@@ -444,6 +444,7 @@ pub struct FixedConfig {
     sin_dip_tol_q30: i64,
     mag_recovery_q20: i64,
     mag_min_rate_sq_q40: i64,
+    mag_fallback_q20: i64,
     inv_tilt_tau_q20: i64,
     inv_tilt_tau0_q20: i64,
     inv_g_q32: i32,
@@ -540,6 +541,7 @@ impl FixedConfig {
             sin_dip_tol_q30: f30(crate::quat::sin_deg(mr.dip_tol_deg)),
             mag_recovery_q20: s_to_q20(mr.recovery_s),
             mag_min_rate_sq_q40: sq_q40(mr.recovery_min_rate_rps),
+            mag_fallback_q20: s_to_q20(mr.fallback_s),
             inv_tilt_tau_q20: inv_q20(cfg.tilt_tau_s),
             inv_tilt_tau0_q20: inv_q20(cfg.tilt_tau_s.min(crate::madgwick::STARTUP_TILT_TAU_S)),
             inv_g_q32,
@@ -586,6 +588,8 @@ pub struct MadgwickFixed {
     mag_ref: Option<MagRef>,
     cand: Option<(u64, i64)>,
     cand_q20: i64,
+    /// Time rejected without a break (Q20 s), for the fallback.
+    mag_reject_q20: i64,
     rate_lp_down_q40: i64,
     /// Two first-order low-pass stages of the specific force (g, Q27) in the estimate's
     /// NED frame.
@@ -609,6 +613,7 @@ impl MadgwickFixed {
             mag_ref: None,
             cand: None,
             cand_q20: 0,
+            mag_reject_q20: 0,
             rate_lp_down_q40: 0,
             acc_lp: [[0; 3]; 2],
             acc_lp_valid: false,
@@ -1136,9 +1141,21 @@ impl MadgwickFixed {
         if ok(re) {
             self.cand = None;
             self.cand_q20 = 0;
+            self.mag_reject_q20 = 0;
             return true;
         }
         st.mag_rejected = true;
+        self.mag_reject_q20 = (self.mag_reject_q20 + i64::from(dt_q31 >> 11)).min(1 << 50);
+        if self.mag_reject_q20 >= c.mag_fallback_q20 {
+            // Fallback: the disturbance persisted; adopt the field as it is now.
+            self.mag_ref = Some(self.make_ref(n2, hz));
+            self.cand = None;
+            self.cand_q20 = 0;
+            self.mag_reject_q20 = 0;
+            st.mag_rejected = false;
+            st.mag_reference_relearned = true;
+            return true;
+        }
         let cand_ok = self.cand.is_some_and(|(cn2, chz)| {
             let cr = MagRef {
                 hz_tol_q30: re.hz_tol_q30,
@@ -1156,6 +1173,7 @@ impl MadgwickFixed {
                 }
                 self.cand = None;
                 self.cand_q20 = 0;
+                self.mag_reject_q20 = 0;
                 st.mag_rejected = false;
                 st.mag_reference_relearned = true;
                 return true;
@@ -1169,8 +1187,8 @@ impl MadgwickFixed {
 }
 
 /// Rows of the rotation matrix R(q) (body -> NED) in Q30; row 2 is "down" in body axes.
-/// q is a unit Q30 quaternion (the filter's invariant), so every entry is ≤ ‖q‖² ≤ 1 + 1e-6
-/// in magnitude and fits (see [`down_row`]).
+/// Every entry is ≤ 2·‖q‖² − 1 in magnitude: < 2 for the propagated ‖q‖² ≤ 1 + 3/16, so
+/// it fits (see [`down_row`]).
 fn rows(q: [i32; 4]) -> [[i32; 3]; 3] {
     let [w, x, y, z] = q;
     let r = |v: i64| ((v + (1 << 28)) >> 29) as i32;

@@ -80,6 +80,8 @@ pub struct Madgwick {
     /// stayed consistent while rotating (s).
     mag_cand: Option<MagReference>,
     mag_cand_s: f32,
+    /// Time rejected without a break (s), for the fallback.
+    mag_reject_s: f32,
     rate_lp_down_rps: f32,
     /// Two first-order low-pass stages of the specific force (in g) in the estimate's
     /// NED frame.
@@ -168,6 +170,7 @@ impl Madgwick {
             mag_ref: None,
             mag_cand: None,
             mag_cand_s: 0.0,
+            mag_reject_s: 0.0,
             rate_lp_down_rps: 0.0,
             acc_lp: [[0.0; 3]; 2],
             acc_lp_valid: false,
@@ -653,9 +656,21 @@ impl Madgwick {
         if ok(&re) {
             self.mag_cand = None;
             self.mag_cand_s = 0.0;
+            self.mag_reject_s = 0.0;
             return true;
         }
         st.mag_rejected = true;
+        self.mag_reject_s = (self.mag_reject_s + dt_s).min(1e6);
+        if self.mag_reject_s >= mr.fallback_s {
+            // Fallback: the disturbance persisted; adopt the field as it is now.
+            self.set_mag_reference(n2, hz);
+            self.mag_cand = None;
+            self.mag_cand_s = 0.0;
+            self.mag_reject_s = 0.0;
+            st.mag_rejected = false;
+            st.mag_reference_relearned = true;
+            return true;
+        }
         // Recovery: a new field that stays consistent while rotating becomes the reference.
         match self.mag_cand {
             Some(cand) if ok(&cand) => {
@@ -666,6 +681,7 @@ impl Madgwick {
                     self.set_mag_reference(cand.norm_sq, cand.hz);
                     self.mag_cand = None;
                     self.mag_cand_s = 0.0;
+                    self.mag_reject_s = 0.0;
                     st.mag_rejected = false;
                     st.mag_reference_relearned = true;
                     return true;

@@ -390,3 +390,50 @@ fn large_gyro_steps_are_clamped_reported_and_agree() {
         }
     }
 }
+
+#[test]
+fn persisting_inconsistent_disturbance_is_adopted_after_the_fallback_time() {
+    // A magnet riding along: the field's norm wanders (never a consistent candidate),
+    // so only the fallback ends the rejection, after `fallback_s` without a break.
+    let cfg = Config::DEFAULT;
+    let (a, m) = sense(&Quaternion::IDENTITY);
+    let q16 = |v: [f32; 3]| v.map(|x| fc_ahrs::fixed::float_to_q(x, 16));
+    let fc = FixedConfig::from_config(&Config {
+        gravity_norm: G * 65536.0,
+        ..cfg
+    });
+    let mut f = Madgwick::from_accel_mag(cfg, a, m);
+    let mut fx = MadgwickFixed::from_accel_mag(fc, q16(a), q16(m));
+    let dt = 0.01f32;
+    for _ in 0..500 {
+        f.update_marg([0.0; 3], a, m, dt);
+        fx.update_marg([0; 3], q16(a), q16(m), dt_s_to_q31(dt));
+    }
+    let n = (cfg.mag_rejection.fallback_s / dt) as usize;
+    let (mut first, mut first_x) = (None, None);
+    for i in 0..n + 100 {
+        let k = 1.6 + 0.3 * (i as f32 * 0.37).sin();
+        let d = [m[0] * k, m[1] + 10.0, m[2] * k];
+        let s = f.update_marg([0.0; 3], a, d, dt);
+        let sx = fx.update_marg([0; 3], q16(a), q16(d), dt_s_to_q31(dt));
+        if s.mag_reference_relearned && first.is_none() {
+            first = Some(i);
+        }
+        if sx.mag_reference_relearned && first_x.is_none() {
+            first_x = Some(i);
+        }
+        if first.is_none() {
+            assert!(s.mag_rejected, "f32 step {i}");
+        }
+    }
+    let first = first.expect("f32 fallback");
+    let first_x = first_x.expect("fixed fallback");
+    assert!(
+        first + 2 >= n && first <= n + 1,
+        "f32 adopted at step {first}, fallback {n}"
+    );
+    assert!(
+        first_x.abs_diff(first) <= 1,
+        "fixed {first_x} vs f32 {first}"
+    );
+}
