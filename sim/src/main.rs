@@ -12,7 +12,7 @@ use demo::run::{run, RunOptions, RunResult};
 use demo::stack::Filter;
 use sim::Trajectory;
 
-const USAGE: &str = "usage: sim [--trajectory rest|spin|slow|figure8|hover|aggressive|sixpos] [--seed N] \
+const USAGE: &str = "usage: sim [--trajectory rest|spin|slow|figure8|hover|aggressive|whirl|vibration|sixpos] [--seed N] \
 [--duration S] [--filter f32|fixed] [--csv FILE] [--plot FILE.png] [--print-every S] [--mag-dance S]";
 
 /// The `--help` text.
@@ -35,7 +35,8 @@ What runs, in order (each a separate session of the same simulated board):
      after the first second.
 
 Options:
-  -t, --trajectory NAME  rest | spin | slow | figure8 | hover (default) | aggressive | sixpos
+  -t, --trajectory NAME  rest | spin | slow | figure8 | hover (default) | aggressive | whirl |
+                         vibration | sixpos
   -s, --seed N           board errors and noise (default 1)
   -d, --duration S       simulated flight time, (0, 3600] s (default 90)
       --filter f32|fixed the AHRS the pipeline was built with; it is chosen at
