@@ -923,9 +923,19 @@ impl MadgwickFixed {
         *b0 = lp_step(*b0, *a0, k);
         *b1 = lp_step(*b1, *a1, k);
         *b2 = lp_step(*b2, *a2, k);
-        // θ = ŷ × (0, 0, −1), Q26 g → Q30 rad, at most MAX_TILT_STEP per update.
+        // θ = ŷ × (0, 0, −1) with ŷ ≈ y/|y_z| (as the f32 filter), Q26 g → Q30 rad, at
+        // most MAX_TILT_STEP per update. 1/|y_z| by one 32-bit division: |y_z| in Q16
+        // (≥ 2^6 above 1/1024 g), 2^31/|y_z|_Q16 is 1/|y_z| in Q15.
+        let yz = b2.saturating_neg();
+        let d = if yz > 1 << 16 { yz >> 10 } else { 1 << 16 };
+        let inv_q15 = i32::MAX.checked_div(d).unwrap_or(0);
         let lim = c.max_tilt_step_q26;
-        let th = |v: i32| v.max(-lim).min(lim) << 4;
+        let th = |v: i32| {
+            let t = (m64(v, inv_q15) >> 15)
+                .max(-i64::from(lim))
+                .min(i64::from(lim));
+            (t as i32) << 4
+        };
         Some([th(b1.saturating_neg()), th(*b0)])
     }
 
@@ -985,19 +995,22 @@ impl MadgwickFixed {
         if !self.check_mag(n2, h[2], w2_q40, dt_q31, initialising, st) {
             return None;
         }
-        // Heading error, as the f32 filter: the east component over the north one
-        // (tan of the error, one 32-bit division in Q10 of the linear zone: |hᵢ >> 14|
-        // ≤ 2^16, ×20 ×2^10 < 2^31), saturated to ±1; ±1 when the field points south.
-        let (h0, h1) = ((h[0] >> 14) as i32, (h[1] >> 14) as i32);
-        let e_q10 = if h0 > 0 {
-            let g = crate::madgwick::HEADING_LINEAR_GAIN;
-            ((h1 * g) << 10)
-                .checked_div(h0)
-                .unwrap_or(0)
-                .max(-1024)
-                .min(1024)
+        // Heading error, as the f32 filter: the east component over the north one (tan of
+        // the error) in units of the linear zone, ±1 beyond it or with the field pointing
+        // south. One 32-bit division in Q12: h_N is first scaled to [2^17, 2^18) (h_E with
+        // it), so |20·h_E| < h_N keeps the numerator < 2^30 and h_E keeps 17 bits.
+        let (hn, he) = (h[0] as i32, h[1] as i32); // |hᵢ| ≤ 2^30
+        let g = crate::madgwick::HEADING_LINEAR_GAIN;
+        let e_q12 = if hn >= 1 << 17 {
+            let r = 14 - hn.leading_zeros().min(14); // hn >> r ∈ [2^17, 2^18)
+            let (hn, he) = (hn >> r, he >> r);
+            if (i64::from(he) * i64::from(g)).abs() >= i64::from(hn) {
+                he.signum() << 12
+            } else {
+                ((he * g) << 12).checked_div(hn).unwrap_or(0)
+            }
         } else {
-            h1.signum() << 10
+            he.signum() << 12
         };
         let c = &self.c;
         let beta_mag = if initialising && c.startup_q20 > 0 {
@@ -1016,7 +1029,7 @@ impl MadgwickFixed {
         // rate towards the field, β_head proportionally (as the f32 filter).
         let two_dt = |b: i64| (b.max(0).min(i64::from(i32::MAX)) * i64::from(dt_q31)) >> 24;
         let mag_dt = two_dt(beta_mag).min(ONE_Q30);
-        let head = (two_dt(beta_head).min(ONE_Q30) * i64::from(e_q10)) >> 10;
+        let head = (two_dt(beta_head).min(ONE_Q30) * i64::from(e_q12)) >> 12;
         let step = head + mag_dt * h[1].signum();
         // A step never passes the field's heading (|h_E| ≤ the error's sine; as the f32
         // filter).

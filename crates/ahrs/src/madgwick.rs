@@ -449,10 +449,13 @@ impl Madgwick {
             s1[i] += k * (u[i] - s1[i]);
             s2[i] += k * (s1[i] - s2[i]);
         }
-        // θ = ŷ × (0, 0, −1) with ‖y‖ ≈ 1 g: rotates y onto the vertical (up = −z in NED).
+        // θ = ŷ × (0, 0, −1): rotates y onto the vertical (up = −z in NED). y is nearly
+        // vertical after every correction, so ŷ ≈ y/|y_z| (a mean specific force far from
+        // 1 g must not turn into a loop gain above 1); |y_z| = 1 g if y points down.
         let y = *s2;
+        let n = if -y[2] > 1.0 / 1024.0 { -y[2] } else { 1.0 };
         let lim = MAX_TILT_STEP_RAD;
-        Some([(-y[1]).clamp(-lim, lim), y[0].clamp(-lim, lim)])
+        Some([(-y[1] / n).clamp(-lim, lim), (y[0] / n).clamp(-lim, lim)])
     }
 
     /// Accelerometer rejection with its recovery timeout; true if the sample is rejected.
@@ -556,7 +559,8 @@ impl Madgwick {
 
     /// Madgwick's 2010 filter exactly (the crate's [`Algorithm::Textbook`]): one gradient
     /// J_gᵀf_g + J_bᵀf_b (eqs. 25–26, 29–30, 45–46), normalised jointly, one fixed β, the
-    /// raw gyro, no extensions (eqs. 42–44).
+    /// raw gyro, no extensions (eqs. 42–44); only a step beyond ¼ rad of half angle per
+    /// axis is clamped (`UpdateStatus::gyro_step_clamped`).
     fn update_textbook(
         &mut self,
         gyro_rps: [f32; 3],
@@ -572,7 +576,16 @@ impl Madgwick {
             y: q3,
             z: q4,
         } = q;
-        let w = gyro_rps;
+        // The half angles are clamped to ±¼ rad as in the full filter (and reported), so
+        // both number types integrate the same way even for long steps at high rates.
+        let (_, clamped) = half_angle_step(gyro_rps, dt_s);
+        st.gyro_step_clamped = clamped;
+        let lim = 0.5 / dt_s;
+        let w = if clamped {
+            gyro_rps.map(|x| x.clamp(-lim, lim))
+        } else {
+            gyro_rps
+        };
         let mut qdot = [
             0.5 * (-q2 * w[0] - q3 * w[1] - q4 * w[2]),
             0.5 * (q1 * w[0] + q3 * w[2] - q4 * w[1]),
