@@ -22,8 +22,8 @@
 //! leading-zero normalisation + 48-entry table + two Newton steps in 32-bit arithmetic,
 //! < 3e-7 relative error); the quaternion is renormalised once per update with the
 //! first-order q·(3 − ‖q‖²)/2 (every normal step: ‖q‖² is within 2^-10 of 1) or a full
-//! reciprocal square root otherwise. The only division is one 32-bit `SDIV` for the
-//! heading error. Conversions from the f32 [`crate::Config`] happen once, in
+//! reciprocal square root otherwise. The only divisions are two 32-bit `SDIV`s: the
+//! heading error and 1/|y_z| of the tilt correction. Conversions from the f32 [`crate::Config`] happen once, in
 //! [`FixedConfig::from_config`].
 
 // `max(lo).min(hi)` instead of `clamp`: `clamp` asserts lo ≤ hi (a panic path) and stays
