@@ -301,7 +301,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::Madgwick f32 MARG (rejection on)",
-                    "fc_ahrs::Madgwick f32 MARG (plain)",
+                    "fc_ahrs::Madgwick f32 MARG (textbook)",
                 ),
                 &mut f,
                 &s,
@@ -311,7 +311,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::Madgwick f32 IMU (rejection on)",
-                    "fc_ahrs::Madgwick f32 IMU (plain)",
+                    "fc_ahrs::Madgwick f32 IMU (textbook)",
                 ),
                 &mut imu,
                 &s,
@@ -329,7 +329,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::MadgwickFixed MARG (rejection on)",
-                    "fc_ahrs::MadgwickFixed MARG (plain)",
+                    "fc_ahrs::MadgwickFixed MARG (textbook)",
                 ),
                 &mut f,
                 &fx,
@@ -339,7 +339,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::MadgwickFixed IMU (rejection on)",
-                    "fc_ahrs::MadgwickFixed IMU (plain)",
+                    "fc_ahrs::MadgwickFixed IMU (textbook)",
                 ),
                 &mut imu,
                 &fx,

@@ -48,9 +48,9 @@ const SIZE_END: &str = "<!-- firmware-size:end -->";
 
 /// Names of the rows with budgets (as printed by the bench binary).
 const FIXED_MARG_ON: &str = "fc_ahrs::MadgwickFixed MARG (rejection on)";
-const FIXED_MARG_PLAIN: &str = "fc_ahrs::MadgwickFixed MARG (plain)";
+const FIXED_MARG_PLAIN: &str = "fc_ahrs::MadgwickFixed MARG (textbook)";
 const F32_MARG_ON: &str = "fc_ahrs::Madgwick f32 MARG (rejection on)";
-const F32_MARG_PLAIN: &str = "fc_ahrs::Madgwick f32 MARG (plain)";
+const F32_MARG_PLAIN: &str = "fc_ahrs::Madgwick f32 MARG (textbook)";
 const PIPELINE: &str = "flight pipeline: per 1 kHz sample (frame / 10)";
 const CONTROL_STEP: &str = "flight::Pipeline::control_step (100 Hz)";
 const MAG_APPLY: &str = "calibration::MagCalibrationQ16::apply (pipeline form)";
@@ -76,7 +76,9 @@ fn budgets() -> Vec<(&'static str, Vec<Limit>)> {
         ),
         (
             FIXED_MARG_PLAIN,
-            vec![Limit::Max(2_000), Limit::FractionOf(F32_MARG_PLAIN, 5)],
+            // The target for the textbook filter is 1,000 (not reached: 1,288 measured);
+            // this limit only guards against regressions.
+            vec![Limit::Max(1_350), Limit::FractionOf(F32_MARG_PLAIN, 5)],
         ),
         (PIPELINE, vec![Limit::Max(3_000)]),
         (CONTROL_STEP, vec![Limit::Max(4_000)]),

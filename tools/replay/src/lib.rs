@@ -9,7 +9,7 @@ pub mod csv;
 
 pub use csv::{read, ParseError, ReadOptions, Recording, Sample, Segment};
 use fc_ahrs::fixed::{self, FixedConfig, MadgwickFixed};
-use fc_ahrs::{frames, Config, Madgwick, Quaternion};
+use fc_ahrs::{frames, Algorithm, Config, Madgwick, Quaternion};
 
 /// Which implementation to run. Every filter the tool offers is one variant
 /// here, with its name in [`FilterKind::NAMES`] and its loop in [`run`].
@@ -19,13 +19,23 @@ pub enum FilterKind {
     F32,
     /// `fc_ahrs::fixed::MadgwickFixed`.
     Fixed,
+    /// `fc_ahrs::Madgwick` with `Algorithm::Textbook`: Madgwick's 2010
+    /// filter as published (one β, no extensions).
+    Textbook,
+    /// `fc_ahrs::fixed::MadgwickFixed` with `Algorithm::Textbook`.
+    TextbookFixed,
 }
 
 impl FilterKind {
     /// Every kind, in the order of [`FilterKind::NAMES`].
-    pub const ALL: [FilterKind; 2] = [FilterKind::F32, FilterKind::Fixed];
+    pub const ALL: [FilterKind; 4] = [
+        FilterKind::F32,
+        FilterKind::Fixed,
+        FilterKind::Textbook,
+        FilterKind::TextbookFixed,
+    ];
     /// Command-line names.
-    pub const NAMES: [&'static str; 2] = ["f32", "fixed"];
+    pub const NAMES: [&'static str; 4] = ["f32", "fixed", "textbook", "textbook-fixed"];
 
     /// The kind with command-line name `name`.
     pub fn from_name(name: &str) -> Option<Self> {
@@ -60,9 +70,15 @@ pub fn run(samples: &[Sample], kind: FilterKind, mode: Mode, cfg: &Config) -> Ve
         *prev = s.t_s;
         Some((s, dt_s))
     });
+    let textbook = Config {
+        algorithm: Algorithm::Textbook,
+        ..*cfg
+    };
     match kind {
         FilterKind::F32 => run_f32(first, steps, mode, cfg),
         FilterKind::Fixed => run_fixed(first, steps, mode, cfg),
+        FilterKind::Textbook => run_f32(first, steps, mode, &textbook),
+        FilterKind::TextbookFixed => run_fixed(first, steps, mode, &textbook),
     }
 }
 

@@ -36,7 +36,8 @@ struct Cli {
     /// Recordings to replay (`-` = stdin, once).
     #[arg(value_name = "FILE.csv", required = true)]
     files: Vec<PathBuf>,
-    /// Filter implementation.
+    /// Filter implementation: f32 or fixed point, the full filter or
+    /// Madgwick's 2010 filter as published (`textbook`, `textbook-fixed`).
     #[arg(long, value_name = "KIND", default_value = "f32",
           value_parser = clap::builder::PossibleValuesParser::new(FilterKind::NAMES))]
     filter: String,
@@ -55,12 +56,10 @@ struct Cli {
     /// Start-up ramp duration, s, >= 0 (0 = off).
     #[arg(long, value_name = "S", value_parser = at_least(0.0))]
     startup_s: Option<f32>,
-    /// Magnetometer corrects heading only.
-    #[arg(long, overrides_with = "no_heading_only")]
-    heading_only: bool,
-    /// Magnetometer corrects inclination too.
-    #[arg(long)]
-    no_heading_only: bool,
+    /// Time constant of each of the two earth-frame low-pass stages the
+    /// accelerometer's tilt correction goes through, s, > 0.
+    #[arg(long, value_name = "S", value_parser = above(0.0))]
+    tilt_tau: Option<f32>,
     /// Disable gyro bias estimation at rest.
     #[arg(long)]
     no_bias_est: bool,
@@ -183,12 +182,7 @@ fn config(cli: &Cli) -> fc_ahrs::Config {
     set(&mut c.mag_rejection.recovery_s, cli.mag_recovery);
     set(&mut c.gyro_scale_tol, cli.gyro_scale_tol);
     set(&mut c.gyro_scale_tau_s, cli.gyro_scale_tau);
-    if cli.heading_only {
-        c.mag_heading_only = true;
-    }
-    if cli.no_heading_only {
-        c.mag_heading_only = false;
-    }
+    set(&mut c.tilt_tau_s, cli.tilt_tau);
     if cli.no_bias_est {
         c.bias.enabled = false;
     }
