@@ -4,8 +4,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use calibration::{
-    AccelSixPosition, AccelSixPositionConfig, EllipsoidFit, EllipsoidFitConfig, GyroBiasConfig,
-    GyroBiasEstimator, MagMinMax, MagMinMaxConfig, Position, SixPositionEvent,
+    AccelSixPosition, AccelSixPositionConfig, EllipsoidFit, EllipsoidFitConfig, EllipsoidFitF32,
+    GyroBiasConfig, GyroBiasEstimator, MagMinMax, MagMinMaxConfig, Position, SixPositionEvent,
 };
 use e2e::Rig;
 use embedded_hal::delay::DelayNs;
@@ -117,6 +117,81 @@ fn ellipsoid_fit_recovers_hard_and_soft_iron_on_the_figure_eight() {
         .collect();
     let (mean, sd) = e2e::mean_sd(&norms);
     assert!(sd / mean < 0.015, "{sd} / {mean}");
+}
+
+/// The board's fit (integer moments, f32 solve) against the host's f64
+/// fit on the simulator's distortions: several hard/soft-iron draws, the
+/// same samples into both.
+#[test]
+fn board_ellipsoid_fit_agrees_with_the_host_fit() {
+    for seed in [3u64, 5, 8, 13] {
+        let mut rng = Rng::new(seed);
+        let mut errors = SensorErrors::noise_only();
+        errors.mag.hard_iron_ut = [25.0, -18.0, 32.0].map(|h: f64| h * (0.5 + seed as f64 / 10.0));
+        errors.mag.soft_iron = random_soft_iron(&mut rng, 0.15);
+        let samples = dance_samples(errors, 40.0);
+        let mut host = EllipsoidFit::new(EllipsoidFitConfig::MICROTESLA).unwrap();
+        let mut board = EllipsoidFitF32::new(EllipsoidFitConfig::MICROTESLA, 0.125).unwrap();
+        for m in &samples {
+            host.push(*m).unwrap();
+            board.push(*m).unwrap();
+        }
+        let (h, b) = (host.finish().unwrap(), board.finish().unwrap());
+        for i in 0..3 {
+            let d = (h.calibration.offset[i] - b.calibration.offset[i]).abs();
+            assert!(
+                d < 0.05,
+                "seed {seed}: offset {:?} vs {:?}",
+                h.calibration.offset,
+                b.calibration.offset
+            );
+            for j in 0..3 {
+                let d = (h.calibration.soft_iron[i][j] - b.calibration.soft_iron[i][j]).abs();
+                assert!(
+                    d < 1e-3,
+                    "seed {seed}: W {:?} vs {:?}",
+                    h.calibration.soft_iron,
+                    b.calibration.soft_iron
+                );
+            }
+        }
+        assert!(
+            (h.radius - b.radius).abs() < 0.02,
+            "{} vs {}",
+            h.radius,
+            b.radius
+        );
+        // The figure is a small difference of O(1) moment sums; f32 and the
+        // 0.125 µT quantum keep it within 0.5 % here (0.00792 vs 0.00796).
+        assert!(
+            (h.rms_error - b.rms_error).abs() < 0.01 * h.rms_error,
+            "{} vs {}",
+            h.rms_error,
+            b.rms_error
+        );
+        assert_eq!(h.bins_hit, b.bins_hit);
+    }
+}
+
+/// The board's fit refuses what the host fit refuses: a flat (planar)
+/// sweep is insufficient coverage for both.
+#[test]
+fn board_ellipsoid_fit_refuses_a_planar_sweep_like_the_host() {
+    let mut host = EllipsoidFit::new(EllipsoidFitConfig::MICROTESLA).unwrap();
+    let mut board = EllipsoidFitF32::new(EllipsoidFitConfig::MICROTESLA, 0.125).unwrap();
+    for k in 0..600 {
+        let a = k as f32 * 0.05;
+        let m = [
+            10.0 + 40.0 * a.cos(),
+            -5.0 + 40.0 * a.sin(),
+            20.0 + 0.3 * (k % 3) as f32,
+        ];
+        host.push(m).unwrap();
+        board.push(m).unwrap();
+    }
+    let (h, b) = (host.finish(), board.finish());
+    assert!(h.is_err() && b.is_err(), "{h:?} {b:?}");
+    assert_eq!(format!("{:?}", h.err()), format!("{:?}", b.err()));
 }
 
 #[test]

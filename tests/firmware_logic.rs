@@ -7,13 +7,13 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use e2e::Rig;
+use e2e::{Rig, StuckSda};
 use embedded_hal::delay::DelayNs;
 use flight::boot::{AhrsMode, BiasStatus, Chip as BootChip, ProbeFailure, StartupGyroBias};
-use flight::health::{recover_bus, RecoveryPins, SensorState};
+use flight::health::{recover_bus, SensorState};
 use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
 use flight::schedule::{DtClock, LoopStats, MicrosClock, SampleScheduler};
-use flight::sensors::{MagRead, Sensors, SensorsConfig};
+use flight::sensors::{MagRead, Sensors};
 use flight::storage::{
     self, CalibrationRecord, DecodeError, LoadError, LoadOutcome, RamPage, ValidParts,
 };
@@ -24,13 +24,7 @@ const MS: u8 = 0x77;
 const AK: u8 = 0x0C;
 
 fn boot(rig: &mut Rig) -> (Sensors<SimBus>, flight::boot::BootReport) {
-    Sensors::boot(
-        rig.bus.clone(),
-        rig.bus.clone(),
-        rig.bus.clone(),
-        &mut rig.delay,
-        SensorsConfig::default(),
-    )
+    e2e::boot_sensors(rig)
 }
 
 /// Runs the 1 kHz loop like the `imu` task (plus the barometer poll of the
@@ -242,36 +236,33 @@ fn wrong_chips_are_named() {
 }
 
 #[test]
-fn transient_bus_faults_are_retried_and_counted() {
+fn transient_bus_faults_skip_the_sample_and_are_counted() {
     let mut rig = Rig::new(SimConfig::default());
     let (mut s, report) = boot(&mut rig);
     let mut p = pipeline_for(&s, &report, &CalibrationRecord::default());
     let mut lp = Loop::new();
     lp.run(&rig, &mut s, &mut p, 50);
-    // One glitch: the read is retried and succeeds.
+    // One glitch: that sample is skipped and counted, never retried.
+    let (t0, _) = rig.bus.transaction_counts();
     rig.bus
         .inject(Fault::BusErrorMidTransfer { after_bytes: 3 });
+    rig.bus.advance_to_next_mpu_sample();
+    assert!(s.read_imu().is_none());
+    let (t1, _) = rig.bus.transaction_counts();
+    assert_eq!(t1 - t0, 1, "exactly one transfer for a failed sample");
+    assert_eq!(s.mpu_health.counters().retries, 0);
+    assert_eq!(s.mpu_health.counters().errors, 1);
     lp.run(&rig, &mut s, &mut p, 1);
     assert_eq!(lp.imu_fail, 0);
-    assert_eq!(s.mpu_health.counters().retries, 1);
-    assert_eq!(s.mpu_health.counters().errors, 0);
-    // Two NACKs in a row on the MPU: both retries consumed, still fine.
-    rig.bus.inject(Fault::Nack {
-        address: MPU,
-        transactions: Some(2),
-    });
-    lp.run(&rig, &mut s, &mut p, 1);
-    assert_eq!(lp.imu_fail, 0);
-    assert_eq!(s.mpu_health.counters().retries, 3);
     // A longer outage: samples are lost and counted; after 5 failed samples
     // a re-initialisation is scheduled; once the chip answers again it works.
     rig.bus.inject(Fault::Nack {
         address: MPU,
-        transactions: Some(15),
+        transactions: Some(5),
     });
     lp.run(&rig, &mut s, &mut p, 5);
     assert_eq!(lp.imu_fail, 5);
-    assert_eq!(s.mpu_health.counters().errors, 5);
+    assert_eq!(s.mpu_health.counters().errors, 6);
     assert_eq!(s.mpu_health.state(), SensorState::Degraded);
     assert!(s.service_due());
     let rep = s.service(&mut rig.delay);
@@ -280,6 +271,7 @@ fn transient_bus_faults_are_retried_and_counted() {
     assert_eq!(lp.imu_fail, 5);
     assert_eq!(s.mpu_health.state(), SensorState::Ok);
     assert_eq!(s.mpu_health.counters().reinits, 1);
+    assert_eq!(s.mpu_health.counters().retries, 0);
 }
 
 #[test]
@@ -326,40 +318,6 @@ fn chip_reset_in_flight_is_detected_and_reinitialised() {
     );
 }
 
-/// Open-drain PB6/PB7 model: a slave holding SDA low shifts one bit per SCL
-/// falling edge; when it lets go, the simulated bus is un-stuck.
-struct StuckSlave<'a> {
-    bus: &'a SimBus,
-    scl: bool,
-    sda: bool,
-    hold: u8,
-    clocks: u8,
-    stop_seen: bool,
-}
-
-impl RecoveryPins for StuckSlave<'_> {
-    fn set_scl(&mut self, high: bool) {
-        if self.scl && !high {
-            self.clocks += 1;
-            self.hold = self.hold.saturating_sub(1);
-        }
-        self.scl = high;
-    }
-    fn set_sda(&mut self, high: bool) {
-        if high && !self.sda && self.scl && self.hold == 0 {
-            self.stop_seen = true;
-            self.bus.clear_faults();
-        }
-        self.sda = high;
-    }
-    fn scl_is_high(&mut self) -> bool {
-        self.scl
-    }
-    fn sda_is_high(&mut self) -> bool {
-        self.sda && self.hold == 0
-    }
-}
-
 #[test]
 fn stuck_bus_is_detected_recovered_and_chips_reinitialised() {
     let mut rig = Rig::new(SimConfig::default());
@@ -383,14 +341,7 @@ fn stuck_bus_is_detected_recovered_and_chips_reinitialised() {
         s.baro_health
     );
 
-    let mut pins = StuckSlave {
-        bus: &rig.bus,
-        scl: true,
-        sda: true,
-        hold: 8,
-        clocks: 0,
-        stop_seen: false,
-    };
+    let mut pins = StuckSda::new(&rig.bus, 8);
     let r = recover_bus(&mut pins, &mut rig.delay).unwrap();
     assert_eq!(r.clocks, 8);
     assert!(pins.stop_seen, "STOP generated after SDA release");

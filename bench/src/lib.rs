@@ -97,16 +97,13 @@ pub fn features_on() -> Config {
     c
 }
 
-/// Plain Madgwick: bias estimation, accelerometer and magnetometer rejection
-/// and the heading-only magnetometer correction all off (the start-up gain
-/// ramp stays).
+/// Madgwick's 2010 filter as published (`Algorithm::Textbook`): one β, the
+/// joint gradient, no extensions.
 pub fn plain() -> Config {
-    let mut c = Config::DEFAULT;
-    c.bias.enabled = false;
-    c.accel_rejection.enabled = false;
-    c.mag_rejection.enabled = false;
-    c.mag_heading_only = false;
-    c
+    Config {
+        algorithm: fc_ahrs::Algorithm::Textbook,
+        ..Config::DEFAULT
+    }
 }
 
 /// `cfg` for accelerometer inputs in raw counts (the fixed-point filter's

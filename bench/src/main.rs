@@ -199,6 +199,19 @@ mod suite {
             &s,
             |c, s| c.apply(s.mag_ut),
         );
+        // The same correction folded with 0.15 µT counts into 1/16 µT, as
+        // `flight`'s mag_step applies it.
+        let m = mag.soft_iron.map(|r| r.map(|v| v * 0.15 * 16.0));
+        let mut mag_q =
+            calibration::MagCalibrationQ16::from_affine(m, mag.offset.map(|o| o / 0.15))
+                .unwrap_or_default();
+        let counts: [[i32; 3]; CALLS] = s.map(|s| s.mag_ut.map(|u| (u / 0.15) as i32));
+        case(
+            "calibration::MagCalibrationQ16::apply (pipeline form)",
+            &mut mag_q,
+            &counts,
+            |c, m| c.apply(*m),
+        );
     }
 
     fn ms5611_cases() {
@@ -288,7 +301,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::Madgwick f32 MARG (rejection on)",
-                    "fc_ahrs::Madgwick f32 MARG (plain)",
+                    "fc_ahrs::Madgwick f32 MARG (textbook)",
                 ),
                 &mut f,
                 &s,
@@ -298,7 +311,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::Madgwick f32 IMU (rejection on)",
-                    "fc_ahrs::Madgwick f32 IMU (plain)",
+                    "fc_ahrs::Madgwick f32 IMU (textbook)",
                 ),
                 &mut imu,
                 &s,
@@ -316,7 +329,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::MadgwickFixed MARG (rejection on)",
-                    "fc_ahrs::MadgwickFixed MARG (plain)",
+                    "fc_ahrs::MadgwickFixed MARG (textbook)",
                 ),
                 &mut f,
                 &fx,
@@ -326,7 +339,7 @@ mod suite {
             case_checked(
                 name(
                     "fc_ahrs::MadgwickFixed IMU (rejection on)",
-                    "fc_ahrs::MadgwickFixed IMU (plain)",
+                    "fc_ahrs::MadgwickFixed IMU (textbook)",
                 ),
                 &mut imu,
                 &fx,
@@ -396,8 +409,16 @@ mod suite {
                 p.control_step();
             }
         };
+        // The take-off pressure reference first, so the vertical estimator
+        // and the altitude hold run in the measured control steps.
+        for _ in 0..flight::pipeline::P0_AVERAGE_SAMPLES {
+            p.baro_step(96_000);
+        }
         for f in &warm {
             run_frame(&mut p, f);
+        }
+        if p.outputs().baro_samples == 0 {
+            hprintln!("FAIL flight pipeline: no barometer reference after the warm-up");
         }
         case(FRAME_NAME, &mut p, &frames, |p, f| {
             run_frame(p, f);
@@ -449,132 +470,135 @@ mod suite {
         let (warm_raw, raw) = filter_inputs::<PEER_CALLS>(41);
         let s = raw.map(|r| r.to_si());
         let warm = [warm_raw.to_si(); WARM_CALLS];
+        peer_ahrs_cases(&s, &warm);
+        peer_imu_fusion_cases(&s, &warm);
+        peer_vqf_cases(&s, &warm);
+    }
 
-        // ahrs 0.8 (nalgebra, f32), Madgwick.
-        {
-            use peer_ahrs::{Ahrs, Madgwick};
-            use peer_nalgebra::Vector3;
-            let v = Vector3::from;
-            let warmed = || {
-                let mut f = Madgwick::new(DT_S, 0.1f32);
-                for w in &warm {
-                    let _ = f.update(&v(w.gyro_rps), &v(w.accel_mps2), &v(w.mag_ut));
-                }
-                f
-            };
-            let (mut f, mut imu) = (warmed(), warmed());
-            case("peer ahrs 0.8 Madgwick f32 MARG", &mut f, &s, |f, s| {
-                f.update(&v(s.gyro_rps), &v(s.accel_mps2), &v(s.mag_ut))
-                    .copied()
-            });
-            case("peer ahrs 0.8 Madgwick f32 IMU", &mut imu, &s, |f, s| {
-                f.update_imu(&v(s.gyro_rps), &v(s.accel_mps2)).copied()
-            });
-        }
-
-        // imu-fusion 0.2 (x-io Fusion port, f32): the AHRS core only.
-        {
-            use imu_fusion::{FusionAhrs, FusionAhrsSettings, FusionConvention, FusionVector};
-            const DEG_PER_RAD: f32 = 57.295_78;
-            let gyr = |s: &SiSample| {
-                let [x, y, z] = s.gyro_rps;
-                FusionVector::new(x * DEG_PER_RAD, y * DEG_PER_RAD, z * DEG_PER_RAD)
-            };
-            let acc = |s: &SiSample| {
-                let [x, y, z] = s.accel_mps2.map(|a| a / bench::G_MPS2);
-                FusionVector::new(x, y, z)
-            };
-            let mag = |s: &SiSample| {
-                let [x, y, z] = s.mag_ut;
-                FusionVector::new(x, y, z)
-            };
-            // NED convention (our body frame is FRD), rejection active as in
-            // x-io's examples (10°, recovery after 5 s); warmed up past its
-            // fixed 3 s initialisation (the board is still and the filter
-            // starts aligned, so large steps are harmless here).
-            let settings = || FusionAhrsSettings {
-                convention: FusionConvention::NED,
-                gain: 0.5,
-                gyr_range: 2000.0,
-                acc_rejection: 10.0,
-                mag_rejection: 10.0,
-                recovery_trigger_period: 5000,
-            };
-            let warmed = |mag_too: bool| {
-                let mut f = FusionAhrs::new();
-                f.update_settings(settings());
-                for w in &warm {
-                    if mag_too {
-                        f.update(gyr(w), acc(w), mag(w), 0.9);
-                    } else {
-                        f.update_no_mag(gyr(w), acc(w), 0.9);
-                    }
-                }
-                f
-            };
-            let (mut f, mut imu) = (warmed(true), warmed(false));
-            if f.flags().initializing || imu.flags().initializing {
-                hprintln!("FAIL imu-fusion still initialising after the warm-up");
+    /// `ahrs` 0.8 (nalgebra, f32): Madgwick, MARG and IMU.
+    fn peer_ahrs_cases(s: &[SiSample; PEER_CALLS], warm: &[SiSample; WARM_CALLS]) {
+        use peer_ahrs::{Ahrs, Madgwick};
+        use peer_nalgebra::Vector3;
+        let v = Vector3::from;
+        let warmed = || {
+            let mut f = Madgwick::new(DT_S, 0.1f32);
+            for w in warm {
+                let _ = f.update(&v(w.gyro_rps), &v(w.accel_mps2), &v(w.mag_ut));
             }
-            // Unit conversions happen before the start marker.
-            let conv: [(FusionVector, FusionVector, FusionVector); PEER_CALLS] =
-                core::array::from_fn(|k| (gyr(&s[k]), acc(&s[k]), mag(&s[k])));
-            case(
-                "peer imu-fusion 0.2 f32 MARG",
-                &mut f,
-                &conv,
-                |f, &(g, a, m)| f.update(g, a, m, DT_S),
-            );
-            case(
-                "peer imu-fusion 0.2 f32 IMU",
-                &mut imu,
-                &conv,
-                |f, &(g, a, _)| f.update_no_mag(g, a, DT_S),
-            );
-        }
+            f
+        };
+        let (mut f, mut imu) = (warmed(), warmed());
+        case("peer ahrs 0.8 Madgwick f32 MARG", &mut f, s, |f, s| {
+            f.update(&v(s.gyro_rps), &v(s.accel_mps2), &v(s.mag_ut))
+                .copied()
+        });
+        case("peer ahrs 0.8 Madgwick f32 IMU", &mut imu, s, |f, s| {
+            f.update_imu(&v(s.gyro_rps), &v(s.accel_mps2)).copied()
+        });
+    }
 
-        // vqf-rs 0.3 (VQF, f64 internals), default parameters.
-        {
-            use vqf_rs::VQF;
-            let f64x3 = |v: [f32; 3]| v.map(f64::from);
-            let warmed = || {
-                let mut f = VQF::new(f64::from(DT_S), None, None, None);
-                for w in warm.iter().take(1) {
-                    f.update(
-                        f64x3(w.gyro_rps),
-                        f64x3(w.accel_mps2),
-                        Some(f64x3(w.mag_ut)),
-                    );
+    /// `imu-fusion` 0.2 (x-io Fusion port, f32): the AHRS core only.
+    fn peer_imu_fusion_cases(s: &[SiSample; PEER_CALLS], warm: &[SiSample; WARM_CALLS]) {
+        use imu_fusion::{FusionAhrs, FusionAhrsSettings, FusionConvention, FusionVector};
+        const DEG_PER_RAD: f32 = 57.295_78;
+        let gyr = |s: &SiSample| {
+            let [x, y, z] = s.gyro_rps;
+            FusionVector::new(x * DEG_PER_RAD, y * DEG_PER_RAD, z * DEG_PER_RAD)
+        };
+        let acc = |s: &SiSample| {
+            let [x, y, z] = s.accel_mps2.map(|a| a / bench::G_MPS2);
+            FusionVector::new(x, y, z)
+        };
+        let mag = |s: &SiSample| {
+            let [x, y, z] = s.mag_ut;
+            FusionVector::new(x, y, z)
+        };
+        // NED convention (our body frame is FRD), rejection active as in
+        // x-io's examples (10°, recovery after 5 s); warmed up past its
+        // fixed 3 s initialisation (the board is still and the filter
+        // starts aligned, so large steps are harmless here).
+        let settings = || FusionAhrsSettings {
+            convention: FusionConvention::NED,
+            gain: 0.5,
+            gyr_range: 2000.0,
+            acc_rejection: 10.0,
+            mag_rejection: 10.0,
+            recovery_trigger_period: 5000,
+        };
+        let warmed = |mag_too: bool| {
+            let mut f = FusionAhrs::new();
+            f.update_settings(settings());
+            for w in warm {
+                if mag_too {
+                    f.update(gyr(w), acc(w), mag(w), 0.9);
+                } else {
+                    f.update_no_mag(gyr(w), acc(w), 0.9);
                 }
-                f
-            };
-            let (mut f, mut imu) = (warmed(), warmed());
-            let conv: [([f64; 3], [f64; 3], [f64; 3]); VQF_CALLS] = core::array::from_fn(|k| {
-                (
-                    f64x3(s[k].gyro_rps),
-                    f64x3(s[k].accel_mps2),
-                    f64x3(s[k].mag_ut),
-                )
-            });
-            case(
-                "peer vqf-rs 0.3 f64 MARG",
-                &mut f,
-                &conv,
-                |f, &(g, a, m)| {
-                    f.update(g, a, Some(m));
-                    f.quat_9d()
-                },
-            );
-            case(
-                "peer vqf-rs 0.3 f64 IMU",
-                &mut imu,
-                &conv,
-                |f, &(g, a, _)| {
-                    f.update(g, a, None);
-                    f.quat_6d()
-                },
-            );
+            }
+            f
+        };
+        let (mut f, mut imu) = (warmed(true), warmed(false));
+        if f.flags().initializing || imu.flags().initializing {
+            hprintln!("FAIL imu-fusion still initialising after the warm-up");
         }
+        // Unit conversions happen before the start marker.
+        let conv: [(FusionVector, FusionVector, FusionVector); PEER_CALLS] =
+            core::array::from_fn(|k| (gyr(&s[k]), acc(&s[k]), mag(&s[k])));
+        case(
+            "peer imu-fusion 0.2 f32 MARG",
+            &mut f,
+            &conv,
+            |f, &(g, a, m)| f.update(g, a, m, DT_S),
+        );
+        case(
+            "peer imu-fusion 0.2 f32 IMU",
+            &mut imu,
+            &conv,
+            |f, &(g, a, _)| f.update_no_mag(g, a, DT_S),
+        );
+    }
+
+    /// `vqf-rs` 0.3 (VQF, f64 internals), default parameters.
+    fn peer_vqf_cases(s: &[SiSample; PEER_CALLS], warm: &[SiSample; WARM_CALLS]) {
+        use vqf_rs::VQF;
+        let f64x3 = |v: [f32; 3]| v.map(f64::from);
+        let warmed = || {
+            let mut f = VQF::new(f64::from(DT_S), None, None, None);
+            for w in warm.iter().take(1) {
+                f.update(
+                    f64x3(w.gyro_rps),
+                    f64x3(w.accel_mps2),
+                    Some(f64x3(w.mag_ut)),
+                );
+            }
+            f
+        };
+        let (mut f, mut imu) = (warmed(), warmed());
+        let conv: [([f64; 3], [f64; 3], [f64; 3]); VQF_CALLS] = core::array::from_fn(|k| {
+            (
+                f64x3(s[k].gyro_rps),
+                f64x3(s[k].accel_mps2),
+                f64x3(s[k].mag_ut),
+            )
+        });
+        case(
+            "peer vqf-rs 0.3 f64 MARG",
+            &mut f,
+            &conv,
+            |f, &(g, a, m)| {
+                f.update(g, a, Some(m));
+                f.quat_9d()
+            },
+        );
+        case(
+            "peer vqf-rs 0.3 f64 IMU",
+            &mut imu,
+            &conv,
+            |f, &(g, a, _)| {
+                f.update(g, a, None);
+                f.quat_6d()
+            },
+        );
     }
 }
 

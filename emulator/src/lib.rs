@@ -1,8 +1,33 @@
 //! Firmware in the loop: runs the release firmware ELF (the exact file
 //! `cargo embed` flashes) on an emulated STM32F103 "Blue Pill".
 //!
-//! The CPU core is unicorn's Cortex-M3; the peripherals the firmware
-//! touches are register-level models written from RM0008; the sensor chips
-//! on I2C1 are the simulator's (`sim`).
+//! The CPU core is unicorn's Cortex-M3; the exception model (stacking,
+//! NVIC priorities, tail-chaining) and every peripheral the firmware
+//! touches are register-level models written from RM0008 and PM0056
+//! (`scs`, `exceptions`, `rcc`, `flash`, `gpio`, `exti`, `iwdg`, `i2c1`);
+//! the sensor chips on I2C1 are the simulator's (`sim`). The firmware's
+//! defmt-RTT output is read like a probe does and decoded from the ELF's
+//! own table (`rtt`). Any access to a register that is not modelled stops
+//! the board with an error.
+//!
+//! Not modelled: the PLL/HSI clock before the switch (the CPU counts at
+//! 72 MHz from reset), instruction timing (one instruction per cycle),
+//! the process stack, MPU/FPU (none on the M3 part used), DMA, timers,
+//! USART, ADC, sleep modes beyond "idle until the next event".
 
+pub mod board;
+pub mod elf;
+pub mod exceptions;
+pub mod exti;
+pub mod flash;
+pub mod gpio;
 pub mod i2c1;
+pub mod iwdg;
+pub mod rcc;
+pub mod rtt;
+pub mod scs;
+
+pub use board::{Board, BoardConfig, BoardError, BoardEvent, BoardFault, EXTI9_5};
+pub use elf::{release_elf_path, Firmware};
+pub use rcc::ResetCause;
+pub use rtt::{LogLine, RttMode};

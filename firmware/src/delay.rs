@@ -1,13 +1,28 @@
-//! A busy-wait delay from the CPU clock, for boot-time chip resets and the
-//! hand-made I2C clock (never used in the 1 kHz task).
+//! The CPU clock as measured at boot, and a busy-wait delay from it, for
+//! boot-time chip resets and the hand-made I2C clock (never used in the
+//! 1 kHz task).
 
+use core::sync::atomic::{AtomicU32, Ordering};
 use embedded_hal::delay::DelayNs;
 
-/// CPU clock, Hz.
-pub const CPU_HZ: u32 = 72_000_000;
+/// CPU clock with the 8 MHz crystal (HSE × 9), Hz.
+pub const CPU_HZ_HSE: u32 = 72_000_000;
+/// CPU clock on the internal oscillator when the crystal does not start
+/// (HSI / 2 × 16; 64 MHz is the most the PLL makes from HSI), Hz.
+pub const CPU_HZ_HSI: u32 = 64_000_000;
 
-/// CPU cycles per microsecond.
-const CYCLES_PER_US: u32 = CPU_HZ / 1_000_000;
+/// The CPU clock in use, Hz (set once in `init`, before anything reads it).
+static CPU_HZ: AtomicU32 = AtomicU32::new(CPU_HZ_HSE);
+
+/// Records the CPU clock chosen at boot.
+pub fn set_cpu_hz(hz: u32) {
+    CPU_HZ.store(hz, Ordering::Relaxed);
+}
+
+/// The CPU clock in use, Hz (DWT CYCCNT counts at this rate).
+pub fn cpu_hz() -> u32 {
+    CPU_HZ.load(Ordering::Relaxed)
+}
 
 /// Busy-wait delay counting CPU cycles (`cortex_m::asm::delay`).
 ///
@@ -16,20 +31,27 @@ const CYCLES_PER_US: u32 = CPU_HZ / 1_000_000;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct AsmDelay;
 
+// Not inlined: the recovery sequences call these a dozen times each, and
+// every inlined copy repeats the clock division (flash is the scarce
+// resource; a call costs nothing next to the wait itself).
 impl DelayNs for AsmDelay {
+    #[inline(never)]
     fn delay_ns(&mut self, ns: u32) {
+        let per_us = cpu_hz() / 1_000_000;
         // ns / 1000 · 72 ≤ 3.1e8 and (ns % 1000) · 72 < 72 000: no overflow.
-        let cycles = (ns / 1_000) * CYCLES_PER_US + (ns % 1_000) * CYCLES_PER_US / 1_000;
+        let cycles = (ns / 1_000) * per_us + (ns % 1_000) * per_us / 1_000;
         cortex_m::asm::delay(cycles.max(1));
     }
 
+    #[inline(never)]
     fn delay_us(&mut self, us: u32) {
-        cortex_m::asm::delay(us.saturating_mul(CYCLES_PER_US).max(1));
+        cortex_m::asm::delay(us.saturating_mul(cpu_hz() / 1_000_000).max(1));
     }
 
+    #[inline(never)]
     fn delay_ms(&mut self, ms: u32) {
         for _ in 0..ms {
-            cortex_m::asm::delay(CPU_HZ / 1_000);
+            cortex_m::asm::delay(cpu_hz() / 1_000);
         }
     }
 }

@@ -1,23 +1,44 @@
 //! Flight-controller sensor app for the STM32F103C8 "Blue Pill": a thin RTIC
 //! 2 shell around the hardware-free logic in the `flight` crate.
 //!
-//! * Boot: 72 MHz from the 8 MHz HSE, DWT cycle counter, I2C1 on PB6/PB7 at
-//!   400 kHz, probe of the MPU-9250, AK8963 and MS5611 with bounded retries
-//!   (`flight::sensors::Sensors::boot`); a missing chip degrades the stack
-//!   (no barometer → no altitude, no magnetometer → IMU-only AHRS).
-//!   Calibration from the flash page at `0x0800_FC00` (defaults + reason if
-//!   blank or corrupt).
+//! * Boot (`init`, a list of named steps): the watchdog first (a hang in
+//!   boot resets), 72 MHz from the 8 MHz crystal or 64 MHz from HSI if it
+//!   does not start within 20 ms, DWT cycle counter, pins, I2C1 on PB6/PB7
+//!   at 400 kHz, a bus recovery before the first probe (a reset during a
+//!   transfer can leave a slave holding SDA), probe of the MPU-9250 (after
+//!   its 100 ms power-up), AK8963 and MS5611 with bounded retries; a
+//!   missing chip degrades the stack (no barometer → no altitude, no
+//!   magnetometer → IMU-only AHRS) and is re-probed later. Calibration from
+//!   the flash page at `0x0800_FC00` (defaults + reason if blank or
+//!   corrupt).
 //! * `imu` (EXTI9_5 on PB5, priority 3): per MPU-9250 data-ready (1 kHz):
-//!   burst read, `Pipeline::imu_step` with dt from DWT CYCCNT, magnetometer
-//!   every 10th sample, control step at 100 Hz, loop timing.
-//! * `baro` (priority 2): polls the MS5611 schedule at its deadlines (never
-//!   blocks), checks chip configuration every 50 ms (a chip that reset
-//!   itself is re-initialised), recovers a stuck bus (SCL clocked by hand,
-//!   I2C1 reset).
+//!   one burst read (a failure is counted and the sample skipped, never
+//!   retried), `flight::sample::SampleStep` inside the pipeline lock.
+//! * `service` (priority 2, every ≤ 10 ms): the MS5611 schedule, the
+//!   configuration checks every 50 ms, and one step of
+//!   `Sensors::maintain`: a bus recovery when I2C1 saw BUSY while idle or
+//!   every chip fails, one chip's re-initialisation, the MPU's 100 ms
+//!   post-reset check, or the re-probe of a missing chip (back-off 1 s
+//!   doubling to 32 s). A stuck bus is recovered within 11 ms of the first
+//!   refused transfer.
 //! * `log` (priority 1, 20 Hz): attitude, altitude, health, loop timing,
-//!   stack high-water mark over defmt-RTT; the PA0 button; calibration
-//!   progress and saving; the watchdog (IWDG 250 ms) is fed only while the
-//!   IMU loop makes progress.
+//!   stack high-water mark over defmt-RTT; the PA0 button and the
+//!   calibration session; saving a calibration; the watchdog is fed only
+//!   while the IMU loop makes progress (or the MPU is out of the loop).
+//!
+//! What the board does on a bad bus, and what the log says:
+//! * bus stuck at power-up: recovered before the first probe ("I2C
+//!   recovery at boot: ...").
+//! * bus stuck in flight: every transfer is refused at once (BUSY), the
+//!   samples are skipped, the service task recovers the bus and
+//!   re-initialises the chips ("I2C stuck: recovered ...", "re-init ...").
+//! * a chip missing at boot: the stack runs degraded ("probe ...: FAILED",
+//!   "capabilities: ...") and re-probes it ("... still missing, next probe
+//!   in N ms").
+//! * a chip that appears later: "... appeared", and the capabilities line
+//!   again; the AHRS switches to MARG / altitude comes on.
+//! * the IMU stops (INT line or the chip gone quiet while healthy): the
+//!   watchdog resets the board within 0.5–1 s (IWDG at LSI 60/30 kHz).
 //!
 //! Button PA0 (to GND, internal pull-up): held at reset → accelerometer
 //! six-position calibration; long press (≥ 1.5 s) → magnetometer
@@ -28,20 +49,22 @@
 //! logged). On a panic the handler turns the LED off, logs the location
 //! over defmt and traps into HardFault, which waits for the watchdog reset.
 //!
-//! Flash: 47,088 B of the 48 KiB budget (`cargo fw && cargo xtask size`,
-//! release profile at `opt-level = "z"`); static RAM 3.8 KiB. To fit, the
+//! Flash: 49,064 B of the 48 KiB budget (`cargo fw && cargo xtask size`,
+//! release profile at `opt-level = "z"`); static RAM 3.9 KiB. To fit, the
 //! I2C master is our own register-level driver (`bus.rs`) rather than the
 //! HAL's blocking one, and the magnetometer calibration on the board is the
-//! per-axis min/max by default (`ellipsoid-cal` feature: the full ellipsoid
-//! fit, ~10 KiB more, which no longer fits the budget).
+//! per-axis min/max (the `MagCal` type below: one line selects the full
+//! ellipsoid fit, ~6.4 KiB more, which does not fit the budget yet).
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
 
 mod bus;
+mod clocks;
 mod delay;
 mod stack;
 mod store;
+mod watchdog;
 
 use defmt_rtt as _;
 
@@ -87,61 +110,50 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
 #[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [USART1, USART2])]
 mod app {
     use crate::bus::{self, BusHandle};
-    use crate::delay::{AsmDelay, CPU_HZ};
+    use crate::clocks::{self, Source};
+    use crate::delay::{cpu_hz, AsmDelay};
     use crate::stack;
     use crate::store::FlashPage;
+    use crate::watchdog::Watchdog;
     use cortex_m::peripheral::DWT;
-    use flight::boot::{BiasStatus, StartupGyroBias};
-    use flight::calmode::{AccelCalMode, Button, Mode, RawLogRow, RAW_LOG_DIVIDER, RAW_LOG_HEADER};
-
-    /// Magnetometer calibration used on the board: per-axis min/max (f32)
-    /// by default; the full ellipsoid fit (f64 solver, ~10 KiB of flash)
-    /// with the `ellipsoid-cal` feature.
-    #[cfg(not(feature = "ellipsoid-cal"))]
-    type MagCal = flight::calmode::MagMinMaxMode;
-    #[cfg(feature = "ellipsoid-cal")]
-    type MagCal = flight::calmode::MagCalMode;
-
-    #[cfg(not(feature = "ellipsoid-cal"))]
-    fn new_mag_cal() -> Option<MagCal> {
-        MagCal::new(40.0, 300).ok()
-    }
-    #[cfg(feature = "ellipsoid-cal")]
-    fn new_mag_cal() -> Option<MagCal> {
-        MagCal::new(Default::default()).ok()
-    }
+    use flight::boot::{BiasStatus, Capabilities, StartupGyroBias};
+    use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
     use flight::health::{HealthCounters, SensorState};
-    use flight::pipeline::{ImuInput, Pipeline, PipelineConfig, G_MPS2};
+    use flight::pipeline::{Pipeline, PipelineConfig};
+    use flight::sample::{SampleIn, SampleStep};
     use flight::schedule::{
         DtClock, LoopStats, MicrosClock, Periodic, SampleScheduler, WatchdogGate, IMU_RATE_HZ,
         MAG_DIVIDER,
     };
-    use flight::sensors::{MagRead, Sensors, SensorsConfig};
-    use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError, ValidParts};
+    use flight::sensors::{Maintenance, Sensors, SensorsConfig};
+    use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
     use rtic_monotonics::fugit::ExtU32;
+    use rtic_monotonics::rtic_time::monotonic::TimerQueueBasedInstant;
     use rtic_monotonics::systick::prelude::*;
     use stm32f1xx_hal::{
         flash,
         gpio::{Edge, ExtiPin, Input, Output, PinState, PullUp, PushPull, PA0, PB5, PC13},
         pac,
         prelude::*,
-        rcc,
-        watchdog::IndependentWatchdog,
     };
+
+    /// Magnetometer calibration used on the board: per-axis min/max.
+    /// `flight::calmode::MagCalMode` (the ellipsoid fit with integer
+    /// moments and an f32 solve) is the full alternative: swap this one
+    /// line (6.4 KiB more flash: 55,056 B, over the 48 KiB budget).
+    type MagCal = flight::calmode::MagMinMaxMode;
 
     systick_monotonic!(Mono, 1_000);
 
-    /// Calibration sessions in progress (fed by `imu`, finished by `log`).
-    pub struct CalState {
-        mag: Option<MagCal>,
-        accel: Option<AccelCalMode>,
-    }
-
-    /// Things `imu` reports to `log`.
-    #[derive(Default)]
-    pub struct Status {
-        bias: Option<BiasStatus>,
-    }
+    /// Shortest watchdog timeout while booting (probing with retries and
+    /// the MPU's power-up waits take ≤ 1.1 s), at the LSI's fastest 60 kHz.
+    const IWDG_BOOT_MIN_MS: u32 = 2_000;
+    /// Shortest watchdog timeout at run time, at the LSI's fastest 60 kHz
+    /// (at its slowest, 30 kHz, twice as long). Covers the 50 ms feed
+    /// period plus the longest block of the log task: one maintenance step
+    /// at priority 2 (≤ 200 ms if the MPU never leaves reset) and a flash
+    /// save (≤ 40 ms).
+    const IWDG_RUN_MIN_MS: u32 = 500;
 
     #[shared]
     struct Shared {
@@ -149,9 +161,8 @@ mod app {
         pipeline: Option<Pipeline>,
         clock: MicrosClock,
         stats: LoopStats,
-        mode: Mode,
-        cal: CalState,
-        status: Status,
+        session: CalSession<MagCal>,
+        bias: BiasStatus,
     }
 
     #[local]
@@ -159,12 +170,11 @@ mod app {
         led: PC13<Output<PushPull>>,
         mpu_int: PB5<Input<PullUp>>,
         button_pin: PA0<Input<PullUp>>,
-        iwdg: IndependentWatchdog,
+        iwdg: Watchdog,
         flash: flash::Parts,
         record: CalibrationRecord,
-        bias: Option<StartupGyroBias>,
-        accel_g_per_lsb: f32,
-        imu_present: bool,
+        step: SampleStep,
+        dt: DtClock,
     }
 
     #[init]
@@ -172,29 +182,17 @@ mod app {
         stack::paint();
         let mut core = cx.core;
         let dp: pac::Peripherals = cx.device;
+        let mut iwdg = Watchdog::start(dp.IWDG, IWDG_BOOT_MIN_MS);
         let mut flash = dp.FLASH.constrain();
-        // 8 MHz HSE -> PLL x9 -> 72 MHz SYSCLK; APB1 (I2C1) at its 36 MHz maximum.
-        // The register values are written out (what `rcc::Config::hse(8 MHz)
-        // .sysclk(72 MHz).pclk1(36 MHz)` computes) so the clock-tree search
-        // code is not linked.
-        let clocks = rcc::RawConfig {
-            hse: Some(8_000_000),
-            hse_bypass: false,
-            pllmul: Some(9 - 2),
-            hpre: rcc::HPre::Div1,
-            ppre1: rcc::PPre::Div2,
-            ppre2: rcc::PPre::Div1,
-            usbpre: rcc::UsbPre::Div1_5,
-            adcpre: rcc::AdcPre::Div6,
-            allow_overclock: false,
-        };
-        let mut rcc = dp.RCC.constrain().freeze(clocks, &mut flash.acr);
-        // DWT CYCCNT: AHRS dt, loop timing, and the HAL's I2C timeouts.
+        let (mut rcc, source) = clocks::start(dp.RCC, &mut flash.acr);
         core.DCB.enable_trace();
         core.DWT.enable_cycle_counter();
+        // One constant per branch: SysTick's divisibility check folds away.
+        match source {
+            Source::Hse => Mono::start(core.SYST, crate::delay::CPU_HZ_HSE),
+            Source::HsiFallback => Mono::start(core.SYST, crate::delay::CPU_HZ_HSI),
+        }
         let mut afio = dp.AFIO.constrain(&mut rcc);
-        Mono::start(core.SYST, rcc.clocks.sysclk().to_Hz());
-
         let mut gpioa = dp.GPIOA.split(&mut rcc);
         let mut gpiob = dp.GPIOB.split(&mut rcc);
         let mut gpioc = dp.GPIOC.split(&mut rcc);
@@ -203,16 +201,81 @@ mod app {
             .pc13
             .into_push_pull_output_with_state(&mut gpioc.crh, PinState::High);
         let button_pin = gpioa.pa0.into_pull_up_input(&mut gpioa.crl);
+        log_boot(source);
 
-        // I2C1 on PB6 (SCL) / PB7 (SDA), 400 kHz fast mode, driven by
-        // `bus`'s register-level master: every wait is bounded by a DWT
-        // timeout, so a stuck bus returns an error instead of hanging.
         bus::init(&rcc);
+        recover_bus_at_boot();
+        let sensors = probe_sensors();
+        let record = load_calibration(&mut flash);
+        let pipeline = build_pipeline(&sensors, &sensors.capabilities(), &record);
+        let bias = start_gyro_bias(&sensors);
+        let session = start_session(&button_pin);
+
+        let mut exti = dp.EXTI;
+        let mut mpu_int = gpiob.pb5.into_pull_up_input(&mut gpiob.crl);
+        mpu_int.make_interrupt_source(&mut afio);
+        mpu_int.trigger_on_edge(&mut exti, Edge::Rising);
+        mpu_int.enable_interrupt(&mut exti);
+
+        iwdg.set_timeout(IWDG_RUN_MIN_MS);
+        service::spawn().ok();
+        log::spawn().ok();
+        let now = DWT::cycle_count();
+        (
+            Shared {
+                sensors,
+                pipeline,
+                // Counted from when CYCCNT started, a few ms after reset.
+                clock: MicrosClock::new(cpu_hz(), 0),
+                stats: LoopStats::new(now),
+                session,
+                bias: BiasStatus::GaveUp,
+            },
+            Local {
+                led,
+                mpu_int,
+                button_pin,
+                iwdg,
+                flash,
+                record,
+                step: SampleStep::new(bias),
+                dt: DtClock::new(cpu_hz(), IMU_RATE_HZ),
+            },
+        )
+    }
+
+    /// Boot step: the boot line, with the clock source.
+    fn log_boot(source: Source) {
+        if source == Source::HsiFallback {
+            defmt::warn!(
+                "boot: 8 MHz crystal did not start within 20 ms; running on HSI at 64 MHz"
+            );
+        }
         defmt::info!(
-            "boot: 72 MHz, I2C1 400 kHz on PB6/PB7, MPU INT on PB5, AHRS: {=str}",
+            "boot: {=u32} MHz ({}), I2C1 400 kHz on PB6/PB7, MPU INT on PB5, AHRS: {=str}; a stuck I2C bus is recovered (SCL clocked, STOP, BUSY unlocked), a missing chip is re-probed every 1-32 s, a chip that returns is re-initialised and used",
+            cpu_hz() / 1_000_000,
+            source,
             flight::pipeline::AHRS_KIND
         );
+    }
 
+    /// Boot step: free the bus unconditionally (a reset in the middle of a
+    /// transfer leaves a slave driving SDA about as often as not).
+    fn recover_bus_at_boot() {
+        match bus::recover() {
+            Ok(r) if r.clocks > 0 => {
+                defmt::warn!(
+                    "I2C recovery at boot: SDA released after {=u8} SCL clock(s)",
+                    r.clocks
+                )
+            }
+            Ok(_) => {}
+            Err(e) => defmt::error!("I2C recovery at boot failed: {}", e),
+        }
+    }
+
+    /// Boot step: probe and configure the three chips.
+    fn probe_sensors() -> Sensors<BusHandle> {
         let (sensors, report) = Sensors::boot(
             BusHandle,
             BusHandle,
@@ -224,288 +287,186 @@ mod app {
             match r.status {
                 Ok(()) => defmt::info!("probe {}: ok ({=u8} attempt(s))", r.chip, r.attempts),
                 Err(f) => defmt::error!(
-                    "probe {}: FAILED after {=u8} attempt(s): {}",
+                    "probe {}: FAILED after {=u8} attempt(s): {}; re-probed in the background",
                     r.chip,
                     r.attempts,
                     f
                 ),
             }
         }
-        let caps = report.capabilities();
+        log_capabilities(&sensors.capabilities());
+        sensors
+    }
+
+    fn log_capabilities(caps: &Capabilities) {
         defmt::info!(
             "capabilities: AHRS {} (ImuOnly: heading drifts), altitude {=bool}",
             caps.ahrs,
             caps.altitude
         );
+    }
 
-        let record = {
-            let mut page = FlashPage::new(&mut flash);
-            match storage::load(&mut page) {
-                LoadOutcome::Loaded(r) => {
-                    defmt::info!("calibration loaded from flash (parts {=u16:#x})", r.valid.0);
-                    r
-                }
-                LoadOutcome::Defaults(r, LoadError::Decode(reason)) => {
-                    defmt::warn!("calibration: using defaults ({})", reason);
-                    r
-                }
-                LoadOutcome::Defaults(r, LoadError::Storage(_)) => {
-                    defmt::warn!("calibration: using defaults (flash read error)");
-                    r
-                }
+    /// Boot step: the calibration record from flash (defaults and the
+    /// reason if blank or corrupt).
+    fn load_calibration(flash: &mut flash::Parts) -> CalibrationRecord {
+        match storage::load(&mut FlashPage::new(flash)) {
+            LoadOutcome::Loaded(r) => {
+                defmt::info!("calibration loaded from flash (parts {=u16:#x})", r.valid.0);
+                r
             }
-        };
+            LoadOutcome::Defaults(r, LoadError::Decode(reason)) => {
+                defmt::warn!("calibration: using defaults ({})", reason);
+                r
+            }
+            LoadOutcome::Defaults(r, LoadError::Storage(_)) => {
+                defmt::warn!("calibration: using defaults (flash read error)");
+                r
+            }
+        }
+    }
 
+    /// Boot step: the processing pipeline for the chips found.
+    fn build_pipeline(
+        sensors: &Sensors<BusHandle>,
+        caps: &Capabilities,
+        record: &CalibrationRecord,
+    ) -> Option<Pipeline> {
         let scale = sensors.mpu_scale();
-        let mag_scale = if report.mag.present() {
-            sensors.mag_ut_per_lsb()
-        } else {
-            [0.15; 3]
-        };
         let cfg = PipelineConfig {
-            cpu_hz: CPU_HZ,
+            cpu_hz: cpu_hz(),
             gyro_dps_per_lsb: scale.dps_per_lsb,
             accel_g_per_lsb: scale.g_per_lsb,
-            mag_ut_per_lsb: mag_scale,
+            mag_ut_per_lsb: sensors.mag_ut_per_lsb(),
             ahrs_mode: caps.ahrs,
             altitude: caps.altitude,
             ..PipelineConfig::new()
         };
-        let pipeline = match Pipeline::new(cfg, &record) {
-            Ok(p) => Some(p),
-            Err(_) => {
-                defmt::error!("pipeline: invalid configuration; no processing");
-                None
-            }
-        };
-        // Start-up gyro bias: 1 s still, up to 5 windows (measured in `imu`,
-        // one sample at a time, never blocking).
-        let bias = StartupGyroBias::new(
+        let p = Pipeline::new(cfg, record).ok();
+        if p.is_none() {
+            defmt::error!("pipeline: invalid configuration; no processing");
+        }
+        p
+    }
+
+    /// Boot step: the start-up gyro bias (1 s still, up to 5 windows,
+    /// measured one sample at a time in `imu`).
+    fn start_gyro_bias(sensors: &Sensors<BusHandle>) -> Option<StartupGyroBias> {
+        let scale = sensors.mpu_scale();
+        StartupGyroBias::new(
             IMU_RATE_HZ,
             1.0 / scale.dps_per_lsb,
             1.0 / scale.g_per_lsb,
             5,
         )
-        .ok();
-
-        let mut exti = dp.EXTI;
-        let mut mpu_int = gpiob.pb5.into_pull_up_input(&mut gpiob.crl);
-        mpu_int.make_interrupt_source(&mut afio);
-        mpu_int.trigger_on_edge(&mut exti, Edge::Rising);
-        mpu_int.enable_interrupt(&mut exti);
-
-        // Button held at reset: accelerometer calibration.
-        // Let the internal pull-up charge the line (~100 µs) before sampling.
-        cortex_m::asm::delay(7_200);
-        let mode = Mode::at_boot(button_pin.is_low());
-        let mut cal = CalState {
-            mag: None,
-            accel: None,
-        };
-        if mode == Mode::AccelCal {
-            cal.accel = AccelCalMode::new(Default::default()).ok();
-            defmt::info!("button held at boot: accelerometer six-position calibration");
-        }
-
-        let mut iwdg = IndependentWatchdog::new(dp.IWDG);
-        iwdg.start(stm32f1xx_hal::time::MilliSeconds::from_ticks(250));
-
-        let now = DWT::cycle_count();
-        baro::spawn().ok();
-        log::spawn().ok();
-        (
-            Shared {
-                sensors,
-                pipeline,
-                clock: MicrosClock::new(CPU_HZ, now),
-                stats: LoopStats::new(now),
-                mode,
-                cal,
-                status: Status::default(),
-            },
-            Local {
-                led,
-                mpu_int,
-                button_pin,
-                iwdg,
-                flash,
-                record,
-                bias,
-                accel_g_per_lsb: scale.g_per_lsb,
-                imu_present: report.mpu.present(),
-            },
-        )
+        .ok()
     }
 
-    /// MPU-9250 data-ready (1 kHz): the whole per-sample path.
+    /// Boot step: the button held at reset starts the accelerometer
+    /// calibration.
+    fn start_session(button: &PA0<Input<PullUp>>) -> CalSession<MagCal> {
+        // Let the internal pull-up charge the line (~100 µs) before sampling.
+        cortex_m::asm::delay(cpu_hz() / 10_000);
+        let session = CalSession::new(button.is_low());
+        if session.mode() == flight::calmode::Mode::AccelCal {
+            defmt::info!("button held at boot: accelerometer six-position calibration");
+        }
+        session
+    }
+
+    /// MPU-9250 data-ready (1 kHz): read, process, hand on.
     #[task(binds = EXTI9_5, priority = 3,
-           local = [mpu_int, bias, accel_g_per_lsb,
-                    sched: SampleScheduler = SampleScheduler::new(MAG_DIVIDER),
-                    dt: DtClock = DtClock::new(CPU_HZ, IMU_RATE_HZ),
-                    raw_div: u16 = 0],
-           shared = [sensors, pipeline, clock, stats, mode, cal, status])]
-    fn imu(cx: imu::Context) {
+           local = [mpu_int, step, dt, sched: SampleScheduler = SampleScheduler::new(MAG_DIVIDER)],
+           shared = [sensors, pipeline, clock, stats, session, bias])]
+    fn imu(mut cx: imu::Context) {
         let t0 = DWT::cycle_count();
         cx.local.mpu_int.clear_interrupt_pending_bit();
-        let imu::SharedResources {
-            mut sensors,
-            mut pipeline,
-            mut clock,
-            mut stats,
-            mut mode,
-            mut cal,
-            mut status,
-            ..
-        } = cx.shared;
-        let now_us = clock.lock(|c| c.now_us(t0));
+        let now_us = cx.shared.clock.lock(|c| c.now_us(t0));
         let tick = cx.local.sched.on_imu_sample();
         let dt_cycles = cx.local.dt.step_cycles(t0);
-        let (raw, mag) = sensors.lock(|s| {
-            let raw = s.read_imu();
-            let mag = if tick.read_mag {
-                s.read_mag()
-            } else {
-                MagRead::NotReady
-            };
-            (raw, mag)
-        });
-        let mode = mode.lock(|m| *m);
+        let (raw, mag) = cx.shared.sensors.lock(|s| s.read_sample(tick.read_mag));
         if let Some(raw) = raw {
-            // Start-up gyro bias (non-blocking, one sample at a time).
-            let b = cx
-                .local
-                .bias
-                .as_mut()
-                .map_or(BiasStatus::GaveUp, |e| e.push(raw.gyro, raw.accel));
-            if let BiasStatus::Done(bias) = b {
-                let first = status.lock(|s| {
-                    let first = !matches!(s.bias, Some(BiasStatus::Done(_)));
-                    s.bias = Some(b);
-                    first
-                });
-                if first {
-                    pipeline.lock(|p| {
-                        if let Some(p) = p {
-                            p.set_gyro_bias_counts(bias);
-                        }
-                    });
-                }
-            } else {
-                status.lock(|s| s.bias = Some(b));
-            }
-
-            let input = ImuInput {
-                accel: raw.accel,
-                gyro: raw.gyro,
+            let input = SampleIn {
+                raw,
+                mag,
+                read_mag: tick.read_mag,
                 dt_cycles,
+                now_us,
             };
-            let g_per_lsb = *cx.local.accel_g_per_lsb;
-            let row = pipeline.lock(|p| {
-                let p = p.as_mut()?;
-                if let MagRead::Sample(m) = mag {
-                    p.mag_step(m.counts);
-                    if mode == Mode::MagCal {
-                        let ut = p.mag_counts_to_mpu_raw_ut(m.counts);
-                        cal.lock(|c| c.mag.as_mut().map(|f| f.push(ut)));
+            let wants = cx.shared.session.lock(|c| c.wants());
+            let step = cx.local.step;
+            let out = cx
+                .shared
+                .pipeline
+                .lock(|p| p.as_mut().map(|p| step.run(p, &input, wants)));
+            if let Some(out) = out {
+                cx.shared.session.lock(|c| {
+                    if let Some(m) = out.mag_ut {
+                        c.push_mag(m);
                     }
-                }
-                if p.imu_step(&input) {
-                    p.control_step();
-                }
-                if tick.read_mag && mode == Mode::AccelCal {
-                    let a = raw.accel.map(|c| f32::from(c) * g_per_lsb);
-                    cal.lock(|c| c.accel.as_mut().map(|f| f.push(a)));
-                }
-                if mode != Mode::RawLog {
-                    return None;
-                }
-                *cx.local.raw_div += 1;
-                if *cx.local.raw_div < RAW_LOG_DIVIDER {
-                    return None;
-                }
-                *cx.local.raw_div = 0;
-                // Calibrated values, MPU frame.
-                let bias = p.gyro_bias_counts();
-                let k_g = p.config().gyro_dps_per_lsb * (core::f32::consts::PI / 180.0);
-                let acc = p.calibrate_accel_counts(raw.accel);
-                let mag_ut = match mag {
-                    MagRead::Sample(m) => p.mag_counts_to_mpu_ut(m.counts),
-                    _ => [f32::NAN; 3],
-                };
-                let mut gyr_rps = [0.0; 3];
-                for ((o, &g), &b) in gyr_rps.iter_mut().zip(&raw.gyro).zip(&bias) {
-                    *o = i32::from(g).saturating_sub(b) as f32 * k_g;
-                }
-                Some(RawLogRow {
-                    t_s: now_us as f32 * 1e-6,
-                    gyr_rps,
-                    acc_mps2: acc.map(|c| c as f32 * g_per_lsb * G_MPS2),
-                    mag_ut,
-                })
-            });
-            if let Some(row) = row {
+                    if let Some(a) = out.accel_g {
+                        c.push_accel(a);
+                    }
+                });
+                cx.shared.bias.lock(|b| *b = out.bias);
                 // A row is dropped if the previous one is still being sent.
-                raw_log::spawn(row).ok();
+                if let Some(r) = out.row {
+                    raw_log::spawn(r).ok();
+                }
             }
         }
         let t1 = DWT::cycle_count();
-        stats.lock(|s| s.record(t1.wrapping_sub(t0)));
+        cx.shared.stats.lock(|s| s.record(t1.wrapping_sub(t0)));
     }
 
-    /// One raw-log row (CSV order of `RAW_LOG_HEADER`).
+    /// One raw-log row, positionally in `RawLogRow::columns` order (the
+    /// order of `RAW_LOG_HEADER`).
     #[task(priority = 1)]
     async fn raw_log(_cx: raw_log::Context, r: RawLogRow) {
+        let c = r.columns();
         defmt::println!(
             "{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},nan,nan,nan,nan,0",
-            r.t_s, r.gyr_rps[0], r.gyr_rps[1], r.gyr_rps[2], r.acc_mps2[0], r.acc_mps2[1], r.acc_mps2[2],
-            r.mag_ut[0], r.mag_ut[1], r.mag_ut[2]
+            c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9]
         );
     }
 
-    /// Barometer schedule, configuration checks, re-initialisation and
-    /// stuck-bus recovery.
+    /// Barometer schedule, configuration checks and one maintenance step
+    /// per round (bus recovery, re-initialisation, re-probing).
     #[task(priority = 2, shared = [sensors, pipeline, clock])]
-    async fn baro(cx: baro::Context) {
-        let baro::SharedResources {
-            mut sensors,
-            mut pipeline,
-            mut clock,
-            ..
-        } = cx.shared;
-        let mut check = Periodic::new(clock.lock(|c| c.now_us(DWT::cycle_count())), 50_000);
+    async fn service(mut cx: service::Context) {
+        let mut check = Periodic::new(
+            cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count())),
+            50_000,
+        );
         loop {
-            let now_us = clock.lock(|c| c.now_us(DWT::cycle_count()));
-            let (m, deadline) = sensors.lock(|s| (s.poll_baro(now_us), s.baro_deadline_us()));
+            let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
+            let (m, deadline) = cx
+                .shared
+                .sensors
+                .lock(|s| (s.poll_baro(now_us), s.baro_deadline_us()));
             if let Some(m) = m {
-                pipeline.lock(|p| p.as_mut().map(|p| p.baro_step(m.pressure_pa)));
+                cx.shared
+                    .pipeline
+                    .lock(|p| p.as_mut().map(|p| p.baro_step(m.pressure_pa)));
             }
-            if check.poll(now_us) {
-                let (mismatch, due, stuck) =
-                    sensors.lock(|s| (s.check_configs(), s.service_due(), s.needs_bus_recovery()));
-                if mismatch {
-                    defmt::warn!(
-                        "configuration read-back mismatch: a chip reset itself; re-initialising"
-                    );
-                }
-                if stuck {
-                    let r = sensors.lock(|s| {
-                        let r = bus::recover();
-                        s.after_bus_recovery();
-                        r
-                    });
-                    match r {
-                        Ok(rep) => defmt::warn!(
-                            "I2C stuck: recovered after {=u8} SCL clock(s), I2C1 reset",
-                            rep.clocks
-                        ),
-                        Err(e) => defmt::error!("I2C stuck: recovery failed: {}", e),
-                    }
-                }
-                if due || stuck {
-                    let rep = sensors.lock(|s| s.service(&mut AsmDelay));
-                    defmt::info!("re-init (MPU, AK8963, MS5611): {}", rep.reinit);
-                }
+            if check.poll(now_us) && cx.shared.sensors.lock(|s| s.check_configs()) {
+                defmt::warn!(
+                    "configuration read-back mismatch: a chip reset itself; re-initialising"
+                );
             }
+            let now_ms = Mono::now().ticks();
+            let step = cx.shared.sensors.lock(|s| {
+                if bus::take_busy_seen() > 0 || bus::busy_while_idle() {
+                    s.request_bus_recovery();
+                }
+                s.maintain(now_ms, &mut AsmDelay)
+            });
+            on_maintenance(
+                step,
+                now_ms,
+                &mut cx.shared.sensors,
+                &mut cx.shared.pipeline,
+            );
+            // ≤ 10 ms between rounds: the bound on how late a recovery starts.
             let wait_us = match deadline {
                 Some(d) => (d.wrapping_sub(now_us) as i32).clamp(1_000, 10_000) as u32,
                 None => 10_000,
@@ -514,202 +475,230 @@ mod app {
         }
     }
 
+    /// Carries out and logs what a maintenance step asked for or did.
+    fn on_maintenance(
+        step: Maintenance,
+        now_ms: u32,
+        sensors: &mut impl rtic::Mutex<T = Sensors<BusHandle>>,
+        pipeline: &mut impl rtic::Mutex<T = Option<Pipeline>>,
+    ) {
+        match step {
+            Maintenance::Idle => {}
+            Maintenance::RecoverBus => {
+                let (r, n) = sensors.lock(|s| {
+                    let r = bus::recover();
+                    match r {
+                        Ok(_) => s.after_bus_recovery(),
+                        Err(_) => s.bus_recovery_failed(now_ms),
+                    }
+                    (r, s.bus_recoveries())
+                });
+                match r {
+                    Ok(rep) => defmt::warn!(
+                        "I2C stuck: recovered after {=u8} SCL clock(s), BUSY unlocked, I2C1 reset (recovery {=u32})",
+                        rep.clocks,
+                        n
+                    ),
+                    Err(e) => defmt::error!("I2C stuck: recovery failed: {} (recovery {=u32})", e, n),
+                }
+            }
+            Maintenance::Reinitialised { chip, ok } => {
+                defmt::info!("re-init {}: {=bool}", chip, ok)
+            }
+            Maintenance::Settled { ok } => {
+                defmt::info!(
+                    "MPU-9250 post-reset check (WHO_AM_I, PWR_MGMT_1, config): {=bool}",
+                    ok
+                )
+            }
+            Maintenance::StillMissing { chip, retry_in_ms } => {
+                defmt::info!(
+                    "{} still missing, next probe in {=u32} ms",
+                    chip,
+                    retry_in_ms
+                )
+            }
+            Maintenance::Appeared(chip) => {
+                let (caps, mag_scale) = sensors.lock(|s| (s.capabilities(), s.mag_ut_per_lsb()));
+                pipeline.lock(|p| {
+                    if let Some(p) = p {
+                        p.set_mag_ut_per_lsb(mag_scale);
+                        p.set_capabilities(caps.ahrs, caps.altitude);
+                    }
+                });
+                defmt::warn!("{} appeared: initialised and in use", chip);
+                log_capabilities(&caps);
+            }
+        }
+    }
+
     fn log_health(name: &str, state: SensorState, c: &HealthCounters) {
         defmt::info!(
-            "{=str}: {} ok={=u32} err={=u32} retry={=u32} reinit={=u32} reset={=u32} ovf={=u32} notready={=u32}",
-            name, state, c.ok, c.errors, c.retries, c.reinits, c.resets_detected, c.overflows, c.not_ready
+            "{=str}: {} ok={=u32} err={=u32} reinit={=u32} reset={=u32} ovf={=u32} notready={=u32}",
+            name,
+            state,
+            c.ok,
+            c.errors,
+            c.reinits,
+            c.resets_detected,
+            c.overflows,
+            c.not_ready
         );
     }
 
-    /// 20 Hz: live log, button, calibration progress/saving, watchdog, LED.
-    #[task(priority = 1, local = [led, button_pin, iwdg, flash, record, imu_present],
-           shared = [sensors, pipeline, stats, mode, cal, status])]
-    async fn log(cx: log::Context) {
-        let log::LocalResources {
-            led,
-            button_pin,
-            iwdg,
-            flash,
-            record,
-            imu_present,
-            ..
-        } = cx.local;
-        let log::SharedResources {
-            mut sensors,
-            mut pipeline,
-            mut stats,
-            mut mode,
-            mut cal,
-            mut status,
-            ..
-        } = cx.shared;
-        let mut button = Button::new();
+    /// 20 Hz: watchdog, button and calibration session, live log, LED.
+    #[task(priority = 1, local = [led, button_pin, iwdg, flash, record],
+           shared = [sensors, pipeline, stats, session, bias])]
+    async fn log(mut cx: log::Context) {
         let mut gate = WatchdogGate::new();
         let mut tick: u32 = 0;
-        let mut last_reinits = 0u32;
         loop {
             tick = tick.wrapping_add(1);
-            // The loop period is 50 ms: enough resolution for the button.
-            let now_ms = tick.wrapping_mul(50);
-
-            // Watchdog: fed only while the IMU loop makes progress (or a
-            // re-initialisation is under way; or there is no IMU at all).
-            let (samples, reinits) = (
-                pipeline.lock(|p| p.as_ref().map_or(0, |p| p.outputs().imu_samples)),
-                sensors.lock(|s| s.mpu_health.counters().reinits),
-            );
-            let no_loop = !*imu_present || pipeline.lock(|p| p.is_none());
-            if gate.should_feed(samples) || no_loop || reinits != last_reinits {
-                iwdg.feed();
+            // Fed while the IMU loop makes progress, or while the MPU is out
+            // of the loop (missing, failed, being re-initialised): then the
+            // service task is what keeps the board alive.
+            let samples = cx
+                .shared
+                .pipeline
+                .lock(|p| p.as_ref().map_or(0, |p| p.outputs().imu_samples));
+            let mpu_ok = cx
+                .shared
+                .sensors
+                .lock(|s| s.mpu_health.state() == SensorState::Ok);
+            if gate.should_feed(samples) || !mpu_ok {
+                cx.local.iwdg.feed();
             }
-            last_reinits = reinits;
 
-            // Button → mode.
-            if let Some(press) = button.update(now_ms, button_pin.is_low()) {
-                let old = mode.lock(|m| *m);
-                let new = old.on_press(press);
-                cal.lock(|c| {
-                    c.mag = if new == Mode::MagCal {
-                        new_mag_cal()
-                    } else {
-                        None
-                    };
-                    c.accel = if new == Mode::AccelCal {
-                        AccelCalMode::new(Default::default()).ok()
-                    } else {
-                        None
-                    };
-                });
-                mode.lock(|m| *m = new);
-                defmt::info!("mode {} -> {}", old, new);
-                if new == Mode::RawLog {
+            // The loop period is 50 ms: enough resolution for the button.
+            let pressed = cx.local.button_pin.is_low();
+            let record = &mut *cx.local.record;
+            let (pressed_ev, polled_ev, mode) = cx.shared.session.lock(|c| {
+                (
+                    c.on_button(tick.wrapping_mul(50), pressed),
+                    c.poll(record),
+                    c.mode(),
+                )
+            });
+            for ev in [pressed_ev, polled_ev].into_iter().flatten() {
+                on_cal_event(ev, cx.local.flash, record, &mut cx.shared.pipeline);
+            }
+
+            if mode == flight::calmode::Mode::Normal {
+                log_status(
+                    tick,
+                    &mut cx.shared.sensors,
+                    &mut cx.shared.pipeline,
+                    &mut cx.shared.stats,
+                    &mut cx.shared.bias,
+                );
+            }
+            // Heartbeat: 1 Hz normally, 5 Hz while calibrating.
+            let calibrating = matches!(
+                mode,
+                flight::calmode::Mode::MagCal | flight::calmode::Mode::AccelCal
+            );
+            if tick.is_multiple_of(if calibrating { 2 } else { 10 }) {
+                cx.local.led.toggle();
+            }
+            Mono::delay(ExtU32::millis(50)).await;
+        }
+    }
+
+    /// Logs a calibration event; a finished calibration is saved to flash
+    /// (erase and program stall the CPU ~20–40 ms; samples are missed) and
+    /// applied.
+    fn on_cal_event(
+        ev: CalEvent,
+        flash: &mut flash::Parts,
+        record: &CalibrationRecord,
+        pipeline: &mut impl rtic::Mutex<T = Option<Pipeline>>,
+    ) {
+        match ev {
+            CalEvent::ModeChanged { from, to } => {
+                defmt::info!("mode {} -> {}", from, to);
+                if to == flight::calmode::Mode::RawLog {
                     defmt::println!("{=str}", RAW_LOG_HEADER);
                 }
             }
+            CalEvent::MagProgress(p) => defmt::info!(
+                "mag cal: {=u8}% ({=u8}/{=u8} directions, {=u32} samples): keep turning",
+                p.percent,
+                p.bins_hit,
+                p.bins_needed,
+                p.samples
+            ),
+            CalEvent::AccelProgress(p) => {
+                defmt::info!("accel cal: {=u8}/6 positions, next {}", p.captured, p.next)
+            }
+            CalEvent::MagRefused => defmt::warn!("mag cal: fit refused, keep turning"),
+            CalEvent::AccelRestarted => defmt::warn!("accel cal: implausible result, restarting"),
+            CalEvent::MagDone { offset_ut } => {
+                defmt::info!("mag cal done: offset {} µT", offset_ut);
+                save_calibration(flash, record, pipeline);
+            }
+            CalEvent::AccelDone { offset_g, scale } => {
+                defmt::info!("accel cal done: offset {} g, scale {}", offset_g, scale);
+                save_calibration(flash, record, pipeline);
+            }
+        }
+    }
 
-            let m = mode.lock(|m| *m);
-            let mut save = false;
-            match m {
-                Mode::MagCal => {
-                    let snap = cal.lock(|c| c.mag.clone());
-                    if let Some(f) = snap {
-                        let p = f.progress();
-                        if tick.is_multiple_of(10) {
-                            defmt::info!("mag cal: {=u8}% ({=u8}/{=u8} directions, {=u32} samples): keep turning", p.percent, p.bins_hit, p.bins_needed, p.samples);
-                        }
-                        if f.ready() {
-                            match f.finish() {
-                                Ok(c) => {
-                                    record.mag_offset_ut = c.offset;
-                                    record.mag_soft_iron = c.soft_iron;
-                                    record.valid.0 |= ValidParts::MAG;
-                                    defmt::info!("mag cal done: offset {} µT", c.offset);
-                                    save = true;
-                                }
-                                Err(_) => defmt::warn!("mag cal: fit refused, keep turning"),
-                            }
-                        }
-                    }
-                }
-                Mode::AccelCal => {
-                    let snap = cal.lock(|c| c.accel.clone());
-                    if let Some(f) = snap {
-                        if tick.is_multiple_of(20) {
-                            let p = f.progress();
-                            defmt::info!(
-                                "accel cal: {=u8}/6 positions, next {}",
-                                p.captured,
-                                p.next
-                            );
-                        }
-                        if f.ready() {
-                            match f.finish() {
-                                Ok(c) => {
-                                    record.accel_offset_g = c.offset;
-                                    record.accel_scale = c.scale;
-                                    record.valid.0 |= ValidParts::ACCEL;
-                                    defmt::info!(
-                                        "accel cal done: offset {} g, scale {}",
-                                        c.offset,
-                                        c.scale
-                                    );
-                                    save = true;
-                                }
-                                Err(_) => {
-                                    defmt::warn!("accel cal: implausible result, restarting");
-                                    cal.lock(|c| {
-                                        c.accel = AccelCalMode::new(Default::default()).ok()
-                                    });
-                                }
-                            }
-                        }
-                    }
-                }
-                Mode::Normal | Mode::RawLog => {}
-            }
-            if save {
-                // Flash erase/program stalls the CPU for ~20–40 ms (samples
-                // are missed; only done after a calibration).
-                let mut page = FlashPage::new(flash);
-                match storage::save(&mut page, record) {
-                    Ok(()) => defmt::info!("calibration saved to flash"),
-                    Err(SaveError::Invalid(f)) => {
-                        defmt::error!("calibration not saved: implausible {}", f)
-                    }
-                    Err(SaveError::VerifyFailed) => {
-                        defmt::error!("calibration save: read-back mismatch")
-                    }
-                    Err(SaveError::Storage(_)) => defmt::error!("calibration save: flash error"),
-                }
-                pipeline.lock(|p| p.as_mut().map(|p| p.set_calibration(record)));
-                cal.lock(|c| {
-                    c.mag = None;
-                    c.accel = None;
-                });
-                mode.lock(|m| *m = Mode::Normal);
-            }
+    fn save_calibration(
+        flash: &mut flash::Parts,
+        record: &CalibrationRecord,
+        pipeline: &mut impl rtic::Mutex<T = Option<Pipeline>>,
+    ) {
+        match storage::save(&mut FlashPage::new(flash), record) {
+            Ok(()) => defmt::info!("calibration saved to flash"),
+            Err(SaveError::Invalid(f)) => defmt::error!("calibration not saved: implausible {}", f),
+            Err(SaveError::VerifyFailed) => defmt::error!("calibration save: read-back mismatch"),
+            Err(SaveError::Storage(_)) => defmt::error!("calibration save: flash error"),
+        }
+        pipeline.lock(|p| p.as_mut().map(|p| p.set_calibration(record)));
+    }
 
-            if m == Mode::Normal {
-                if let Some(o) = pipeline.lock(|p| p.as_ref().map(|p| p.outputs())) {
-                    defmt::info!(
-                        "att r={=f32} p={=f32} y={=f32} deg | alt={=f32} m vz={=f32} m/s | thr={=f32} tq={}",
-                        o.roll_deg, o.pitch_deg, o.yaw_deg, o.altitude_m, o.vertical_speed_mps, o.throttle, o.torque
-                    );
-                }
-                if tick.is_multiple_of(20) {
-                    let r = stats.lock(|s| s.report(DWT::cycle_count()));
-                    defmt::info!(
-                        "loop: {=u32} runs, imu task mean {=u32} cyc worst {=u32} cyc, cpu {=u32}.{=u32}%",
-                        r.runs, r.mean_cycles, r.worst_cycles, r.load_permille / 10, r.load_permille % 10
-                    );
-                    let (a, b, c) = sensors.lock(|s| {
-                        (
-                            (s.mpu_health.state(), *s.mpu_health.counters()),
-                            (s.mag_health.state(), *s.mag_health.counters()),
-                            (s.baro_health.state(), *s.baro_health.counters()),
-                        )
-                    });
-                    log_health("mpu", a.0, &a.1);
-                    log_health("mag", b.0, &b.1);
-                    log_health("baro", c.0, &c.1);
-                    let bias = status.lock(|s| s.bias);
-                    defmt::info!("gyro bias: {}", bias);
-                }
-                if tick.is_multiple_of(100) {
-                    let (used, size) = stack::high_water();
-                    defmt::info!("stack high-water {=usize} of {=usize} bytes", used, size);
-                }
-            }
-            // Heartbeat: 1 Hz normally, 5 Hz while calibrating.
-            let period = if matches!(m, Mode::MagCal | Mode::AccelCal) {
-                2
-            } else {
-                10
-            };
-            if tick.is_multiple_of(period) {
-                led.toggle();
-            }
-            Mono::delay(ExtU32::millis(50)).await;
+    /// The live log: attitude every call; loop timing, health, bus counters
+    /// and the gyro bias every second; the stack every 5 s.
+    fn log_status(
+        tick: u32,
+        sensors: &mut impl rtic::Mutex<T = Sensors<BusHandle>>,
+        pipeline: &mut impl rtic::Mutex<T = Option<Pipeline>>,
+        stats: &mut impl rtic::Mutex<T = LoopStats>,
+        bias: &mut impl rtic::Mutex<T = BiasStatus>,
+    ) {
+        if let Some(o) = pipeline.lock(|p| p.as_ref().map(|p| p.outputs())) {
+            defmt::info!(
+                "att r={=f32} p={=f32} y={=f32} deg | alt={=f32} m vz={=f32} m/s | thr={=f32} tq={}",
+                o.roll_deg, o.pitch_deg, o.yaw_deg, o.altitude_m, o.vertical_speed_mps, o.throttle, o.torque
+            );
+        }
+        if tick.is_multiple_of(20) {
+            let r = stats.lock(|s| s.report(DWT::cycle_count()));
+            defmt::info!(
+                "loop: {=u32} runs, imu task mean {=u32} cyc worst {=u32} cyc, cpu {=u32}.{=u32}%",
+                r.runs,
+                r.mean_cycles,
+                r.worst_cycles,
+                r.load_permille / 10,
+                r.load_permille % 10
+            );
+            let (a, b, c, n) = sensors.lock(|s| {
+                (
+                    (s.mpu_health.state(), *s.mpu_health.counters()),
+                    (s.mag_health.state(), *s.mag_health.counters()),
+                    (s.baro_health.state(), *s.baro_health.counters()),
+                    s.bus_recoveries(),
+                )
+            });
+            log_health("mpu", a.0, &a.1);
+            log_health("mag", b.0, &b.1);
+            log_health("baro", c.0, &c.1);
+            let b = bias.lock(|b| *b);
+            defmt::info!("i2c recoveries: {=u32} | gyro bias: {}", n, b);
+        }
+        if tick.is_multiple_of(100) {
+            let (used, size) = stack::high_water();
+            defmt::info!("stack high-water {=usize} of {=usize} bytes", used, size);
         }
     }
 }

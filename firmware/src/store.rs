@@ -13,11 +13,13 @@ pub struct FlashPage<'a> {
 }
 
 impl<'a> FlashPage<'a> {
-    /// A writer for the 64 KiB part with 1 KiB pages.
+    /// A writer for the 64 KiB part with 1 KiB pages. The HAL's per-word
+    /// verification is off: `flight::storage::save` reads the whole record
+    /// back and compares it anyway.
     pub fn new(flash: &'a mut Parts) -> Self {
-        Self {
-            writer: flash.writer(SectorSize::Sz1K, FlashSize::Sz64K),
-        }
+        let mut writer = flash.writer(SectorSize::Sz1K, FlashSize::Sz64K);
+        writer.change_verification(false);
+        Self { writer }
     }
 }
 

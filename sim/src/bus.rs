@@ -8,6 +8,7 @@ use crate::math::Vec3;
 use crate::mpu9250::Mpu9250Model;
 use crate::ms5611::Ms5611Model;
 use crate::physics::{Environment, Trajectory};
+use crate::wire::{Target, WireState};
 use crate::world::{MagnetPass, Vibration, World};
 use embedded_hal::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Operation};
 use std::cell::{Ref, RefCell, RefMut};
@@ -70,17 +71,29 @@ pub enum Fault {
     },
     /// One-shot: the next transaction (any address) fails with
     /// `ErrorKind::Bus` after `after_bytes` data bytes have been transferred.
+    /// On the wire: a misplaced START/STOP during that byte; the chip drops
+    /// out of the transaction (releases SDA, answers nothing until the next
+    /// START).
     BusErrorMidTransfer {
         /// Data bytes that get through before the error.
         after_bytes: usize,
     },
-    /// The next `transactions` transactions lose arbitration.
+    /// The next `transactions` transactions lose arbitration (during the
+    /// address byte: another master wins the bus).
     ArbitrationLoss {
         /// How many.
         transactions: u32,
     },
-    /// Every transaction fails with `ErrorKind::Bus` (SDA held low) until cleared.
+    /// SDA held low until cleared: every transaction fails with
+    /// `ErrorKind::Bus`, and a line-level master reads SDA low.
     StuckBus,
+    /// SCL held low until cleared (a shorted line): no START is possible.
+    SclStuckLow,
+    /// The chip is left in the middle of a read byte of 0x00 and holds SDA
+    /// low until the master clocks SCL (as after an MCU reset mid-read, or
+    /// power-up noise); a STOP after 9 SCL pulses releases it. Not cleared
+    /// by [`SimBus::clear_faults`]: only the wire releases it.
+    SlaveHoldsSda(Chip),
     /// The chip reports a wrong id (WHO_AM_I / WIA); the MS5611 has none.
     WrongChipId {
         /// Which chip.
@@ -160,12 +173,13 @@ pub struct BusState {
     pub ms5611_address: u8,
     /// Bus clock for transfer timing.
     pub bus_hz: Option<u32>,
-    nacks: Vec<(u8, Option<u32>)>,
-    bus_error_after: Option<usize>,
-    arbitration_losses: u32,
-    stuck: bool,
-    transactions: u64,
-    failed_transactions: u64,
+    pub(crate) nacks: Vec<(u8, Option<u32>)>,
+    pub(crate) bus_error_after: Option<usize>,
+    pub(crate) arbitration_losses: u32,
+    pub(crate) stuck: bool,
+    pub(crate) transactions: u64,
+    pub(crate) failed_transactions: u64,
+    pub(crate) wire: WireState,
 }
 
 impl BusState {
@@ -204,11 +218,16 @@ impl SimBus {
             stuck: false,
             transactions: 0,
             failed_transactions: 0,
+            wire: WireState::default(),
         };
         Self {
             clock: clock.clone(),
             state: Rc::new(RefCell::new(state)),
         }
+    }
+
+    pub(crate) fn state_cell(&self) -> &RefCell<BusState> {
+        &self.state
     }
 
     /// The shared clock.
@@ -292,6 +311,15 @@ impl SimBus {
             Fault::BusErrorMidTransfer { after_bytes } => s.bus_error_after = Some(after_bytes),
             Fault::ArbitrationLoss { transactions } => s.arbitration_losses = transactions,
             Fault::StuckBus => s.stuck = true,
+            Fault::SclStuckLow => s.wire.scl_stuck = true,
+            Fault::SlaveHoldsSda(chip) => {
+                drop(s);
+                self.wire_hold_sda(match chip {
+                    Chip::Mpu9250 => Target::Mpu,
+                    Chip::Ak8963 => Target::Ak,
+                    Chip::Ms5611 => Target::Ms,
+                });
+            }
             Fault::WrongChipId { chip, id } => match chip {
                 Chip::Mpu9250 => s.mpu.who_am_i_override = Some(id),
                 Chip::Ak8963 => s.ak.who_am_i_override = Some(id),
@@ -326,6 +354,7 @@ impl SimBus {
         s.bus_error_after = None;
         s.arbitration_losses = 0;
         s.stuck = false;
+        s.wire.scl_stuck = false;
         s.mpu.who_am_i_override = None;
         s.ak.who_am_i_override = None;
         s.ms.prom_corruption = [0; 8];
@@ -349,11 +378,6 @@ impl SimBus {
     }
 
     fn run(&self, address: u8, operations: &mut [Operation<'_>]) -> Result<(), SimBusError> {
-        let now = self.clock.now_ns();
-        let mut guard = self.state.borrow_mut();
-        let s = &mut *guard;
-        s.update_all(now);
-        s.transactions += 1;
         let segments = operations.len().max(1);
         let bytes: usize = operations
             .iter()
@@ -362,101 +386,47 @@ impl SimBus {
                 Operation::Write(b) => b.len(),
             })
             .sum();
-        let result = Self::run_inner(s, now, address, operations);
-        if result.is_err() {
-            s.failed_transactions += 1;
-        }
-        let dt = Self::transfer_time_ns(s.bus_hz, segments, if result.is_ok() { bytes } else { 0 });
-        drop(guard);
+        let result = self.run_ops(address, operations);
+        self.wire_stop();
+        let bus_hz = self.state.borrow().bus_hz;
+        let dt = Self::transfer_time_ns(bus_hz, segments, if result.is_ok() { bytes } else { 0 });
         self.clock.advance_ns(dt);
         result
     }
 
-    fn run_inner(
-        s: &mut BusState,
-        now: u64,
-        address: u8,
-        operations: &mut [Operation<'_>],
-    ) -> Result<(), SimBusError> {
-        if s.stuck {
-            return Err(SimBusError::Bus);
-        }
-        if s.arbitration_losses > 0 {
-            s.arbitration_losses -= 1;
-            return Err(SimBusError::ArbitrationLoss);
-        }
-        let nack_addr = Err(SimBusError::Nack(NoAcknowledgeSource::Address));
-        if let Some(i) = s.nacks.iter().position(|(a, _)| *a == address) {
-            match &mut s.nacks[i].1 {
-                None => return nack_addr,
-                Some(0) => {
-                    s.nacks.remove(i);
-                }
-                Some(n) => {
-                    *n -= 1;
-                    if *n == 0 {
-                        s.nacks.remove(i);
-                    }
-                    return nack_addr;
-                }
-            }
-        }
-        let mut budget = s.bus_error_after.take();
-        let BusState {
-            world, mpu, ak, ms, ..
-        } = s;
-        let dev: &mut dyn Device = if address == s.mpu_address {
-            mpu
-        } else if address == s.ms5611_address {
-            ms
-        } else if address == AK8963_ADDRESS && mpu.bypass_active() {
-            ak
-        } else {
-            return nack_addr;
-        };
-        if !dev.acks_address(now) {
-            return nack_addr;
-        }
+    /// The operations as wire steps: a (repeated) START with the address
+    /// whenever the direction changes (adjacent operations of one kind are
+    /// merged, as `embedded_hal::i2c` specifies), the last byte read before
+    /// a direction change or the end NACKed.
+    fn run_ops(&self, address: u8, operations: &mut [Operation<'_>]) -> Result<(), SimBusError> {
         let mut prev_read: Option<bool> = None;
-        let mut result = Ok(());
-        'ops: for op in operations.iter_mut() {
+        let n = operations.len();
+        for i in 0..n {
+            let next_is_read = matches!(operations.get(i + 1), Some(Operation::Read(_)));
+            let Some(op) = operations.get_mut(i) else {
+                break;
+            };
             let is_read = matches!(op, Operation::Read(_));
             if prev_read != Some(is_read) {
-                dev.start(is_read);
+                self.wire_start((address << 1) | u8::from(is_read))?;
                 prev_read = Some(is_read);
             }
             match op {
                 Operation::Write(bytes) => {
                     for &b in bytes.iter() {
-                        if budget == Some(0) {
-                            result = Err(SimBusError::Bus);
-                            break 'ops;
-                        }
-                        budget = budget.map(|n| n - 1);
-                        if let Err(e) = dev.write_byte(b, now, world) {
-                            result = Err(e);
-                            break 'ops;
-                        }
+                        self.wire_write(b)?;
                     }
                 }
                 Operation::Read(buf) => {
-                    for slot in buf.iter_mut() {
-                        if budget == Some(0) {
-                            result = Err(SimBusError::Bus);
-                            break 'ops;
-                        }
-                        budget = budget.map(|n| n - 1);
-                        *slot = dev.read_byte(now, world);
+                    let len = buf.len();
+                    for (k, slot) in buf.iter_mut().enumerate() {
+                        let last = k + 1 == len && !next_is_read;
+                        *slot = self.wire_read(!last)?;
                     }
                 }
             }
         }
-        dev.stop(now, world);
-        if result.is_ok() && budget.is_some() {
-            // The glitch did not happen during this (short) transaction: keep it armed.
-            s.bus_error_after = budget;
-        }
-        result
+        Ok(())
     }
 }
 

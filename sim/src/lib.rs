@@ -6,13 +6,21 @@
 //! unchanged. The chips sample a rigid-body [`Trajectory`] (truth) through
 //! seeded datasheet-size sensor errors, on a simulated [`SimClock`] that the
 //! drivers' [`SimDelay`] advances — a 10-minute flight runs in seconds.
-//! Faults (NACKs, bus errors, wrong ids, corrupted PROM, overflow, frozen
-//! data, magnets, vibration, spontaneous resets) are injected with
+//! Faults (NACKs, bus errors, arbitration loss, stuck SDA/SCL, a chip left
+//! holding SDA mid-byte, wrong ids, corrupted PROM, overflow, frozen data,
+//! magnets, vibration, spontaneous resets) are injected with
 //! [`SimBus::inject`].
 //!
-//! What it is not: an electrical I2C model (no clock stretching, no
-//! per-bit timing beyond an optional transfer-time estimate), nor a model of
-//! the MPU-9250's FIFO, DMP or I2C master.
+//! The same bus is open at the wire level ([`wire`]): START + address,
+//! bytes with the master's ACK/NACK, STOP, and the SCL/SDA levels with what
+//! the chips do on each SCL edge, for a register-level master model (the
+//! emulator's I2C1) and GPIO bus recovery. `SimBus`'s transactions run over
+//! those same steps.
+//!
+//! What it is not: an electrical I2C model (no clock stretching by the
+//! chips, no bit timing inside the chips: time per transfer is an optional
+//! estimate or the master model's), nor a model of the MPU-9250's FIFO, DMP
+//! or I2C master.
 //!
 //! ```
 //! use embedded_hal::i2c::I2c;
@@ -37,6 +45,7 @@ pub mod ms5611;
 pub mod physics;
 pub mod rng;
 pub mod spi;
+pub mod wire;
 pub mod world;
 
 pub use bus::{magnet_pass, Chip, Fault, SimBus, SimBusError, SimConfig, AK8963_ADDRESS};

@@ -1,208 +1,361 @@
 //! `sim`: the whole sensor stack on a simulated board, no hardware needed.
 //!
-//! ```text
-//! cargo sim [--trajectory NAME] [--seed N] [--duration S] [--filter f32|fixed]
-//!           [--csv FILE] [--plot FILE.png] [--print-every S] [--mag-dance S]
-//! ```
-//! See [`HELP`] (`cargo sim --help`).
+//! `cargo sim --help` lists the options. Status lines go to stdout (to
+//! stderr when the CSV goes to stdout with `--csv -`); a progress line goes
+//! to stderr on long runs. A closed stdout is not an error: the lines stop,
+//! the run finishes and its files are written, exit status 0.
+//!
+//! Exit status: 0 done, 1 the run or an output failed, 2 bad arguments.
 
 mod demo;
 
-use demo::run::{run, RunOptions, RunResult};
+use clap::Parser;
+use demo::console::{note, say};
+use demo::output::CsvWriter;
+use demo::plot::{PlotFormat, PlotSeries};
+use demo::run::{run, RecordSink, RunOptions, RunResult, ScheduledFault};
 use demo::stack::Filter;
 use sim::Trajectory;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
-const USAGE: &str = "usage: sim [--trajectory rest|spin|slow|figure8|hover|aggressive|sixpos] [--seed N] \
-[--duration S] [--filter f32|fixed] [--csv FILE] [--plot FILE.png] [--print-every S] [--mag-dance S]";
+/// The first second of flight is settling time, not scored (see `demo::run::Scorer`).
+const SETTLE_S: f64 = 1.0;
 
-/// The `--help` text.
-const HELP: &str = "\
+const ABOUT: &str = "\
 The firmware's sensor stack on a simulated board (no hardware): register-level
 MPU-9250 / AK8963 / MS5611 models on a virtual I2C bus with seeded
 datasheet-size sensor errors, driven by the real drivers.
 
 What runs, in order (each a separate session of the same simulated board):
-  1. accelerometer six-position calibration: the board held still on each face
-     (trajectory `sixpos`), 100 Hz samples into calibration::AccelSixPosition;
-  2. magnetometer calibration: the figure-eight dance (--mag-dance seconds),
-     every sample into calibration::EllipsoidFit (min/max as a fallback);
-  both go into the firmware's flash record (flight::storage, encoded and decoded);
-  3. the flight: flight::sensors::Sensors boots the chips, the start-up gyro
-     bias is measured while still (flight::boot::StartupGyroBias, first ~1 s),
-     and every MPU data-ready runs flight::pipeline::Pipeline (raw counts ->
-     bias/calibration -> mounting -> AHRS -> vertical estimator -> controllers),
-     the same code the firmware runs. Errors are scored against the truth
-     after the first second.
+  1. accelerometer six-position calibration (the board held still on each face);
+  2. magnetometer calibration on a figure-eight dance (--mag-dance seconds);
+  both go into the firmware's flash record (flight::storage);
+  3. the flight: boot probe, start-up gyro bias while still, then every MPU
+     data-ready through flight::pipeline::Pipeline (raw counts -> calibration ->
+     mounting -> AHRS -> vertical estimator -> controllers), the code the
+     firmware runs. Errors are scored against the truth after the first second.";
 
-Options:
-  -t, --trajectory NAME  rest | spin | slow | figure8 | hover (default) | aggressive | sixpos
-  -s, --seed N           board errors and noise (default 1)
-  -d, --duration S       simulated flight time, (0, 3600] s (default 90)
-      --filter f32|fixed the AHRS the pipeline was built with; it is chosen at
-                         compile time like the firmware's: fixed point by default,
-                         f32 with `cargo run --release -p sim --features f32-ahrs --`.
-                         Asking for the other one is an error.
-      --csv FILE         per-sample CSV (BROAD columns, for tools/replay)
-      --plot FILE.png    attitude and height vs truth, magnetometer samples
-                         before/after calibration
-      --print-every S    status line every S simulated seconds (0 = never; default 5)
-      --mag-dance S      length of the magnetometer dance (default 40)
-  -h, --help             this text";
-
-struct Args {
-    opts: RunOptions,
-    csv: Option<String>,
-    plot: Option<String>,
+/// Command-line options (see `--help`).
+#[derive(Parser, Debug)]
+#[command(name = "sim", version, about = ABOUT, after_help = demo::faults::help(), allow_negative_numbers = true)]
+struct Cli {
+    /// The flight to simulate.
+    #[arg(short, long, value_name = "NAME", default_value = "hover",
+          value_parser = clap::builder::PossibleValuesParser::new(Trajectory::NAMES))]
+    trajectory: String,
+    /// Seed of all noise (sensor noise, random walks, vibration phases).
+    #[arg(short, long, value_name = "N", default_value_t = 1)]
+    seed: u64,
+    /// Seed of the board's fixed errors (biases, scale, misalignment, hard/soft iron); default: --seed.
+    #[arg(long, value_name = "N")]
+    board_seed: Option<u64>,
+    /// Simulated flight time, seconds, in (1, 86400] (the first second is
+    /// settling time and not scored).
+    #[arg(short, long, value_name = "SECONDS", default_value_t = 90.0,
+          value_parser = seconds_in(SETTLE_S, 86_400.0))]
+    duration: f64,
+    /// The AHRS the pipeline was built with; chosen at compile time like the
+    /// firmware's (fixed point by default; f32 with `--features f32-ahrs`).
+    #[arg(long, value_enum, value_name = "KIND")]
+    filter: Option<FilterArg>,
+    /// Per-sample CSV in the BROAD columns (for `replay`); `-` = stdout. Parent folders are created.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    /// Plot of attitude, error and height against the truth, and the
+    /// magnetometer calibration; .png or .svg. Parent folders are created.
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
+    /// A status line every this many simulated seconds, >= 0 (0 = never).
+    #[arg(long, value_name = "SECONDS", default_value_t = 5.0,
+          value_parser = seconds_in(0.0, f64::MAX))]
+    print_every: f64,
+    /// Length of the magnetometer calibration dance, seconds, in (0, 600].
+    #[arg(long, value_name = "SECONDS", default_value_t = 40.0,
+          value_parser = seconds_in(0.0, 600.0))]
+    mag_dance: f64,
+    /// Inject a fault into the flight: KIND or KIND@T (T seconds of flight
+    /// time); repeatable. Kinds are listed below.
+    #[arg(long, value_name = "KIND[@T]", value_parser = demo::faults::parse)]
+    fault: Vec<ScheduledFault>,
+    /// No progress line on stderr.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
-fn parse_args() -> Result<Args, String> {
-    let mut opts = RunOptions {
-        trajectory: Trajectory::Hover,
-        seed: 1,
-        duration_s: 90.0,
-        print_every_s: 5.0,
-        mag_dance_s: 40.0,
-    };
-    let (mut csv, mut plot) = (None, None);
-    let mut it = std::env::args().skip(1);
-    while let Some(a) = it.next() {
-        let mut val = || {
-            it.next()
-                .ok_or_else(|| format!("{a} needs a value\n{USAGE}"))
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum FilterArg {
+    /// f32 Madgwick.
+    F32,
+    /// Fixed-point (Q2.30) Madgwick.
+    Fixed,
+}
+
+/// A parser for seconds in `(lo, hi]` (`lo` itself allowed when 0 means "never").
+fn seconds_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+    move |s: &str| {
+        let v: f64 = s
+            .parse()
+            .map_err(|_| format!("`{s}` is not a number of seconds"))?;
+        let lo_ok = if lo == 0.0 && hi == f64::MAX {
+            v >= 0.0
+        } else {
+            v > lo
         };
-        match a.as_str() {
-            "--trajectory" | "-t" => {
-                let v = val()?;
-                opts.trajectory = Trajectory::from_name(&v).ok_or_else(|| {
-                    format!("unknown trajectory `{v}` (one of {:?})", Trajectory::NAMES)
-                })?;
-            }
-            "--seed" | "-s" => opts.seed = val()?.parse().map_err(|e| format!("--seed: {e}"))?,
-            "--duration" | "-d" => {
-                opts.duration_s = val()?.parse().map_err(|e| format!("--duration: {e}"))?;
-                if !(opts.duration_s > 0.0 && opts.duration_s <= 3600.0) {
-                    return Err("--duration must be in (0, 3600] s".into());
-                }
-            }
-            "--filter" => {
-                let want = match val()?.as_str() {
-                    "f32" => Filter::F32,
-                    "fixed" => Filter::Fixed,
-                    v => return Err(format!("--filter: `{v}` is not f32 or fixed")),
-                };
-                if want != Filter::BUILT {
-                    return Err(format!(
-                        "--filter: this build runs the {}; the AHRS is chosen at compile time like the firmware's: {}",
-                        flight::pipeline::AHRS_KIND,
-                        if want == Filter::F32 {
-                            "cargo run --release -p sim --features f32-ahrs -- ..."
-                        } else {
-                            "cargo run --release -p sim -- ... (without --features f32-ahrs)"
-                        }
-                    ));
-                }
-            }
-            "--print-every" => {
-                opts.print_every_s = val()?.parse().map_err(|e| format!("--print-every: {e}"))?
-            }
-            "--mag-dance" => {
-                opts.mag_dance_s = val()?.parse().map_err(|e| format!("--mag-dance: {e}"))?;
-                if !(opts.mag_dance_s > 0.0 && opts.mag_dance_s <= 600.0) {
-                    return Err("--mag-dance must be in (0, 600] s".into());
-                }
-            }
-            "--csv" => csv = Some(val()?),
-            "--plot" => plot = Some(val()?),
-            "-h" | "--help" => {
-                println!("{USAGE}\n\n{HELP}");
-                std::process::exit(0);
-            }
-            _ => return Err(format!("unknown argument `{a}`\n{USAGE}")),
+        if !v.is_finite() || !lo_ok || v > hi {
+            let range = if hi == f64::MAX {
+                ">= 0 and finite".to_string()
+            } else {
+                format!("in ({lo}, {hi}]")
+            };
+            return Err(format!("{s} s is out of range: must be {range}"));
+        }
+        Ok(v)
+    }
+}
+
+/// The outputs, opened before any work so a bad path fails at once.
+struct Outputs {
+    csv: Option<CsvWriter>,
+    plot: Option<PathBuf>,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let (opts, outputs) = match validate(&cli) {
+        Ok(v) => v,
+        Err(e) => {
+            note!("sim: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    match execute(&opts, outputs) {
+        Ok(()) if demo::console::stdout_failed() => {
+            note!("sim: writing to stdout failed");
+            ExitCode::FAILURE
+        }
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            note!("sim: {e}");
+            ExitCode::FAILURE
         }
     }
-    Ok(Args { opts, csv, plot })
 }
 
-fn main() {
-    let args = match parse_args() {
-        Ok(a) => a,
-        Err(e) => {
-            eprintln!("{e}");
-            std::process::exit(2);
+/// Checks every value and opens the outputs before anything runs.
+fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
+    if let Some(want) = cli.filter {
+        check_filter(want)?;
+    }
+    let trajectory = Trajectory::from_name(&cli.trajectory)
+        .ok_or_else(|| format!("unknown trajectory `{}`", cli.trajectory))?;
+    if let Some(f) = cli.fault.iter().find(|f| f.at_s >= cli.duration) {
+        return Err(format!(
+            "--fault at {} s is after the end of the {} s flight",
+            f.at_s, cli.duration
+        ));
+    }
+    let is_stdout = |p: &Path| p == Path::new("-");
+    if let Some(plot) = &cli.plot {
+        if is_stdout(plot) {
+            return Err("--plot needs a file name (.png or .svg), not stdout".into());
         }
+        PlotFormat::from_path(plot).map_err(|e| format!("--plot {}: {e}", plot.display()))?;
+    }
+    if let (Some(csv), Some(plot)) = (&cli.csv, &cli.plot) {
+        if !is_stdout(csv) && same_file(csv, plot) {
+            return Err(format!(
+                "--csv and --plot name the same file {}",
+                csv.display()
+            ));
+        }
+    }
+    let csv = match &cli.csv {
+        Some(p) if is_stdout(p) => {
+            demo::console::use_stderr();
+            Some(CsvWriter::new(Box::new(std::io::stdout()), "stdout")?)
+        }
+        Some(p) => Some(CsvWriter::new(
+            Box::new(create(p, "--csv")?),
+            &p.display().to_string(),
+        )?),
+        None => None,
     };
-    let result = match run(&args.opts) {
+    if let Some(p) = &cli.plot {
+        create(p, "--plot")?;
+    }
+    let opts = RunOptions {
+        trajectory,
+        seed: cli.seed,
+        board_seed: cli.board_seed.unwrap_or(cli.seed),
+        duration_s: cli.duration,
+        print_every_s: cli.print_every,
+        mag_dance_s: cli.mag_dance,
+        faults: cli.fault.clone(),
+        progress: !cli.quiet,
+    };
+    Ok((
+        opts,
+        Outputs {
+            csv,
+            plot: cli.plot.clone(),
+        },
+    ))
+}
+
+fn check_filter(want: FilterArg) -> Result<(), String> {
+    let want = match want {
+        FilterArg::F32 => Filter::F32,
+        FilterArg::Fixed => Filter::Fixed,
+    };
+    if want == Filter::BUILT {
+        return Ok(());
+    }
+    Err(format!(
+        "--filter: this build runs the {}; the AHRS is chosen at compile time like the firmware's: {}",
+        flight::pipeline::AHRS_KIND,
+        if want == Filter::F32 {
+            "cargo run --release -p sim --features f32-ahrs -- ..."
+        } else {
+            "cargo run --release -p sim -- ... (without --features f32-ahrs)"
+        }
+    ))
+}
+
+/// Both paths lead to the same file (compared canonically where they exist).
+fn same_file(a: &Path, b: &Path) -> bool {
+    let canon = |p: &Path| {
+        let parent = p
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let dir = parent
+            .canonicalize()
+            .unwrap_or_else(|_| parent.to_path_buf());
+        p.file_name().map(|n| dir.join(n))
+    };
+    a == b || (canon(a).is_some() && canon(a) == canon(b))
+}
+
+/// Creates `path` (and its parent folders) for writing.
+fn create(path: &Path, what: &str) -> Result<std::fs::File, String> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("{what}: creating folder {}: {e}", dir.display()))?;
+    }
+    std::fs::File::create(path).map_err(|e| format!("{what} {}: {e}", path.display()))
+}
+
+fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
+    let Outputs { mut csv, plot } = outputs;
+    let mut series = PlotSeries::default();
+    let result = {
+        let mut sinks: Vec<&mut dyn RecordSink> = Vec::new();
+        if let Some(c) = csv.as_mut() {
+            sinks.push(c);
+        }
+        if plot.is_some() {
+            sinks.push(&mut series);
+        }
+        run(opts, &mut sinks)
+    };
+    let result = match result {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("sim: {e}");
-            std::process::exit(1);
+            if let Some(p) = &plot {
+                let _ = std::fs::remove_file(p);
+            }
+            return Err(e);
         }
     };
-    if let Some(path) = &args.csv {
-        match demo::output::write_csv(path, &result.records) {
-            Ok(()) => println!("wrote {path}"),
-            Err(e) => {
-                eprintln!("sim: writing {path}: {e}");
-                std::process::exit(1);
-            }
+    if let Some(c) = csv {
+        let name = c.name().to_string();
+        c.finish()?;
+        if name != "stdout" {
+            say!("wrote {name}");
         }
     }
-    if let Some(path) = &args.plot {
+    if let Some(path) = &plot {
         let title = format!(
             "sim: {} seed {} ({})",
-            args.opts.trajectory.name(),
-            args.opts.seed,
+            opts.trajectory.name(),
+            opts.seed,
             flight::pipeline::AHRS_KIND
         );
-        match demo::plot::write_plot(path, &title, &result.records, &result.mag_cal) {
-            Ok(text) => println!(
-                "wrote {path}{}",
-                if text {
-                    ""
-                } else {
-                    " (no font found: no text)"
-                }
-            ),
-            Err(e) => {
-                eprintln!("sim: plotting {path}: {e}");
-                std::process::exit(1);
-            }
-        }
+        demo::plot::write_plot(path, &title, &series, &result.mag_cal)
+            .map_err(|e| format!("plotting {}: {e}", path.display()))?;
+        say!("wrote {}", path.display());
     }
-    print_summary(&args.opts, &result);
+    print_summary(opts, &result);
+    if result.summary.samples == 0 {
+        return Err(format!(
+            "no sample was scored (the first second is settling time; the flight lasted {} s)",
+            opts.duration_s
+        ));
+    }
+    Ok(())
 }
 
 fn print_summary(opts: &RunOptions, r: &RunResult) {
-    let s = &r.summary;
-    println!(
-        "== summary: {} seed {}, flight pipeline with the {} ==",
+    say!(
+        "== summary: {} seed {} (board {}), flight pipeline with the {} ==",
         opts.trajectory.name(),
         opts.seed,
+        opts.board_seed,
         flight::pipeline::AHRS_KIND
     );
-    println!("calibrations:");
+    print_calibrations(opts, r);
+    let s = &r.summary;
+    say!(
+        "attitude RMS {:.2}° (heading {:.2}°, inclination {:.2}°), max {:.2}°",
+        s.attitude_rms_deg,
+        s.heading_rms_deg,
+        s.inclination_rms_deg,
+        s.attitude_max_deg
+    );
+    say!(
+        "height RMS {:.3} m, vertical speed RMS {:.3} m/s",
+        s.height_rms_m,
+        s.vspeed_rms_mps
+    );
+    say!(
+        "{} samples scored (after 1 s); {} s simulated in {:.2} s",
+        s.samples,
+        opts.duration_s,
+        s.wall_s
+    );
+    if s.missed > 0 {
+        say!(
+            "{} data-ready interrupts without a sample (the IMU read failed)",
+            s.missed
+        );
+    }
+}
+
+fn print_calibrations(opts: &RunOptions, r: &RunResult) {
+    say!("calibrations:");
     match &r.gyro_bias {
         Some(g) => {
             let err = max_abs_diff(g.measured_rps.map(f64::from), g.truth_rps);
-            println!(
+            say!(
                 "  gyro bias at start-up  done at {:.2} s, max |error| {:.5} rad/s ({:.3} °/s, in whole counts)",
                 g.at_s,
                 err,
                 err.to_degrees()
             );
         }
-        None => println!("  gyro bias at start-up  NOT DONE (the board never held still)"),
+        None => say!("  gyro bias at start-up  NOT DONE (the board never held still)"),
     }
     let a = &r.accel_cal;
-    let (off_t, scale_t) = demo::run::accel_truth(&sim::SensorErrors::datasheet(opts.seed));
-    println!(
+    let (off_t, scale_t) = demo::run::accel_truth(&sim::SensorErrors::datasheet(opts.board_seed));
+    say!(
         "  accel six-position     6/6 faces, max |offset error| {:.2} mg, max |scale error| {:.3} %, residual |a|-1g RMS {:.2} mg",
         max_abs_diff(a.calibration.offset.map(f64::from), off_t) * 1000.0,
         max_abs_diff(a.calibration.scale.map(f64::from), scale_t) * 100.0,
         a.rms_residual_g * 1000.0
     );
     let m = &r.mag_cal;
-    println!(
+    say!(
         "  magnetometer           {} on {} samples{}",
         m.method,
         m.raw_mpu_ut.len(),
@@ -210,20 +363,48 @@ fn print_summary(opts: &RunOptions, r: &RunResult) {
             .map(|e| format!(", fit residual RMS {:.2} % of the radius", e * 100.0))
             .unwrap_or_default()
     );
-    println!(
-        "attitude RMS {:.2}° (heading {:.2}°, inclination {:.2}°), max {:.2}°",
-        s.attitude_rms_deg, s.heading_rms_deg, s.inclination_rms_deg, s.attitude_max_deg
-    );
-    println!(
-        "height RMS {:.3} m, vertical speed RMS {:.3} m/s",
-        s.height_rms_m, s.vspeed_rms_mps
-    );
-    println!(
-        "{} samples scored (after 1 s); {:.0} s simulated in {:.2} s",
-        s.samples, opts.duration_s, s.wall_s
-    );
 }
 
 fn max_abs_diff(a: [f64; 3], b: [f64; 3]) -> f64 {
     (0..3).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::{CommandFactory, Parser};
+    use proptest::prelude::*;
+
+    #[test]
+    fn the_argument_definitions_are_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    /// Option-like and value-like words.
+    fn word() -> impl Strategy<Value = String> {
+        prop_oneof![
+            Just("--duration".to_string()),
+            Just("--beta".to_string()),
+            Just("--fault".to_string()),
+            Just("--out".to_string()),
+            Just("--plot".to_string()),
+            Just("--filter".to_string()),
+            Just("-".to_string()),
+            Just("--".to_string()),
+            "-?[0-9.eE+-]{0,8}",
+            "--[a-z-]{1,14}(=[^\\x00]{0,8})?",
+            "[^\\x00]{0,12}",
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
+
+        /// Whatever the command line, parsing gives options or an error, never a panic.
+        #[test]
+        fn any_command_line_parses_or_errs(args in proptest::collection::vec(word(), 0..8)) {
+            let argv = std::iter::once("prog".to_string()).chain(args);
+            let _ = Cli::try_parse_from(argv);
+        }
+    }
 }

@@ -71,6 +71,14 @@ pub enum Trajectory {
     /// the usual rest phase), turned between faces in
     /// [`Trajectory::SIX_POSITION_MOVE_S`], then back to level for ever.
     SixPosition,
+    /// Sustained centripetal acceleration at high rotation rates: the board on a
+    /// 0.15 m arm whirled about the vertical at up to 360 °/s (|a| − g of about
+    /// 6 m/s² for 3 s at a time), alternating direction, with 2 s pauses and a
+    /// slow tilt wobble.
+    Whirl,
+    /// Slow rotations with broadband translational vibration: seven tones of
+    /// 50–300 Hz, 1 m/s² each (about 2.6 m/s² RMS, a motor-driven frame).
+    Vibration,
     /// A user-supplied pose function of time (s).
     Custom(Rc<dyn Fn(f64) -> Pose>),
 }
@@ -95,7 +103,7 @@ impl Trajectory {
     pub const REST_S: f64 = 3.0;
 
     /// Names accepted by [`Trajectory::from_name`].
-    pub const NAMES: [&'static str; 7] = [
+    pub const NAMES: [&'static str; 9] = [
         "rest",
         "spin",
         "slow",
@@ -103,6 +111,8 @@ impl Trajectory {
         "hover",
         "aggressive",
         "sixpos",
+        "whirl",
+        "vibration",
     ];
 
     /// How long each face is held still in [`Trajectory::SixPosition`] (s).
@@ -216,6 +226,8 @@ impl Trajectory {
             "hover" => Trajectory::Hover,
             "aggressive" => Trajectory::Aggressive,
             "sixpos" | "six-position" => Trajectory::SixPosition,
+            "whirl" => Trajectory::Whirl,
+            "vibration" => Trajectory::Vibration,
             _ => return None,
         })
     }
@@ -230,6 +242,8 @@ impl Trajectory {
             Trajectory::Hover => "hover",
             Trajectory::Aggressive => "aggressive",
             Trajectory::SixPosition => "sixpos",
+            Trajectory::Whirl => "whirl",
+            Trajectory::Vibration => "vibration",
             Trajectory::Custom(_) => "custom/spin",
         }
     }
@@ -307,6 +321,52 @@ impl Trajectory {
                 (pos, Quat::from_euler(roll, pitch, yaw))
             }
             Trajectory::SixPosition => ([0.0; 3], Self::six_position_at(t_s)),
+            Trajectory::Whirl => {
+                // Arm angle: 5 s cycles of a 3 s whirl (smooth 0.5 s ramps to 2π rad/s)
+                // and a 2 s pause, direction alternating per cycle.
+                let mut angle = 0.0;
+                if tau > 0.0 {
+                    let k = (tau / 5.0).floor();
+                    let c = tau - 5.0 * k;
+                    // Rate 2π·(S(x; 0, 0.5) − S(x; 2.5, 3.0)), S the smoothstep; its
+                    // integral in closed form: ∫S = T·(u⁶ − 3u⁵ + 2.5u⁴) on the ramp.
+                    let ramp_int = |x: f64, a: f64| {
+                        let t = 0.5;
+                        let u = ((x - a) / t).clamp(0.0, 1.0);
+                        t * u * u * u * u * (u * (u - 3.0) + 2.5) + (x - a - t).max(0.0)
+                    };
+                    let turn = |x: f64| 2.0 * PI * (ramp_int(x, 0.0) - ramp_int(x, 2.5));
+                    let per = turn(5.0);
+                    let dir = if (k as i64) % 2 == 0 { 1.0 } else { -1.0 };
+                    // Net angle after an even number of cycles returns to 0.
+                    let base = if (k as i64) % 2 == 0 { 0.0 } else { per };
+                    angle = base + dir * turn(c);
+                }
+                let r = 0.15;
+                let pos = [r * angle.cos() - r, r * angle.sin(), 0.0];
+                let roll = env * 0.3 * sin_hz(tau, 0.11, 0.0);
+                let pitch = env * 0.25 * sin_hz(tau, 0.07, 1.0);
+                (pos, Quat::from_euler(roll, pitch, angle))
+            }
+            Trajectory::Vibration => {
+                let roll = env * 0.5 * sin_hz(tau, 0.05, 0.0);
+                let pitch = env * 0.4 * sin_hz(tau, 0.037, 0.0);
+                let yaw = env * 1.5 * sin_hz(tau, 0.021, 0.0);
+                let mut pos = [0.0; 3];
+                if tau > 0.0 {
+                    for (i, f) in [50.0, 83.0, 120.0, 155.0, 197.0, 240.0, 290.0]
+                        .iter()
+                        .enumerate()
+                    {
+                        // 1 m/s² per tone: amplitude a/(2πf)², each axis its own phase.
+                        let amp = env / (2.0 * PI * f).powi(2);
+                        for (j, p) in pos.iter_mut().enumerate() {
+                            *p += amp * sin_hz(tau, *f, (i * 3 + j) as f64 * 1.3);
+                        }
+                    }
+                }
+                (pos, Quat::from_euler(roll, pitch, yaw))
+            }
             Trajectory::Custom(f) => f(t_s),
         }
     }

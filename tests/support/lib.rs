@@ -1,6 +1,9 @@
 //! Shared helpers for the end-to-end tests in this folder: a simulated board
 //! (clock, bus, delay) and small statistics.
 
+use flight::boot::BootReport;
+use flight::health::RecoveryPins;
+use flight::sensors::{Sensors, SensorsConfig};
 use sim::{SimBus, SimClock, SimConfig, SimDelay};
 
 /// A simulated board: one clock, one bus with the three chips, one delay.
@@ -21,6 +24,18 @@ impl Rig {
         let delay = clock.delay();
         Self { clock, bus, delay }
     }
+}
+
+/// The firmware's boot probing (`Sensors::boot`, default configuration)
+/// on `rig`'s bus.
+pub fn boot_sensors(rig: &mut Rig) -> (Sensors<SimBus>, BootReport) {
+    Sensors::boot(
+        rig.bus.clone(),
+        rig.bus.clone(),
+        rig.bus.clone(),
+        &mut rig.delay,
+        SensorsConfig::default(),
+    )
 }
 
 /// Mean and standard deviation.
@@ -46,4 +61,57 @@ pub fn mean3(xs: &[[f64; 3]]) -> [f64; 3] {
 /// `f32` triple → `f64` triple.
 pub fn f64x3(v: [f32; 3]) -> [f64; 3] {
     v.map(f64::from)
+}
+
+/// Open-drain PB6/PB7 model for the bus recovery: a slave holding SDA low
+/// shifts one bit per SCL falling edge; once it lets go and a STOP
+/// (SDA rising while SCL is high) is seen, the simulated bus's faults are
+/// cleared (the stuck transfer is over).
+pub struct StuckSda<'a> {
+    bus: &'a SimBus,
+    scl: bool,
+    sda: bool,
+    /// SCL falling edges until the slave releases SDA.
+    pub hold: u8,
+    /// SCL falling edges seen.
+    pub clocks: u8,
+    /// A STOP was generated after SDA was released.
+    pub stop_seen: bool,
+}
+
+impl<'a> StuckSda<'a> {
+    /// A slave on `bus` that holds SDA for `hold` more clocks.
+    pub fn new(bus: &'a SimBus, hold: u8) -> Self {
+        Self {
+            bus,
+            scl: true,
+            sda: true,
+            hold,
+            clocks: 0,
+            stop_seen: false,
+        }
+    }
+}
+
+impl RecoveryPins for StuckSda<'_> {
+    fn set_scl(&mut self, high: bool) {
+        if self.scl && !high {
+            self.clocks += 1;
+            self.hold = self.hold.saturating_sub(1);
+        }
+        self.scl = high;
+    }
+    fn set_sda(&mut self, high: bool) {
+        if high && !self.sda && self.scl && self.hold == 0 {
+            self.stop_seen = true;
+            self.bus.clear_faults();
+        }
+        self.sda = high;
+    }
+    fn scl_is_high(&mut self) -> bool {
+        self.scl
+    }
+    fn sda_is_high(&mut self) -> bool {
+        self.sda && self.hold == 0
+    }
 }

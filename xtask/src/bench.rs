@@ -29,6 +29,8 @@ use std::{
     time::{Duration, Instant},
 };
 
+use bench_lib::check::Value;
+
 use crate::{llvm_tool, root, target_dir};
 
 const TARGET: &str = "thumbv7m-none-eabi";
@@ -46,10 +48,12 @@ const SIZE_END: &str = "<!-- firmware-size:end -->";
 
 /// Names of the rows with budgets (as printed by the bench binary).
 const FIXED_MARG_ON: &str = "fc_ahrs::MadgwickFixed MARG (rejection on)";
-const FIXED_MARG_PLAIN: &str = "fc_ahrs::MadgwickFixed MARG (plain)";
+const FIXED_MARG_PLAIN: &str = "fc_ahrs::MadgwickFixed MARG (textbook)";
 const F32_MARG_ON: &str = "fc_ahrs::Madgwick f32 MARG (rejection on)";
-const F32_MARG_PLAIN: &str = "fc_ahrs::Madgwick f32 MARG (plain)";
+const F32_MARG_PLAIN: &str = "fc_ahrs::Madgwick f32 MARG (textbook)";
 const PIPELINE: &str = "flight pipeline: per 1 kHz sample (frame / 10)";
+const CONTROL_STEP: &str = "flight::Pipeline::control_step (100 Hz)";
+const MAG_APPLY: &str = "calibration::MagCalibrationQ16::apply (pipeline form)";
 /// The measured 10 ms frame the per-sample row is derived from.
 const FRAME: &str = "flight pipeline: 10 ms frame (10 IMU + mag + baro + control)";
 const FRAME_SAMPLES: u64 = 10;
@@ -72,9 +76,13 @@ fn budgets() -> Vec<(&'static str, Vec<Limit>)> {
         ),
         (
             FIXED_MARG_PLAIN,
-            vec![Limit::Max(2_000), Limit::FractionOf(F32_MARG_PLAIN, 5)],
+            // The target for the textbook filter is 1,000 (not reached: 1,288 measured);
+            // this limit only guards against regressions.
+            vec![Limit::Max(1_350), Limit::FractionOf(F32_MARG_PLAIN, 5)],
         ),
-        (PIPELINE, vec![Limit::Max(7_200)]),
+        (PIPELINE, vec![Limit::Max(3_000)]),
+        (CONTROL_STEP, vec![Limit::Max(4_000)]),
+        (MAG_APPLY, vec![Limit::Max(300)]),
     ]
 }
 
@@ -355,6 +363,9 @@ fn trace_pc(line: &[u8]) -> Option<u64> {
     u64::from_str_radix(hex, 16).ok()
 }
 
+/// Runs the bench binary in QEMU with the instruction trace and returns the
+/// cases (baseline subtracted, self-test checked) and the `FAIL` lines the
+/// binary printed.
 fn count_instructions(
     elf: &Path,
     qemu: &(String, bool),
@@ -362,18 +373,9 @@ fn count_instructions(
     end: u64,
     functions: &[Function],
 ) -> Result<(Vec<Case>, Vec<String>), String> {
-    let mut cmd = qemu_command(elf);
-    if qemu.1 {
-        cmd.args(["-accel", "tcg,one-insn-per-tb=on"]);
-    } else {
-        cmd.arg("-singlestep");
-    }
-    // The trace goes to stderr (a pipe), semihosting output to stdout.
-    cmd.args(["-d", "exec,nochain", "-D", "/dev/stderr"]);
-    let mut child = cmd.spawn().map_err(|e| format!("{QEMU}: {e}"))?;
+    let mut child = spawn_traced_qemu(elf, qemu)?;
     let done = Arc::new(AtomicBool::new(false));
     watchdog(child.id(), done.clone());
-
     let mut stdout = child.stdout.take().ok_or("no QEMU stdout")?;
     let reader = thread::spawn(move || {
         let mut s = String::new();
@@ -381,14 +383,67 @@ fn count_instructions(
         s
     });
     let stderr = child.stderr.take().ok_or("no QEMU stderr")?;
+    let trace = read_trace(stderr, start, end, functions)?;
+    let status = child.wait().map_err(|e| format!("{QEMU}: {e}"))?;
+    done.store(true, Ordering::Relaxed);
+    let out = reader.join().map_err(|_| "stdout reader panicked")?;
+    if !status.success() {
+        return Err(format!(
+            "{QEMU} (bench) exited with {status}\nstdout:\n{out}\nstderr:\n{}",
+            trace.other.join("\n")
+        ));
+    }
+    eprintln!("bench: {} instructions traced in total", trace.total);
+    let cases = assign_segments(&out, trace, functions)?;
+    let cases = subtract_baseline(cases)?;
+    let failures = out
+        .lines()
+        .filter_map(|l| l.strip_prefix("FAIL "))
+        .map(|l| format!("bench binary: {l}"))
+        .collect();
+    Ok((cases, failures))
+}
+
+/// QEMU running `elf` with one instruction per translation block and the
+/// execution trace on stderr (a pipe); semihosting output on stdout.
+fn spawn_traced_qemu(elf: &Path, qemu: &(String, bool)) -> Result<std::process::Child, String> {
+    let mut cmd = qemu_command(elf);
+    if qemu.1 {
+        cmd.args(["-accel", "tcg,one-insn-per-tb=on"]);
+    } else {
+        cmd.arg("-singlestep");
+    }
+    cmd.args(["-d", "exec,nochain", "-D", "/dev/stderr"]);
+    cmd.spawn().map_err(|e| format!("{QEMU}: {e}"))
+}
+
+/// What the trace holds: instructions between each `bench_start` and the
+/// next `bench_end`, and (with `--profile`) per function.
+struct Trace {
+    segments: Vec<u64>,
+    profiles: Vec<BTreeMap<usize, u64>>,
+    total: u64,
+    /// The first lines that were not trace lines (for error messages).
+    other: Vec<String>,
+}
+
+/// Counts the trace's instructions between the markers.
+fn read_trace(
+    stderr: impl Read,
+    start: u64,
+    end: u64,
+    functions: &[Function],
+) -> Result<Trace, String> {
     let mut lines = BufReader::with_capacity(1 << 20, stderr);
     let mut buf = Vec::with_capacity(256);
-    let mut segments: Vec<u64> = Vec::new();
-    let mut other: Vec<String> = Vec::new();
-    let (mut inside, mut n, mut total) = (false, 0u64, 0u64);
-    // --profile: per segment, instructions per function.
+    let mut t = Trace {
+        segments: Vec::new(),
+        profiles: Vec::new(),
+        total: 0,
+        other: Vec::new(),
+    };
+    let (mut inside, mut n) = (false, 0u64);
     let mut seg_profile: BTreeMap<usize, u64> = BTreeMap::new();
-    let mut profiles: Vec<BTreeMap<usize, u64>> = Vec::new();
     loop {
         buf.clear();
         match lines.read_until(b'\n', &mut buf) {
@@ -397,12 +452,13 @@ fn count_instructions(
             Err(e) => return Err(format!("reading the QEMU trace: {e}")),
         }
         let Some(pc) = trace_pc(&buf) else {
-            if other.len() < 20 {
-                other.push(String::from_utf8_lossy(&buf).trim_end().to_string());
+            if t.other.len() < 20 {
+                t.other
+                    .push(String::from_utf8_lossy(&buf).trim_end().to_string());
             }
             continue;
         };
-        total += 1;
+        t.total += 1;
         if pc == start {
             if inside {
                 return Err("bench_start entered twice without bench_end".into());
@@ -410,9 +466,9 @@ fn count_instructions(
             inside = true;
             n = 0;
         } else if pc == end && inside {
-            segments.push(n);
+            t.segments.push(n);
             if !functions.is_empty() {
-                profiles.push(std::mem::take(&mut seg_profile));
+                t.profiles.push(std::mem::take(&mut seg_profile));
             }
             inside = false;
         }
@@ -424,21 +480,15 @@ fn count_instructions(
             }
         }
     }
-    let status = child.wait().map_err(|e| format!("{QEMU}: {e}"))?;
-    done.store(true, Ordering::Relaxed);
-    let out = reader.join().map_err(|_| "stdout reader panicked")?;
-    if !status.success() {
-        return Err(format!(
-            "{QEMU} (bench) exited with {status}\nstdout:\n{out}\nstderr:\n{}",
-            other.join("\n")
-        ));
-    }
-    eprintln!("bench: {total} instructions traced in total");
+    Ok(t)
+}
 
-    // Assign the segments to the cases in the order of the BENCH lines.
+/// Assigns the trace's segments to the cases in the order of the binary's
+/// `BENCH <name> <calls>` lines (printing the profiles with `--profile`).
+fn assign_segments(out: &str, trace: Trace, functions: &[Function]) -> Result<Vec<Case>, String> {
     let mut cases = Vec::new();
-    let mut seg = segments.into_iter();
-    let mut prof = profiles.into_iter();
+    let mut seg = trace.segments.into_iter();
+    let mut prof = trace.profiles.into_iter();
     let mut saw_done = false;
     for line in out.lines() {
         let Some(rest) = line.strip_prefix("BENCH ") else {
@@ -471,8 +521,12 @@ fn count_instructions(
             "bench output and trace do not match (finished: {saw_done})\nstdout:\n{out}"
         ));
     }
+    Ok(cases)
+}
 
-    // Subtract the harness overhead and check the counting itself.
+/// Subtracts the harness overhead (the `baseline` case) and checks the
+/// counting itself on the 100-NOP self-test.
+fn subtract_baseline(cases: Vec<Case>) -> Result<Vec<Case>, String> {
     let base_case = cases
         .iter()
         .find(|c| c.name == "baseline")
@@ -499,12 +553,7 @@ fn count_instructions(
             selftest.counts
         ));
     }
-    let failures = out
-        .lines()
-        .filter_map(|l| l.strip_prefix("FAIL "))
-        .map(|l| format!("bench binary: {l}"))
-        .collect();
-    Ok((cases, failures))
+    Ok(cases)
 }
 
 /// Prints where a case's instructions go, by function (all calls summed).
@@ -553,7 +602,20 @@ struct CheckReport {
     failures: Vec<String>,
 }
 
+/// Runs `bench-check` on the emulated M3 and compares its results with the
+/// same code run on the host.
 fn correctness(elf: &Path) -> Result<CheckReport, String> {
+    let out = run_check_binary(elf)?;
+    let target = parse_check_output(&out)?;
+    let mut host: BTreeMap<String, Value> = BTreeMap::new();
+    bench_lib::check::run(|name, v| {
+        host.insert(name.to_string(), v);
+    });
+    Ok(compare_results(&host, &target))
+}
+
+/// The semihosting output of `bench-check` in QEMU (no trace).
+fn run_check_binary(elf: &Path) -> Result<String, String> {
     let mut child = qemu_command(elf)
         .spawn()
         .map_err(|e| format!("{QEMU}: {e}"))?;
@@ -574,8 +636,13 @@ fn correctness(elf: &Path) -> Result<CheckReport, String> {
             "{QEMU} (bench-check) exited with {status}\nstdout:\n{out}\nstderr:\n{err}"
         ));
     }
+    Ok(out)
+}
 
-    let mut target: BTreeMap<String, bench_lib::check::Value> = BTreeMap::new();
+/// `CHECK <name> i32|f32 <4 values>` lines → results by name (f32 as bit
+/// patterns in hex, so nothing is lost in printing).
+fn parse_check_output(out: &str) -> Result<BTreeMap<String, Value>, String> {
+    let mut target = BTreeMap::new();
     for line in out.lines() {
         let Some(rest) = line.strip_prefix("CHECK ") else {
             continue;
@@ -594,7 +661,7 @@ fn correctness(elf: &Path) -> Result<CheckReport, String> {
                 for (q, s) in q.iter_mut().zip(vals) {
                     *q = s.parse().map_err(|_| format!("bad i32 in {line:?}"))?;
                 }
-                bench_lib::check::Value::I32(q)
+                Value::I32(q)
             }
             "f32" => {
                 let mut q = [0f32; 4];
@@ -603,55 +670,33 @@ fn correctness(elf: &Path) -> Result<CheckReport, String> {
                         u32::from_str_radix(s, 16).map_err(|_| format!("bad f32 in {line:?}"))?;
                     *q = f32::from_bits(bits);
                 }
-                bench_lib::check::Value::F32(q)
+                Value::F32(q)
             }
             _ => return Err(format!("bad kind in {line:?}")),
         };
         target.insert(name.to_string(), v);
     }
+    Ok(target)
+}
 
-    let mut host: BTreeMap<String, bench_lib::check::Value> = BTreeMap::new();
-    bench_lib::check::run(|name, v| {
-        host.insert(name.to_string(), v);
-    });
-
+/// Integers must be bit-identical, f32 within the tolerance; every name on
+/// both sides.
+fn compare_results(
+    host: &BTreeMap<String, Value>,
+    target: &BTreeMap<String, Value>,
+) -> CheckReport {
     let mut failures = Vec::new();
     let mut lines = Vec::new();
-    for (name, h) in &host {
+    for (name, h) in host {
         let Some(t) = target.get(name) else {
             failures.push(format!(
                 "correctness: {name} missing from the target's output"
             ));
             continue;
         };
-        match (h, t) {
-            (bench_lib::check::Value::I32(h), bench_lib::check::Value::I32(t)) => {
-                if h == t {
-                    lines.push(format!("- `{name}`: bit-identical ({t:?})"));
-                } else {
-                    failures.push(format!("correctness: {name}: target {t:?} != host {h:?}"));
-                }
-            }
-            (bench_lib::check::Value::F32(h), bench_lib::check::Value::F32(t)) => {
-                let diff = h
-                    .iter()
-                    .zip(t)
-                    .map(|(a, b)| (a - b).abs())
-                    .fold(0.0f32, f32::max);
-                let same_bits = h.iter().zip(t).all(|(a, b)| a.to_bits() == b.to_bits());
-                if diff <= bench_lib::check::F32_TOLERANCE && t.iter().all(|x| x.is_finite()) {
-                    lines.push(format!(
-                        "- `{name}`: max |target − host| = {diff:e}{} (tolerance {:e}; {t:?})",
-                        if same_bits { ", bit-identical" } else { "" },
-                        bench_lib::check::F32_TOLERANCE
-                    ));
-                } else {
-                    failures.push(format!(
-                        "correctness: {name}: target {t:?} vs host {h:?} (max diff {diff:e})"
-                    ));
-                }
-            }
-            _ => failures.push(format!("correctness: {name}: kinds differ")),
+        match compare_one(h, t) {
+            Ok(line) => lines.push(format!("- `{name}`: {line}")),
+            Err(why) => failures.push(format!("correctness: {name}: {why}")),
         }
     }
     for name in target.keys() {
@@ -670,7 +715,33 @@ fn correctness(elf: &Path) -> Result<CheckReport, String> {
     for f in &failures {
         let _ = writeln!(summary, "- FAILED {f}");
     }
-    Ok(CheckReport { summary, failures })
+    CheckReport { summary, failures }
+}
+
+/// One result: the summary line when it passes, the reason when it fails.
+fn compare_one(h: &Value, t: &Value) -> Result<String, String> {
+    match (h, t) {
+        (Value::I32(h), Value::I32(t)) if h == t => Ok(format!("bit-identical ({t:?})")),
+        (Value::I32(h), Value::I32(t)) => Err(format!("target {t:?} != host {h:?}")),
+        (Value::F32(h), Value::F32(t)) => {
+            let diff = h
+                .iter()
+                .zip(t)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f32, f32::max);
+            let same_bits = h.iter().zip(t).all(|(a, b)| a.to_bits() == b.to_bits());
+            if diff <= bench_lib::check::F32_TOLERANCE && t.iter().all(|x| x.is_finite()) {
+                Ok(format!(
+                    "max |target − host| = {diff:e}{} (tolerance {:e}; {t:?})",
+                    if same_bits { ", bit-identical" } else { "" },
+                    bench_lib::check::F32_TOLERANCE
+                ))
+            } else {
+                Err(format!("target {t:?} vs host {h:?} (max diff {diff:e})"))
+            }
+        }
+        _ => Err("kinds differ".into()),
+    }
 }
 
 struct Row {
@@ -887,6 +958,45 @@ mod tests {
     }
 
     #[test]
+    fn trace_segments_become_cases_without_the_baseline() {
+        let line = |pc: u64| format!("Trace 0: 0x7f00 [00000000/{pc:08x}/00000110/ff000201] \n");
+        let (start, end) = (0x100, 0x200);
+        let mut trace = String::from("not a trace line\n");
+        // baseline: 13 each; self-test: 113; a case: 13 + 500 and 13 + 502.
+        for n in [13, 13, 113, 513, 515] {
+            trace.push_str(&line(start));
+            for k in 1..n {
+                trace.push_str(&line(0x1000 + k));
+            }
+            trace.push_str(&line(end));
+        }
+        let t = read_trace(trace.as_bytes(), start, end, &[]).unwrap();
+        assert_eq!(t.segments, vec![13, 13, 113, 513, 515]);
+        assert_eq!(t.other, vec!["not a trace line".to_string()]);
+        let out = "BENCH baseline 2\nBENCH selftest_100_nops 1\nBENCH work 2\nBENCH done 0\n";
+        let cases = subtract_baseline(assign_segments(out, t, &[]).unwrap()).unwrap();
+        assert_eq!(cases.len(), 2);
+        assert_eq!((cases[1].name.as_str(), cases[1].median()), ("work", 502));
+        // One call short: the trace and the output disagree.
+        let t = read_trace(trace.as_bytes(), start, end, &[]).unwrap();
+        let short = "BENCH baseline 2\nBENCH selftest_100_nops 1\nBENCH work 1\nBENCH done 0\n";
+        assert!(assign_segments(short, t, &[]).is_err());
+    }
+
+    #[test]
+    fn check_lines_parse_and_compare() {
+        let out = "CHECK a i32 1 2 3 4\nCHECK b f32 3f800000 0 0 0\nCHECK done\n";
+        let target = parse_check_output(out).unwrap();
+        let mut host = target.clone();
+        assert!(compare_results(&host, &target).failures.is_empty());
+        host.insert("a".into(), Value::I32([1, 2, 3, 5]));
+        host.insert("c".into(), Value::I32([0; 4]));
+        let r = compare_results(&host, &target);
+        assert_eq!(r.failures.len(), 2, "{:?}", r.failures);
+        assert!(parse_check_output("CHECK x i64 1 2 3 4\n").is_err());
+    }
+
+    #[test]
     fn thousands_separators() {
         assert_eq!(thousands(0), "0");
         assert_eq!(thousands(999), "999");
@@ -912,8 +1022,11 @@ mod tests {
         assert!(matches!(status(FIXED_MARG_PLAIN), Some(Status::Over(_))));
         assert_eq!(status(PIPELINE), Some(Status::Pending));
         assert_eq!(status(F32_MARG_ON), Some(Status::NoBudget));
-        let rows = evaluate(&[case(PIPELINE, 7_201)]);
+        let rows = evaluate(&[case(PIPELINE, 3_001)]);
         assert!(matches!(rows[0].status, Status::Over(_)));
+        let rows = evaluate(&[case(CONTROL_STEP, 4_000), case(MAG_APPLY, 301)]);
+        assert_eq!(rows[0].status, Status::Ok);
+        assert!(matches!(rows[1].status, Status::Over(_)));
     }
 
     #[test]

@@ -1,9 +1,11 @@
 //! `cargo xtask <command>`: project automation that needs more than a shell
-//! one-liner. The check command (`scripts/check`) calls these.
+//! one-liner. The check command (`scripts/check`) calls these; `cargo xtask
+//! --help` lists them. Exit status: 0 ok, 1 failed or over budget, 2 bad arguments.
 //!
 //! * `size [ELF]` — text/data/bss of the firmware ELF against the budgets.
 //! * `bench` — instruction counts on an emulated Cortex-M3 (see `bench.rs`).
 
+use clap::{Parser, Subcommand};
 use std::{
     env,
     path::{Path, PathBuf},
@@ -12,19 +14,56 @@ use std::{
 
 mod bench;
 
-/// Flash budget for the release firmware (issue 8 aims for 32 KiB).
+/// Flash budget for the release firmware: 48 KiB of the 63 KiB usable,
+/// leaving room for motor outputs.
 const FLASH_BUDGET: u64 = 48 * 1024;
-/// Static RAM (.data + .bss + .uninit) budget (issue 8 aims for 8 KiB).
+/// Static RAM (.data + .bss + .uninit) budget; the stack takes the rest.
 const RAM_BUDGET: u64 = 12 * 1024;
 
+/// Project automation (`cargo xtask <command>`).
+#[derive(Parser, Debug)]
+#[command(name = "xtask", bin_name = "cargo xtask", version)]
+struct Cli {
+    #[command(subcommand)]
+    command: Task,
+}
+
+#[derive(Subcommand, Debug)]
+enum Task {
+    /// Flash and static RAM of the firmware ELF against the budgets
+    /// (flash 48 KiB, static RAM 12 KiB); fails when over.
+    Size {
+        /// The ELF [default: target/thumbv7m-none-eabi/release/firmware].
+        elf: Option<PathBuf>,
+    },
+    /// Instruction counts of the algorithms on an emulated Cortex-M3
+    /// (qemu-system-arm), against their budgets; fails when over.
+    Bench {
+        /// Rewrite the table in BENCHMARKS.md with the new numbers.
+        #[arg(long)]
+        update_doc: bool,
+        /// Also print where the instructions go (per-function profile).
+        #[arg(long)]
+        profile: bool,
+    },
+}
+
 fn main() -> ExitCode {
-    let args: Vec<String> = env::args().skip(1).collect();
-    let result = match args.first().map(String::as_str) {
-        Some("size") => size(args.get(1).map(PathBuf::from)),
-        Some("bench") => bench::run(&args[1..]),
-        _ => {
-            eprintln!("usage: cargo xtask size [ELF] | cargo xtask bench [--update-doc]");
-            return ExitCode::from(2);
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Task::Size { elf } => size(elf),
+        Task::Bench {
+            update_doc,
+            profile,
+        } => {
+            let mut args = Vec::new();
+            if update_doc {
+                args.push("--update-doc".to_string());
+            }
+            if profile {
+                args.push("--profile".to_string());
+            }
+            bench::run(&args)
         }
     };
     match result {
@@ -34,6 +73,15 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `println!` without the panic on a closed stdout (`cargo xtask size | head`):
+/// output stops, the command's result still decides the exit status.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
 }
 
 /// Workspace root (the parent of this crate's folder).
@@ -134,18 +182,24 @@ pub fn elf_sizes(elf: &Path) -> Result<Sizes, String> {
 
 fn size(elf: Option<PathBuf>) -> Result<(), String> {
     let elf = elf.unwrap_or_else(|| target_dir().join("thumbv7m-none-eabi/release/firmware"));
+    if !elf.is_file() {
+        return Err(format!(
+            "{}: no such ELF (build the firmware first: `cargo fw`)",
+            elf.display()
+        ));
+    }
     let s = elf_sizes(&elf)?;
-    println!("firmware size ({})", elf.display());
-    println!("  text  {:>7} B", s.text);
-    println!("  data  {:>7} B", s.data);
-    println!("  bss   {:>7} B", s.bss);
-    println!(
+    say!("firmware size ({})", elf.display());
+    say!("  text  {:>7} B", s.text);
+    say!("  data  {:>7} B", s.data);
+    say!("  bss   {:>7} B", s.bss);
+    say!(
         "  flash {:>7} B of {} B budget ({:.1} %)",
         s.flash(),
         FLASH_BUDGET,
         100.0 * s.flash() as f64 / FLASH_BUDGET as f64
     );
-    println!(
+    say!(
         "  ram   {:>7} B of {} B budget ({:.1} %) static; the stack takes the rest of 20 KiB",
         s.ram(),
         RAM_BUDGET,

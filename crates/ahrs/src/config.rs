@@ -8,12 +8,26 @@
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Config {
-    /// Madgwick's β (rad/s): the rate at which the accelerometer/magnetometer correction
-    /// turns the estimate (the paper's eq. 50: β = √(3/4)·ω̃β, ω̃β the gyro error).
+    /// Which filter runs: the full filter or Madgwick's 2010 filter as published.
+    pub algorithm: Algorithm,
+    /// Madgwick's β (rad/s) of the [`Algorithm::Textbook`] filter: the rate at which the
+    /// joint accelerometer/magnetometer gradient turns the estimate (the paper's eq. 50:
+    /// β = √(3/4)·ω̃β, ω̃β the gyro error). The full filter does not use it.
     pub beta: f32,
-    /// Gain of the magnetometer (heading) correction (rad/s). The accelerometer and
-    /// magnetometer gradients are normalised separately (instead of jointly as in eq. 44)
-    /// so the heading correction rate does not jump when the accelerometer is rejected.
+    /// Time constant (s) of each of the two first-order low-pass stages the full filter
+    /// applies to the specific force in the earth frame before correcting inclination.
+    ///
+    /// The estimate's earth frame is (nearly) inertial, so the accelerations of a body
+    /// that moves but goes nowhere average out there, gravity does not. With the
+    /// correction closing the loop, inclination follows the accelerometer through a
+    /// critically damped second-order low-pass (double pole at 1/τ): a linear acceleration
+    /// at f is attenuated by (2π·f·τ)² and a residual gyro bias b leaves a tilt of 2·b·τ.
+    pub tilt_tau_s: f32,
+    /// Gain of the magnetometer (heading only) correction of the full filter (rad/s, a
+    /// quaternion rate: the estimate turns about the earth vertical at 2·β_mag towards
+    /// the field's heading, never past it). It only has to outrun the gyro's residual
+    /// bias about the vertical after the bias estimation at rest; anything more makes
+    /// the heading follow the field's local and orientation-dependent errors.
     pub beta_mag: f32,
     /// β at start-up (rad/s); β ramps linearly from this to [`Config::beta`] over
     /// [`Config::startup_s`]. Rejection features are off during the ramp.
@@ -47,15 +61,28 @@ pub struct Config {
     /// before the gain catches up is at most about `gyro_scale_tol` × (the angle turned in
     /// this time): 5.4° for 90 °/s at 3 % with 2 s.
     pub gyro_scale_tau_s: f32,
-    /// Use the magnetometer for heading only: its gradient is projected onto the
-    /// estimated vertical so a disturbed field cannot tilt the estimate.
-    pub mag_heading_only: bool,
     /// Gyroscope bias estimation at rest.
     pub bias: BiasConfig,
     /// Accelerometer rejection during strong dynamics.
     pub accel_rejection: AccelRejectionConfig,
     /// Magnetic disturbance rejection.
     pub mag_rejection: MagRejectionConfig,
+}
+
+/// The filter variant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Algorithm {
+    /// Madgwick's 2010 report exactly (IMU and MARG): the gradient of the accelerometer
+    /// and magnetometer objective functions normalised jointly, the b = (bx, 0, bz)
+    /// reference derived from the measured field, one fixed β, the raw gyro. No bias
+    /// estimation, rejection, start-up ramp or step limit. For comparison: every
+    /// extension of the full filter is measured against this.
+    Textbook,
+    /// Inclination from the accelerometer low-passed in the earth frame, heading from
+    /// the magnetometer only, gyro bias estimation, disturbance rejection (see
+    /// [`Config`]).
+    Full,
 }
 
 /// Gyroscope bias estimation while the sensor is at rest.
@@ -109,6 +136,12 @@ pub struct MagRejectionConfig {
     /// Recovery time only accumulates while |ω| exceeds this (rad/s), so a constant
     /// disturbance while standing still is not learnt.
     pub recovery_min_rate_rps: f32,
+    /// Fallback for a disturbance that persists without becoming consistent (a magnet
+    /// riding along, a new place): after this long rejected without a break (s), the
+    /// current field is adopted as the reference (`UpdateStatus::mag_reference_relearned`).
+    /// Heading runs on the gyro meanwhile, drifting at most 2·`Config::beta_mag` per
+    /// second (the residual bias the heading gain is sized for): 60 s ≈ 10°.
+    pub fallback_s: f32,
 }
 
 impl Default for Config {
@@ -121,14 +154,15 @@ impl Config {
     /// Defaults, chosen from sensor physics (see the crate README for the rationale
     /// and the BROAD results).
     pub const DEFAULT: Config = Config {
+        algorithm: Algorithm::Full,
         beta: 0.02,
-        beta_mag: 0.007,
+        tilt_tau_s: 3.0,
+        beta_mag: 0.0015,
         startup_beta: 2.5,
         startup_s: 3.0,
         gravity_norm: 9.80665,
         gyro_scale_tol: 0.03,
         gyro_scale_tau_s: 2.0,
-        mag_heading_only: false,
         bias: BiasConfig {
             enabled: true,
             rest_gyro_rps: 0.035,
@@ -149,6 +183,7 @@ impl Config {
             dip_tol_deg: 10.0,
             recovery_s: 20.0,
             recovery_min_rate_rps: 0.35,
+            fallback_s: 60.0,
         },
     };
 }
@@ -177,6 +212,10 @@ pub struct UpdateStatus {
     pub path: UpdatePath,
     /// Gyro or dt not finite / out of range.
     pub gyro_invalid: bool,
+    /// The gyro step was limited: a half angle ½ω·dt beyond ¼ rad on some axis (a long
+    /// dt at a high rate) was clamped, so part of that step's rotation is lost; the
+    /// accelerometer and magnetometer corrections then bring the estimate back.
+    pub gyro_step_clamped: bool,
     /// Accelerometer zero or not finite.
     pub accel_invalid: bool,
     /// Magnetometer zero or not finite (only for MARG updates).
@@ -200,6 +239,7 @@ impl UpdateStatus {
         Self {
             path: UpdatePath::Skipped,
             gyro_invalid: false,
+            gyro_step_clamped: false,
             accel_invalid: false,
             mag_invalid: false,
             accel_rejected: false,

@@ -1,4 +1,4 @@
-//! Madgwick AHRS in fixed point for an FPU-less Cortex-M3: the same algorithm, API shape,
+//! The attitude filter in fixed point for an FPU-less Cortex-M3: the same algorithm, API shape,
 //! status reports and features as [`crate::Madgwick`], in integer arithmetic.
 //!
 //! Q-formats (Qm.n = n fractional bits):
@@ -13,18 +13,24 @@
 //!   accelerometer units;
 //! * unit vectors, rotation-matrix entries, cosines and sines: Q2.30.
 //!
+//! * the earth-frame low-passed specific force of the tilt correction: g in Q26 `i32`.
+//!
 //! All products are 32×32→64-bit (one `SMULL`/`SMLAL` on the M3) accumulated in `i64`
 //! with one shift per result; every such sum has its overflow bound in a comment instead
-//! of saturating arithmetic. There is no division on the update path: the accelerometer,
-//! magnetometer and the two gradients are normalised with one integer reciprocal square
-//! root each (32-bit leading-zero normalisation + 48-entry table + two Newton steps in
-//! 32-bit arithmetic, < 3e-7 relative error); the quaternion is renormalised with the
+//! of saturating arithmetic. The accelerometer, magnetometer and (textbook mode) the
+//! gradient are normalised with one integer reciprocal square root each (32-bit
+//! leading-zero normalisation + 48-entry table + two Newton steps in 32-bit arithmetic,
+//! < 3e-7 relative error); the quaternion is renormalised once per update with the
 //! first-order q·(3 − ‖q‖²)/2 (every normal step: ‖q‖² is within 2^-10 of 1) or a full
-//! reciprocal square root otherwise. The gradient step per update is limited to
-//! min(β·dt, ‖∇f‖/4, ½), as in the f32 filter. Conversions from the f32 [`crate::Config`]
-//! happen once, in [`FixedConfig::from_config`].
+//! reciprocal square root otherwise. The only divisions are two 32-bit `SDIV`s: the
+//! heading error and 1/|y_z| of the tilt correction. Conversions from the f32 [`crate::Config`] happen once, in
+//! [`FixedConfig::from_config`].
 
-use crate::config::{Config, UpdatePath, UpdateStatus};
+// `max(lo).min(hi)` instead of `clamp`: `clamp` asserts lo ≤ hi (a panic path) and stays
+// an out-of-line call at the firmware's opt-level "z".
+#![allow(clippy::manual_clamp)]
+
+use crate::config::{Algorithm, Config, UpdatePath, UpdateStatus};
 use crate::Quaternion;
 
 const ONE_Q30: i64 = 1 << 30;
@@ -167,12 +173,59 @@ fn sqrt_and_ratio(s: u64, v: i64) -> (i64, i64) {
     let y = rsqrt_q29(m);
     let sq = i64::from(sqrt_parts(m, y, k)) * if big { 4 } else { 1 };
     // v·2^30/√s = (v·2^k)·Y/2^31·2^30: |v·2^k| ≤ √(s·4^k) < 2^31 as in `scale4`.
-    let vk = (v.clamp(-i64::from(i32::MAX), i64::from(i32::MAX)) as i32) << k;
+    let vk = (v.max(-i64::from(i32::MAX)).min(i64::from(i32::MAX)) as i32) << k;
     (sq, (m64(vk, y) + (1 << 29)) >> 30)
 }
 
+/// ½ω·dt in Q30 (Q20·Q31 = Q51 → >> 22), clamped to ±¼ rad (half angle) per axis and
+/// step (as the f32 filter; 2000 °/s reaches it at dt = 14 ms). The clamp tests the
+/// product's high word (¼ in Q30 is 2^50 in Q51, 2^18 in the high word): 32-bit compares.
+/// `clamped` is set if a clamp acted.
+#[inline(always)]
+fn half_angles(w: [i32; 3], dt_q31: i32, clamped: &mut bool) -> [i32; 3] {
+    let mut h = |x: i32| {
+        let p = m64(x, dt_q31);
+        let hi = (p >> 32) as i32;
+        if hi >= 1 << 18 {
+            *clamped = true;
+            ONE_Q30 as i32 / 4
+        } else if hi < -(1 << 18) {
+            *clamped = true;
+            -(ONE_Q30 as i32) / 4
+        } else {
+            (p >> 22) as i32
+        }
+    };
+    [h(w[0]), h(w[1]), h(w[2])]
+}
+
+/// |ω|² in Q40 for ω in Q20: three squares ≤ 2^62 each sum exactly in u64 (< 3·2^62),
+/// then saturate once to i64.
+fn w_sq(w: [i32; 3]) -> i64 {
+    let [a, b, d] = w;
+    let sq = |x: i32| (i64::from(x) * i64::from(x)) as u64;
+    (sq(a) + sq(b) + sq(d)).min(i64::MAX as u64) as i64
+}
+
+fn sub_sat3(a: [i32; 3], b: [i32; 3]) -> [i32; 3] {
+    [
+        a[0].saturating_sub(b[0]),
+        a[1].saturating_sub(b[1]),
+        a[2].saturating_sub(b[2]),
+    ]
+}
+
+/// One first-order low-pass step s + k·(x − s), k in Q30 (0 ≤ k ≤ 2^30). The result
+/// lies between s and x (the difference saturated to i32 keeps its sign and does not
+/// grow), so it fits.
+#[inline(always)]
+fn lp_step(s: i32, x: i32, k: i32) -> i32 {
+    let d = sat32(i64::from(x) - i64::from(s));
+    s + (m64(k, d) >> 30) as i32
+}
+
 fn sat32(x: i64) -> i32 {
-    x.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+    x.max(i64::from(i32::MIN)).min(i64::from(i32::MAX)) as i32
 }
 
 fn mul30(a: i32, b: i32) -> i64 {
@@ -273,7 +326,7 @@ fn propagate(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
 /// gain with a long dt) reaches but cannot pass the minimum instead of spinning the
 /// estimate away. Same limit as the f32 filter. The step adds at most ½·2^60 to the
 /// accumulator's norm.
-fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: i32) {
+fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: Option<i32>) {
     if let Some((u, _)) = unit4(g) {
         let [g0, g1, g2, g3] = g;
         let [u0, u1, u2, u3] = u;
@@ -281,8 +334,8 @@ fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: i32) {
         let norm = (m64(g0, u0) + m64(g1, u1) + m64(g2, u2) + m64(g3, u3)) >> 30;
         // ‖g‖ < 2^30 fits in i32. A product, not a shift: a variable 64-bit shift is a
         // library call (`__aeabi_llsl`) on the M3.
-        let cap = m64(norm as i32, cap_mul);
-        let s = beta_dt_q30.min(cap).clamp(0, 1 << 29) as i32;
+        let cap = cap_mul.map_or(i64::MAX, |k| m64(norm as i32, k));
+        let s = beta_dt_q30.min(cap).max(0).min(1 << 29) as i32;
         // In place, per component (returning the array by value costs a `memcpy`).
         let [a0, a1, a2, a3] = acc;
         *a0 -= m64(s, u0);
@@ -391,6 +444,42 @@ pub struct FixedConfig {
     sin_dip_tol_q30: i64,
     mag_recovery_q20: i64,
     mag_min_rate_sq_q40: i64,
+    mag_fallback_q20: i64,
+    inv_tilt_tau_q20: i64,
+    inv_tilt_tau0_q20: i64,
+    inv_g_q32: i32,
+    acc_pre_shift: u32,
+    acc_pre_lim: i32,
+    max_tilt_step_q26: i32,
+}
+
+/// 1/τ in Q20 (≤ 2000/s; τ ≤ 0 or NaN → 2000/s, so k = dt/τ saturates at 1 per step).
+fn inv_q20(tau_s: f32) -> i64 {
+    if tau_s > 0.0 {
+        i64::from(float_to_q((1.0 / tau_s).min(2000.0), 20))
+    } else {
+        2000 << 20
+    }
+}
+
+/// 1/g for the accelerometer in g (Q26) with one 32-bit shift and one multiply:
+/// a/g = (a·2^p)·m / 2^32 with m = 2^(58−p)/g ∈ [2^30, 2^31) for p = 27 − ⌊log₂ g⌋ (g the
+/// accelerometer units per g; p = 0 for g ≥ 2^27, clamped to [1, 2^40]). Inputs are
+/// saturated so a·2^p fits in i32: at 2^(31−p) > 8 g, so the fixed filter sees at most
+/// 8–16 g of specific force (the MPU-9250's largest range is 16 g).
+fn inv_g_parts(g: f32) -> (i32, u32) {
+    let g = if g.is_finite() {
+        g.clamp(1.0, 1.0e12)
+    } else {
+        1.0
+    };
+    let mut e = 0u32;
+    while e < 40 && (1u64 << (e + 1)) as f32 <= g {
+        e += 1;
+    }
+    let p = 27u32.saturating_sub(e);
+    let m = (1u64 << (58 - p)) as f32 / g;
+    (libm::roundf(m).min(i32::MAX as f32) as i32, p)
 }
 
 fn s_to_q20(s: f32) -> i64 {
@@ -425,6 +514,7 @@ impl FixedConfig {
             v.saturating_mul(v)
         };
         let mr = cfg.mag_rejection;
+        let (inv_g_q32, acc_pre_shift) = inv_g_parts(g);
         Self {
             cfg: *cfg,
             beta_q24: float_to_q(cfg.beta, 24),
@@ -433,11 +523,7 @@ impl FixedConfig {
             // ½·tol in Q30, tol clamped to [0, 1] (NaN → 0).
             half_scale_tol_q30: f30(0.5 * cfg.gyro_scale_tol.clamp(0.0, 1.0)),
             // 1/τ in Q20 (≤ 2000/s; τ ≤ 0 or NaN → k = 1 per step, as the f32 filter).
-            inv_scale_tau_q20: if cfg.gyro_scale_tau_s > 0.0 {
-                i64::from(float_to_q((1.0 / cfg.gyro_scale_tau_s).min(2000.0), 20))
-            } else {
-                2000 << 20
-            },
+            inv_scale_tau_q20: inv_q20(cfg.gyro_scale_tau_s),
             startup_q20: s_to_q20(cfg.startup_s.max(0.0)),
             inv_startup_q30: inv(cfg.startup_s),
             rest_gyro_sq_q40: sq_q40(cfg.bias.rest_gyro_rps),
@@ -455,6 +541,13 @@ impl FixedConfig {
             sin_dip_tol_q30: f30(crate::quat::sin_deg(mr.dip_tol_deg)),
             mag_recovery_q20: s_to_q20(mr.recovery_s),
             mag_min_rate_sq_q40: sq_q40(mr.recovery_min_rate_rps),
+            mag_fallback_q20: s_to_q20(mr.fallback_s),
+            inv_tilt_tau_q20: inv_q20(cfg.tilt_tau_s),
+            inv_tilt_tau0_q20: inv_q20(cfg.tilt_tau_s.min(crate::madgwick::STARTUP_TILT_TAU_S)),
+            inv_g_q32,
+            acc_pre_shift,
+            acc_pre_lim: i32::MAX >> acc_pre_shift,
+            max_tilt_step_q26: float_to_q(crate::madgwick::MAX_TILT_STEP_RAD, 26),
         }
     }
 }
@@ -495,7 +588,13 @@ pub struct MadgwickFixed {
     mag_ref: Option<MagRef>,
     cand: Option<(u64, i64)>,
     cand_q20: i64,
+    /// Time rejected without a break (Q20 s), for the fallback.
+    mag_reject_q20: i64,
     rate_lp_down_q40: i64,
+    /// Two first-order low-pass stages of the specific force (g, Q27) in the estimate's
+    /// NED frame.
+    acc_lp: [[i32; 3]; 2],
+    acc_lp_valid: bool,
 }
 
 impl MadgwickFixed {
@@ -514,7 +613,10 @@ impl MadgwickFixed {
             mag_ref: None,
             cand: None,
             cand_q20: 0,
+            mag_reject_q20: 0,
             rate_lp_down_q40: 0,
+            acc_lp: [[0; 3]; 2],
+            acc_lp_valid: false,
         }
     }
 
@@ -550,6 +652,7 @@ impl MadgwickFixed {
         };
         let n = cross30(e, d);
         self.q = quat_from_rows_q30([n, e, d]);
+        self.acc_lp_valid = false;
         self.mag_ref = None;
         if let Some((mu, n2)) = m {
             self.mag_ref = Some(self.make_ref(n2, dot30(mu, d)));
@@ -558,7 +661,7 @@ impl MadgwickFixed {
     }
 
     fn make_ref(&self, n2: u64, hz_q30: i64) -> MagRef {
-        let hz = hz_q30.clamp(-ONE_Q30, ONE_Q30);
+        let hz = hz_q30.max(-ONE_Q30).min(ONE_Q30);
         let c2 = (ONE_Q30 * ONE_Q30 - hz * hz).max(0) as u64; // cos²(dip), Q60
         let c = isqrt(c2).max(ONE_Q30 / 20); // Q30, ≥ 0.05
         let scaled =
@@ -668,198 +771,354 @@ impl MadgwickFixed {
             st.gyro_invalid = true;
             return st;
         }
-        // By reference: a copy of the whole configuration costs a `memcpy` per update.
-        let c = &self.c;
-        let cfg = &c.cfg;
-        let dt_q20 = i64::from(dt_q31 >> 11);
-        let initialising = self.time_q20 < c.startup_q20;
+        if self.c.cfg.algorithm == Algorithm::Textbook {
+            return self.update_textbook(gyro, accel, mag, dt_q31);
+        }
+        let initialising = self.time_q20 < self.c.startup_q20;
         st.initialising = initialising;
         let acc = unit3(accel);
         st.accel_invalid = acc.is_none();
 
-        // --- gyro bias at rest -----------------------------------------------------
-        let wsub = |b: [i32; 3]| {
-            [
-                gyro[0].saturating_sub(b[0]),
-                gyro[1].saturating_sub(b[1]),
-                gyro[2].saturating_sub(b[2]),
-            ]
-        };
-        // |ω|² in Q40: three squares ≤ 2^62 each sum exactly in u64 (< 3·2^62), then
-        // saturate once to i64 (no per-term saturating adds).
-        let w_sq = |w: [i32; 3]| {
-            let [a, b, d] = w;
-            let sq = |x: i32| (i64::from(x) * i64::from(x)) as u64;
-            (sq(a) + sq(b) + sq(d)).min(i64::MAX as u64) as i64
-        };
-        if cfg.bias.enabled {
-            let w = wsub(self.bias_q20);
-            let still = w_sq(w) < c.rest_gyro_sq_q40
-                && acc.is_some_and(|(_, n2)| n2 > c.rest_acc_lo && n2 < c.rest_acc_hi);
-            self.rest_q20 = if still {
-                (self.rest_q20 + dt_q20).min(1 << 50)
-            } else {
-                0
-            };
-            if self.rest_q20 >= c.rest_time_q20 {
-                st.at_rest = true;
-                let k = ((i64::from(dt_q31) * c.inv_bias_tau_q30) >> 31).clamp(0, ONE_Q30);
-                // Bias kept in Q40 so the tiny steps k·w are not lost to truncation.
-                let max = i64::from(c.bias_max_q20) << 20;
-                for ((acc, b), w) in self
-                    .bias_q40
-                    .iter_mut()
-                    .zip(self.bias_q20.iter_mut())
-                    .zip(w)
-                {
-                    // `max(-max).min(max)`, not `clamp`: no panic path for a
-                    // misconfigured negative limit, no formatting code linked.
-                    *acc = (*acc + ((k * i64::from(w)) >> 10)).max(-max).min(max);
-                    *b = sat32((*acc + (1 << 19)) >> 20);
-                }
-            }
-        }
-        let w = if cfg.bias.enabled {
-            wsub(self.bias_q20)
-        } else {
-            gyro
-        };
-
-        let q = self.q;
+        let w = self.estimate_bias(gyro, acc.map(|(_, n2)| n2), dt_q31, &mut st);
+        // Gyro step, not yet renormalised: ‖q‖² ≤ 1 + 3/16 (half angles ≤ ¼ per axis),
+        // so the rows of R below stay < 2^31 (they carry ‖q‖², a common scale the
+        // corrections do not see), and one renormalisation after the corrections does.
+        let nq = propagate(self.q, half_angles(w, dt_q31, &mut st.gyro_step_clamped));
+        let q = nq.map(|a| ((a + (1 << 29)) >> 30) as i32);
         let r = rows(q);
-        let down = r[2];
-        // Mean rate about the earth vertical ω̄_D (Q40 rad/s, |ω̄_D| ≤ 64 rad/s) for the
-        // scale-factor heading gain: ω̄_D += k·(down·ω − ω̄_D), k = dt/τ in Q30.
-        if c.half_scale_tol_q30 > 0 {
-            let k = ((i64::from(dt_q31) * c.inv_scale_tau_q20) >> 21).clamp(0, ONE_Q30);
-            let lp = self.rate_lp_down_q40;
-            let x_q20 = dot30(down, w).clamp(-MAX_MEAN_RATE_Q20, MAX_MEAN_RATE_Q20);
-            let e = x_q20 - (lp >> 20); // |e| ≤ 2^27, so k·e < 2^57
-            self.rate_lp_down_q40 =
-                (lp + ((k * e) >> 10)).clamp(-MAX_MEAN_RATE_Q40, MAX_MEAN_RATE_Q40);
-        }
-
-        // --- accelerometer: eqs. (25)-(26) -----------------------------------------
-        let mut grad = [0i32; 4];
-        let mut use_acc = false;
-        if let Some((a, n2)) = acc {
-            let d = a.map(|x| x.saturating_neg());
-            let ar = cfg.accel_rejection;
-            let mut reject = false;
-            if ar.enabled && !initialising {
-                reject = n2 < c.acc_lo || n2 > c.acc_hi || dot30(d, down) < c.cos_acc_q30;
-            }
-            if reject {
-                self.acc_reject_q20 = (self.acc_reject_q20 + dt_q20).min(1 << 50);
-                if self.acc_reject_q20 > c.acc_recovery_q20 {
-                    self.acc_forced = true;
-                }
-                if self.acc_forced {
-                    st.accel_recovering = true;
-                    reject = false;
-                }
-            } else {
-                self.acc_reject_q20 = 0;
-                self.acc_forced = false;
-            }
-            st.accel_rejected = reject;
-            if !reject {
-                use_acc = true;
-                // f_g = Rᵀ(0,0,1) − d (eq. 25), J_gᵀ f_g (eq. 26): ∇f/2 in Q26.
-                grad = accel_grad(q, down, d);
-            }
-        }
-
-        // --- magnetometer: eqs. (29)-(30), (45)-(46) --------------------------------
-        let mut grad_mag = [0i32; 4];
-        let mut use_mag = false;
-        let mut head_err = 0i64;
-        if let Some(mag) = mag {
-            match unit3(mag) {
-                None => st.mag_invalid = true,
-                Some((m, n2)) => {
-                    // h = R m (eq. 45), NED.
-                    let h = [dot30u(r[0], m), dot30u(r[1], m), dot30u(r[2], m)]
-                        .map(|x| i64::from(x).clamp(-ONE_Q30, ONE_Q30));
-                    let hz = h[2];
-                    let accept = self.check_mag(n2, hz, w_sq(w), dt_q31, initialising, &mut st);
-                    let cfg = &self.c.cfg;
-                    if accept {
-                        use_mag = true;
-                        // b = (√(hx²+hy²), 0, hz) (eq. 46), Q30.
-                        let hs = (h[0] * h[0] + h[1] * h[1]) as u64; // Q60
-                        let (bx, sin_q30) = sqrt_and_ratio(hs, h[1]);
-                        head_err = ((sin_q30 * crate::madgwick::HEADING_LINEAR_GAIN_Q16) >> 16)
-                            .clamp(-ONE_Q30, ONE_Q30);
-                        let bz = hz;
-                        // f_b = Rᵀ b − m (eq. 29 with the correct 2bx, 2bz), J_bᵀ f_b
-                        // (eq. 30): ∇f/2 in Q24 (|bx|, |bz| ≤ 2^30: they fit in i32).
-                        let mut gb = mag_grad(q, r[0], r[2], m, bx as i32, bz as i32);
-                        if cfg.mag_heading_only {
-                            gb = project_heading(q, gb, down);
-                        }
-                        grad_mag = gb;
-                    }
-                }
-            }
-        }
-
-        let c = &self.c;
-        st.path = match (use_acc, use_mag) {
+        self.track_vertical_rate(r[2], w, dt_q31);
+        let tilt = self.correct_tilt(&r, accel, acc, dt_q31, initialising, &mut st);
+        let heading = match mag {
+            Some(m) => self.correct_heading(&r, m, w_sq(w), dt_q31, initialising, &mut st),
+            None => None,
+        };
+        st.path = match (tilt.is_some(), heading.is_some()) {
             (true, true) => UpdatePath::Marg,
             (true, false) => UpdatePath::Imu,
             (false, true) => UpdatePath::MagOnly,
             (false, false) => UpdatePath::GyroOnly,
         };
+        let [tx, ty] = tilt.unwrap_or([0; 2]);
+        if !self.fuse(nq, q, [tx, ty, heading.unwrap_or(0)]) {
+            st.path = UpdatePath::Skipped;
+            return st;
+        }
+        self.time_q20 = (self.time_q20 + i64::from(dt_q31 >> 11)).min(1 << 60);
+        st
+    }
 
-        // --- fusion (eqs. 12, 43-44), gradients normalised separately ---------------
-        let ramp = |b: i32| -> i64 {
-            let b = i64::from(b);
-            if initialising && c.startup_q20 > 0 {
-                let frac = ((self.time_q20 * c.inv_startup_q30) >> 20).clamp(0, ONE_Q30);
-                let sb = i64::from(c.startup_beta_q24);
-                sb + (((b - sb) * frac) >> 30)
-            } else {
-                b
-            }
-        };
-        // Heading gain for the gyro scale-factor error (`Config::gyro_scale_tol`):
-        // β_head = ½·tol·|ω̄_D|: Q20 (< 2^27) · Q30 → >> 26 gives Q24.
-        let rh = (((self.rate_lp_down_q40 >> 20).abs()) * c.half_scale_tol_q30) >> 26;
-        // β·dt: Q24·Q31 → Q30 (β clamped to < 128 rad/s so the product fits in i64).
-        let gain_dt =
-            |b: i64| ((b.min(i64::from(i32::MAX)) * i64::from(dt_q31)) >> 25).clamp(0, ONE_Q30);
-        let beta_dt = gain_dt(ramp(c.beta_q24));
-        let beta_mag_dt = gain_dt(ramp(c.beta_mag_q24));
-        let head_dt = if use_mag && head_err != 0 {
-            gain_dt(rh)
+    /// Gyro bias estimation at rest; returns the bias-corrected rate (Q20 rad/s).
+    fn estimate_bias(
+        &mut self,
+        gyro: [i32; 3],
+        accel_norm_sq: Option<u64>,
+        dt_q31: i32,
+        st: &mut UpdateStatus,
+    ) -> [i32; 3] {
+        // By reference: a copy of the whole configuration costs a `memcpy` per update.
+        let c = &self.c;
+        if !c.cfg.bias.enabled {
+            return gyro;
+        }
+        let w = sub_sat3(gyro, self.bias_q20);
+        let still = w_sq(w) < c.rest_gyro_sq_q40
+            && accel_norm_sq.is_some_and(|n2| n2 > c.rest_acc_lo && n2 < c.rest_acc_hi);
+        self.rest_q20 = if still {
+            (self.rest_q20 + i64::from(dt_q31 >> 11)).min(1 << 50)
         } else {
             0
         };
-        // ½ω·dt in Q30: Q20·Q31 = Q51 → >> 22.
-        // Clamped to ±½ rad (half angle) per step, far beyond any physical rate·dt.
-        let half_angle = |x: i32| (m64(x, dt_q31) >> 22).clamp(-ONE_Q30 / 2, ONE_Q30 / 2) as i32;
-        let [w0, w1, w2] = w;
-        let hw = [half_angle(w0), half_angle(w1), half_angle(w2)];
-        // Q60 accumulator (bounds in `propagate`, `grad_step`, `renormalise`).
-        let mut nq = propagate(q, hw);
-        grad_step(&mut nq, grad, beta_dt, 8);
-        grad_step(&mut nq, grad_mag, beta_mag_dt, 32);
-        if head_dt > 0 {
-            // Q30, clamped to ½ so the accumulator stays < 2^62 (see `renormalise`).
-            let t = ((head_dt * head_err) >> 30).clamp(-ONE_Q30 / 2, ONE_Q30 / 2) as i32;
-            let [q1, q2, q3, q4] = q;
-            nq[0] += m64(t, q4);
-            nq[1] += m64(t, q3);
-            nq[2] -= m64(t, q2);
-            nq[3] -= m64(t, q1);
+        if self.rest_q20 >= c.rest_time_q20 {
+            st.at_rest = true;
+            let k = ((i64::from(dt_q31) * c.inv_bias_tau_q30) >> 31)
+                .max(0)
+                .min(ONE_Q30);
+            // Bias kept in Q40 so the tiny steps k·w are not lost to truncation.
+            let max = i64::from(c.bias_max_q20) << 20;
+            for ((acc, b), w) in self
+                .bias_q40
+                .iter_mut()
+                .zip(self.bias_q20.iter_mut())
+                .zip(w)
+            {
+                // `max(-max).min(max)`, not `clamp`: no panic path for a misconfigured
+                // negative limit, no formatting code linked.
+                *acc = (*acc + ((k * i64::from(w)) >> 10)).max(-max).min(max);
+                *b = sat32((*acc + (1 << 19)) >> 20);
+            }
         }
-        let Some(nq) = renormalise(nq) else {
-            st.path = UpdatePath::Skipped;
-            return st;
+        sub_sat3(gyro, self.bias_q20)
+    }
+
+    /// Mean rate about the vertical (Q40 rad/s) for the scale-factor heading gain
+    /// schedule (`Config::gyro_scale_tol`): first-order low-pass, k = dt/τ in Q30.
+    fn track_vertical_rate(&mut self, down: [i32; 3], w: [i32; 3], dt_q31: i32) {
+        let c = &self.c;
+        if c.half_scale_tol_q30 > 0 {
+            let k = ((i64::from(dt_q31) * c.inv_scale_tau_q20) >> 21)
+                .max(0)
+                .min(ONE_Q30);
+            let lp = self.rate_lp_down_q40;
+            let x_q20 = dot30(down, w)
+                .max(-MAX_MEAN_RATE_Q20)
+                .min(MAX_MEAN_RATE_Q20);
+            let e = x_q20 - (lp >> 20); // |e| ≤ 2^27, so k·e < 2^57
+            self.rate_lp_down_q40 = (lp + ((k * e) >> 10))
+                .max(-MAX_MEAN_RATE_Q40)
+                .min(MAX_MEAN_RATE_Q40);
+        }
+    }
+
+    /// Accelerometer (inclination) correction, as the f32 filter's: the specific force in
+    /// g (Q27) in the estimate's NED frame through two first-order low-pass stages (Q27
+    /// states, k = dt/τ in Q30); returns the earth-frame rotation (x, y) in Q30 rad that
+    /// takes the low-passed vector onto the vertical.
+    fn correct_tilt(
+        &mut self,
+        r: &[[i32; 3]; 3],
+        accel: [i32; 3],
+        acc: Option<([i32; 3], u64)>,
+        dt_q31: i32,
+        initialising: bool,
+        st: &mut UpdateStatus,
+    ) -> Option<[i32; 2]> {
+        let (a, n2) = acc?;
+        if self.reject_accel(r[2], a, n2, dt_q31, initialising, st) {
+            return None;
+        }
+        let c = &self.c;
+        // a/g in Q26: a saturated so a·2^p fits (≥ 8 g: see `inv_g_parts`), times the
+        // Q32 mantissa, high word.
+        let lim = c.acc_pre_lim;
+        let g = |x: i32| (m64(x.max(-lim).min(lim) << c.acc_pre_shift, c.inv_g_q32) >> 32) as i32;
+        let ag = [g(accel[0]), g(accel[1]), g(accel[2])];
+        // Rows of R in Q30 times Q26 → Q26 (‖a/g‖ < √3·32, saturated).
+        let u = [
+            sat32(dot30(r[0], ag)),
+            sat32(dot30(r[1], ag)),
+            sat32(dot30(r[2], ag)),
+        ];
+        if !self.acc_lp_valid {
+            self.acc_lp = [u, u];
+            self.acc_lp_valid = true;
+        }
+        // k = dt·(1/τ) in Q30 (Q31·Q20 >> 21); start-up ramps 1/τ (as the f32 filter).
+        let inv_tau = if initialising && c.startup_q20 > 0 {
+            let frac = ((self.time_q20 * c.inv_startup_q30) >> 20)
+                .max(0)
+                .min(ONE_Q30);
+            let i0 = c.inv_tilt_tau0_q20;
+            i0 + (((c.inv_tilt_tau_q20 - i0) * frac) >> 30)
+        } else {
+            c.inv_tilt_tau_q20
         };
-        self.q = nq;
-        self.time_q20 = (self.time_q20 + dt_q20).min(1 << 60);
+        let k = ((i64::from(dt_q31) * inv_tau) >> 21).max(0).min(ONE_Q30) as i32;
+        let [s1, s2] = &mut self.acc_lp;
+        let [u0, u1, u2] = u;
+        let [a0, a1, a2] = s1;
+        *a0 = lp_step(*a0, u0, k);
+        *a1 = lp_step(*a1, u1, k);
+        *a2 = lp_step(*a2, u2, k);
+        let [b0, b1, b2] = s2;
+        *b0 = lp_step(*b0, *a0, k);
+        *b1 = lp_step(*b1, *a1, k);
+        *b2 = lp_step(*b2, *a2, k);
+        // θ = ŷ × (0, 0, −1) with ŷ ≈ y/|y_z| (as the f32 filter), Q26 g → Q30 rad, at
+        // most MAX_TILT_STEP per update. 1/|y_z| by one 32-bit division: |y_z| in Q16
+        // (≥ 2^6 above 1/1024 g), 2^31/|y_z|_Q16 is 1/|y_z| in Q15.
+        let yz = b2.saturating_neg();
+        let d = if yz > 1 << 16 { yz >> 10 } else { 1 << 16 };
+        let inv_q15 = i32::MAX.checked_div(d).unwrap_or(0);
+        let lim = c.max_tilt_step_q26;
+        let th = |v: i32| {
+            let t = (m64(v, inv_q15) >> 15)
+                .max(-i64::from(lim))
+                .min(i64::from(lim));
+            (t as i32) << 4
+        };
+        Some([th(b1.saturating_neg()), th(*b0)])
+    }
+
+    /// Accelerometer rejection with its recovery timeout; true if the sample is rejected.
+    fn reject_accel(
+        &mut self,
+        down: [i32; 3],
+        a: [i32; 3],
+        n2: u64,
+        dt_q31: i32,
+        initialising: bool,
+        st: &mut UpdateStatus,
+    ) -> bool {
+        let c = &self.c;
+        let ar = c.cfg.accel_rejection;
+        if !ar.enabled || initialising {
+            return false;
+        }
+        let d = a.map(|x| x.saturating_neg());
+        let mut reject = n2 < c.acc_lo || n2 > c.acc_hi || dot30(d, down) < c.cos_acc_q30;
+        if reject {
+            self.acc_reject_q20 = (self.acc_reject_q20 + i64::from(dt_q31 >> 11)).min(1 << 50);
+            if self.acc_reject_q20 > c.acc_recovery_q20 {
+                self.acc_forced = true;
+            }
+            if self.acc_forced {
+                st.accel_recovering = true;
+                reject = false;
+            }
+        } else {
+            self.acc_reject_q20 = 0;
+            self.acc_forced = false;
+        }
+        st.accel_rejected = reject;
+        reject
+    }
+
+    /// Magnetometer (heading only) correction, as the f32 filter's: the earth-frame
+    /// rotation about the vertical in Q30 rad, or `None` if the field is invalid or
+    /// disturbed.
+    fn correct_heading(
+        &mut self,
+        r: &[[i32; 3]; 3],
+        mag: [i32; 3],
+        w2_q40: i64,
+        dt_q31: i32,
+        initialising: bool,
+        st: &mut UpdateStatus,
+    ) -> Option<i32> {
+        let Some((m, n2)) = unit3(mag) else {
+            st.mag_invalid = true;
+            return None;
+        };
+        // h = R m (eq. 45), NED, Q30.
+        let h = [dot30u(r[0], m), dot30u(r[1], m), dot30u(r[2], m)]
+            .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
+        if !self.check_mag(n2, h[2], w2_q40, dt_q31, initialising, st) {
+            return None;
+        }
+        // Heading error, as the f32 filter: the east component over the north one (tan of
+        // the error) in units of the linear zone, ±1 beyond it or with the field pointing
+        // south. One 32-bit division in Q12: h_N is first scaled to [2^17, 2^18) (h_E with
+        // it), so |20·h_E| < h_N keeps the numerator < 2^30 and h_E keeps 17 bits.
+        let (hn, he) = (h[0] as i32, h[1] as i32); // |hᵢ| ≤ 2^30
+        let g = crate::madgwick::HEADING_LINEAR_GAIN;
+        let e_q12 = if hn >= 1 << 17 {
+            let r = 14 - hn.leading_zeros().min(14); // hn >> r ∈ [2^17, 2^18)
+            let (hn, he) = (hn >> r, he >> r);
+            if (i64::from(he) * i64::from(g)).abs() >= i64::from(hn) {
+                he.signum() << 12
+            } else {
+                ((he * g) << 12).checked_div(hn).unwrap_or(0)
+            }
+        } else {
+            he.signum() << 12
+        };
+        let c = &self.c;
+        let beta_mag = if initialising && c.startup_q20 > 0 {
+            let frac = ((self.time_q20 * c.inv_startup_q30) >> 20)
+                .max(0)
+                .min(ONE_Q30);
+            let b = i64::from(c.beta_mag_q24);
+            let sb = i64::from(c.startup_beta_q24);
+            sb + (((b - sb) * frac) >> 30)
+        } else {
+            i64::from(c.beta_mag_q24)
+        };
+        // β_head = ½·tol·|ω̄_D|: Q20 (< 2^27) · Q30 → >> 26 gives Q24.
+        let beta_head = (((self.rate_lp_down_q40 >> 20).abs()) * c.half_scale_tol_q30) >> 26;
+        // 2β·dt: Q24·Q31 >> 24 is β·dt in Q31, i.e. 2β·dt in Q30. β_mag at a constant
+        // rate towards the field, β_head proportionally (as the f32 filter).
+        let two_dt = |b: i64| (b.max(0).min(i64::from(i32::MAX)) * i64::from(dt_q31)) >> 24;
+        let mag_dt = two_dt(beta_mag).min(ONE_Q30);
+        let head = (two_dt(beta_head).min(ONE_Q30) * i64::from(e_q12)) >> 12;
+        let step = head + mag_dt * h[1].signum();
+        // A step never passes the field's heading (|h_E| ≤ the error's sine; as the f32
+        // filter).
+        let lim = h[1].abs().min(ONE_Q30 / 2);
+        Some((-step).max(-lim).min(lim) as i32)
+    }
+
+    /// q ← q + ½ (0, θ) ⊗ q (θ the earth-frame correction, Q30 rad) on the propagated
+    /// Q60 accumulator `acc` (q its Q30 value), renormalised; the low-passed
+    /// accelerometer states rotate with it (s += θ × s). False if degenerate.
+    fn fuse(&mut self, acc: [i64; 4], q: [i32; 4], theta: [i32; 3]) -> bool {
+        let [q0, q1, q2, q3] = q;
+        let [p1, p2, p3] = theta.map(|t| t >> 1);
+        let [a0, a1, a2, a3] = acc;
+        // |p₁|, |p₂| ≤ 0.025, |p₃| ≤ ¼, ‖q‖ < 1.09: the accumulator stays < 1.4·2^60.
+        let acc = [
+            a0 - m64(p1, q1) - m64(p2, q2) - m64(p3, q3),
+            a1 + m64(p1, q0) + m64(p2, q3) - m64(p3, q2),
+            a2 - m64(p1, q3) + m64(p2, q0) + m64(p3, q1),
+            a3 + m64(p1, q2) - m64(p2, q1) + m64(p3, q0),
+        ];
+        let Some(n) = renormalise(acc) else {
+            return false;
+        };
+        self.q = n;
+        for s in &mut self.acc_lp {
+            let [s0, s1, s2] = *s;
+            let [t0, t1, t2] = theta;
+            // θ × s: Q30·Q26 >> 30 → Q26.
+            let c0 = (m64(t1, s2) - m64(t2, s1)) >> 30;
+            let c1 = (m64(t2, s0) - m64(t0, s2)) >> 30;
+            let c2 = (m64(t0, s1) - m64(t1, s0)) >> 30;
+            *s = [
+                sat32(i64::from(s0) + c0),
+                sat32(i64::from(s1) + c1),
+                sat32(i64::from(s2) + c2),
+            ];
+        }
+        true
+    }
+
+    /// Madgwick's 2010 filter exactly ([`Algorithm::Textbook`], as the f32 filter's):
+    /// J_gᵀf_g + J_bᵀf_b normalised jointly, one fixed β, the raw gyro.
+    fn update_textbook(
+        &mut self,
+        gyro: [i32; 3],
+        accel: [i32; 3],
+        mag: Option<[i32; 3]>,
+        dt_q31: i32,
+    ) -> UpdateStatus {
+        let mut st = UpdateStatus::new();
+        let q = self.q;
+        let mut nq = propagate(q, half_angles(gyro, dt_q31, &mut st.gyro_step_clamped));
+        let acc = unit3(accel);
+        st.accel_invalid = acc.is_none();
+        st.path = UpdatePath::GyroOnly;
+        if let Some((a, _)) = acc {
+            let r = rows(q);
+            // ∇/2 in Q26 → Q24 to add the magnetometer's.
+            let [g0, g1, g2, g3] = accel_grad(q, r[2], a.map(|x| x.saturating_neg()));
+            let mut grad = [g0 >> 2, g1 >> 2, g2 >> 2, g3 >> 2];
+            st.path = UpdatePath::Imu;
+            if let Some(mag) = mag {
+                match unit3(mag) {
+                    None => st.mag_invalid = true,
+                    Some((m, _)) => {
+                        let h = [dot30u(r[0], m), dot30u(r[1], m), dot30u(r[2], m)]
+                            .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
+                        let bx = isqrt((h[0] * h[0] + h[1] * h[1]) as u64);
+                        let gb = mag_grad(q, r[0], r[2], m, bx as i32, h[2] as i32);
+                        // |∇_g/2| < 2^28 and |∇_b/2| < 2^29 in Q24: the sum fits.
+                        for (g, b) in grad.iter_mut().zip(gb) {
+                            *g += b;
+                        }
+                        st.path = UpdatePath::Marg;
+                    }
+                }
+            }
+            // β·dt: Q24·Q31 → Q30.
+            let beta_dt = ((i64::from(self.c.beta_q24.max(0)) * i64::from(dt_q31)) >> 25)
+                .max(0)
+                .min(ONE_Q30);
+            grad_step(&mut nq, grad, beta_dt, None);
+        }
+        match renormalise(nq) {
+            Some(n) => self.q = n,
+            None => st.path = UpdatePath::Skipped,
+        }
+        self.time_q20 = (self.time_q20 + i64::from(dt_q31 >> 11)).min(1 << 60);
         st
     }
 
@@ -873,8 +1132,9 @@ impl MadgwickFixed {
         st: &mut UpdateStatus,
     ) -> bool {
         let c = &self.c;
-        let mr = c.cfg.mag_rejection;
-        let Some(re) = self.mag_ref else {
+        // By reference: copying the reference or the rejection configuration out of
+        // `self` costs a `memcpy` per update.
+        let Some(re) = self.mag_ref.as_ref() else {
             self.mag_ref = Some(self.make_ref(n2, hz));
             return true;
         };
@@ -886,17 +1146,29 @@ impl MadgwickFixed {
             self.mag_ref = Some(self.make_ref(n2r.clamp(0, i128::from(u64::MAX)) as u64, hzr));
             return true;
         }
-        if !mr.enabled {
+        if !c.cfg.mag_rejection.enabled {
             return true;
         }
         let ok =
             |rf: &MagRef| n2 >= rf.lo && n2 <= rf.hi && (hz - rf.hz_q30).abs() <= rf.hz_tol_q30;
-        if ok(&re) {
+        if ok(re) {
             self.cand = None;
             self.cand_q20 = 0;
+            self.mag_reject_q20 = 0;
             return true;
         }
         st.mag_rejected = true;
+        self.mag_reject_q20 = (self.mag_reject_q20 + i64::from(dt_q31 >> 11)).min(1 << 50);
+        if self.mag_reject_q20 >= c.mag_fallback_q20 {
+            // Fallback: the disturbance persisted; adopt the field as it is now.
+            self.mag_ref = Some(self.make_ref(n2, hz));
+            self.cand = None;
+            self.cand_q20 = 0;
+            self.mag_reject_q20 = 0;
+            st.mag_rejected = false;
+            st.mag_reference_relearned = true;
+            return true;
+        }
         let cand_ok = self.cand.is_some_and(|(cn2, chz)| {
             let cr = MagRef {
                 hz_tol_q30: re.hz_tol_q30,
@@ -914,6 +1186,7 @@ impl MadgwickFixed {
                 }
                 self.cand = None;
                 self.cand_q20 = 0;
+                self.mag_reject_q20 = 0;
                 st.mag_rejected = false;
                 st.mag_reference_relearned = true;
                 return true;
@@ -927,8 +1200,8 @@ impl MadgwickFixed {
 }
 
 /// Rows of the rotation matrix R(q) (body -> NED) in Q30; row 2 is "down" in body axes.
-/// q is a unit Q30 quaternion (the filter's invariant), so every entry is ≤ ‖q‖² ≤ 1 + 1e-6
-/// in magnitude and fits (see [`down_row`]).
+/// Every entry is ≤ 2·‖q‖² − 1 in magnitude: < 2 for the propagated ‖q‖² ≤ 1 + 3/16, so
+/// it fits (see [`down_row`]).
 fn rows(q: [i32; 4]) -> [[i32; 3]; 3] {
     let [w, x, y, z] = q;
     let r = |v: i64| ((v + (1 << 28)) >> 29) as i32;
@@ -944,30 +1217,6 @@ fn rows(q: [i32; 4]) -> [[i32; 3]; 3] {
             r(m64(y, z) - m64(w, x)),
         ],
         down_row(q),
-    ]
-}
-
-/// Heading-only part of a quaternion-space gradient (see the f32 version): body rate
-/// ω = 2 q* ⊗ ∇f (eq. 47), projected on the vertical, back to ½ q ⊗ (0, ω_v). Keeps the
-/// gradient's scale: |gᵢ| < 2^30 and every step (products with unit Q30 factors, >> 30)
-/// is bounded by ‖g‖ < 2^31, sums of four products < 2^62.
-fn project_heading(q: [i32; 4], g: [i32; 4], down: [i32; 3]) -> [i32; 4] {
-    let [w, x, y, z] = q;
-    let [u0, u1, u2, u3] = g;
-    let s30 = |v: i64| (v >> 30) as i32;
-    // vector part of q* ⊗ g
-    let vx = s30(m64(w, u1) - m64(x, u0) - m64(y, u3) + m64(z, u2));
-    let vy = s30(m64(w, u2) + m64(x, u3) - m64(y, u0) - m64(z, u1));
-    let vz = s30(m64(w, u3) - m64(x, u2) + m64(y, u1) - m64(z, u0));
-    let [d0, d1, d2] = down;
-    let sdot = s30(m64(vx, d0) + m64(vy, d1) + m64(vz, d2));
-    let [o0, o1, o2] = down.map(|di| s30(m64(sdot, di)));
-    // q ⊗ (0, o)
-    [
-        s30(-m64(x, o0) - m64(y, o1) - m64(z, o2)),
-        s30(m64(w, o0) + m64(y, o2) - m64(z, o1)),
-        s30(m64(w, o1) - m64(x, o2) + m64(z, o0)),
-        s30(m64(w, o2) + m64(x, o1) - m64(y, o0)),
     ]
 }
 

@@ -1,12 +1,14 @@
-//! Madgwick AHRS (IMU and MARG) in f32 and fixed point, for a flight controller.
+//! Attitude (IMU and MARG) in f32 and fixed point, for a flight controller.
 //!
 //! * [`Madgwick`]: the f32 filter; [`fixed::MadgwickFixed`]: the same algorithm in
 //!   integer arithmetic (Q2.30 quaternion, 64-bit intermediates) for an FPU-less Cortex-M3.
+//! * [`Algorithm::Full`] (default): inclination from the specific force low-passed in the
+//!   earth frame (accelerations of a body that goes nowhere average out, gravity does
+//!   not), heading from the magnetometer only, gyro bias estimation at rest, accelerometer
+//!   and magnetic disturbance rejection, a scale-factor heading gain; each switchable in
+//!   [`Config`]. [`Algorithm::Textbook`]: Madgwick's 2010 filter exactly, for comparison.
 //! * Frames: the estimate is `q_ned_from_body` (body FRD -> earth NED);
 //!   [`frames`] converts to ENU and aligns sensor axes.
-//! * Beyond plain Madgwick (each switchable in [`Config`]): start-up gain ramp, gyro bias
-//!   estimation at rest, accelerometer rejection, magnetic disturbance rejection with
-//!   recovery, heading-only magnetometer correction.
 //! * Every update reports what it did ([`UpdateStatus`]); zero, huge or non-finite inputs
 //!   never produce a NaN or non-unit quaternion.
 //!
@@ -32,7 +34,8 @@ mod madgwick;
 mod quat;
 
 pub use config::{
-    AccelRejectionConfig, BiasConfig, Config, MagRejectionConfig, UpdatePath, UpdateStatus,
+    AccelRejectionConfig, Algorithm, BiasConfig, Config, MagRejectionConfig, UpdatePath,
+    UpdateStatus,
 };
 pub use madgwick::{Madgwick, MAX_DT_S, STANDARD_GRAVITY_MPS2};
 pub use quat::Quaternion;

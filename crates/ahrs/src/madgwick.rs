@@ -1,5 +1,8 @@
-//! Madgwick's gradient-descent AHRS in f32, with start-up gain ramp, gyro bias
-//! estimation at rest, accelerometer rejection and magnetic disturbance rejection.
+//! The attitude filter in f32. [`Algorithm::Full`]: gyro integration, inclination from
+//! the specific force low-passed in the earth frame, heading-only magnetometer correction,
+//! gyro bias estimation at rest, accelerometer and magnetic disturbance rejection, each a
+//! named step of `update_inner` (the same steps as the fixed-point filter's).
+//! [`Algorithm::Textbook`]: Madgwick's gradient-descent filter as published.
 //!
 //! Equation numbers refer to S. O. H. Madgwick, "An efficient orientation filter for
 //! inertial and inertial/magnetic sensor arrays", internal report, Univ. of Bristol, 2010.
@@ -11,7 +14,7 @@
 //! it the direction of −a (gravity "down" as seen in the body frame). The magnetic
 //! reference is b = (bx, 0, bz) with bz > 0 in the northern hemisphere.
 
-use crate::config::{Config, UpdatePath, UpdateStatus};
+use crate::config::{Algorithm, Config, UpdatePath, UpdateStatus};
 use crate::quat::mat_vec;
 use crate::Quaternion;
 
@@ -29,10 +32,39 @@ pub(crate) const MAX_MEAN_RATE_RPS: f32 = 64.0;
 /// its full rate; below it the correction is proportional (so magnetometer noise of a
 /// degree or two is not chased at full rate).
 pub(crate) const HEADING_LINEAR_ZONE: f32 = 0.05;
-/// 1 / [`HEADING_LINEAR_ZONE`] in Q16, for the fixed-point filter.
-pub(crate) const HEADING_LINEAR_GAIN_Q16: i64 = (1 << 16) * 20;
+/// 1 / [`HEADING_LINEAR_ZONE`], for the fixed-point filter.
+pub(crate) const HEADING_LINEAR_GAIN: i32 = 20;
 
-/// Madgwick AHRS in f32. See the crate docs for an example.
+/// Time constant (s) of each tilt low-pass stage at the start of the start-up phase.
+pub(crate) const STARTUP_TILT_TAU_S: f32 = 0.2;
+
+/// Largest inclination correction per update (rad): the correction is a first-order
+/// rotation, exact enough for the small steps of normal operation; a start from far off
+/// converges over several updates instead of one inexact jump.
+pub(crate) const MAX_TILT_STEP_RAD: f32 = 0.05;
+
+/// A magnetic field reference: ‖m‖² in input units, the sine of the dip (hz of the unit
+/// field in NED) and the tolerance on it for the configured dip tolerance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct MagReference {
+    norm_sq: f32,
+    hz: f32,
+    hz_tol: f32,
+}
+
+impl MagReference {
+    fn new(norm_sq: f32, hz: f32, sin_dip_tol: f32) -> Self {
+        // |Δ sin(dip)| ≈ cos(dip)·Δdip
+        let c = libm::sqrtf((1.0 - hz * hz).max(0.0));
+        Self {
+            norm_sq,
+            hz,
+            hz_tol: sin_dip_tol * c.max(0.05),
+        }
+    }
+}
+
+/// The attitude filter in f32. See the crate docs for an example.
 #[derive(Debug, Clone)]
 pub struct Madgwick {
     cfg: Config,
@@ -42,15 +74,19 @@ pub struct Madgwick {
     rest_time_s: f32,
     accel_reject_s: f32,
     accel_forced: bool,
-    mag_ref_valid: bool,
-    mag_ref_norm_sq: f32,
-    mag_ref_hz: f32,
-    mag_ref_hz_tol: f32,
-    mag_cand_norm_sq: f32,
-    mag_cand_hz: f32,
+    /// The earth field's reference (`None` before any valid magnetometer sample).
+    mag_ref: Option<MagReference>,
+    /// A different field seen while the reference is rejected, and how long it has
+    /// stayed consistent while rotating (s).
+    mag_cand: Option<MagReference>,
     mag_cand_s: f32,
-    mag_cand_valid: bool,
+    /// Time rejected without a break (s), for the fallback.
+    mag_reject_s: f32,
     rate_lp_down_rps: f32,
+    /// Two first-order low-pass stages of the specific force (in g) in the estimate's
+    /// NED frame.
+    acc_lp: [[f32; 3]; 2],
+    acc_lp_valid: bool,
     // constants derived from cfg
     cos_accel_angle: f32,
     sin_dip_tol: f32,
@@ -58,6 +94,24 @@ pub struct Madgwick {
 
 fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sign(x: f32) -> f32 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+fn dot4(a: [f32; 4], b: [f32; 4]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+}
+
+fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 fn finite3(v: [f32; 3]) -> bool {
@@ -113,15 +167,13 @@ impl Madgwick {
             rest_time_s: 0.0,
             accel_reject_s: 0.0,
             accel_forced: false,
-            mag_ref_valid: false,
-            mag_ref_norm_sq: 0.0,
-            mag_ref_hz: 0.0,
-            mag_ref_hz_tol: 0.0,
-            mag_cand_norm_sq: 0.0,
-            mag_cand_hz: 0.0,
+            mag_ref: None,
+            mag_cand: None,
             mag_cand_s: 0.0,
-            mag_cand_valid: false,
+            mag_reject_s: 0.0,
             rate_lp_down_rps: 0.0,
+            acc_lp: [[0.0; 3]; 2],
+            acc_lp_valid: false,
             cos_accel_angle: crate::quat::cos_deg(cfg.accel_rejection.angle_deg),
             sin_dip_tol: crate::quat::sin_deg(cfg.mag_rejection.dip_tol_deg),
         }
@@ -175,7 +227,8 @@ impl Madgwick {
             return false;
         }
         self.q = q;
-        self.mag_ref_valid = false;
+        self.acc_lp_valid = false;
+        self.mag_ref = None;
         if let Some((mu, n2)) = m {
             self.set_mag_reference(n2, dot(mu, d));
         }
@@ -183,12 +236,7 @@ impl Madgwick {
     }
 
     fn set_mag_reference(&mut self, norm_sq: f32, hz: f32) {
-        self.mag_ref_valid = true;
-        self.mag_ref_norm_sq = norm_sq;
-        self.mag_ref_hz = hz;
-        // |Δ sin(dip)| ≈ cos(dip)·Δdip
-        let c = libm::sqrtf((1.0 - hz * hz).max(0.0));
-        self.mag_ref_hz_tol = self.sin_dip_tol * c.max(0.05);
+        self.mag_ref = Some(MagReference::new(norm_sq, hz, self.sin_dip_tol));
     }
 
     /// The configuration.
@@ -207,6 +255,7 @@ impl Madgwick {
     pub fn set_quaternion(&mut self, q: Quaternion) {
         if let Some(q) = q.normalized() {
             self.q = q;
+            self.acc_lp_valid = false;
         }
     }
 
@@ -220,12 +269,8 @@ impl Madgwick {
     /// or `None` before any valid magnetometer sample.
     #[must_use]
     pub fn mag_reference(&self) -> Option<(f32, f32)> {
-        self.mag_ref_valid.then(|| {
-            (
-                libm::sqrtf(self.mag_ref_norm_sq),
-                libm::asinf(self.mag_ref_hz.clamp(-1.0, 1.0)),
-            )
-        })
+        self.mag_ref
+            .map(|r| (libm::sqrtf(r.norm_sq), libm::asinf(r.hz.clamp(-1.0, 1.0))))
     }
 
     /// Euler angles (roll, pitch, yaw) in radians, ZYX, of `q_ned_from_body`.
@@ -284,51 +329,80 @@ impl Madgwick {
             st.gyro_invalid = true;
             return st;
         }
-        let cfg = self.cfg;
-        let q = self.q;
-        let initialising = self.time_s < cfg.startup_s;
+        if self.cfg.algorithm == Algorithm::Textbook {
+            return self.update_textbook(gyro_rps, accel, mag, dt_s);
+        }
+        let initialising = self.time_s < self.cfg.startup_s;
         st.initialising = initialising;
-
         let acc = unit3(accel);
         st.accel_invalid = acc.is_none();
-        let g2 = cfg.gravity_norm * cfg.gravity_norm;
 
-        // --- gyro bias estimation at rest ---------------------------------------
-        if cfg.bias.enabled {
-            let w = [
-                gyro_rps[0] - self.bias_rps[0],
-                gyro_rps[1] - self.bias_rps[1],
-                gyro_rps[2] - self.bias_rps[2],
-            ];
-            let tol = cfg.bias.rest_accel_tol;
-            let still = dot(w, w) < cfg.bias.rest_gyro_rps * cfg.bias.rest_gyro_rps
-                && acc.is_some_and(|(_, n2)| {
-                    n2 > g2 * (1.0 - tol) * (1.0 - tol) && n2 < g2 * (1.0 + tol) * (1.0 + tol)
-                });
-            if still {
-                self.rest_time_s = (self.rest_time_s + dt_s).min(1e6);
-            } else {
-                self.rest_time_s = 0.0;
-            }
-            if self.rest_time_s >= cfg.bias.rest_time_s {
-                st.at_rest = true;
-                let k = (dt_s / cfg.bias.tau_s).clamp(0.0, 1.0);
-                for (b, w) in self.bias_rps.iter_mut().zip(w) {
-                    *b = (*b + k * w).clamp(-cfg.bias.max_rps, cfg.bias.max_rps);
-                }
+        let w = self.estimate_bias(gyro_rps, acc.map(|(_, n2)| n2), dt_s, &mut st);
+        // Gyro step, renormalised only after the corrections (as the fixed filter): the
+        // rows of R carry ‖q‖² ≤ 1 + 3/16 as a common scale the corrections do not see.
+        let (step, clamped) = half_angle_step(w, dt_s);
+        st.gyro_step_clamped = clamped;
+        let q = self.q.mul(&step);
+        let rot = q.to_matrix(); // rows: NED axes in body coordinates (× ‖q‖²)
+        self.track_vertical_rate(rot[2], w, dt_s);
+        let tilt = self.correct_tilt(&rot, accel, acc, dt_s, initialising, &mut st);
+        let heading = match mag {
+            Some(m) => self.correct_heading(&rot, m, dot(w, w), dt_s, initialising, &mut st),
+            None => None,
+        };
+        st.path = match (tilt.is_some(), heading.is_some()) {
+            (true, true) => UpdatePath::Marg,
+            (true, false) => UpdatePath::Imu,
+            (false, true) => UpdatePath::MagOnly,
+            (false, false) => UpdatePath::GyroOnly,
+        };
+        let [tx, ty] = tilt.unwrap_or([0.0; 2]);
+        if !self.fuse(q, [tx, ty, heading.unwrap_or(0.0)]) {
+            st.path = UpdatePath::Skipped;
+            return st;
+        }
+        self.time_s = (self.time_s + dt_s).min(1e9);
+        st
+    }
+
+    /// Gyro bias estimation at rest; returns the bias-corrected rate (rad/s).
+    fn estimate_bias(
+        &mut self,
+        gyro_rps: [f32; 3],
+        accel_norm_sq: Option<f32>,
+        dt_s: f32,
+        st: &mut UpdateStatus,
+    ) -> [f32; 3] {
+        let cfg = self.cfg.bias;
+        if !cfg.enabled {
+            return gyro_rps;
+        }
+        let w = sub3(gyro_rps, self.bias_rps);
+        let g2 = self.cfg.gravity_norm * self.cfg.gravity_norm;
+        let tol = cfg.rest_accel_tol;
+        let still = dot(w, w) < cfg.rest_gyro_rps * cfg.rest_gyro_rps
+            && accel_norm_sq.is_some_and(|n2| {
+                n2 > g2 * (1.0 - tol) * (1.0 - tol) && n2 < g2 * (1.0 + tol) * (1.0 + tol)
+            });
+        self.rest_time_s = if still {
+            (self.rest_time_s + dt_s).min(1e6)
+        } else {
+            0.0
+        };
+        if self.rest_time_s >= cfg.rest_time_s {
+            st.at_rest = true;
+            let k = (dt_s / cfg.tau_s).clamp(0.0, 1.0);
+            for (b, w) in self.bias_rps.iter_mut().zip(w) {
+                *b = (*b + k * w).clamp(-cfg.max_rps, cfg.max_rps);
             }
         }
-        let b = if cfg.bias.enabled {
-            self.bias_rps
-        } else {
-            [0.0; 3]
-        };
-        let w = [gyro_rps[0] - b[0], gyro_rps[1] - b[1], gyro_rps[2] - b[2]];
+        sub3(gyro_rps, self.bias_rps)
+    }
 
-        let rot = q.to_matrix(); // rows: NED axes in body coordinates
-        let down = rot[2];
-        // Mean rate about the earth vertical (NED z = down·ω) for the scale-factor
-        // heading gain schedule (`Config::gyro_scale_tol`).
+    /// Mean rate about the earth vertical (NED z = down·ω) for the scale-factor heading
+    /// gain schedule (`Config::gyro_scale_tol`).
+    fn track_vertical_rate(&mut self, down: [f32; 3], w: [f32; 3], dt_s: f32) {
+        let cfg = self.cfg;
         if cfg.gyro_scale_tol > 0.0 {
             let w_down = dot(down, w);
             if w_down.is_finite() {
@@ -339,157 +413,213 @@ impl Madgwick {
                     (lp + k * (x - lp)).clamp(-MAX_MEAN_RATE_RPS, MAX_MEAN_RATE_RPS);
             }
         }
+    }
+
+    /// Accelerometer (inclination) correction: the specific force in the estimate's earth
+    /// frame, low-passed there by two first-order stages (time constant
+    /// [`Config::tilt_tau_s`] each); returns the earth-frame rotation (x, y in rad) that
+    /// takes the low-passed vector onto the vertical, or `None` if the accelerometer is
+    /// invalid or rejected.
+    fn correct_tilt(
+        &mut self,
+        rot: &[[f32; 3]; 3],
+        accel: [f32; 3],
+        acc: Option<([f32; 3], f32)>,
+        dt_s: f32,
+        initialising: bool,
+        st: &mut UpdateStatus,
+    ) -> Option<[f32; 2]> {
+        let (a, n2) = acc?;
+        if self.reject_accel(rot[2], a, n2, dt_s, initialising, st) {
+            return None;
+        }
+        let cfg = self.cfg;
+        let inv_g = 1.0 / cfg.gravity_norm;
+        let u = mat_vec(rot, [accel[0] * inv_g, accel[1] * inv_g, accel[2] * inv_g]);
+        if !finite3(u) {
+            return None;
+        }
+        if !self.acc_lp_valid {
+            self.acc_lp = [u, u];
+            self.acc_lp_valid = true;
+        }
+        let k = (dt_s * inv_tilt_tau(&cfg, self.time_s, initialising)).clamp(0.0, 1.0);
+        let [s1, s2] = &mut self.acc_lp;
+        for i in 0..3 {
+            s1[i] += k * (u[i] - s1[i]);
+            s2[i] += k * (s1[i] - s2[i]);
+        }
+        // θ = ŷ × (0, 0, −1): rotates y onto the vertical (up = −z in NED). y is nearly
+        // vertical after every correction, so ŷ ≈ y/|y_z| (a mean specific force far from
+        // 1 g must not turn into a loop gain above 1); |y_z| = 1 g if y points down.
+        let y = *s2;
+        let n = if -y[2] > 1.0 / 1024.0 { -y[2] } else { 1.0 };
+        let lim = MAX_TILT_STEP_RAD;
+        Some([(-y[1] / n).clamp(-lim, lim), (y[0] / n).clamp(-lim, lim)])
+    }
+
+    /// Accelerometer rejection with its recovery timeout; true if the sample is rejected.
+    fn reject_accel(
+        &mut self,
+        down: [f32; 3],
+        a: [f32; 3],
+        n2: f32,
+        dt_s: f32,
+        initialising: bool,
+        st: &mut UpdateStatus,
+    ) -> bool {
+        let ar = self.cfg.accel_rejection;
+        if !ar.enabled || initialising {
+            return false;
+        }
+        let g2 = self.cfg.gravity_norm * self.cfg.gravity_norm;
+        let lo = (1.0 - ar.norm_tol) * (1.0 - ar.norm_tol) * g2;
+        let hi = (1.0 + ar.norm_tol) * (1.0 + ar.norm_tol) * g2;
+        let d = [-a[0], -a[1], -a[2]];
+        let mut reject = n2 < lo || n2 > hi || dot(d, down) < self.cos_accel_angle;
+        if reject {
+            self.accel_reject_s = (self.accel_reject_s + dt_s).min(1e6);
+            if self.accel_reject_s > ar.recovery_s {
+                self.accel_forced = true;
+            }
+            if self.accel_forced {
+                st.accel_recovering = true;
+                reject = false;
+            }
+        } else {
+            self.accel_reject_s = 0.0;
+            self.accel_forced = false;
+        }
+        st.accel_rejected = reject;
+        reject
+    }
+
+    /// Magnetometer (heading only) correction: the earth-frame rotation about the vertical
+    /// (rad) towards the field's heading, or `None` if the field is invalid or disturbed.
+    fn correct_heading(
+        &mut self,
+        rot: &[[f32; 3]; 3],
+        mag: [f32; 3],
+        w2: f32,
+        dt_s: f32,
+        initialising: bool,
+        st: &mut UpdateStatus,
+    ) -> Option<f32> {
+        let Some((m, n2)) = unit3(mag) else {
+            st.mag_invalid = true;
+            return None;
+        };
+        // The field in NED (eq. 45); hz = m·down.
+        let h = mat_vec(rot, m);
+        if !self.check_mag(n2, h[2], w2, dt_s, initialising, st) {
+            return None;
+        }
+        // Heading error (sin, from the field's east component), saturated to ±1 beyond
+        // HEADING_LINEAR_ZONE; > 0 when the estimate is east of the field.
+        // tan of the error in the linear zone (±1 beyond it or with the field south).
+        let e = if h[0] > 0.0 {
+            (h[1] / (h[0] * HEADING_LINEAR_ZONE)).clamp(-1.0, 1.0)
+        } else {
+            sign(h[1])
+        };
+        let cfg = self.cfg;
+        let beta_mag = if initialising && cfg.startup_s > 0.0 {
+            cfg.startup_beta + (cfg.beta_mag - cfg.startup_beta) * (self.time_s / cfg.startup_s)
+        } else {
+            cfg.beta_mag
+        };
+        // Scale-factor heading gain β_head = ½·tol·|ω̄_D| (`Config::gyro_scale_tol`).
+        let beta_head = 0.5 * cfg.gyro_scale_tol.max(0.0) * self.rate_lp_down_rps.abs();
+        // Earth rate 2β about the vertical (β is a quaternion rate), towards the field;
+        // a step never passes the field's heading (a large gain·dt reaches it instead).
+        // (|h_E| ≤ the sine of the error.)
+        let lim = h[1].abs().min(0.5);
+        // β_mag at a constant rate (it covers the residual gyro bias), β_head
+        // proportionally within HEADING_LINEAR_ZONE (it follows the turn rate).
+        Some((-2.0 * (beta_mag * sign(h[1]) + beta_head * e) * dt_s).clamp(-lim, lim))
+    }
+
+    /// Apply the earth-frame correction θ (rad) to the propagated orientation,
+    /// q ← (1, θ/2) ⊗ q, and rotate the low-passed accelerometer state with it so it
+    /// stays in the (corrected) estimate's earth frame. False if the result is not finite.
+    fn fuse(&mut self, q: Quaternion, theta: [f32; 3]) -> bool {
+        let d = Quaternion::new(1.0, 0.5 * theta[0], 0.5 * theta[1], 0.5 * theta[2]);
+        let Some(n) = d.mul(&q).normalized() else {
+            return false;
+        };
+        self.q = n;
+        for s in &mut self.acc_lp {
+            let c = cross(theta, *s);
+            for (v, c) in s.iter_mut().zip(c) {
+                *v += c;
+            }
+        }
+        true
+    }
+
+    /// Madgwick's 2010 filter exactly (the crate's [`Algorithm::Textbook`]): one gradient
+    /// J_gᵀf_g + J_bᵀf_b (eqs. 25–26, 29–30, 45–46), normalised jointly, one fixed β, the
+    /// raw gyro, no extensions (eqs. 42–44); only a step beyond ¼ rad of half angle per
+    /// axis is clamped (`UpdateStatus::gyro_step_clamped`).
+    fn update_textbook(
+        &mut self,
+        gyro_rps: [f32; 3],
+        accel: [f32; 3],
+        mag: Option<[f32; 3]>,
+        dt_s: f32,
+    ) -> UpdateStatus {
+        let mut st = UpdateStatus::new();
+        let q = self.q;
         let Quaternion {
             w: q1,
             x: q2,
             y: q3,
             z: q4,
         } = q;
-
-        // --- accelerometer: eqs. (25)-(26), gradient J_gᵀ f_g ----------------------
-        let mut grad = [0.0f32; 4];
-        let mut grad_mag = [0.0f32; 4];
-        let mut use_acc = false;
-        if let Some((a, n2)) = acc {
-            let d = [-a[0], -a[1], -a[2]];
-            let ar = cfg.accel_rejection;
-            let mut reject = false;
-            if ar.enabled && !initialising {
-                let lo = (1.0 - ar.norm_tol) * (1.0 - ar.norm_tol) * g2;
-                let hi = (1.0 + ar.norm_tol) * (1.0 + ar.norm_tol) * g2;
-                reject = n2 < lo || n2 > hi || dot(d, down) < self.cos_accel_angle;
-            }
-            if reject {
-                self.accel_reject_s = (self.accel_reject_s + dt_s).min(1e6);
-                if self.accel_reject_s > ar.recovery_s {
-                    self.accel_forced = true;
-                }
-                if self.accel_forced {
-                    st.accel_recovering = true;
-                    reject = false;
-                }
-            } else {
-                self.accel_reject_s = 0.0;
-                self.accel_forced = false;
-            }
-            st.accel_rejected = reject;
-            if !reject {
-                use_acc = true;
-                // f_g (eq. 25) with the measured direction d = −a/‖a‖.
-                let f1 = 2.0 * (q2 * q4 - q1 * q3) - d[0];
-                let f2 = 2.0 * (q1 * q2 + q3 * q4) - d[1];
-                let f3 = 1.0 - 2.0 * (q2 * q2 + q3 * q3) - d[2];
-                // ∇f = J_gᵀ f_g (eq. 26 Jacobian).
-                grad[0] += -2.0 * q3 * f1 + 2.0 * q2 * f2;
-                grad[1] += 2.0 * q4 * f1 + 2.0 * q1 * f2 - 4.0 * q2 * f3;
-                grad[2] += -2.0 * q1 * f1 + 2.0 * q4 * f2 - 4.0 * q3 * f3;
-                grad[3] += 2.0 * q2 * f1 + 2.0 * q3 * f2;
-            }
-        }
-
-        // --- magnetometer ---------------------------------------------------------
-        let mut use_mag = false;
-        let mut head_err = 0.0f32;
-        if let Some(mag) = mag {
-            match unit3(mag) {
-                None => st.mag_invalid = true,
-                Some((m, n2)) => {
-                    // h = q ⊗ m ⊗ q* (eq. 45): the field in NED; hz = m·down.
-                    let h = mat_vec(&rot, m);
-                    let hz = h[2];
-                    let accept = self.check_mag(n2, hz, dot(w, w), dt_s, initialising, &mut st);
-                    if accept {
-                        use_mag = true;
-                        // b = (0, √(hx²+hy²), 0, hz) (eq. 46), the earth field with
-                        // zero east component; bx > 0, bz > 0 north of the equator.
-                        let bx = libm::sqrtf(h[0] * h[0] + h[1] * h[1]);
-                        // Heading error of the estimate (sin, from the field's east
-                        // component), saturated to ±1 beyond HEADING_LINEAR_ZONE.
-                        if bx > 1e-6 {
-                            head_err = (h[1] / (bx * HEADING_LINEAR_ZONE)).clamp(-1.0, 1.0);
-                        }
-                        let bz = hz;
-                        // f_b (eq. 29) and J_b (eq. 30) with the correct 2bx, 2bz factors.
-                        let f1 = 2.0 * bx * (0.5 - q3 * q3 - q4 * q4)
-                            + 2.0 * bz * (q2 * q4 - q1 * q3)
-                            - m[0];
-                        let f2 =
-                            2.0 * bx * (q2 * q3 - q1 * q4) + 2.0 * bz * (q1 * q2 + q3 * q4) - m[1];
-                        let f3 = 2.0 * bx * (q1 * q3 + q2 * q4)
-                            + 2.0 * bz * (0.5 - q2 * q2 - q3 * q3)
-                            - m[2];
-                        let mut gb = [
-                            -2.0 * bz * q3 * f1
-                                + (-2.0 * bx * q4 + 2.0 * bz * q2) * f2
-                                + 2.0 * bx * q3 * f3,
-                            2.0 * bz * q4 * f1
-                                + (2.0 * bx * q3 + 2.0 * bz * q1) * f2
-                                + (2.0 * bx * q4 - 4.0 * bz * q2) * f3,
-                            (-4.0 * bx * q3 - 2.0 * bz * q1) * f1
-                                + (2.0 * bx * q2 + 2.0 * bz * q4) * f2
-                                + (2.0 * bx * q1 - 4.0 * bz * q3) * f3,
-                            (-4.0 * bx * q4 + 2.0 * bz * q2) * f1
-                                + (-2.0 * bx * q1 + 2.0 * bz * q3) * f2
-                                + 2.0 * bx * q2 * f3,
-                        ];
-                        if cfg.mag_heading_only {
-                            gb = project_heading(&q, gb, down);
-                        }
-                        grad_mag = gb;
-                    }
-                }
-            }
-        }
-
-        st.path = match (use_acc, use_mag) {
-            (true, true) => UpdatePath::Marg,
-            (true, false) => UpdatePath::Imu,
-            (false, true) => UpdatePath::MagOnly,
-            (false, false) => UpdatePath::GyroOnly,
+        // The half angles are clamped to ±¼ rad as in the full filter (and reported), so
+        // both number types integrate the same way even for long steps at high rates.
+        let (_, clamped) = half_angle_step(gyro_rps, dt_s);
+        st.gyro_step_clamped = clamped;
+        let lim = 0.5 / dt_s;
+        let w = if clamped {
+            gyro_rps.map(|x| x.clamp(-lim, lim))
+        } else {
+            gyro_rps
         };
-
-        // --- fusion: q̇ = ½ q ⊗ (0, ω) − β ∇f/‖∇f‖ (eqs. 12 and 43-44) -------------
-        let ramp = |b: f32| {
-            if initialising && cfg.startup_s > 0.0 {
-                cfg.startup_beta + (b - cfg.startup_beta) * (self.time_s / cfg.startup_s)
-            } else {
-                b
-            }
-        };
-        let beta = ramp(cfg.beta);
-        let beta_mag = ramp(cfg.beta_mag);
-        // Heading gain for the gyro scale-factor error (`Config::gyro_scale_tol`):
-        // β_head = ½·tol·|ω̄_D|, the quaternion rate of the worst-case heading drift.
-        let beta_head = 0.5 * cfg.gyro_scale_tol.max(0.0) * self.rate_lp_down_rps.abs();
         let mut qdot = [
             0.5 * (-q2 * w[0] - q3 * w[1] - q4 * w[2]),
             0.5 * (q1 * w[0] + q3 * w[2] - q4 * w[1]),
             0.5 * (q1 * w[1] - q2 * w[2] + q4 * w[0]),
             0.5 * (q1 * w[2] + q2 * w[1] - q3 * w[0]),
         ];
-        for (grad, beta) in [(grad, beta), (grad_mag, beta_mag)] {
-            let gn2 = grad.iter().map(|g| g * g).sum::<f32>();
+        let acc = unit3(accel);
+        st.accel_invalid = acc.is_none();
+        st.path = UpdatePath::GyroOnly;
+        if let Some((a, _)) = acc {
+            // The report's gravity reference is (0, 0, 1) "down" here: it is fed −a.
+            let mut grad = accel_gradient(&q, [-a[0], -a[1], -a[2]]);
+            st.path = UpdatePath::Imu;
+            if let Some(mag) = mag {
+                match unit3(mag) {
+                    None => st.mag_invalid = true,
+                    Some((m, _)) => {
+                        let h = mat_vec(&q.to_matrix(), m);
+                        let bx = libm::sqrtf(h[0] * h[0] + h[1] * h[1]);
+                        let gb = mag_gradient(&q, m, bx, h[2]);
+                        for (g, b) in grad.iter_mut().zip(gb) {
+                            *g += b;
+                        }
+                        st.path = UpdatePath::Marg;
+                    }
+                }
+            }
+            let gn2 = dot4(grad, grad);
             if gn2 > 1e-30 && gn2.is_finite() {
-                // Step per update min(β·dt, ‖∇f‖/4, ½): ‖∇f‖/4 is the quaternion step that
-                // removes a small error, so a large gain·dt (start-up β with a long dt)
-                // reaches but cannot pass the minimum. Same limit as the fixed filter's
-                // `grad_step`.
-                let n = libm::sqrtf(gn2);
-                let r = (beta * dt_s).min(0.25 * n).min(0.5) / (n * dt_s);
+                let r = self.cfg.beta / libm::sqrtf(gn2);
                 for (qd, g) in qdot.iter_mut().zip(grad) {
                     *qd -= r * g;
                 }
             }
-        }
-        // Scale-factor heading correction: rotate about the earth vertical towards the
-        // magnetometer's heading, q̇ = ½ (0, 0, 0, −2·β_head·e) ⊗ q with e the saturated
-        // heading error (`head_err`, > 0 when the estimate is east of the field).
-        if use_mag && beta_head > 0.0 && head_err != 0.0 {
-            let t = beta_head * head_err;
-            qdot[0] += t * q4;
-            qdot[1] += t * q3;
-            qdot[2] -= t * q2;
-            qdot[3] -= t * q1;
         }
         let new = Quaternion::new(
             q1 + qdot[0] * dt_s,
@@ -499,15 +629,11 @@ impl Madgwick {
         );
         match new.normalized() {
             Some(n) => self.q = n,
-            None => {
-                st.path = UpdatePath::Skipped;
-                return st;
-            }
+            None => st.path = UpdatePath::Skipped,
         }
         self.time_s = (self.time_s + dt_s).min(1e9);
         st
     }
-
     /// Magnetic disturbance check and recovery; returns true if the sample may be used.
     fn check_mag(
         &mut self,
@@ -519,15 +645,15 @@ impl Madgwick {
         st: &mut UpdateStatus,
     ) -> bool {
         let mr = self.cfg.mag_rejection;
-        if !self.mag_ref_valid {
+        let Some(re) = self.mag_ref else {
             self.set_mag_reference(n2, hz);
             return true;
-        }
+        };
         if initialising {
             // Refine the reference while the start-up gain settles.
             let k = (dt_s / 1.0).clamp(0.0, 1.0);
-            let n2r = self.mag_ref_norm_sq + k * (n2 - self.mag_ref_norm_sq);
-            let hzr = self.mag_ref_hz + k * (hz - self.mag_ref_hz);
+            let n2r = re.norm_sq + k * (n2 - re.norm_sq);
+            let hzr = re.hz + k * (hz - re.hz);
             self.set_mag_reference(n2r, hzr);
             return true;
         }
@@ -536,33 +662,48 @@ impl Madgwick {
         }
         let lo = (1.0 - mr.norm_tol) * (1.0 - mr.norm_tol);
         let hi = (1.0 + mr.norm_tol) * (1.0 + mr.norm_tol);
-        let ok = |rn2: f32, rhz: f32, tol: f32| {
-            n2 >= lo * rn2 && n2 <= hi * rn2 && (hz - rhz).abs() <= tol
+        // The candidate is judged with the reference's dip tolerance.
+        let ok = |r: &MagReference| {
+            n2 >= lo * r.norm_sq && n2 <= hi * r.norm_sq && (hz - r.hz).abs() <= re.hz_tol
         };
-        if ok(self.mag_ref_norm_sq, self.mag_ref_hz, self.mag_ref_hz_tol) {
-            self.mag_cand_valid = false;
+        if ok(&re) {
+            self.mag_cand = None;
             self.mag_cand_s = 0.0;
+            self.mag_reject_s = 0.0;
             return true;
         }
         st.mag_rejected = true;
-        // Recovery: a new field that stays consistent while rotating becomes the reference.
-        if self.mag_cand_valid && ok(self.mag_cand_norm_sq, self.mag_cand_hz, self.mag_ref_hz_tol) {
-            if w2 > mr.recovery_min_rate_rps * mr.recovery_min_rate_rps {
-                self.mag_cand_s += dt_s;
-            }
-            if self.mag_cand_s >= mr.recovery_s {
-                self.set_mag_reference(self.mag_cand_norm_sq, self.mag_cand_hz);
-                self.mag_cand_valid = false;
-                self.mag_cand_s = 0.0;
-                st.mag_rejected = false;
-                st.mag_reference_relearned = true;
-                return true;
-            }
-        } else {
-            self.mag_cand_valid = true;
-            self.mag_cand_norm_sq = n2;
-            self.mag_cand_hz = hz;
+        self.mag_reject_s = (self.mag_reject_s + dt_s).min(1e6);
+        if self.mag_reject_s >= mr.fallback_s {
+            // Fallback: the disturbance persisted; adopt the field as it is now.
+            self.set_mag_reference(n2, hz);
+            self.mag_cand = None;
             self.mag_cand_s = 0.0;
+            self.mag_reject_s = 0.0;
+            st.mag_rejected = false;
+            st.mag_reference_relearned = true;
+            return true;
+        }
+        // Recovery: a new field that stays consistent while rotating becomes the reference.
+        match self.mag_cand {
+            Some(cand) if ok(&cand) => {
+                if w2 > mr.recovery_min_rate_rps * mr.recovery_min_rate_rps {
+                    self.mag_cand_s += dt_s;
+                }
+                if self.mag_cand_s >= mr.recovery_s {
+                    self.set_mag_reference(cand.norm_sq, cand.hz);
+                    self.mag_cand = None;
+                    self.mag_cand_s = 0.0;
+                    self.mag_reject_s = 0.0;
+                    st.mag_rejected = false;
+                    st.mag_reference_relearned = true;
+                    return true;
+                }
+            }
+            _ => {
+                self.mag_cand = Some(MagReference::new(n2, hz, self.sin_dip_tol));
+                self.mag_cand_s = 0.0;
+            }
         }
         false
     }
@@ -576,14 +717,75 @@ pub(crate) fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     ]
 }
 
-/// Keep only the heading part of a quaternion-space gradient: convert it to a body
-/// rate (eq. 47: ω = 2 q* ⊗ ∇f), project that onto the estimated vertical (body frame)
-/// and convert back (∇f' = ½ q ⊗ (0, ω_vertical)).
-fn project_heading(q: &Quaternion, g: [f32; 4], down: [f32; 3]) -> [f32; 4] {
-    let gq = Quaternion::new(g[0], g[1], g[2], g[3]);
-    let wq = q.conj().mul(&gq);
-    let s = 2.0 * (wq.x * down[0] + wq.y * down[1] + wq.z * down[2]);
-    let v = Quaternion::new(0.0, 0.5 * s * down[0], 0.5 * s * down[1], 0.5 * s * down[2]);
-    let r = q.mul(&v);
-    [r.w, r.x, r.y, r.z]
+/// Quaternion of a gyro step, (1, ½ω·dt) (first order, eq. 12 integrated over dt), each
+/// half angle clamped to ±¼ rad (as the fixed filter).
+/// True if a clamp acted.
+fn half_angle_step(w: [f32; 3], dt_s: f32) -> (Quaternion, bool) {
+    let h = w.map(|x| 0.5 * x * dt_s);
+    let c = h.map(|x| x.clamp(-0.25, 0.25));
+    (Quaternion::new(1.0, c[0], c[1], c[2]), c != h)
+}
+
+/// 1/τ of the tilt low-pass stages (1/s, ≤ 2000): ramps linearly from
+/// 1/[`STARTUP_TILT_TAU_S`] to 1/[`Config::tilt_tau_s`] during the start-up phase.
+fn inv_tilt_tau(cfg: &Config, time_s: f32, initialising: bool) -> f32 {
+    let inv = |t: f32| {
+        if t > 0.0 {
+            (1.0 / t).min(2000.0)
+        } else {
+            2000.0
+        }
+    };
+    let i = inv(cfg.tilt_tau_s);
+    if initialising && cfg.startup_s > 0.0 {
+        let i0 = inv(cfg.tilt_tau_s.min(STARTUP_TILT_TAU_S));
+        i0 + (i - i0) * (time_s / cfg.startup_s).clamp(0.0, 1.0)
+    } else {
+        i
+    }
+}
+
+/// ∇f = J_gᵀ f_g (eqs. 25–26) for the measured "down" direction `d` (unit).
+fn accel_gradient(q: &Quaternion, d: [f32; 3]) -> [f32; 4] {
+    let Quaternion {
+        w: q1,
+        x: q2,
+        y: q3,
+        z: q4,
+    } = *q;
+    let f1 = 2.0 * (q2 * q4 - q1 * q3) - d[0];
+    let f2 = 2.0 * (q1 * q2 + q3 * q4) - d[1];
+    let f3 = 1.0 - 2.0 * (q2 * q2 + q3 * q3) - d[2];
+    [
+        -2.0 * q3 * f1 + 2.0 * q2 * f2,
+        2.0 * q4 * f1 + 2.0 * q1 * f2 - 4.0 * q2 * f3,
+        -2.0 * q1 * f1 + 2.0 * q4 * f2 - 4.0 * q3 * f3,
+        2.0 * q2 * f1 + 2.0 * q3 * f2,
+    ]
+}
+
+/// ∇f = J_bᵀ f_b (eqs. 29–30 with the correct 2bx, 2bz factors) for the unit field `m`
+/// and the reference b = (bx, 0, bz) (eq. 46).
+fn mag_gradient(q: &Quaternion, m: [f32; 3], bx: f32, bz: f32) -> [f32; 4] {
+    let Quaternion {
+        w: q1,
+        x: q2,
+        y: q3,
+        z: q4,
+    } = *q;
+    let f1 = 2.0 * bx * (0.5 - q3 * q3 - q4 * q4) + 2.0 * bz * (q2 * q4 - q1 * q3) - m[0];
+    let f2 = 2.0 * bx * (q2 * q3 - q1 * q4) + 2.0 * bz * (q1 * q2 + q3 * q4) - m[1];
+    let f3 = 2.0 * bx * (q1 * q3 + q2 * q4) + 2.0 * bz * (0.5 - q2 * q2 - q3 * q3) - m[2];
+    [
+        -2.0 * bz * q3 * f1 + (-2.0 * bx * q4 + 2.0 * bz * q2) * f2 + 2.0 * bx * q3 * f3,
+        2.0 * bz * q4 * f1
+            + (2.0 * bx * q3 + 2.0 * bz * q1) * f2
+            + (2.0 * bx * q4 - 4.0 * bz * q2) * f3,
+        (-4.0 * bx * q3 - 2.0 * bz * q1) * f1
+            + (2.0 * bx * q2 + 2.0 * bz * q4) * f2
+            + (2.0 * bx * q1 - 4.0 * bz * q3) * f3,
+        (-4.0 * bx * q4 + 2.0 * bz * q2) * f1
+            + (-2.0 * bx * q1 + 2.0 * bz * q3) * f2
+            + 2.0 * bx * q2 * f3,
+    ]
 }

@@ -266,7 +266,8 @@ fn magnetic_disturbance_is_rejected_and_recovers() {
     for _ in 0..4000 {
         g.update_marg([0.0; 3], a, m, 0.001);
     }
-    for _ in 0..5000 {
+    // (30 s: the heading gain is small, 2·β_mag = 0.17 °/s.)
+    for _ in 0..30_000 {
         g.update_marg([0.0; 3], a, dist, 0.001);
     }
     assert!(g.euler_rad()[2].abs() > 0.02);
@@ -361,4 +362,78 @@ fn f32_and_fixed_agree_on_a_synthetic_sequence() {
     }
     assert!(max_diff < 0.05f32.to_radians(), "{}", max_diff.to_degrees());
     assert!(f.quaternion().angle_to(&q) < 3.0f32.to_radians());
+}
+
+#[test]
+fn large_gyro_steps_are_clamped_reported_and_agree() {
+    // 2000 °/s about a tilted axis with steps of 10–60 ms: beyond 14 ms the half angle
+    // exceeds ¼ rad; both filters clamp the same way and say so.
+    let rate = 2000f32.to_radians();
+    let w = [rate * 0.6, -rate * 0.48, rate * 0.64];
+    let (a, m) = sense(&Quaternion::IDENTITY);
+    let q16 = |v: [f32; 3]| v.map(|x| fc_ahrs::fixed::float_to_q(x, 16));
+    let fc = FixedConfig::from_config(&Config {
+        gravity_norm: G * 65536.0,
+        ..Config::DEFAULT
+    });
+    for dt in [0.01f32, 0.02, 0.029, 0.06] {
+        let mut f = Madgwick::from_accel_mag(Config::DEFAULT, a, m);
+        let mut fx = MadgwickFixed::from_accel_mag(fc, q16(a), q16(m));
+        for _ in 0..200 {
+            let s = f.update_marg(w, a, m, dt);
+            let sx = fx.update_marg(w.map(rps_to_q20), q16(a), q16(m), dt_s_to_q31(dt));
+            let expect_clamp = 0.5 * rate * 0.64 * dt > 0.25;
+            assert_eq!(s.gyro_step_clamped, expect_clamp, "f32 dt {dt}");
+            assert_eq!(sx.gyro_step_clamped, expect_clamp, "fixed dt {dt}");
+            let d = f.quaternion().angle_to(&fx.quaternion_f32()).to_degrees();
+            assert!(d < 0.01, "dt {dt}: f32 vs fixed {d}°");
+        }
+    }
+}
+
+#[test]
+fn persisting_inconsistent_disturbance_is_adopted_after_the_fallback_time() {
+    // A magnet riding along: the field's norm wanders (never a consistent candidate),
+    // so only the fallback ends the rejection, after `fallback_s` without a break.
+    let cfg = Config::DEFAULT;
+    let (a, m) = sense(&Quaternion::IDENTITY);
+    let q16 = |v: [f32; 3]| v.map(|x| fc_ahrs::fixed::float_to_q(x, 16));
+    let fc = FixedConfig::from_config(&Config {
+        gravity_norm: G * 65536.0,
+        ..cfg
+    });
+    let mut f = Madgwick::from_accel_mag(cfg, a, m);
+    let mut fx = MadgwickFixed::from_accel_mag(fc, q16(a), q16(m));
+    let dt = 0.01f32;
+    for _ in 0..500 {
+        f.update_marg([0.0; 3], a, m, dt);
+        fx.update_marg([0; 3], q16(a), q16(m), dt_s_to_q31(dt));
+    }
+    let n = (cfg.mag_rejection.fallback_s / dt) as usize;
+    let (mut first, mut first_x) = (None, None);
+    for i in 0..n + 100 {
+        let k = 1.6 + 0.3 * (i as f32 * 0.37).sin();
+        let d = [m[0] * k, m[1] + 10.0, m[2] * k];
+        let s = f.update_marg([0.0; 3], a, d, dt);
+        let sx = fx.update_marg([0; 3], q16(a), q16(d), dt_s_to_q31(dt));
+        if s.mag_reference_relearned && first.is_none() {
+            first = Some(i);
+        }
+        if sx.mag_reference_relearned && first_x.is_none() {
+            first_x = Some(i);
+        }
+        if first.is_none() {
+            assert!(s.mag_rejected, "f32 step {i}");
+        }
+    }
+    let first = first.expect("f32 fallback");
+    let first_x = first_x.expect("fixed fallback");
+    assert!(
+        first + 2 >= n && first <= n + 1,
+        "f32 adopted at step {first}, fallback {n}"
+    );
+    assert!(
+        first_x.abs_diff(first) <= 1,
+        "fixed {first_x} vs f32 {first}"
+    );
 }

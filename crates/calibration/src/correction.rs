@@ -144,6 +144,104 @@ impl Default for MagCalibration {
     }
 }
 
+/// Integer form of an affine magnetometer correction for the sample-rate
+/// path: `out = M · raw − bias`, with `raw` in integer sensor counts and
+/// `out` in integer output units (e.g. 1/16 µT).
+///
+/// Q-format: `M` is stored in Q16 (`m_q16 = round(M · 2¹⁶)`), the products
+/// are summed in `i64` and shifted right 16 (floor), and `bias = round(M ·
+/// offset)` in output units. For 16-bit counts every output is within 2.25
+/// output units of the exact `M · (raw − offset)`: the Q16 rounding of `M`
+/// contributes at most `3 · 2⁻¹⁷ · 2¹⁵ = 0.75`, the floor of the shift less
+/// than 1 and the rounding of the bias 0.5 (the tests check the bound).
+///
+/// Build it once from the f32 [`MagCalibration`] folded together with the
+/// count scale and any axis remapping
+/// ([`from_affine`](Self::from_affine)); the per-sample
+/// [`apply`](Self::apply) is 9 multiply-accumulates and no soft-float call.
+///
+/// ```
+/// use calibration::{MagCalibration, MagCalibrationQ16};
+/// // Hard iron 1.25 µT on x, no soft iron; counts of 0.125 µT in, 1/16 µT
+/// // out: M = 0.125 · 16 · soft_iron, offset = 1.25 / 0.125 = 10 counts.
+/// let cal = MagCalibration { offset: [1.25, 0.0, 0.0], ..MagCalibration::identity() };
+/// let m = cal.soft_iron.map(|r| r.map(|v| v * 0.125 * 16.0));
+/// let q = MagCalibrationQ16::from_affine(m, cal.offset.map(|o| o / 0.125))?;
+/// assert_eq!(q.apply([110, 0, -3]), [200, 0, -6]); // 100 counts = 12.5 µT = 200/16 µT
+/// # Ok::<(), calibration::Error>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MagCalibrationQ16 {
+    /// `M`, row-major, Q16 (output units per count).
+    pub m_q16: [[i32; 3]; 3],
+    /// `M · offset`, output units.
+    pub bias: [i32; 3],
+}
+
+/// Largest |element| of `M` accepted by [`MagCalibrationQ16::from_affine`]:
+/// keeps `M` in Q16 within `i32` and every output of 16-bit counts below 2³¹.
+pub const MAG_Q16_MAX_GAIN: f32 = 10_000.0;
+
+impl MagCalibrationQ16 {
+    /// Pass-through: `M = I`, no bias.
+    pub const fn identity() -> Self {
+        Self {
+            m_q16: [[65_536, 0, 0], [0, 65_536, 0], [0, 0, 65_536]],
+            bias: [0; 3],
+        }
+    }
+
+    /// `out = m · (raw − offset_counts)`: `m` in output units per count,
+    /// `offset_counts` in counts. [`Error::OutOfRange`] when a value is
+    /// not finite, an element of `m` exceeds [`MAG_Q16_MAX_GAIN`] or the
+    /// bias does not fit in `i32`.
+    pub fn from_affine(m: [[f32; 3]; 3], offset_counts: [f32; 3]) -> Result<Self, Error> {
+        let mut out = Self::identity();
+        for ((q_row, b), row) in out.m_q16.iter_mut().zip(&mut out.bias).zip(&m) {
+            if !finite3(row) || row.iter().any(|v| v.abs() > MAG_Q16_MAX_GAIN) {
+                return Err(Error::OutOfRange);
+            }
+            for (q, v) in q_row.iter_mut().zip(row) {
+                *q = round_f32_to_i32(v * 65_536.0);
+            }
+            let bias =
+                row[0] * offset_counts[0] + row[1] * offset_counts[1] + row[2] * offset_counts[2];
+            if !(bias.is_finite() && bias.abs() < 2.0e9) {
+                return Err(Error::OutOfRange);
+            }
+            *b = round_f32_to_i32(bias);
+        }
+        Ok(out)
+    }
+
+    /// Correct one sample of counts. Saturates instead of wrapping for
+    /// inputs beyond 16 bits that would overflow.
+    #[inline]
+    pub fn apply(&self, raw: [i32; 3]) -> [i32; 3] {
+        let mut out = [0i32; 3];
+        for ((o, row), b) in out.iter_mut().zip(&self.m_q16).zip(self.bias) {
+            let acc = i64::from(row[0]) * i64::from(raw[0])
+                + i64::from(row[1]) * i64::from(raw[1])
+                + i64::from(row[2]) * i64::from(raw[2]);
+            let v = (acc >> 16) - i64::from(b);
+            *o = v.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+        }
+        out
+    }
+}
+
+impl Default for MagCalibrationQ16 {
+    fn default() -> Self {
+        Self::identity()
+    }
+}
+
+/// Round to nearest (ties away from zero); callers pass values below 2³¹.
+fn round_f32_to_i32(x: f32) -> i32 {
+    (if x >= 0.0 { x + 0.5 } else { x - 0.5 }) as i32
+}
+
 /// Accelerometer per-axis offset and scale:
 /// `corrected = scale ⊙ (raw − offset)` (element-wise).
 ///

@@ -58,7 +58,7 @@ pub const COVERAGE_BINS: u8 = 14;
 pub const COVERAGE_COS: f64 = 0.866_025_403_784_438_6;
 
 /// The coverage directions (not normalised).
-const DIRECTIONS: [[i8; 3]; 14] = [
+pub(crate) const DIRECTIONS: [[i8; 3]; 14] = [
     [1, 0, 0],
     [-1, 0, 0],
     [0, 1, 0],
@@ -84,7 +84,89 @@ pub const PIVOT_MIN: f64 = 1.0e-9;
 const BLOCK: u32 = 64;
 
 /// Number of accumulated monomials (degrees 1..=4 in three variables).
-const N_MOMENTS: usize = 34;
+pub(crate) const N_MOMENTS: usize = 34;
+
+/// What the coverage check needs from the samples, shared by both fits:
+/// the min/max box and, per coverage direction, the sample with the largest
+/// projection on it (its support point).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Coverage {
+    pub(crate) min: [f32; 3],
+    pub(crate) max: [f32; 3],
+    pub(crate) support: [[f32; 3]; 14],
+    support_proj: [f32; 14],
+}
+
+impl Coverage {
+    pub(crate) const fn new() -> Self {
+        Self {
+            min: [0.0; 3],
+            max: [0.0; 3],
+            support: [[0.0; 3]; 14],
+            support_proj: [0.0; 14],
+        }
+    }
+
+    /// Per-axis max − min.
+    pub(crate) fn ranges(&self) -> [f32; 3] {
+        let mut r = [0.0; 3];
+        for ((ri, lo), hi) in r.iter_mut().zip(&self.min).zip(&self.max) {
+            *ri = hi - lo;
+        }
+        r
+    }
+
+    /// Adds an accepted sample (`first`: the first one, which starts the box
+    /// and every support point).
+    pub(crate) fn push(&mut self, m: [f32; 3], first: bool) {
+        if first {
+            self.min = m;
+            self.max = m;
+        }
+        for ((&v, lo), hi) in m.iter().zip(&mut self.min).zip(&mut self.max) {
+            if v < *lo {
+                *lo = v;
+            }
+            if v > *hi {
+                *hi = v;
+            }
+        }
+        let [x, y, z] = m;
+        let (s, d) = (x + y, x - y);
+        let (ppp, ppm, pmp, pmm) = (s + z, s - z, d + z, d - z);
+        // Same order as DIRECTIONS.
+        let proj = [
+            x, -x, y, -y, z, -z, ppp, -ppp, ppm, -ppm, pmp, -pmp, pmm, -pmm,
+        ];
+        for ((p, best), sup) in proj
+            .iter()
+            .zip(&mut self.support_proj)
+            .zip(&mut self.support)
+        {
+            if first || *p > *best {
+                *best = *p;
+                *sup = m;
+            }
+        }
+    }
+}
+
+/// [`Error::RangeTooSmall`] for the first axis whose sweep is below
+/// `min_range` (or zero, or NaN).
+pub(crate) fn check_ranges(ranges: [f32; 3], min_range: f32) -> Result<(), Error> {
+    let mut axis = 0u8;
+    for range in ranges {
+        if range.is_nan() || range < min_range || range <= 0.0 {
+            return Err(Error::RangeTooSmall {
+                axis,
+                range,
+                min: min_range,
+            });
+        }
+        axis = axis.saturating_add(1);
+    }
+    Ok(())
+}
 
 /// Settings for [`EllipsoidFit`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -194,10 +276,7 @@ pub struct EllipsoidFit {
     total: [f64; N_MOMENTS],
     count: u32,
     rejected: u32,
-    min: [f32; 3],
-    max: [f32; 3],
-    support: [[f32; 3]; 14],
-    support_proj: [f32; 14],
+    cov: Coverage,
 }
 
 impl EllipsoidFit {
@@ -212,10 +291,7 @@ impl EllipsoidFit {
             total: [0.0; N_MOMENTS],
             count: 0,
             rejected: 0,
-            min: [0.0; 3],
-            max: [0.0; 3],
-            support: [[0.0; 3]; 14],
-            support_proj: [0.0; 14],
+            cov: Coverage::new(),
         })
     }
 
@@ -229,10 +305,7 @@ impl EllipsoidFit {
             total: [0.0; N_MOMENTS],
             count: 0,
             rejected: 0,
-            min: [0.0; 3],
-            max: [0.0; 3],
-            support: [[0.0; 3]; 14],
-            support_proj: [0.0; 14],
+            cov: Coverage::new(),
         };
     }
 
@@ -254,11 +327,7 @@ impl EllipsoidFit {
 
     /// Per-axis max − min so far (input unit).
     pub fn ranges(&self) -> [f32; 3] {
-        let mut r = [0.0; 3];
-        for ((ri, lo), hi) in r.iter_mut().zip(&self.min).zip(&self.max) {
-            *ri = hi - lo;
-        }
-        r
+        self.cov.ranges()
     }
 
     /// Add a sample (input unit). [`Error::NonFinite`] /
@@ -270,8 +339,6 @@ impl EllipsoidFit {
         }
         if self.count == 0 {
             self.origin = m;
-            self.min = m;
-            self.max = m;
         }
         let [ox, oy, oz] = self.origin;
         let [mx, my, mz] = m;
@@ -326,38 +393,9 @@ impl EllipsoidFit {
             }
             self.block_n = 0;
         }
+        self.cov.push(m, self.count == 0);
         self.count = self.count.saturating_add(1);
-        self.update_coverage(m);
         Ok(())
-    }
-
-    fn update_coverage(&mut self, m: [f32; 3]) {
-        for ((&v, lo), hi) in m.iter().zip(&mut self.min).zip(&mut self.max) {
-            if v < *lo {
-                *lo = v;
-            }
-            if v > *hi {
-                *hi = v;
-            }
-        }
-        let [x, y, z] = m;
-        let (s, d) = (x + y, x - y);
-        let (ppp, ppm, pmp, pmm) = (s + z, s - z, d + z, d - z);
-        // Same order as DIRECTIONS.
-        let proj = [
-            x, -x, y, -y, z, -z, ppp, -ppp, ppm, -ppm, pmp, -pmp, pmm, -pmm,
-        ];
-        let first = self.count <= 1;
-        for ((p, best), sup) in proj
-            .iter()
-            .zip(&mut self.support_proj)
-            .zip(&mut self.support)
-        {
-            if first || *p > *best {
-                *best = *p;
-                *sup = m;
-            }
-        }
     }
 
     /// Directions covered relative to the min/max box centre, each axis
@@ -365,7 +403,8 @@ impl EllipsoidFit {
     fn box_coverage(&self) -> u8 {
         let mut center = [0.0f64; 3];
         let mut w = Matrix3::<f64>::zeros();
-        for (i, ((c, lo), hi)) in center.iter_mut().zip(&self.min).zip(&self.max).enumerate() {
+        let (min, max) = (&self.cov.min, &self.cov.max);
+        for (i, ((c, lo), hi)) in center.iter_mut().zip(min).zip(max).enumerate() {
             let (lo, hi) = (f64::from(*lo), f64::from(*hi));
             *c = 0.5 * (lo + hi);
             let half = 0.5 * (hi - lo);
@@ -392,7 +431,7 @@ impl EllipsoidFit {
         };
         let c = Vector3::from(center);
         let mut covered = 0u8;
-        for (dir, sup) in DIRECTIONS.iter().zip(&self.support) {
+        for (dir, sup) in DIRECTIONS.iter().zip(&self.cov.support) {
             let d = Vector3::new(f64::from(dir[0]), f64::from(dir[1]), f64::from(dir[2]));
             let want = w_inv_t * d;
             let p = Vector3::new(f64::from(sup[0]), f64::from(sup[1]), f64::from(sup[2]));
@@ -420,17 +459,7 @@ impl EllipsoidFit {
                 need,
             });
         }
-        let mut axis = 0u8;
-        for range in self.ranges() {
-            if range.is_nan() || range < self.config.min_range || range <= 0.0 {
-                return Err(Error::RangeTooSmall {
-                    axis,
-                    range,
-                    min: self.config.min_range,
-                });
-            }
-            axis = axis.saturating_add(1);
-        }
+        check_ranges(self.ranges(), self.config.min_range)?;
         let bins_needed = self.config.bins_needed;
         let bins_hit = self.box_coverage();
         if bins_hit < bins_needed {
@@ -520,7 +549,7 @@ impl EllipsoidFit {
 
 /// Exponents (a, b, c) of the accumulated monomials, in accumulation order
 /// (graded, then a descending, then b descending).
-const EXPONENTS: [[u8; 3]; N_MOMENTS] = [
+pub(crate) const EXPONENTS: [[u8; 3]; N_MOMENTS] = [
     [1, 0, 0],
     [0, 1, 0],
     [0, 0, 1],
@@ -559,7 +588,7 @@ const EXPONENTS: [[u8; 3]; N_MOMENTS] = [
 
 /// Index of monomial `xᵃyᵇzᶜ` in [`Moments::mean`] (0 = constant), `None`
 /// above degree 4.
-fn moment_index(a: u8, b: u8, c: u8) -> Option<usize> {
+pub(crate) fn moment_index(a: u8, b: u8, c: u8) -> Option<usize> {
     let (a, b, c) = (usize::from(a), usize::from(b), usize::from(c));
     let d = a + b + c;
     let offset = [0usize, 1, 4, 10, 20].get(d).copied()?;
@@ -601,14 +630,14 @@ impl Moments {
 }
 
 /// A polynomial term: exponents and coefficient.
-type Term = ([u8; 3], f64);
+pub(crate) type Term = ([u8; 3], f64);
 
 const X2: [u8; 3] = [2, 0, 0];
 const Y2: [u8; 3] = [0, 2, 0];
 const Z2: [u8; 3] = [0, 0, 2];
 
 /// Petrov regressors (trace-constrained general quadric).
-const REGRESSORS: [&[Term]; 9] = [
+pub(crate) const REGRESSORS: [&[Term]; 9] = [
     &[(X2, 1.0), (Y2, 1.0), (Z2, -2.0)],
     &[(X2, 1.0), (Z2, 1.0), (Y2, -2.0)],
     &[([1, 1, 0], 2.0)],
@@ -621,7 +650,7 @@ const REGRESSORS: [&[Term]; 9] = [
 ];
 
 /// Regression target `x² + y² + z²`.
-const TARGET: &[Term] = &[(X2, 1.0), (Y2, 1.0), (Z2, 1.0)];
+pub(crate) const TARGET: &[Term] = &[(X2, 1.0), (Y2, 1.0), (Z2, 1.0)];
 
 /// Fit result in scaled coordinates.
 struct Fit {
@@ -737,7 +766,7 @@ fn solve(mom: &Moments) -> Result<Fit, Error> {
 }
 
 /// Sort three values ascending (no slice-sort machinery on the target).
-fn sort3(v: &mut [f64; 3]) {
+pub(crate) fn sort3<T: PartialOrd + Copy>(v: &mut [T; 3]) {
     let [mut a, mut b, mut c] = *v;
     if a > b {
         core::mem::swap(&mut a, &mut b);

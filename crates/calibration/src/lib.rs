@@ -13,6 +13,7 @@
 //! | [`GyroBiasEstimator`] | [`GyroBias`] | `raw − bias` |
 //! | [`MagMinMax`] | [`MagCalibration`] (diagonal) | `soft_iron · (raw − offset)` |
 //! | [`EllipsoidFit`] | [`EllipsoidSolution`] → [`MagCalibration`] (full) | `soft_iron · (raw − offset)` |
+//! | [`EllipsoidFitF32`] (board: integer moments, `f32` solve) | the same | the same |
 //! | [`AccelSixPosition`] | [`AccelCalibration`] | `scale ⊙ (raw − offset)` |
 //!
 //! # Units and frames
@@ -47,9 +48,15 @@
 //! (9×9 in-place Cholesky, 3×3 symmetric eigen-decomposition); on
 //! thumbv7m (release, opt-level "s") its frame is 2.8 KB plus ≈ 0.5 KB in the
 //! eigen-solver, so call it from a context with ≈ 3.5 KB of stack to spare.
+//! [`EllipsoidFitF32`] is the same fit for the board: exact `i64` moments
+//! (34 integer multiply-adds per sample), an `f32` solve, no `f64` and no
+//! nalgebra; about 5.5 KiB of thumbv7m code at opt-level "z".
+//! [`MagCalibrationQ16`] applies a magnetometer correction to integer counts
+//! with 9 multiply-accumulates.
 //!
 //! State sizes (`core::mem::size_of`): [`GyroBiasEstimator`] 152 B,
-//! [`MagMinMax`] 40 B, [`EllipsoidFit`] 696 B, [`AccelSixPosition`] 168 B;
+//! [`MagMinMax`] 40 B, [`EllipsoidFit`] 696 B, [`EllipsoidFitF32`] 568 B,
+//! [`AccelSixPosition`] 168 B;
 //! [`MagCalibration`] 48 B, [`AccelCalibration`] 24 B, [`GyroBias`] 12 B.
 #![no_std]
 #![deny(unsafe_code)]
@@ -57,14 +64,18 @@
 mod accel;
 mod correction;
 mod ellipsoid;
+mod ellipsoid_f32;
 mod error;
 mod gyro;
 mod minmax;
 mod stats;
 
 pub use accel::{AccelSixPosition, AccelSixPositionConfig, Position, Progress, SixPositionEvent};
-pub use correction::{AccelCalibration, GyroBias, MagCalibration};
+pub use correction::{
+    AccelCalibration, GyroBias, MagCalibration, MagCalibrationQ16, MAG_Q16_MAX_GAIN,
+};
 pub use ellipsoid::{EllipsoidFit, EllipsoidFitConfig, EllipsoidSolution, COVERAGE_BINS};
+pub use ellipsoid_f32::{EllipsoidFitF32, MAX_SAMPLES_F32, PIVOT_MIN_F32};
 pub use error::{Error, MotionCheck};
 pub use gyro::{GyroBiasConfig, GyroBiasEstimator};
 pub use minmax::{MagMinMax, MagMinMaxConfig};

@@ -1,5 +1,6 @@
 //! Magnetometer calibration from per-axis extremes (min/max method).
 
+use crate::ellipsoid::check_ranges;
 use crate::{check_input, Error, MagCalibration};
 
 /// Settings for [`MagMinMax`].
@@ -151,18 +152,7 @@ impl MagMinMax {
             });
         }
         let ranges = self.ranges();
-        let mut axis = 0u8;
-        for &range in &ranges {
-            // `!(>=)` also refuses a zero range when min_range is 0.
-            if range.is_nan() || range < self.config.min_range || range <= 0.0 {
-                return Err(Error::RangeTooSmall {
-                    axis,
-                    range,
-                    min: self.config.min_range,
-                });
-            }
-            axis = axis.saturating_add(1);
-        }
+        check_ranges(ranges, self.config.min_range)?;
         let [rx, ry, rz] = ranges;
         let avg = (rx + ry + rz) / 3.0;
         let mut offset = [0.0; 3];

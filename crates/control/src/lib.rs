@@ -16,6 +16,9 @@
 //! * [`controllers`] — [`controllers::AltitudeHold`] (height P → speed PID
 //!   → throttle) and [`controllers::AttitudeController`] (angle P → rate PID
 //!   per axis).
+//! * [`fixed`] — the PID and both controllers in fixed point (Q16 inputs,
+//!   Q30 outputs) for a constant loop period: the same laws, integer
+//!   arithmetic only, for the 100 Hz control step on the M3.
 //!
 //! Conventions: height and vertical speed are **up** positive, in metres
 //! above the baro reference pressure; attitude is NED/FRD Euler angles in
@@ -47,6 +50,7 @@
 pub mod baro;
 pub mod controllers;
 mod error;
+pub mod fixed;
 pub mod pid;
 pub mod vertical;
 

@@ -1,8 +1,11 @@
 //! Calibration modes as state machines with progress reporting, the PA0
 //! button decoder that selects them, and the raw-log row format.
 //!
-//! * Magnetometer figure-eight: wraps [`calibration::EllipsoidFit`]; progress
-//!   is the direction coverage (bins hit of [`calibration::COVERAGE_BINS`]).
+//! * Magnetometer figure-eight: wraps [`calibration::EllipsoidFitF32`] (the
+//!   ellipsoid fit with integer moments and an `f32` solve, small enough
+//!   for the board); progress is the direction coverage (bins hit of
+//!   [`calibration::COVERAGE_BINS`]). [`MagMinMaxMode`] is the per-axis
+//!   alternative; both have `standard()` so the firmware picks one by type.
 //! * Accelerometer six-position: wraps [`calibration::AccelSixPosition`];
 //!   progress is the set of captured positions.
 //! * Raw log: stream calibrated sensor values in the BROAD CSV column order
@@ -12,17 +15,24 @@
 //! held at boot → accelerometer six-position; long press (≥ 1.5 s) →
 //! magnetometer figure-eight; short press → raw log on/off, or abort a
 //! calibration in progress.
+//!
+//! [`CalSession`] ties these together as the firmware runs them: the
+//! button and the mode, the samples the 1 kHz task hands in, and a
+//! periodic [`CalSession::poll`] that reports progress and, once a
+//! calibration is complete, writes it into the calibration record for the
+//! caller to save.
 
+use crate::storage::{CalibrationRecord, ValidParts};
 use calibration::{
-    AccelCalibration, AccelSixPosition, AccelSixPositionConfig, EllipsoidFit, EllipsoidFitConfig,
-    Error as CalError, MagCalibration, MagMinMax, MagMinMaxConfig, Position, SixPositionEvent,
-    COVERAGE_BINS,
+    AccelCalibration, AccelSixPosition, AccelSixPositionConfig, EllipsoidFitConfig,
+    EllipsoidFitF32, Error as CalError, MagCalibration, MagMinMax, MagMinMaxConfig, Position,
+    SixPositionEvent, COVERAGE_BINS,
 };
 
 /// Figure-eight magnetometer calibration (samples in µT, MPU frame).
 #[derive(Clone, Debug)]
 pub struct MagCalMode {
-    fit: EllipsoidFit,
+    fit: EllipsoidFitF32,
     bins_needed: u8,
     min_samples: u32,
 }
@@ -41,12 +51,22 @@ pub struct MagProgress {
     pub percent: u8,
 }
 
+/// Moment quantum of the board's ellipsoid fit, µT: below the AK8963's
+/// 0.15 µT step, and samples may lie up to 4096 quanta (512 µT) from the
+/// first one.
+pub const MAG_FIT_QUANTUM_UT: f32 = 0.125;
+
 impl MagCalMode {
+    /// The session the firmware uses: [`EllipsoidFitConfig::MICROTESLA`].
+    pub fn standard() -> Result<Self, CalError> {
+        Self::new(EllipsoidFitConfig::MICROTESLA)
+    }
+
     /// A fresh session with [`EllipsoidFitConfig::MICROTESLA`]-style
     /// thresholds (`config` is validated by the fit).
     pub fn new(config: EllipsoidFitConfig) -> Result<Self, CalError> {
         Ok(Self {
-            fit: EllipsoidFit::new(config)?,
+            fit: EllipsoidFitF32::new(config, MAG_FIT_QUANTUM_UT)?,
             bins_needed: config.bins_needed.min(COVERAGE_BINS),
             min_samples: config.min_samples.max(10),
         })
@@ -77,7 +97,7 @@ impl MagCalMode {
         self.progress().percent >= 100
     }
 
-    /// Fits the ellipsoid (a few ms of f64 work: call from a low-priority
+    /// Fits the ellipsoid (one-off `f32` work: call from a low-priority
     /// context).
     pub fn finish(&self) -> Result<MagCalibration, CalError> {
         self.fit.finish().map(|s| s.calibration)
@@ -86,7 +106,7 @@ impl MagCalMode {
 
 /// Light-weight magnetometer calibration (samples in µT, MPU frame): per-axis
 /// min/max ([`calibration::MagMinMax`]: hard iron + diagonal soft iron), all
-/// `f32`, for builds that cannot afford the ellipsoid fit's `f64` solver.
+/// `f32`; less flash than [`MagCalMode`] but no cross-axis soft iron.
 /// Progress = the smallest per-axis sweep relative to the required range.
 #[derive(Clone, Debug)]
 pub struct MagMinMaxMode {
@@ -96,6 +116,11 @@ pub struct MagMinMaxMode {
 }
 
 impl MagMinMaxMode {
+    /// The session for µT: every axis sweeps 40 µT, 300 samples.
+    pub fn standard() -> Result<Self, CalError> {
+        Self::new(40.0, 300)
+    }
+
     /// Every axis must sweep `min_range_ut` (a full figure-eight sweeps about
     /// twice the local field, 50–130 µT) over at least `min_samples` samples.
     pub fn new(min_range_ut: f32, min_samples: u32) -> Result<Self, CalError> {
@@ -269,6 +294,19 @@ impl Button {
         }
     }
 
+    /// A button already held when the firmware starts (the boot-time
+    /// selection of the accelerometer calibration): letting it go is the end
+    /// of that gesture, not a short press, and holding it on is no long press.
+    pub const fn held_at_boot() -> Self {
+        Self {
+            stable: true,
+            candidate: true,
+            since_ms: 0,
+            pressed_at_ms: 0,
+            long_sent: true,
+        }
+    }
+
     /// Feeds the raw level; returns a press event when one completes.
     pub fn update(&mut self, now_ms: u32, pressed: bool) -> Option<Press> {
         if pressed != self.candidate {
@@ -337,9 +375,14 @@ pub const RAW_LOG_HEADER: &str =
     "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,\
 mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving";
 
-/// Raw-log rate: every [`RAW_LOG_DIVIDER`]th IMU sample (100 Hz at 1 kHz;
-/// ~45 bytes a row of defmt-encoded floats, ≈ 4.5 KB/s over RTT).
-pub const RAW_LOG_DIVIDER: u16 = 10;
+/// Raw-log rate: every [`RAW_LOG_DIVIDER`]th IMU sample (100 Hz at 1 kHz,
+/// on the magnetometer's tick; ~45 bytes a row of defmt-encoded floats,
+/// ≈ 4.5 KB/s over RTT).
+pub const RAW_LOG_DIVIDER: u16 = crate::schedule::MAG_DIVIDER;
+
+/// Measured columns of a raw-log row (the first ten of [`RAW_LOG_HEADER`];
+/// the four reference columns are `nan` and `moving` is 0).
+pub const RAW_LOG_MEASURED_COLUMNS: usize = 10;
 
 /// One raw-log row: calibrated values in the MPU sensor frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -356,6 +399,16 @@ pub struct RawLogRow {
 }
 
 impl RawLogRow {
+    /// The measured values in [`RAW_LOG_HEADER`] order: the one place that
+    /// order is written down (the CSV writer and the firmware's log line
+    /// both print these positionally).
+    pub fn columns(&self) -> [f32; RAW_LOG_MEASURED_COLUMNS] {
+        let [gx, gy, gz] = self.gyr_rps;
+        let [ax, ay, az] = self.acc_mps2;
+        let [mx, my, mz] = self.mag_ut;
+        [self.t_s, gx, gy, gz, ax, ay, az, mx, my, mz]
+    }
+
     /// Writes the row as one CSV line (no newline) in [`RAW_LOG_HEADER`]
     /// order.
     ///
@@ -365,13 +418,9 @@ impl RawLogRow {
     /// assert_eq!(s, "0.5,0,0,0,0,0,0,0,0,0,nan,nan,nan,nan,0");
     /// ```
     pub fn write_csv<W: core::fmt::Write>(&self, w: &mut W) -> core::fmt::Result {
-        write!(w, "{}", self.t_s)?;
-        for v in self
-            .gyr_rps
-            .iter()
-            .chain(&self.acc_mps2)
-            .chain(&self.mag_ut)
-        {
+        let [t, rest @ ..] = self.columns();
+        write!(w, "{t}")?;
+        for v in rest {
             if v.is_nan() {
                 w.write_str(",nan")?;
             } else {
@@ -526,5 +575,261 @@ mod tests {
         let cal = a.finish().unwrap();
         assert!((cal.offset[2] - 0.05).abs() < 1e-4);
         assert!((cal.scale[0] - 1.0 / 1.02).abs() < 1e-4);
+    }
+}
+
+/// A magnetometer calibration [`CalSession`] can run: [`MagMinMaxMode`]
+/// (small, `f32`) or [`MagCalMode`] (ellipsoid fit, integer moments and an
+/// `f32` solve).
+pub trait MagCalibrator: Sized {
+    /// A fresh session with the firmware's thresholds (`None` if they are
+    /// refused).
+    fn start() -> Option<Self>;
+    /// Adds a sample (µT, MPU frame, no hard/soft-iron correction).
+    fn push(&mut self, mag_ut: [f32; 3]) -> MagProgress;
+    /// Current progress.
+    fn progress(&self) -> MagProgress;
+    /// `true` once a fit may be tried.
+    fn ready(&self) -> bool;
+    /// The fit.
+    fn finish(&self) -> Result<MagCalibration, CalError>;
+}
+
+impl MagCalibrator for MagMinMaxMode {
+    fn start() -> Option<Self> {
+        Self::standard().ok()
+    }
+    fn push(&mut self, mag_ut: [f32; 3]) -> MagProgress {
+        MagMinMaxMode::push(self, mag_ut)
+    }
+    fn progress(&self) -> MagProgress {
+        MagMinMaxMode::progress(self)
+    }
+    fn ready(&self) -> bool {
+        MagMinMaxMode::ready(self)
+    }
+    fn finish(&self) -> Result<MagCalibration, CalError> {
+        MagMinMaxMode::finish(self)
+    }
+}
+
+impl MagCalibrator for MagCalMode {
+    fn start() -> Option<Self> {
+        Self::standard().ok()
+    }
+    fn push(&mut self, mag_ut: [f32; 3]) -> MagProgress {
+        MagCalMode::push(self, mag_ut)
+    }
+    fn progress(&self) -> MagProgress {
+        MagCalMode::progress(self)
+    }
+    fn ready(&self) -> bool {
+        MagCalMode::ready(self)
+    }
+    fn finish(&self) -> Result<MagCalibration, CalError> {
+        MagCalMode::finish(self)
+    }
+}
+
+/// Which samples the 1 kHz task should hand to a [`CalSession`] and
+/// whether it should build raw-log rows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CalWants {
+    /// Magnetometer samples, µT, MPU frame, uncorrected ([`CalSession::push_mag`]).
+    pub mag_ut: bool,
+    /// Accelerometer samples, g, MPU frame, uncorrected ([`CalSession::push_accel`]).
+    pub accel_g: bool,
+    /// Raw-log rows.
+    pub raw_log: bool,
+}
+
+/// What a [`CalSession`] reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CalEvent {
+    /// The mode changed (a press, or a calibration finished).
+    ModeChanged {
+        /// Before.
+        from: Mode,
+        /// After.
+        to: Mode,
+    },
+    /// Magnetometer calibration progress (every [`CalSession::MAG_PROGRESS_POLLS`] polls).
+    MagProgress(MagProgress),
+    /// Accelerometer calibration progress (every [`CalSession::ACCEL_PROGRESS_POLLS`] polls).
+    AccelProgress(AccelProgress),
+    /// Magnetometer calibration done and written into the record (hard
+    /// iron, µT): save the record and apply it.
+    MagDone {
+        /// Hard-iron offset, µT, MPU frame.
+        offset_ut: [f32; 3],
+    },
+    /// Accelerometer calibration done and written into the record: save
+    /// the record and apply it.
+    AccelDone {
+        /// Offset, g.
+        offset_g: [f32; 3],
+        /// Scale factors.
+        scale: [f32; 3],
+    },
+    /// The magnetometer fit was refused; the session goes on (keep turning).
+    MagRefused,
+    /// The accelerometer result was implausible; the session restarted.
+    AccelRestarted,
+}
+
+/// The button, the operating mode and the calibration in progress, as one
+/// host-testable state machine. The 1 kHz task asks [`wants`](Self::wants)
+/// and hands samples to [`push_mag`](Self::push_mag) /
+/// [`push_accel`](Self::push_accel); a slow task feeds the button
+/// ([`on_button`](Self::on_button)) and calls [`poll`](Self::poll).
+#[derive(Clone, Debug)]
+pub struct CalSession<M> {
+    mode: Mode,
+    button: Button,
+    mag: Option<M>,
+    accel: Option<AccelCalMode>,
+    polls: u32,
+}
+
+impl<M: MagCalibrator> CalSession<M> {
+    /// Polls between magnetometer progress reports.
+    pub const MAG_PROGRESS_POLLS: u32 = 10;
+    /// Polls between accelerometer progress reports.
+    pub const ACCEL_PROGRESS_POLLS: u32 = 20;
+
+    /// The session at boot: the button held → accelerometer calibration.
+    pub fn new(button_held_at_boot: bool) -> Self {
+        let mut s = Self {
+            mode: Mode::Normal,
+            button: if button_held_at_boot {
+                Button::held_at_boot()
+            } else {
+                Button::new()
+            },
+            mag: None,
+            accel: None,
+            polls: 0,
+        };
+        s.enter(Mode::at_boot(button_held_at_boot));
+        s
+    }
+
+    /// The current mode.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// What the 1 kHz task should feed in.
+    pub fn wants(&self) -> CalWants {
+        CalWants {
+            mag_ut: self.mode == Mode::MagCal,
+            accel_g: self.mode == Mode::AccelCal,
+            raw_log: self.mode == Mode::RawLog,
+        }
+    }
+
+    fn enter(&mut self, mode: Mode) {
+        self.mode = mode;
+        self.mag = if mode == Mode::MagCal {
+            M::start()
+        } else {
+            None
+        };
+        self.accel = if mode == Mode::AccelCal {
+            AccelCalMode::new(AccelSixPositionConfig::default()).ok()
+        } else {
+            None
+        };
+        self.polls = 0;
+    }
+
+    /// A decoded press: changes the mode (and starts or aborts a
+    /// calibration).
+    pub fn on_press(&mut self, press: Press) -> CalEvent {
+        let from = self.mode;
+        self.enter(from.on_press(press));
+        CalEvent::ModeChanged {
+            from,
+            to: self.mode,
+        }
+    }
+
+    /// The button level at `now_ms` (debounced here); a press changes the
+    /// mode.
+    pub fn on_button(&mut self, now_ms: u32, pressed: bool) -> Option<CalEvent> {
+        self.button
+            .update(now_ms, pressed)
+            .map(|p| self.on_press(p))
+    }
+
+    /// A magnetometer sample (ignored unless calibrating the magnetometer).
+    pub fn push_mag(&mut self, mag_ut: [f32; 3]) {
+        if let Some(m) = self.mag.as_mut() {
+            m.push(mag_ut);
+        }
+    }
+
+    /// An accelerometer sample (ignored unless calibrating the accelerometer).
+    pub fn push_accel(&mut self, accel_g: [f32; 3]) {
+        if let Some(a) = self.accel.as_mut() {
+            a.push(accel_g);
+        }
+    }
+
+    /// The slow-task step: progress every few polls and, once a
+    /// calibration is complete, its result written into `record` (the
+    /// session then returns to [`Mode::Normal`]). The magnetometer fit
+    /// runs here.
+    pub fn poll(&mut self, record: &mut CalibrationRecord) -> Option<CalEvent> {
+        self.polls = self.polls.wrapping_add(1);
+        match self.mode {
+            Mode::MagCal => {
+                let m = self.mag.as_ref()?;
+                if m.ready() {
+                    return Some(match m.finish() {
+                        Ok(c) => {
+                            record.mag_offset_ut = c.offset;
+                            record.mag_soft_iron = c.soft_iron;
+                            record.valid.0 |= ValidParts::MAG;
+                            self.enter(Mode::Normal);
+                            CalEvent::MagDone {
+                                offset_ut: c.offset,
+                            }
+                        }
+                        Err(_) => CalEvent::MagRefused,
+                    });
+                }
+                self.polls
+                    .is_multiple_of(Self::MAG_PROGRESS_POLLS)
+                    .then(|| CalEvent::MagProgress(m.progress()))
+            }
+            Mode::AccelCal => {
+                let a = self.accel.as_ref()?;
+                if a.ready() {
+                    return Some(match a.finish() {
+                        Ok(c) => {
+                            record.accel_offset_g = c.offset;
+                            record.accel_scale = c.scale;
+                            record.valid.0 |= ValidParts::ACCEL;
+                            self.enter(Mode::Normal);
+                            CalEvent::AccelDone {
+                                offset_g: c.offset,
+                                scale: c.scale,
+                            }
+                        }
+                        Err(_) => {
+                            self.enter(Mode::AccelCal);
+                            CalEvent::AccelRestarted
+                        }
+                    });
+                }
+                self.polls
+                    .is_multiple_of(Self::ACCEL_PROGRESS_POLLS)
+                    .then(|| CalEvent::AccelProgress(a.progress()))
+            }
+            Mode::Normal | Mode::RawLog => None,
+        }
     }
 }

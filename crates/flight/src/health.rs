@@ -123,6 +123,14 @@ impl SensorHealth {
         }
     }
 
+    /// A working sensor that keeps the counters of an earlier life (a chip
+    /// that was missing and answered a re-probe).
+    pub const fn with_counters(policy: HealthPolicy, counters: HealthCounters) -> Self {
+        let mut h = Self::new(policy);
+        h.counters = counters;
+        h
+    }
+
     /// A sensor that was not found at boot.
     pub const fn missing(policy: HealthPolicy) -> Self {
         let mut h = Self::new(policy);
@@ -242,6 +250,20 @@ impl SensorHealth {
         }
     }
 
+    /// Records the outcome of one attempt, without retrying: the 1 kHz
+    /// path counts a failed read and skips the sample. Returns the result
+    /// unchanged; the [`Action`] for an error is available from
+    /// [`pending_action`](Self::pending_action).
+    pub fn record<T, E>(&mut self, r: Result<T, E>) -> Result<T, E> {
+        match &r {
+            Ok(_) => self.success(),
+            Err(_) => {
+                self.error();
+            }
+        }
+        r
+    }
+
     /// Runs `op` up to `1 + max_retries` times, counting retries, and
     /// records the final outcome ([`success`](Self::success) or
     /// [`error`](Self::error)). Returns the last result; the
@@ -319,7 +341,8 @@ pub trait RecoveryPins {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct RecoveryReport {
-    /// SCL pulses it took for SDA to be released (0 if it was already free).
+    /// SCL pulses it took for SDA to be released (0 if it was already
+    /// free); nine pulses are always given.
     pub clocks: u8,
 }
 
@@ -331,17 +354,24 @@ pub enum RecoveryError {
     SclStuckLow,
     /// SDA still low after [`MAX_RECOVERY_CLOCKS`] pulses.
     SdaStuckLow,
+    /// SDA did not follow the pin when driven low (a short to the supply
+    /// or the pin is not in open-drain output mode).
+    SdaNotDriven,
+    /// SCL did not follow the pin when driven low.
+    SclNotDriven,
 }
 
 /// Upper bound on SCL pulses (9 suffice for a slave mid-byte; margin for a
 /// slave that ACKs once more).
 pub const MAX_RECOVERY_CLOCKS: u8 = 16;
+/// SCL pulses that always complete a slave's byte and its acknowledge slot.
+pub const FULL_BYTE_CLOCKS: u8 = 9;
 /// Half period of the hand-made clock, µs (≈ 100 kHz).
 pub const RECOVERY_HALF_PERIOD_US: u32 = 5;
 
 /// Frees a stuck I2C bus (NXP UM10204 §3.1.16): with SDA released, clock SCL
-/// until the slave that holds SDA low finishes its byte and lets go (up to
-/// [`MAX_RECOVERY_CLOCKS`]), then generate a STOP (SDA low → high while SCL
+/// at least [`FULL_BYTE_CLOCKS`] times and until the slave that holds SDA low
+/// lets go (up to [`MAX_RECOVERY_CLOCKS`]), then generate a STOP (SDA low → high while SCL
 /// is high). Leaves both lines released. The caller then re-creates the I2C
 /// peripheral (the STM32F1 I2C cell needs a reset after such an event,
 /// errata 2.13.7).
@@ -361,17 +391,29 @@ pub fn recover_bus<P: RecoveryPins, D: DelayNs>(
         delay.delay_us(RECOVERY_HALF_PERIOD_US);
         waited = waited.saturating_add(1);
     }
-    let mut clocks = 0u8;
-    while !pins.sda_is_high() {
-        if clocks >= MAX_RECOVERY_CLOCKS {
+    // Stopping at the first high SDA is not enough: a slave shifting out
+    // a 1 bit releases SDA, and the STOP's SCL-low edge then moves it onto
+    // its next bit, which may be a 0. Nine pulses with SDA released take any
+    // slave through the rest of its byte and a NACK, wherever it was left.
+    let mut released_after: Option<u8> = None;
+    let mut pulses = 0u8;
+    loop {
+        if pins.sda_is_high() {
+            released_after.get_or_insert(pulses);
+            if pulses >= FULL_BYTE_CLOCKS {
+                break;
+            }
+        }
+        if pulses >= MAX_RECOVERY_CLOCKS {
             return Err(RecoveryError::SdaStuckLow);
         }
         pins.set_scl(false);
         delay.delay_us(RECOVERY_HALF_PERIOD_US);
         pins.set_scl(true);
         delay.delay_us(RECOVERY_HALF_PERIOD_US);
-        clocks = clocks.saturating_add(1);
+        pulses = pulses.saturating_add(1);
     }
+    let clocks = released_after.unwrap_or(pulses);
     // STOP: SCL low, SDA low, SCL high, SDA high.
     pins.set_scl(false);
     delay.delay_us(RECOVERY_HALF_PERIOD_US);
@@ -385,6 +427,51 @@ pub fn recover_bus<P: RecoveryPins, D: DelayNs>(
         return Err(RecoveryError::SdaStuckLow);
     }
     Ok(RecoveryReport { clocks })
+}
+
+/// Unlocks the STM32F1 I2C cell's BUSY flag when its analog noise
+/// filters latched a wrong level (errata ES096 2.13.7: BUSY stays set
+/// although both lines are high, and neither SWRST nor a reset clears
+/// it). Forces one transition through each filter and checks each level
+/// on the input register, in the errata's order: both released and high;
+/// SDA low; SCL low; SCL high; SDA high (a START then a STOP on the wire,
+/// harmless to the slaves). With the pins as open-drain GPIO and the I2C
+/// peripheral disabled; the caller then sets SWRST, clears it and
+/// reprograms the peripheral.
+pub fn unlock_busy_flag<P: RecoveryPins, D: DelayNs>(
+    pins: &mut P,
+    delay: &mut D,
+) -> Result<(), RecoveryError> {
+    pins.set_scl(true);
+    pins.set_sda(true);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if !pins.scl_is_high() {
+        return Err(RecoveryError::SclStuckLow);
+    }
+    if !pins.sda_is_high() {
+        return Err(RecoveryError::SdaStuckLow);
+    }
+    pins.set_sda(false);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if pins.sda_is_high() {
+        return Err(RecoveryError::SdaNotDriven);
+    }
+    pins.set_scl(false);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if pins.scl_is_high() {
+        return Err(RecoveryError::SclNotDriven);
+    }
+    pins.set_scl(true);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if !pins.scl_is_high() {
+        return Err(RecoveryError::SclStuckLow);
+    }
+    pins.set_sda(true);
+    delay.delay_us(RECOVERY_HALF_PERIOD_US);
+    if !pins.sda_is_high() {
+        return Err(RecoveryError::SdaStuckLow);
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -543,6 +630,98 @@ mod tests {
             recover_bus(&mut free, &mut NoDelay),
             Ok(RecoveryReport { clocks: 0 })
         );
+    }
+
+    /// A slave left by a master reset in the middle of the byte it was
+    /// sending: it drives the remaining bits (MSB first) on SDA, one per SCL
+    /// falling edge, then releases SDA for the acknowledge slot and goes
+    /// idle if the master did not acknowledge; it only ever sees the STOP
+    /// once it is idle.
+    struct MidByteSlave {
+        scl: bool,
+        sda_master: bool,
+        bits: [bool; 8],
+        next: usize,
+        stop_seen: bool,
+    }
+
+    impl MidByteSlave {
+        fn driving_low(&self) -> bool {
+            self.bits.get(self.next).is_some_and(|b| !*b)
+        }
+    }
+
+    impl RecoveryPins for MidByteSlave {
+        fn set_scl(&mut self, high: bool) {
+            if self.scl && !high && self.next < 9 {
+                self.next += 1;
+            }
+            self.scl = high;
+        }
+        fn set_sda(&mut self, high: bool) {
+            let sda_before = self.sda_master && !self.driving_low();
+            self.sda_master = high;
+            if self.scl && high && !sda_before && self.next >= 8 {
+                self.stop_seen = true;
+            }
+        }
+        fn scl_is_high(&mut self) -> bool {
+            self.scl
+        }
+        fn sda_is_high(&mut self) -> bool {
+            self.sda_master && !self.driving_low()
+        }
+    }
+
+    #[test]
+    fn recovery_takes_a_slave_through_its_whole_byte_before_the_stop() {
+        // 0x5A = 0101_1010, left after its first bit: SDA reads 1 after one
+        // clock, but the slave still has 0s to send.
+        for start in 0..8 {
+            let mut bus = MidByteSlave {
+                scl: true,
+                sda_master: true,
+                bits: [false, true, false, true, true, false, true, false],
+                next: start,
+                stop_seen: false,
+            };
+            let r = recover_bus(&mut bus, &mut NoDelay);
+            assert!(r.is_ok(), "left at bit {start}: {r:?}");
+            assert!(bus.stop_seen, "left at bit {start}: the STOP reached it");
+            assert!(bus.sda_is_high() && bus.scl_is_high());
+        }
+    }
+
+    #[test]
+    fn busy_unlock_follows_the_errata_order() {
+        let mut bus = StuckSlave::new(0);
+        assert_eq!(unlock_busy_flag(&mut bus, &mut NoDelay), Ok(()));
+        // Release both, SDA low, SCL low, SCL high, SDA high (ES096 2.13.7).
+        assert_eq!(&bus.log[..bus.n], b"CDdcCD");
+        assert!(bus.scl && bus.sda_master);
+        // A slave still holding SDA: refused before any edge is forced.
+        let mut held = StuckSlave::new(3);
+        assert_eq!(
+            unlock_busy_flag(&mut held, &mut NoDelay),
+            Err(RecoveryError::SdaStuckLow)
+        );
+        assert_eq!(&held.log[..held.n], b"CD");
+        let mut short = StuckSlave::new(0);
+        short.scl_short = true;
+        assert_eq!(
+            unlock_busy_flag(&mut short, &mut NoDelay),
+            Err(RecoveryError::SclStuckLow)
+        );
+    }
+
+    #[test]
+    fn record_counts_one_attempt_without_retry() {
+        let mut h = SensorHealth::new(policy());
+        assert_eq!(h.record::<(), u8>(Err(3)), Err(3));
+        assert_eq!(h.counters().errors, 1);
+        assert_eq!(h.counters().retries, 0);
+        assert_eq!(h.record::<u8, u8>(Ok(1)), Ok(1));
+        assert_eq!(h.consecutive_errors(), 0);
     }
 
     #[test]

@@ -15,10 +15,12 @@
 //! | [`health`] | per-sensor counters and state, retry / re-init / bus-recovery policy, stuck-bus recovery procedure |
 //! | [`schedule`] | mag every 10th IMU sample, periodic deadlines, dt from cycle counts, µs clock, loop statistics, watchdog gate |
 //! | [`boot`] | bounded probing with typed verdicts, graceful degradation, start-up gyro bias |
-//! | [`sensors`] | the three drivers on one bus with their health: boot, reads, config checks, re-init |
-//! | [`calmode`] | magnetometer (ellipsoid or min/max) and accelerometer calibration sessions, button decoder, raw-log rows |
+//! | [`sensors`] | the three drivers on one bus with their health: boot, reads, config checks, stepwise re-init, re-probing, bus-recovery requests |
+//! | [`calmode`] | magnetometer (ellipsoid or min/max) and accelerometer calibrations, button decoder, the calibration session state machine, raw-log rows |
+//! | [`sample`] | one 1 kHz sample end to end: start-up bias, pipeline steps, calibration and raw-log values |
 //! | [`pipeline`] | the 1 kHz / 100 Hz processing chain (fixed-point AHRS by default, f32 with `f32-ahrs`) |
 //! | [`mounting`] | MPU frame → body FRD signed axis permutation |
+//! | [`angles`] | integer Euler angles and the down axis from the Q30 quaternion |
 //!
 //! ```
 //! use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
@@ -37,12 +39,14 @@
     )
 )]
 
+pub mod angles;
 pub mod boot;
 pub mod calmode;
 pub mod crc32;
 pub mod health;
 pub mod mounting;
 pub mod pipeline;
+pub mod sample;
 pub mod schedule;
 pub mod sensors;
 pub mod storage;

@@ -5,27 +5,34 @@
 //!   mounting (MPU frame → body FRD, signed permutation) → AHRS update →
 //!   accumulate body specific force for the vertical estimator. No f32
 //!   division, trigonometry or square root outside the AHRS itself.
-//! * [`Pipeline::mag_step`] (100 Hz): AK8963 counts → µT (factory
-//!   adjustment) → MPU frame → hard/soft iron → body frame; kept for the
-//!   AHRS's MARG updates.
+//! * [`Pipeline::mag_step`] (100 Hz): AK8963 counts → body frame in
+//!   1/16 µT with one integer affine map ([`MagCalibrationQ16`]: factory
+//!   adjustment, AK8963 → MPU axes, hard/soft iron and mounting folded
+//!   into one Q16 matrix when the calibration is set); kept for the AHRS's
+//!   MARG updates.
 //! * [`Pipeline::baro_step`] (per MS5611 pressure, ~100 Hz): pressure →
 //!   height (control's cheap table form) → vertical estimator.
 //! * [`Pipeline::control_step`] (100 Hz): vertical prediction with the mean
 //!   earth-frame vertical acceleration of the last samples, then the
 //!   altitude-hold and attitude controllers (outputs only logged; there are
-//!   no motors).
+//!   no motors). The down axis and the Euler angles come from the Q30
+//!   quaternion in integer arithmetic ([`crate::angles`], within 1.2e-4 rad
+//!   of the exact angles), and the controllers are `control::fixed`'s
+//!   (Q16 in, Q30 out) at the nominal period `control_divider /
+//!   imu_rate_hz`; only the vertical estimator runs in f32.
 //!
 //! The AHRS is `fc_ahrs`'s Madgwick filter; see [`AHRS_KIND`].
 
+use calibration::{MagCalibration, MagCalibrationQ16};
 use control::baro::CheapBaro;
-use control::controllers::{
-    AltitudeHold, AltitudeHoldConfig, Attitude, AttitudeConfig, AttitudeController, AttitudeTarget,
-    BodyRates, TorqueCommand, YawTarget,
-};
+use control::controllers::{AltitudeHoldConfig, AttitudeConfig};
+use control::fixed::{q16_saturating, AltitudeHoldQ, AttitudeQ, YawTargetQ16, ONE_Q30};
 use control::vertical::{Config as VerticalConfig, VerticalEstimator};
 use fc_ahrs::Quaternion;
 
+use crate::angles;
 use crate::boot::AhrsMode;
+use crate::calmode::RawLogRow;
 use crate::mounting::Mounting;
 use crate::storage::{CalibrationRecord, ValidParts};
 
@@ -33,6 +40,10 @@ use crate::storage::{CalibrationRecord, ValidParts};
 pub const G_MPS2: f32 = 9.806_65;
 const DEG_PER_RAD: f32 = 180.0 / core::f32::consts::PI;
 const RAD_PER_DEG: f32 = core::f32::consts::PI / 180.0;
+/// Output units per unit of a Q30 controller output.
+const PER_Q30: f32 = 1.0 / ONE_Q30 as f32;
+/// Degrees per unit of a Q16 angle.
+const DEG_PER_Q16: f32 = DEG_PER_RAD / 65_536.0;
 
 /// Barometer readings averaged for the take-off pressure reference (height
 /// 0): one MS5611 reading carries ~1.5 Pa (≈ 0.13 m) of noise, which a
@@ -75,6 +86,9 @@ pub struct PipelineConfig {
     pub altitude_target_m: f32,
     /// IMU samples per [`Pipeline::control_step`] (10 → 100 Hz).
     pub control_divider: u16,
+    /// Nominal IMU sample rate, Hz: with `control_divider` it fixes the
+    /// controllers' period (their gains are precomputed for it).
+    pub imu_rate_hz: u32,
     /// AHRS tuning.
     pub ahrs: fc_ahrs::Config,
     /// Vertical estimator tuning.
@@ -98,6 +112,7 @@ impl PipelineConfig {
             altitude: true,
             altitude_target_m: 1.0,
             control_divider: 10,
+            imu_rate_hz: 1000,
             ahrs: fc_ahrs::Config::default(),
             vertical: VerticalConfig::default(),
             altitude_hold: AltitudeHoldConfig::default(),
@@ -158,11 +173,15 @@ pub struct Outputs {
 pub struct Pipeline {
     cfg: PipelineConfig,
     mounting: Mounting,
+    /// `mounting` as source axis and sign per body axis (the hot-path form).
+    mount: AxisPick,
     gyro_bias: [i32; 3],
     accel_offset: [i32; 3],
     accel_scale_q14: [i32; 3],
     mag_offset_ut: [f32; 3],
     mag_soft: [[f32; 3]; 3],
+    /// AK8963 counts → body frame, 1/16 µT (everything folded together).
+    mag_q16: MagCalibrationQ16,
     ahrs: backend::Ahrs,
     last_gyro_body: [i32; 3],
     accel_sum: [i32; 3],
@@ -170,7 +189,9 @@ pub struct Pipeline {
     dt_sum_cycles: u32,
     cycle_s: f32,
     accel_mps2_per_lsb: f32,
-    gyro_rps_per_lsb: f32,
+    /// m/s² per unit of a down-axis sum of `control_divider` samples
+    /// scaled by 2⁸ (see `control_step`).
+    accel_mean_k: f32,
     mag_fresh: u16,
     baro: Option<CheapBaro>,
     /// Sum of the first pressures, Pa (the reference is their mean).
@@ -178,8 +199,12 @@ pub struct Pipeline {
     /// Pressures summed in `p0_sum_pa`.
     p0_n: u16,
     vertical: VerticalEstimator,
-    alt_hold: AltitudeHold,
-    attitude: AttitudeController,
+    alt_hold: AltitudeHoldQ,
+    attitude: AttitudeQ,
+    /// Altitude-hold target, Q16 m.
+    altitude_target_q16: i32,
+    /// Gyro counts → rad/s Q16, in Q16 (`rate_q16 = counts · k >> 16`).
+    gyro_rps_q16_per_lsb_q16: i64,
     out: Outputs,
 }
 
@@ -203,6 +228,7 @@ impl Pipeline {
             && cfg.mag_ut_per_lsb.iter().all(|s| positive(*s))
             && cfg.cpu_hz > 0
             && cfg.control_divider > 0
+            && cfg.imu_rate_hz > 0
             && cfg.altitude_target_m.is_finite();
         if !scales_ok {
             return Err(PipelineError::InvalidScale);
@@ -216,13 +242,21 @@ impl Pipeline {
         };
         let gyro_rps_per_lsb = cfg.gyro_dps_per_lsb * RAD_PER_DEG;
         let accel_mps2_per_lsb = cfg.accel_g_per_lsb * G_MPS2;
+        let mag_q16 = mag_counts_to_body_q16(&cfg, cal)?;
+        let control_dt_s = f32::from(cfg.control_divider) / cfg.imu_rate_hz as f32;
+        let gyro_k = gyro_rps_per_lsb * 4_294_967_296.0;
+        if gyro_k.is_nan() || gyro_k >= 2.0e9 {
+            return Err(PipelineError::InvalidScale);
+        }
         Ok(Self {
             mounting: cal.mounting,
+            mount: AxisPick::new(&cal.mounting),
             gyro_bias,
             accel_offset: cal.accel_offset_g.map(|o| round_i32(o * lsb_per_g)),
             accel_scale_q14: cal.accel_scale.map(|s| round_i32(s * 16_384.0)),
             mag_offset_ut: cal.mag_offset_ut,
             mag_soft: cal.mag_soft_iron,
+            mag_q16,
             ahrs: backend::Ahrs::new(cfg.ahrs, gyro_rps_per_lsb, accel_mps2_per_lsb, cfg.cpu_hz),
             last_gyro_body: [0; 3],
             accel_sum: [0; 3],
@@ -230,21 +264,26 @@ impl Pipeline {
             dt_sum_cycles: 0,
             cycle_s: 1.0 / cfg.cpu_hz as f32,
             accel_mps2_per_lsb,
-            gyro_rps_per_lsb,
+            accel_mean_k: accel_mps2_per_lsb / (256.0 * f32::from(cfg.control_divider)),
             mag_fresh: 0,
             baro: None,
             p0_sum_pa: 0,
             p0_n: 0,
             vertical: VerticalEstimator::new(cfg.vertical)?,
-            alt_hold: AltitudeHold::new(cfg.altitude_hold)?,
-            attitude: AttitudeController::new(cfg.attitude)?,
+            alt_hold: AltitudeHoldQ::new(&cfg.altitude_hold, control_dt_s)?,
+            attitude: AttitudeQ::new(&cfg.attitude, control_dt_s)?,
+            altitude_target_q16: control::fixed::to_q16(cfg.altitude_target_m)?,
+            gyro_rps_q16_per_lsb_q16: gyro_k as i64,
             out: Outputs::default(),
             cfg,
         })
     }
 
     /// Applies a new calibration record (accelerometer, magnetometer,
-    /// mounting; the gyro bias only if the record holds one).
+    /// mounting; the gyro bias only if the record holds one). A
+    /// magnetometer correction too large for the integer form (gains far
+    /// beyond [`calibration::MAX_GAIN`]) keeps the previous one for the
+    /// AHRS.
     pub fn set_calibration(&mut self, cal: &CalibrationRecord) {
         let lsb_per_g = 1.0 / self.cfg.accel_g_per_lsb;
         let lsb_per_dps = 1.0 / self.cfg.gyro_dps_per_lsb;
@@ -252,10 +291,14 @@ impl Pipeline {
             self.gyro_bias = cal.gyro_bias_dps.map(|b| round_i32(b * lsb_per_dps));
         }
         self.mounting = cal.mounting;
+        self.mount = AxisPick::new(&cal.mounting);
         self.accel_offset = cal.accel_offset_g.map(|o| round_i32(o * lsb_per_g));
         self.accel_scale_q14 = cal.accel_scale.map(|s| round_i32(s * 16_384.0));
         self.mag_offset_ut = cal.mag_offset_ut;
         self.mag_soft = cal.mag_soft_iron;
+        if let Ok(m) = mag_counts_to_body_q16(&self.cfg, cal) {
+            self.mag_q16 = m;
+        }
     }
 
     /// The gyro bias in use, counts (MPU frame).
@@ -285,22 +328,26 @@ impl Pipeline {
         self.cfg.altitude = altitude;
     }
 
+    /// Replaces the AK8963 scale (µT per count, factory adjustment
+    /// included), for a magnetometer that was found after boot.
+    pub fn set_mag_ut_per_lsb(&mut self, ut_per_lsb: [f32; 3]) {
+        self.cfg.mag_ut_per_lsb = ut_per_lsb;
+    }
+
     /// Calibrated accelerometer sample, counts, MPU frame (integer:
     /// `(raw − offset) · scale_q14 >> 14`).
     #[inline]
     pub fn calibrate_accel_counts(&self, raw: [i16; 3]) -> [i32; 3] {
-        let mut out = [0i32; 3];
-        for (((o, r), off), s) in out
-            .iter_mut()
-            .zip(raw)
-            .zip(self.accel_offset)
-            .zip(self.accel_scale_q14)
-        {
-            let centred = i32::from(r).saturating_sub(off);
-            // |centred| ≤ 2^17 after saturation of a bad offset; s ≤ 2^15 (scale ≤ 2).
-            *o = ((i64::from(centred) * i64::from(s)) >> 14) as i32;
-        }
-        out
+        // |centred| ≤ 2^17 after saturation of a bad offset; s ≤ 2^15 (scale ≤ 2).
+        let cal = |r: i16, off: i32, s: i32| {
+            ((i64::from(i32::from(r).saturating_sub(off)) * i64::from(s)) >> 14) as i32
+        };
+        let (o, s) = (&self.accel_offset, &self.accel_scale_q14);
+        [
+            cal(raw[0], o[0], s[0]),
+            cal(raw[1], o[1], s[1]),
+            cal(raw[2], o[2], s[2]),
+        ]
     }
 
     /// The 1 kHz step: bias, calibration, mounting, AHRS update and the
@@ -322,20 +369,25 @@ impl Pipeline {
         if self.cfg.ahrs_mode == AhrsMode::None {
             return false;
         }
-        let mut gyro = [0i32; 3];
-        for ((g, r), b) in gyro.iter_mut().zip(input.gyro).zip(self.gyro_bias) {
-            *g = i32::from(r).saturating_sub(b);
-        }
+        // Written out per axis: at opt-level "z" the iterator form does
+        // not inline and costs ~300 instructions a sample.
+        let (r, b) = (&input.gyro, &self.gyro_bias);
+        let gyro = [
+            i32::from(r[0]).saturating_sub(b[0]),
+            i32::from(r[1]).saturating_sub(b[1]),
+            i32::from(r[2]).saturating_sub(b[2]),
+        ];
         let accel = self.calibrate_accel_counts(input.accel);
-        let gyro_b = self.mounting.apply_i32(gyro);
-        let accel_b = self.mounting.apply_i32(accel);
+        let gyro_b = self.mount.apply(gyro);
+        let accel_b = self.mount.apply(accel);
         let use_mag = self.cfg.ahrs_mode == AhrsMode::Marg && self.mag_fresh > 0;
         self.mag_fresh = self.mag_fresh.saturating_sub(1);
         self.ahrs.update(gyro_b, accel_b, use_mag, input.dt_cycles);
         self.last_gyro_body = gyro_b;
-        for (s, a) in self.accel_sum.iter_mut().zip(accel_b) {
-            *s = s.saturating_add(a);
-        }
+        let s = &mut self.accel_sum;
+        s[0] = s[0].saturating_add(accel_b[0]);
+        s[1] = s[1].saturating_add(accel_b[1]);
+        s[2] = s[2].saturating_add(accel_b[2]);
         self.accel_n = self.accel_n.saturating_add(1);
         self.dt_sum_cycles = self.dt_sum_cycles.saturating_add(input.dt_cycles);
         self.out.imu_samples = self.out.imu_samples.wrapping_add(1);
@@ -373,11 +425,36 @@ impl Pipeline {
         ]
     }
 
-    /// The 100 Hz magnetometer step (counts, AK8963 frame).
+    /// One raw-log row from a raw sample: gyro bias removed (rad/s),
+    /// accelerometer calibration applied (m/s²), magnetometer corrected
+    /// (µT; NaN without a fresh reading), all in the MPU frame, at `t_s`
+    /// seconds since boot.
+    pub fn raw_log_row(
+        &self,
+        t_s: f32,
+        accel: [i16; 3],
+        gyro: [i16; 3],
+        mag_counts: Option<[i16; 3]>,
+    ) -> RawLogRow {
+        let k_g = self.cfg.gyro_dps_per_lsb * (core::f32::consts::PI / 180.0);
+        let mut gyr_rps = [0.0; 3];
+        for ((o, g), b) in gyr_rps.iter_mut().zip(gyro).zip(self.gyro_bias) {
+            *o = i32::from(g).saturating_sub(b) as f32 * k_g;
+        }
+        let k_a = self.cfg.accel_g_per_lsb * G_MPS2;
+        RawLogRow {
+            t_s,
+            gyr_rps,
+            acc_mps2: self.calibrate_accel_counts(accel).map(|c| c as f32 * k_a),
+            mag_ut: mag_counts.map_or([f32::NAN; 3], |c| self.mag_counts_to_mpu_ut(c)),
+        }
+    }
+
+    /// The 100 Hz magnetometer step (counts, AK8963 frame): calibrated
+    /// body-frame field in 1/16 µT, integer only.
     pub fn mag_step(&mut self, counts: [i16; 3]) {
-        let mpu = self.mag_counts_to_mpu_ut(counts);
-        let body = self.mounting.apply_f32(mpu);
-        self.ahrs.set_mag(body);
+        let body_q4 = self.mag_q16.apply(counts.map(i32::from));
+        self.ahrs.set_mag_q4(body_q4);
         // A reading stays usable for 3 magnetometer periods.
         self.mag_fresh = self.cfg.control_divider.saturating_mul(3);
         self.out.mag_samples = self.out.mag_samples.wrapping_add(1);
@@ -425,56 +502,53 @@ impl Pipeline {
         if n == 0 {
             return;
         }
-        let inv_n = 1.0 / f32::from(n);
-        let k = self.accel_mps2_per_lsb * inv_n;
-        let a_body = self.accel_sum.map(|s| s as f32 * k);
         let dt_s = self.dt_sum_cycles as f32 * self.cycle_s;
+        let q = self.ahrs.quaternion_q30();
+        // Σ specific force along NED down, counts · 2⁸: Q30 row · counts
+        // (|Σ| ≤ 2¹⁵ · n) stays below 2⁵⁵ in i64.
+        let down = angles::down_row_q30(q);
+        let f_down: i64 = down
+            .iter()
+            .zip(self.accel_sum)
+            .map(|(&d, a)| i64::from(d) * i64::from(a))
+            .sum::<i64>()
+            >> 22;
+        let k = if n == self.cfg.control_divider {
+            self.accel_mean_k
+        } else {
+            self.accel_mps2_per_lsb / (256.0 * f32::from(n))
+        };
         self.accel_sum = [0; 3];
         self.accel_n = 0;
         self.dt_sum_cycles = 0;
-        let q = self.ahrs.quaternion();
-        // Specific force in NED; up acceleration = −f_down − g.
-        let f_ned = q.rotate(a_body);
-        let accel_up = -f_ned[2] - G_MPS2;
+        // Up acceleration = −f_down − g.
+        let accel_up = -(f_down as f32 * k) - G_MPS2;
         if self.cfg.altitude && self.vertical.is_initialized() {
             let _ = self.vertical.predict(accel_up, dt_s);
         }
-        let e = euler_rad(&q);
-        let attitude = Attitude {
-            roll_rad: e[0],
-            pitch_rad: e[1],
-            yaw_rad: e[2],
-        };
-        let g = self
+        let e_q16 = angles::euler_q16(q);
+        let k = self.gyro_rps_q16_per_lsb_q16;
+        let rates_q16 = self
             .last_gyro_body
-            .map(|c| c as f32 * self.gyro_rps_per_lsb);
-        let rates = BodyRates {
-            roll_rps: g[0],
-            pitch_rps: g[1],
-            yaw_rps: g[2],
-        };
-        let target = AttitudeTarget {
-            roll_rad: 0.0,
-            pitch_rad: 0.0,
-            yaw: YawTarget::Rate(0.0),
-        };
-        if let Ok(TorqueCommand { roll, pitch, yaw }) =
-            self.attitude.update(&target, &attitude, &rates, dt_s)
-        {
-            self.out.torque = [roll, pitch, yaw];
-        }
+            .map(|c| ((i64::from(c) * k) >> 16) as i32);
+        let torque = self
+            .attitude
+            .update([0, 0], YawTargetQ16::Rate(0), e_q16, rates_q16);
+        self.out.torque = torque.map(|t| t as f32 * PER_Q30);
         if self.cfg.altitude && self.vertical.is_initialized() {
             let h = self.vertical.height_m();
             let v = self.vertical.velocity_mps();
-            if let Ok(t) = self.alt_hold.update(self.cfg.altitude_target_m, h, v, dt_s) {
-                self.out.throttle = t;
+            if let (Ok(h_q16), Ok(v_q16)) = (q16_saturating(h), q16_saturating(v)) {
+                let t = self.alt_hold.update(self.altitude_target_q16, h_q16, v_q16);
+                self.out.throttle = t as f32 * PER_Q30;
             }
             self.out.altitude_m = h;
             self.out.vertical_speed_mps = v;
         }
-        self.out.roll_deg = e[0] * DEG_PER_RAD;
-        self.out.pitch_deg = e[1] * DEG_PER_RAD;
-        self.out.yaw_deg = e[2] * DEG_PER_RAD;
+        let e = e_q16.map(|a| a as f32);
+        self.out.roll_deg = e[0] * DEG_PER_Q16;
+        self.out.pitch_deg = e[1] * DEG_PER_Q16;
+        self.out.yaw_deg = e[2] * DEG_PER_Q16;
     }
 
     /// The latest outputs (attitude as of the last control step).
@@ -488,16 +562,87 @@ impl Pipeline {
     }
 }
 
-/// ZYX Euler angles (roll, pitch, yaw), rad, of `q_ned_from_body`. Pitch
-/// uses `atan2f(s, √(1−s²))` instead of `asinf(s)`, whose libm version
-/// works in f64 (≈ 3 KiB of soft-double code on the M3).
-pub fn euler_rad(q: &Quaternion) -> [f32; 3] {
-    let Quaternion { w, x, y, z } = *q;
-    let roll = libm::atan2f(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y));
-    let sp = (2.0 * (w * y - x * z)).clamp(-1.0, 1.0);
-    let pitch = libm::atan2f(sp, libm::sqrtf((1.0 - sp * sp).max(0.0)));
-    let yaw = libm::atan2f(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z));
-    [roll, pitch, yaw]
+/// A [`Mounting`] as the source MPU axis (0..=2) and sign of each body
+/// axis, applied with three selects and no iterator.
+#[derive(Clone, Copy, Debug)]
+struct AxisPick {
+    src: [u8; 3],
+    neg: [bool; 3],
+}
+
+impl AxisPick {
+    fn new(m: &Mounting) -> Self {
+        // Each body axis receives ±(source + 1) from the probe (1, 2, 3).
+        let r = m.apply_i32([1, 2, 3]);
+        Self {
+            src: r.map(|v| (v.unsigned_abs().clamp(1, 3) - 1) as u8),
+            neg: r.map(|v| v < 0),
+        }
+    }
+
+    #[inline]
+    fn apply(&self, v: [i32; 3]) -> [i32; 3] {
+        let (s, n) = (&self.src, &self.neg);
+        [
+            pick(&v, s[0], n[0]),
+            pick(&v, s[1], n[1]),
+            pick(&v, s[2], n[2]),
+        ]
+    }
+}
+
+#[inline]
+fn pick(v: &[i32; 3], src: u8, neg: bool) -> i32 {
+    let x = match src {
+        0 => v[0],
+        1 => v[1],
+        _ => v[2],
+    };
+    if neg {
+        x.saturating_neg()
+    } else {
+        x
+    }
+}
+
+/// The magnetometer chain from AK8963 counts to the body frame in 1/16 µT
+/// as one affine map: `16 · B · W · (P · S · counts − offset)` with `S` the
+/// µT-per-count scale, `P` the AK8963 → MPU axis swap, `W`/`offset` the
+/// record's soft/hard iron (MPU frame, µT) and `B` the mounting.
+fn mag_counts_to_body_q16(
+    cfg: &PipelineConfig,
+    cal: &CalibrationRecord,
+) -> Result<MagCalibrationQ16, PipelineError> {
+    let [s0, s1, s2] = cfg.mag_ut_per_lsb;
+    let w = MagCalibration {
+        offset: cal.mag_offset_ut,
+        soft_iron: cal.mag_soft_iron,
+    };
+    // Columns of W · P · S · 16: column j is the corrected response to one
+    // count on AK8963 axis j (x_ak → y_mpu, y_ak → x_mpu, z_ak → −z_mpu);
+    // the mounting then maps each column to the body frame.
+    let no_offset = MagCalibration {
+        offset: [0.0; 3],
+        ..w
+    };
+    let cols = [
+        cal.mounting
+            .apply_f32(no_offset.apply([0.0, 16.0 * s0, 0.0])),
+        cal.mounting
+            .apply_f32(no_offset.apply([16.0 * s1, 0.0, 0.0])),
+        cal.mounting
+            .apply_f32(no_offset.apply([0.0, 0.0, -16.0 * s2])),
+    ];
+    let [c0, c1, c2] = cols;
+    let m = [
+        [c0[0], c1[0], c2[0]],
+        [c0[1], c1[1], c2[1]],
+        [c0[2], c1[2], c2[2]],
+    ];
+    // The offset in AK8963 counts: P⁻¹ S⁻¹ · offset_mpu.
+    let [ox, oy, oz] = cal.mag_offset_ut;
+    let offset_counts = [oy / s0, ox / s1, -oz / s2];
+    MagCalibrationQ16::from_affine(m, offset_counts).map_err(|_| PipelineError::InvalidScale)
 }
 
 #[cfg(feature = "f32-ahrs")]
@@ -532,8 +677,8 @@ mod backend {
             }
         }
 
-        pub fn set_mag(&mut self, body_ut: [f32; 3]) {
-            self.mag = body_ut;
+        pub fn set_mag_q4(&mut self, body_q4: [i32; 3]) {
+            self.mag = body_q4.map(|m| m as f32 * (1.0 / 16.0));
         }
 
         #[inline]
@@ -556,6 +701,11 @@ mod backend {
 
         pub fn quaternion(&self) -> Quaternion {
             self.filter.quaternion()
+        }
+
+        pub fn quaternion_q30(&self) -> [i32; 4] {
+            let q = self.filter.quaternion();
+            [q.w, q.x, q.y, q.z].map(|c| (c * (1u32 << 30) as f32) as i32)
         }
     }
 }
@@ -601,9 +751,8 @@ mod backend {
             }
         }
 
-        pub fn set_mag(&mut self, body_ut: [f32; 3]) {
-            // `as` saturates (and maps NaN to 0).
-            self.mag = body_ut.map(|m| (m * 16.0) as i32);
+        pub fn set_mag_q4(&mut self, body_q4: [i32; 3]) {
+            self.mag = body_q4;
         }
 
         #[inline]
@@ -627,6 +776,10 @@ mod backend {
 
         pub fn quaternion(&self) -> Quaternion {
             self.filter.quaternion_f32()
+        }
+
+        pub fn quaternion_q30(&self) -> [i32; 4] {
+            self.filter.quaternion_q30()
         }
     }
 }
@@ -815,21 +968,63 @@ mod tests {
     }
 
     #[test]
-    fn euler_matches_asin_form() {
-        for (r, p, y) in [
-            (0.3f32, -0.7f32, 2.0f32),
-            (-1.2, 1.5, -3.0),
-            (0.0, 0.0, 0.0),
-            (0.1, -1.55, 0.4),
+    fn integer_mag_chain_matches_the_f32_chain() {
+        let mut rec = CalibrationRecord::default();
+        rec.mag_offset_ut = [12.5, -30.0, 4.0];
+        rec.mag_soft_iron = [[1.1, 0.05, -0.02], [0.05, 0.9, 0.01], [-0.02, 0.01, 1.02]];
+        rec.mounting = Mounting::default();
+        let cfg = PipelineConfig {
+            mag_ut_per_lsb: [0.15, 0.16, 0.14],
+            ..PipelineConfig::new()
+        };
+        let p = Pipeline::new(cfg, &rec).unwrap();
+        for counts in [
+            [0i16, 0, 0],
+            [300, -200, 100],
+            [-2000, 1500, 3000],
+            [32_000, -32_000, 5],
         ] {
-            let q = Quaternion::from_euler_rad(r, p, y);
-            let a = euler_rad(&q);
-            let b = q.to_euler_rad();
+            let want = rec.mounting.apply_f32(p.mag_counts_to_mpu_ut(counts));
+            let got = p.mag_q16.apply(counts.map(i32::from));
             for i in 0..3 {
-                assert!((a[i] - b[i]).abs() < 2e-3, "{a:?} {b:?}");
+                // 2.25 LSB of 1/16 µT plus the f32 chain's own rounding.
+                let err = (got[i] as f32 / 16.0 - want[i]).abs();
+                assert!(
+                    err < 0.15 + 1e-5 * want[i].abs(),
+                    "{counts:?}: {got:?} vs {want:?}"
+                );
             }
-            assert!((a[1] - p).abs() < 2e-3);
         }
+    }
+
+    #[test]
+    fn hot_path_mounting_equals_mounting() {
+        let mut seen = 0;
+        for code in 0..=u16::MAX {
+            let Ok(m) = Mounting::from_code(code) else {
+                continue;
+            };
+            seen += 1;
+            let pick = AxisPick::new(&m);
+            for v in [[1, -20, 300], [i32::MIN, 7, i32::MAX]] {
+                assert_eq!(pick.apply(v), m.apply_i32(v), "{code}");
+            }
+        }
+        assert_eq!(seen, 24, "every axis-aligned rotation");
+    }
+
+    #[test]
+    fn control_step_angles_match_the_quaternion() {
+        let mut p = imu_only();
+        // Tilted 20° about x_mpu and 10° about y_mpu, still.
+        let acc = [-1423i16, 2726, 7586];
+        run(&mut p, acc, [0; 3], 3000);
+        let o = p.outputs();
+        let e = p.quaternion().to_euler_rad().map(|a| a.to_degrees());
+        assert!((o.roll_deg - e[0]).abs() < 0.01, "{o:?} {e:?}");
+        assert!((o.pitch_deg - e[1]).abs() < 0.01, "{o:?} {e:?}");
+        assert!((o.yaw_deg - e[2]).abs() < 0.01, "{o:?} {e:?}");
+        assert!(o.roll_deg.abs() > 5.0 && o.pitch_deg.abs() > 5.0, "{o:?}");
     }
 
     #[test]

@@ -7,6 +7,8 @@
 //! long as intervals stay below half the counter range (35 min in µs, 29 s
 //! in 72 MHz cycles).
 
+use core::num::NonZeroU32;
+
 /// Nominal IMU sample rate (MPU-9250 data-ready), Hz.
 pub const IMU_RATE_HZ: u32 = 1_000;
 /// Magnetometer read every this many IMU samples (100 Hz).
@@ -73,7 +75,7 @@ impl SampleScheduler {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Periodic {
-    interval_us: u32,
+    interval_us: NonZeroU32,
     next_us: u32,
     missed: u32,
 }
@@ -82,7 +84,10 @@ impl Periodic {
     /// Due first at `start_us`, then every `interval_us` (at least 1).
     pub const fn new(start_us: u32, interval_us: u32) -> Self {
         Self {
-            interval_us: if interval_us == 0 { 1 } else { interval_us },
+            interval_us: match NonZeroU32::new(interval_us) {
+                Some(n) => n,
+                None => NonZeroU32::MIN,
+            },
             next_us: start_us,
             missed: 0,
         }
@@ -101,7 +106,7 @@ impl Periodic {
         self.missed = self.missed.saturating_add(skipped);
         self.next_us = self
             .next_us
-            .wrapping_add(self.interval_us.wrapping_mul(skipped.wrapping_add(1)));
+            .wrapping_add(self.interval_us.get().wrapping_mul(skipped.wrapping_add(1)));
         true
     }
 
@@ -118,8 +123,120 @@ impl Periodic {
 
     /// The interval, µs.
     pub fn interval_us(&self) -> u32 {
-        self.interval_us
+        self.interval_us.get()
     }
+}
+
+/// Retry timing with exponential back-off on a wrapping ms clock: for
+/// re-probing a chip that is missing, so a board without it spends almost
+/// no bus time on it while one that is plugged in later is found within
+/// [`max_ms`](Self::new).
+///
+/// ```
+/// use flight::schedule::Backoff;
+/// let mut b = Backoff::new(1_000, 8_000);
+/// assert!(!b.due(0));            // first call arms it: due at 1 s
+/// assert!(b.due(1_000));
+/// b.failed(1_000);               // next in 2 s, then 4 s, 8 s, 8 s ...
+/// assert!(!b.due(2_999) && b.due(3_000));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Backoff {
+    first_ms: u32,
+    max_ms: u32,
+    interval_ms: u32,
+    next_ms: Option<u32>,
+}
+
+impl Backoff {
+    /// First attempt `first_ms` after the first [`due`](Self::due) call;
+    /// the interval doubles after each failure up to `max_ms`.
+    pub const fn new(first_ms: u32, max_ms: u32) -> Self {
+        let first = if first_ms == 0 { 1 } else { first_ms };
+        Self {
+            first_ms: first,
+            max_ms: if max_ms < first { first } else { max_ms },
+            interval_ms: first,
+            next_ms: None,
+        }
+    }
+
+    /// `true` when an attempt is due at `now_ms`; the first call only arms
+    /// the timer.
+    pub fn due(&mut self, now_ms: u32) -> bool {
+        match self.next_ms {
+            None => {
+                self.next_ms = Some(now_ms.wrapping_add(self.first_ms));
+                false
+            }
+            Some(next) => (now_ms.wrapping_sub(next) as i32) >= 0,
+        }
+    }
+
+    /// The attempt at `now_ms` failed: the interval doubles (bounded).
+    pub fn failed(&mut self, now_ms: u32) {
+        self.interval_ms = self.interval_ms.saturating_mul(2).min(self.max_ms);
+        self.next_ms = Some(now_ms.wrapping_add(self.interval_ms));
+    }
+
+    /// Interval to the next attempt, ms.
+    pub fn interval_ms(&self) -> u32 {
+        self.interval_ms
+    }
+
+    /// Makes an attempt due at `now_ms` (what it depends on just came up)
+    /// without changing the interval.
+    pub fn due_now(&mut self, now_ms: u32) {
+        self.next_ms = Some(now_ms);
+    }
+
+    /// Back to the first interval (the device was found).
+    pub fn reset(&mut self) {
+        self.interval_ms = self.first_ms;
+        self.next_ms = None;
+    }
+}
+
+/// LSI clock of the independent watchdog, Hz: the datasheet's range
+/// (STM32F103x8 datasheet, LSI 30–60 kHz; 40 kHz typical).
+pub const LSI_MIN_HZ: u32 = 30_000;
+/// See [`LSI_MIN_HZ`].
+pub const LSI_MAX_HZ: u32 = 60_000;
+
+/// Independent-watchdog prescaler (PR, divider 4 · 2^PR) and reload
+/// (RLR, 12 bits) for a timeout of at least `min_timeout_ms` at the
+/// LSI's fastest, 60 kHz (RM0008 §19.3: timeout = (RLR + 1) · 4 · 2^PR /
+/// f_LSI). The real timeout lies in [`iwdg_timeout_range_ms`]; the
+/// largest representable timeout (PR = 6, RLR = 4095) caps it.
+///
+/// ```
+/// use flight::schedule::{iwdg_config, iwdg_timeout_range_ms};
+/// assert_eq!(iwdg_config(500), (1, 3_749));
+/// assert_eq!(iwdg_timeout_range_ms(1, 3_749), (500, 1_000));
+/// ```
+pub const fn iwdg_config(min_timeout_ms: u32) -> (u8, u16) {
+    let lsi_cycles = min_timeout_ms.saturating_mul(LSI_MAX_HZ / 1_000);
+    let mut pr = 0u8;
+    while pr <= 6 {
+        let ticks = lsi_cycles.div_ceil(4 << pr);
+        if ticks <= 4_096 {
+            let rlr = if ticks == 0 { 0 } else { ticks - 1 };
+            return (pr, rlr as u16);
+        }
+        pr += 1;
+    }
+    (6, 4_095)
+}
+
+/// Shortest and longest real IWDG timeout, ms, for prescaler `pr` and
+/// reload `rlr`, over the LSI's 30–60 kHz range.
+pub const fn iwdg_timeout_range_ms(pr: u8, rlr: u16) -> (u32, u32) {
+    let lsi_cycles = (rlr as u32 + 1) * (4 << (if pr > 6 { 6 } else { pr }));
+    (
+        lsi_cycles / (LSI_MAX_HZ / 1_000),
+        lsi_cycles / (LSI_MIN_HZ / 1_000),
+    )
 }
 
 /// AHRS time step from a free-running cycle counter (DWT CYCCNT), clamped
@@ -163,7 +280,9 @@ impl DtClock {
         if raw < self.min_cycles || raw > self.max_cycles {
             self.clamped = self.clamped.saturating_add(1);
         }
-        raw.clamp(self.min_cycles, self.max_cycles)
+        // max-then-min, not `clamp`: no panic path even if the bounds
+        // were ever inverted (a zero clock).
+        raw.max(self.min_cycles).min(self.max_cycles)
     }
 
     /// Cycles → µs (rounded down).
@@ -321,7 +440,7 @@ impl WatchdogGate {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MicrosClock {
-    cycles_per_us: u32,
+    cycles_per_us: NonZeroU32,
     last_cycles: u32,
     us: u32,
     rem_cycles: u32,
@@ -330,9 +449,11 @@ pub struct MicrosClock {
 impl MicrosClock {
     /// Starts at 0 µs at counter value `now_cycles`.
     pub const fn new(cpu_hz: u32, now_cycles: u32) -> Self {
-        let cpu = cpu_hz / 1_000_000;
         Self {
-            cycles_per_us: if cpu == 0 { 1 } else { cpu },
+            cycles_per_us: match NonZeroU32::new(cpu_hz / 1_000_000) {
+                Some(n) => n,
+                None => NonZeroU32::MIN,
+            },
             last_cycles: now_cycles,
             us: 0,
             rem_cycles: 0,
@@ -347,9 +468,9 @@ impl MicrosClock {
         let per = self.cycles_per_us;
         let mut q = d / per;
         let mut r = d % per + self.rem_cycles;
-        if r >= per {
+        if r >= per.get() {
             q = q.wrapping_add(1);
-            r -= per;
+            r -= per.get();
         }
         self.us = self.us.wrapping_add(q);
         self.rem_cycles = r;
@@ -360,6 +481,23 @@ impl MicrosClock {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn iwdg_timeout_holds_at_the_fastest_lsi() {
+        for min_ms in [1, 10, 250, 500, 2_000, 10_000, 17_000] {
+            let (pr, rlr) = iwdg_config(min_ms);
+            assert!(pr <= 6 && rlr <= 4_095);
+            let (lo, hi) = iwdg_timeout_range_ms(pr, rlr);
+            assert!(lo >= min_ms, "{min_ms} ms -> {lo} ms at 60 kHz");
+            // The smallest prescaler that fits: within one tick of the ask.
+            assert!(lo <= min_ms + (4 << pr) / 60 + 1, "{min_ms} -> {lo}");
+            // At 30 kHz the same count takes twice as long.
+            assert!(hi >= 2 * lo && hi <= 2 * lo + 1, "{lo} {hi}");
+        }
+        // Beyond the counter's reach: capped at the longest timeout.
+        assert_eq!(iwdg_config(60_000), (6, 4_095));
+        assert_eq!(iwdg_timeout_range_ms(6, 4_095), (17_476, 34_952));
+    }
 
     #[test]
     fn mag_every_tenth_sample() {

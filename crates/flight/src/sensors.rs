@@ -1,13 +1,29 @@
 //! The three chips on the shared I2C bus with their health bookkeeping:
-//! boot-time probing, per-sample reads with bounded retries, periodic
-//! configuration checks (a chip that reset itself is re-initialised), and
-//! the hooks around a stuck-bus recovery.
+//! boot-time probing, per-sample reads (one attempt: a failed read is
+//! counted and the sample skipped), periodic configuration checks (a chip
+//! that reset itself is re-initialised), stuck-bus recovery requests, and
+//! the re-probing of missing chips with back-off.
 //!
 //! Each driver owns its own bus handle of type `I` (the firmware passes
-//! `embedded_hal_bus` devices, or one handle per chip over a shared bus;
-//! the tests pass handles onto the simulator). Nothing here blocks except
-//! [`Sensors::boot`] and [`Sensors::service`] (chip resets need a few ms of
-//! delay); call those from boot or a low-priority context.
+//! one zero-sized handle per chip over a shared bus; the tests pass handles
+//! onto the simulator). Nothing here blocks except [`Sensors::boot`],
+//! [`Sensors::service`] and one step of [`Sensors::maintain`] (chip
+//! resets need a few ms of delay); call those from boot or a low-priority
+//! context.
+//!
+//! Background maintenance ([`Sensors::maintain`]) does one thing per call,
+//! so a caller that holds a lock around each call never holds it for more
+//! than one chip's (re-)initialisation:
+//! 1. a bus recovery when one was requested ([`Sensors::request_bus_recovery`],
+//!    e.g. the I2C peripheral saw BUSY while idle) or every present chip
+//!    keeps failing;
+//! 2. a pending re-initialisation, MPU-9250 first (the AK8963 sits behind
+//!    its bypass), then AK8963, then MS5611;
+//! 3. the MPU-9250's check [`SensorsConfig::mpu_settle_ms`] after its
+//!    reset (WHO_AM_I and the configuration read-back, PWR_MGMT_1
+//!    included, as PX4 does); its samples are not used before;
+//! 4. a re-probe of one missing (or failed) chip when its [`Backoff`]
+//!    expires, preceded by a bus recovery when no chip answers at all.
 
 use ak8963::{Ak8963, RawMag};
 use embedded_hal::{delay::DelayNs, i2c::I2c};
@@ -15,7 +31,9 @@ use mpu9250::{Address as MpuAddress, Mpu9250, RawSample};
 use ms5611::{Address as BaroAddress, Measurement, Ms5611, Sampler, SamplerConfig};
 
 use crate::boot::{probe_with_retries, BootReport, Chip, ProbeFailure, ProbeResult};
-use crate::health::{needs_bus_recovery, Action, HealthPolicy, SensorHealth};
+use crate::boot::{AhrsMode, Capabilities};
+use crate::health::{needs_bus_recovery, Action, HealthPolicy, SensorHealth, SensorState};
+use crate::schedule::Backoff;
 
 /// Settings for [`Sensors`].
 #[derive(Clone, Copy, Debug)]
@@ -36,6 +54,14 @@ pub struct SensorsConfig {
     pub probe_retry_ms: u32,
     /// Retry / re-init / failure thresholds.
     pub policy: HealthPolicy,
+    /// Wait after the MPU-9250's power-up and after each of its resets
+    /// before its registers are trusted, ms (datasheet: 100 ms start-up;
+    /// PX4 waits 100 ms after a reset).
+    pub mpu_settle_ms: u32,
+    /// First re-probe of a missing chip after boot, ms.
+    pub reprobe_first_ms: u32,
+    /// Longest interval between re-probes of a missing chip, ms.
+    pub reprobe_max_ms: u32,
 }
 
 impl Default for SensorsConfig {
@@ -49,9 +75,55 @@ impl Default for SensorsConfig {
             probe_attempts: 3,
             probe_retry_ms: 10,
             policy: HealthPolicy::default(),
+            mpu_settle_ms: 100,
+            reprobe_first_ms: 1_000,
+            reprobe_max_ms: 32_000,
         }
     }
 }
+
+/// What one call of [`Sensors::maintain`] did or asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Maintenance {
+    /// Nothing was due.
+    Idle,
+    /// The caller must free the bus now (clock SCL, STOP, unlock BUSY,
+    /// reset the I2C peripheral; [`crate::health::recover_bus`],
+    /// [`crate::health::unlock_busy_flag`]) and then call
+    /// [`Sensors::after_bus_recovery`].
+    RecoverBus,
+    /// A chip was re-initialised (`ok`: it answered and took its
+    /// configuration).
+    Reinitialised {
+        /// Which chip.
+        chip: Chip,
+        /// Success.
+        ok: bool,
+    },
+    /// The MPU-9250's post-reset check ran: `ok` means WHO_AM_I and the
+    /// configuration read back right and its samples are used again.
+    Settled {
+        /// Success.
+        ok: bool,
+    },
+    /// A chip that was missing (or failed) answered a re-probe and is now
+    /// in use: update the capabilities ([`Sensors::capabilities`]).
+    Appeared(Chip),
+    /// A missing chip's re-probe failed; the next one is `retry_in_ms`
+    /// away.
+    StillMissing {
+        /// Which chip.
+        chip: Chip,
+        /// Back-off until the next attempt, ms.
+        retry_in_ms: u32,
+    },
+}
+
+/// First wait before retrying a bus recovery that failed, ms.
+pub const RECOVERY_RETRY_FIRST_MS: u32 = 20;
+/// Longest wait between failing bus recoveries, ms.
+pub const RECOVERY_RETRY_MAX_MS: u32 = 1_000;
 
 /// Result of a magnetometer read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -91,6 +163,24 @@ pub struct Sensors<I> {
     pub baro_health: SensorHealth,
     reinit_pending: [bool; 3],
     bus_recoveries: u32,
+    recovery_requested: bool,
+    /// A recovery ran since the last re-probe round: the next probe may go
+    /// ahead even though no chip answers.
+    fresh_recovery: bool,
+    /// The MPU-9250's samples are held back until this ms time (after its
+    /// reset), then it is checked.
+    mpu_settle_until_ms: Option<u32>,
+    reprobe: [Backoff; 3],
+    /// Spaces out recoveries that failed (SDA held by a short, not a slave).
+    recovery_backoff: Backoff,
+    recovery_failing: bool,
+}
+
+/// PX4's post-reset check: the chip answers as an MPU-9250 and every
+/// configuration register (PWR_MGMT_1 included) reads back as written.
+fn mpu_settled<I: I2c>(mpu: &mut Mpu9250<I>) -> Result<(), mpu9250::Error<I::Error>> {
+    mpu.who_am_i()?;
+    mpu.verify_config()
 }
 
 fn classify_mpu<E>(e: &mpu9250::Error<E>) -> ProbeFailure {
@@ -135,9 +225,14 @@ fn to_result<T>(chip: Chip, r: Result<(T, u8), (ProbeFailure, u8)>) -> ProbeResu
 
 impl<I: I2c> Sensors<I> {
     /// Probes and configures all three chips with bounded retries and
-    /// returns the set with the verdicts. A chip that failed is marked
-    /// `Missing` and never touched again; the AK8963 is only probed if the
-    /// MPU-9250 (its bypass) came up.
+    /// returns the set with the verdicts. Waits
+    /// [`SensorsConfig::mpu_settle_ms`] for the MPU-9250's power-up first,
+    /// and as long again after its reset before checking WHO_AM_I and the
+    /// configuration. A chip that failed is marked `Missing` and re-probed
+    /// with back-off by [`maintain`](Self::maintain); the AK8963 is only
+    /// probed if the MPU-9250 (its bypass) came up. Free the bus before
+    /// calling this (a reset during a transfer can leave a slave holding
+    /// SDA low).
     pub fn boot<D: DelayNs>(
         mpu_bus: I,
         mag_bus: I,
@@ -149,6 +244,8 @@ impl<I: I2c> Sensors<I> {
         let mut mag = Ak8963::new(mag_bus);
         let mut baro = Ms5611::new(baro_bus, cfg.baro_address);
         let mpu_cfg = cfg.mpu;
+        // Power-up: the MPU-9250's registers are not reliable before.
+        delay.delay_ms(cfg.mpu_settle_ms);
         let mpu_r = to_result(
             Chip::Mpu9250,
             probe_with_retries(
@@ -157,7 +254,9 @@ impl<I: I2c> Sensors<I> {
                 delay,
                 |d| {
                     mpu.init(d, &mpu_cfg)?;
-                    mpu.set_bypass(true)
+                    mpu.set_bypass(true)?;
+                    d.delay_ms(cfg.mpu_settle_ms);
+                    mpu_settled(&mut mpu)
                 },
                 classify_mpu,
             ),
@@ -214,6 +313,12 @@ impl<I: I2c> Sensors<I> {
             baro_health: health(&baro_r),
             reinit_pending: [false; 3],
             bus_recoveries: 0,
+            recovery_requested: false,
+            fresh_recovery: false,
+            mpu_settle_until_ms: None,
+            reprobe: [Backoff::new(cfg.reprobe_first_ms, cfg.reprobe_max_ms); 3],
+            recovery_backoff: Backoff::new(RECOVERY_RETRY_FIRST_MS, RECOVERY_RETRY_MAX_MS),
+            recovery_failing: false,
         };
         (s, report)
     }
@@ -228,27 +333,39 @@ impl<I: I2c> Sensors<I> {
         self.mag.ut_per_lsb()
     }
 
-    /// Reads one raw IMU sample (counts, MPU frame, no bias removed) with
-    /// bounded retries. `None` if the MPU is unusable or the read failed.
+    /// Reads one raw IMU sample (counts, MPU frame, no bias removed): one
+    /// attempt, a failure is counted and the sample skipped. `None` if the
+    /// MPU is unusable, settling after a reset, or the read failed.
     pub fn read_imu(&mut self) -> Option<RawSample> {
-        if !self.mpu_health.usable() {
+        if !self.mpu_usable() {
             return None;
         }
-        let mpu = &mut self.mpu;
-        let r = self.mpu_health.with_retries(|| mpu.read_raw());
+        let r = self.mpu_health.record(self.mpu.read_raw());
         if r.is_err() && self.mpu_health.pending_action() == Action::Reinit {
             self.reinit_pending[0] = true;
         }
         r.ok()
     }
 
-    /// Reads the magnetometer if a measurement is ready.
+    /// The 1 kHz task's bus work: the IMU sample, and the magnetometer on
+    /// its tick (whatever happened to the IMU read).
+    pub fn read_sample(&mut self, read_mag: bool) -> (Option<RawSample>, MagRead) {
+        let imu = self.read_imu();
+        let mag = if read_mag {
+            self.read_mag()
+        } else {
+            MagRead::NotReady
+        };
+        (imu, mag)
+    }
+
+    /// Reads the magnetometer if a measurement is ready (one attempt, as
+    /// [`read_imu`](Self::read_imu)).
     pub fn read_mag(&mut self) -> MagRead {
-        if !self.mag_health.usable() {
+        if !self.mag_health.usable() || !self.mpu_usable() {
             return MagRead::Unavailable;
         }
-        let mag = &mut self.mag;
-        let r = self.mag_health.with_retries(|| match mag.read_raw() {
+        let r = self.mag_health.record(match self.mag.read_raw() {
             Ok(raw) => Ok(MagRead::Sample(raw)),
             Err(ak8963::Error::NotReady) => Ok(MagRead::NotReady),
             Err(ak8963::Error::Overflow) => Ok(MagRead::Overflow),
@@ -368,6 +485,9 @@ impl<I: I2c> Sensors<I> {
             let ok = self.mpu.init(delay, &cfg).is_ok() && self.mpu.set_bypass(true).is_ok();
             self.mpu_health.reinit_done(ok);
             report.reinit[0] = Some(ok);
+            if ok {
+                delay.delay_ms(self.cfg.mpu_settle_ms);
+            }
         }
         if mag_p && !matches!(self.mag_health.state(), crate::health::SensorState::Missing) {
             let cfg = self.cfg.mag;
@@ -391,9 +511,18 @@ impl<I: I2c> Sensors<I> {
         report
     }
 
-    /// `true` when every present chip keeps failing: the bus is stuck.
+    /// `true` when a recovery was requested or every present chip keeps
+    /// failing: the bus is stuck.
     pub fn needs_bus_recovery(&self) -> bool {
-        needs_bus_recovery(&[&self.mpu_health, &self.mag_health, &self.baro_health])
+        self.recovery_requested
+            || needs_bus_recovery(&[&self.mpu_health, &self.mag_health, &self.baro_health])
+    }
+
+    /// Asks for a bus recovery at the next [`maintain`](Self::maintain):
+    /// the caller saw the bus held (e.g. the I2C peripheral reported BUSY
+    /// with no transfer under way).
+    pub fn request_bus_recovery(&mut self) {
+        self.recovery_requested = true;
     }
 
     /// After the caller freed the bus ([`crate::health::recover_bus`]) and
@@ -401,6 +530,10 @@ impl<I: I2c> Sensors<I> {
     /// re-initialisation of every present one.
     pub fn after_bus_recovery(&mut self) {
         self.bus_recoveries = self.bus_recoveries.saturating_add(1);
+        self.recovery_requested = false;
+        self.recovery_failing = false;
+        self.recovery_backoff.reset();
+        self.fresh_recovery = true;
         for (h, p) in [
             &mut self.mpu_health,
             &mut self.mag_health,
@@ -416,9 +549,189 @@ impl<I: I2c> Sensors<I> {
         }
     }
 
-    /// Stuck-bus recoveries performed.
+    /// The caller's recovery could not free the bus (SDA or SCL held by
+    /// something that does not let go): further attempts are spaced out,
+    /// 20 ms doubling to 1 s, until one succeeds ([`after_bus_recovery`](Self::after_bus_recovery)).
+    pub fn bus_recovery_failed(&mut self, now_ms: u32) {
+        self.bus_recoveries = self.bus_recoveries.saturating_add(1);
+        if self.recovery_failing {
+            self.recovery_backoff.failed(now_ms);
+        } else {
+            self.recovery_failing = true;
+            self.recovery_backoff.reset();
+            self.recovery_backoff.due(now_ms);
+        }
+    }
+
+    /// Stuck-bus recoveries attempted.
     pub fn bus_recoveries(&self) -> u32 {
         self.bus_recoveries
+    }
+
+    /// `true` while the MPU-9250 is usable and not settling after a reset.
+    fn mpu_usable(&self) -> bool {
+        self.mpu_health.usable() && self.mpu_settle_until_ms.is_none()
+    }
+
+    /// What the stack can do with the chips in use now (changes when a
+    /// missing chip appears or one fails for good).
+    pub fn capabilities(&self) -> Capabilities {
+        let up =
+            |h: &SensorHealth| !matches!(h.state(), SensorState::Missing | SensorState::Failed);
+        let ahrs = match (up(&self.mpu_health), up(&self.mag_health)) {
+            (false, _) => AhrsMode::None,
+            (true, false) => AhrsMode::ImuOnly,
+            (true, true) => AhrsMode::Marg,
+        };
+        Capabilities {
+            ahrs,
+            altitude: up(&self.baro_health),
+        }
+    }
+
+    /// One step of background maintenance at `now_ms` (a wrapping ms
+    /// clock): see the module documentation for the order. Blocks for at
+    /// most one chip's initialisation (the MPU-9250's reset poll, 10 ms
+    /// typically, bounded by the driver at 200 ms).
+    pub fn maintain<D: DelayNs>(&mut self, now_ms: u32, delay: &mut D) -> Maintenance {
+        if self.recovery_failing {
+            // The bus could not be freed: nothing else can work either;
+            // try again after the back-off.
+            if !self.recovery_backoff.due(now_ms) {
+                return Maintenance::Idle;
+            }
+            return Maintenance::RecoverBus;
+        }
+        if self.needs_bus_recovery() {
+            return Maintenance::RecoverBus;
+        }
+        let [mpu_p, mag_p, baro_p] = self.reinit_pending;
+        if mpu_p {
+            self.reinit_pending[0] = false;
+            if !self.mpu_health.usable() {
+                return Maintenance::Idle;
+            }
+            let ok = self.init_mpu(delay);
+            self.mpu_health.reinit_done(ok);
+            if ok {
+                self.mpu_settle_until_ms = Some(now_ms.wrapping_add(self.cfg.mpu_settle_ms));
+            }
+            return Maintenance::Reinitialised {
+                chip: Chip::Mpu9250,
+                ok,
+            };
+        }
+        if let Some(until) = self.mpu_settle_until_ms {
+            if (now_ms.wrapping_sub(until) as i32) < 0 {
+                return Maintenance::Idle;
+            }
+            self.mpu_settle_until_ms = None;
+            let ok = mpu_settled(&mut self.mpu).is_ok();
+            if ok {
+                // The AK8963 is reachable again through the bypass: if it
+                // is missing, probe it now rather than at its back-off.
+                if let Some(b) = self.reprobe.get_mut(1) {
+                    b.due_now(now_ms);
+                }
+            } else {
+                self.mpu_health.error();
+                self.reinit_pending[0] = true;
+            }
+            return Maintenance::Settled { ok };
+        }
+        if mag_p && self.mpu_usable() {
+            self.reinit_pending[1] = false;
+            let cfg = self.cfg.mag;
+            let ok = self.mag.init(delay, &cfg).is_ok();
+            self.mag_health.reinit_done(ok);
+            return Maintenance::Reinitialised {
+                chip: Chip::Ak8963,
+                ok,
+            };
+        }
+        if baro_p {
+            self.reinit_pending[2] = false;
+            let ok = self.init_baro(delay);
+            self.baro_health.reinit_done(ok);
+            return Maintenance::Reinitialised {
+                chip: Chip::Ms5611,
+                ok,
+            };
+        }
+        self.reprobe_step(now_ms, delay)
+    }
+
+    fn init_mpu<D: DelayNs>(&mut self, delay: &mut D) -> bool {
+        let cfg = self.cfg.mpu;
+        self.mpu.init(delay, &cfg).is_ok() && self.mpu.set_bypass(true).is_ok()
+    }
+
+    fn init_baro<D: DelayNs>(&mut self, delay: &mut D) -> bool {
+        let ok = self.baro.init(delay).is_ok();
+        if ok {
+            self.sampler.restart();
+        }
+        ok
+    }
+
+    /// Re-probes the first absent chip whose back-off expired.
+    fn reprobe_step<D: DelayNs>(&mut self, now_ms: u32, delay: &mut D) -> Maintenance {
+        let absent =
+            |h: &SensorHealth| matches!(h.state(), SensorState::Missing | SensorState::Failed);
+        let chips = [
+            (Chip::Mpu9250, absent(&self.mpu_health)),
+            // Behind the MPU's bypass: only once the MPU is in use.
+            (Chip::Ak8963, absent(&self.mag_health) && self.mpu_usable()),
+            (Chip::Ms5611, absent(&self.baro_health)),
+        ];
+        let mut due = None;
+        for (i, (chip, want)) in chips.into_iter().enumerate() {
+            if let Some(b) = self.reprobe.get_mut(i) {
+                if want && b.due(now_ms) && due.is_none() {
+                    due = Some((i, chip));
+                }
+            }
+        }
+        let Some((i, chip)) = due else {
+            return Maintenance::Idle;
+        };
+        let nobody_answers = ![&self.mpu_health, &self.mag_health, &self.baro_health]
+            .iter()
+            .any(|h| h.usable());
+        if nobody_answers && !self.fresh_recovery {
+            // A slave holding SDA looks exactly like no chip at all.
+            return Maintenance::RecoverBus;
+        }
+        self.fresh_recovery = false;
+        let policy = self.cfg.policy;
+        let ok = match chip {
+            Chip::Mpu9250 => self.init_mpu(delay),
+            Chip::Ak8963 => {
+                let cfg = self.cfg.mag;
+                self.mag.init(delay, &cfg).is_ok()
+            }
+            Chip::Ms5611 => self.init_baro(delay),
+        };
+        let (health, backoff) = match (chip, self.reprobe.get_mut(i)) {
+            (Chip::Mpu9250, Some(b)) => (&mut self.mpu_health, b),
+            (Chip::Ak8963, Some(b)) => (&mut self.mag_health, b),
+            (Chip::Ms5611, Some(b)) => (&mut self.baro_health, b),
+            (_, None) => return Maintenance::Idle,
+        };
+        if !ok {
+            backoff.failed(now_ms);
+            return Maintenance::StillMissing {
+                chip,
+                retry_in_ms: backoff.interval_ms(),
+            };
+        }
+        backoff.reset();
+        let counters = *health.counters();
+        *health = SensorHealth::with_counters(policy, counters);
+        if chip == Chip::Mpu9250 {
+            self.mpu_settle_until_ms = Some(now_ms.wrapping_add(self.cfg.mpu_settle_ms));
+        }
+        Maintenance::Appeared(chip)
     }
 
     /// Direct access to the MPU-9250 driver (calibration, tests).

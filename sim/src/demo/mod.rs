@@ -5,8 +5,13 @@
 //!   sensors, start-up gyro bias, scheduler and pipeline).
 //! * [`run`] drives the simulation (clock, INT line), compares with the truth
 //!   and collects the records.
-//! * [`output`] writes the CSV; [`plot`] draws the PNG.
+//! * [`output`] streams the CSV; [`plot`] keeps a bounded copy of the run
+//!   and draws it (PNG or SVG).
+//! * [`faults`] names the simulator's fault kinds for `--fault`;
+//!   [`console`] prints without panicking on a closed pipe.
 
+pub mod console;
+pub mod faults;
 pub mod mag;
 pub mod output;
 pub mod plot;
@@ -16,23 +21,28 @@ pub mod stack;
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 mod tests {
-    use super::run::{run, RunOptions};
+    use super::output::CsvWriter;
+    use super::plot::PlotSeries;
+    use super::run::{run, RecordSink, RunOptions};
     use sim::Trajectory;
 
-    fn short(trajectory: Trajectory) -> super::run::RunResult {
-        run(&RunOptions {
+    fn short(trajectory: Trajectory, sinks: &mut [&mut dyn RecordSink]) -> super::run::RunResult {
+        let opts = RunOptions {
             trajectory,
             seed: 1,
+            board_seed: 1,
             duration_s: 15.0,
             print_every_s: 0.0,
             mag_dance_s: 30.0,
-        })
-        .unwrap()
+            faults: Vec::new(),
+            progress: false,
+        };
+        run(&opts, sinks).unwrap()
     }
 
     #[test]
     fn whole_stack_tracks_the_truth_and_writes_outputs() {
-        let r = short(Trajectory::Hover);
+        let r = short(Trajectory::Hover, &mut []);
         let s = r.summary;
         assert!(s.samples > 13_000, "{s:?}");
         // All calibrations ran: the start-up gyro bias within a few counts.
@@ -50,18 +60,27 @@ mod tests {
         assert!(s.attitude_rms_deg < 4.0, "{s:?}");
         assert!(s.height_rms_m < 0.5, "{s:?}");
         assert!(s.vspeed_rms_mps < 0.5, "{s:?}");
-        let r = short(Trajectory::SlowRotations);
+
         let dir = std::env::temp_dir();
-        let csv = dir.join(format!("sim-demo-test-{}.csv", std::process::id()));
-        super::output::write_csv(csv.to_str().unwrap(), &r.records).unwrap();
-        let text = std::fs::read_to_string(&csv).unwrap();
+        let csv_path = dir.join(format!("sim-demo-test-{}.csv", std::process::id()));
+        let file = std::fs::File::create(&csv_path).unwrap();
+        let mut csv = CsvWriter::new(Box::new(file), "test.csv").unwrap();
+        let mut series = PlotSeries::default();
+        let r = short(Trajectory::SlowRotations, &mut [&mut csv, &mut series]);
+        csv.finish().unwrap();
+        let text = std::fs::read_to_string(&csv_path).unwrap();
         let mut lines = text.lines();
         assert!(lines.next().unwrap().starts_with("t_s,gyr_x_rad_s"));
         assert_eq!(lines.next().unwrap().split(',').count(), 15);
-        let png = dir.join(format!("sim-demo-test-{}.png", std::process::id()));
-        super::plot::write_plot(png.to_str().unwrap(), "test", &r.records, &r.mag_cal).unwrap();
-        assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
-        let _ = std::fs::remove_file(csv);
-        let _ = std::fs::remove_file(png);
+        // One row per MPU sample (1 kHz) once the magnetometer has given one.
+        let rows = text.lines().count() - 1;
+        assert!((14_500..=15_001).contains(&rows), "{rows}");
+        for ext in ["png", "svg"] {
+            let path = dir.join(format!("sim-demo-test-{}.{ext}", std::process::id()));
+            super::plot::write_plot(&path, "test", &series, &r.mag_cal).unwrap();
+            assert!(std::fs::metadata(&path).unwrap().len() > 10_000);
+            let _ = std::fs::remove_file(path);
+        }
+        let _ = std::fs::remove_file(csv_path);
     }
 }

@@ -1,246 +1,509 @@
-//! PNG plot of a run (plotters, bitmap backend): attitude and height against
-//! the truth, and the magnetometer samples before/after calibration as
-//! XY / YZ / XZ scatter plots.
+//! The plot of a run (plotters): roll, pitch and yaw against the truth, each
+//! on its own autoscaled axis (angles unwrapped, so a yaw through ±180° is a
+//! continuous line and the estimate is drawn on the truth's side of the
+//! wrap), the attitude error, the height, and the magnetometer samples
+//! before/after calibration as XY / YZ / XZ scatter plots. Legends sit in
+//! a strip right of the data.
 //!
-//! Text needs a TrueType font: the first of [`FONT_PATHS`] (or the file named
-//! by `SIM_FONT`) that exists is used; without one the plot is drawn without
-//! any text.
+//! The font (DejaVu Sans) is compiled into the binary, so the text does
+//! not depend on what the machine has installed. PNG or SVG by the file's
+//! extension.
 
-use super::run::Record;
+use super::run::{attitude_errors, Record, RecordSink};
 use super::stack::MagCalRun;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
+use std::path::Path;
 
-/// Where to look for a font.
-pub const FONT_PATHS: [&str; 5] = [
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-    "/Library/Fonts/Arial.ttf",
-];
+/// Image formats, chosen by the output file's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlotFormat {
+    /// `.png`: bitmap.
+    Png,
+    /// `.svg`: vector.
+    Svg,
+}
 
-fn load_font() -> bool {
-    let env = std::env::var("SIM_FONT").ok();
-    for p in env.iter().map(String::as_str).chain(FONT_PATHS) {
-        if let Ok(bytes) = std::fs::read(p) {
-            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-            if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
-                return true;
-            }
+impl PlotFormat {
+    /// The format for `path`'s extension (case-insensitive), or an error
+    /// naming the ones supported.
+    pub fn from_path(path: &Path) -> Result<Self, String> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("png") => Ok(Self::Png),
+            Some("svg") => Ok(Self::Svg),
+            Some(other) => Err(format!(
+                "unsupported plot format `.{other}` (use .png or .svg)"
+            )),
+            None => Err("the plot file needs an extension: .png or .svg".into()),
         }
     }
-    false
+}
+
+/// One plotted instant.
+#[derive(Clone, Copy, Debug)]
+struct Point {
+    t_s: f64,
+    /// Estimated roll, pitch, yaw (°).
+    est_deg: [f64; 3],
+    /// True roll, pitch, yaw (°).
+    truth_deg: [f64; 3],
+    /// Total, heading and inclination error (°).
+    err_deg: [f64; 3],
+    est_height_m: Option<f64>,
+    true_height_m: f64,
+}
+
+/// Most points kept per series; past it every other point is dropped and
+/// the stride doubles, so memory stays bounded for any run length.
+const MAX_POINTS: usize = 4000;
+
+/// Collects a bounded, evenly decimated copy of the records for plotting.
+#[derive(Debug)]
+pub struct PlotSeries {
+    points: Vec<Point>,
+    stride: usize,
+    seen: usize,
+}
+
+impl Default for PlotSeries {
+    fn default() -> Self {
+        Self {
+            points: Vec::with_capacity(MAX_POINTS),
+            stride: 1,
+            seen: 0,
+        }
+    }
+}
+
+impl PlotSeries {
+    /// No point kept.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+}
+
+impl RecordSink for PlotSeries {
+    fn push(&mut self, r: &Record) -> Result<(), String> {
+        self.seen += 1;
+        if !(self.seen - 1).is_multiple_of(self.stride) {
+            return Ok(());
+        }
+        if self.points.len() == MAX_POINTS {
+            let mut i = 0;
+            self.points.retain(|_| {
+                i += 1;
+                i % 2 == 1
+            });
+            self.stride *= 2;
+            if !(self.seen - 1).is_multiple_of(self.stride) {
+                return Ok(());
+            }
+        }
+        let (total, heading, incl) = attitude_errors(&r.est, &r.truth);
+        self.points.push(Point {
+            t_s: r.t_s,
+            est_deg: r.est.to_euler().map(f64::to_degrees),
+            truth_deg: r.truth.to_euler().map(f64::to_degrees),
+            err_deg: [total, heading, incl].map(f64::to_degrees),
+            est_height_m: r.est_height_m,
+            true_height_m: r.true_height_m,
+        });
+        Ok(())
+    }
 }
 
 type Res = Result<(), Box<dyn std::error::Error>>;
-
-/// Draws the run into `path` (PNG).
-pub fn write_plot(
-    path: &str,
-    title: &str,
-    records: &[Record],
-    mag: &MagCalRun,
-) -> Result<bool, String> {
-    let text = load_font();
-    draw(path, title, records, mag, text).map_err(|e| e.to_string())?;
-    Ok(text)
-}
 
 const COLORS: [RGBColor; 3] = [
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
     RGBColor(31, 119, 180),
 ];
+const FONT: &str = "sans-serif";
+const WIDTH: u32 = 1500;
+const HEIGHT: u32 = 1560;
+/// Width of the legend strip right of each time-series panel (px).
+const LEGEND_W: u32 = 210;
 
-fn draw(path: &str, title: &str, records: &[Record], mag: &MagCalRun, text: bool) -> Res {
-    let root = BitMapBackend::new(path, (1500, 1250)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let root = if text {
-        root.titled(title, ("sans-serif", 26))?
-    } else {
-        root.margin(10, 0, 0, 0)
+/// Registers the embedded DejaVu Sans as plotters' sans-serif face.
+fn load_font() -> Result<(), String> {
+    plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular())
+        .map_err(|_| "the embedded font could not be loaded".to_string())
+}
+
+/// Draws the run into `path` (format from the extension).
+pub fn write_plot(
+    path: &Path,
+    title: &str,
+    series: &PlotSeries,
+    mag: &MagCalRun,
+) -> Result<(), String> {
+    let format = PlotFormat::from_path(path)?;
+    if series.is_empty() {
+        return Err("nothing to plot: the run produced no samples".into());
+    }
+    load_font()?;
+    let res = match format {
+        PlotFormat::Png => draw(
+            BitMapBackend::new(path, (WIDTH, HEIGHT)).into_drawing_area(),
+            title,
+            series,
+            mag,
+        ),
+        PlotFormat::Svg => draw(
+            SVGBackend::new(path, (WIDTH, HEIGHT)).into_drawing_area(),
+            title,
+            series,
+            mag,
+        ),
     };
-    let (top, rest) = root.split_vertically(420);
-    let (mid, bottom) = rest.split_vertically(330);
-    let step = (records.len() / 3000).max(1);
-    let recs: Vec<&Record> = records.iter().step_by(step).collect();
-    let t_max = recs.last().map_or(1.0, |r| r.t_s).max(1.0);
+    res.map_err(|e| e.to_string())
+}
 
-    // Attitude.
-    {
-        let mut b = ChartBuilder::on(&top);
-        b.margin(10)
-            .x_label_area_size(if text { 35 } else { 0 })
-            .y_label_area_size(if text { 55 } else { 0 });
-        if text {
-            b.caption(
-                "attitude: estimate (solid) vs truth (thick, light) — roll, pitch, yaw [deg]",
-                ("sans-serif", 18),
-            );
-        }
-        let mut c = b.build_cartesian_2d(0.0..t_max, -180.0..180.0)?;
-        let mut mesh = c.configure_mesh();
-        if text {
-            mesh.x_desc("t [s]")
-                .y_desc("deg")
-                .label_style(("sans-serif", 14));
-        } else {
-            mesh.x_labels(0).y_labels(0);
-        }
-        mesh.draw()?;
-        for (i, color) in COLORS.iter().enumerate() {
-            // Break the line at ±180° wraps.
-            let truth: Vec<(f64, f64)> = recs
-                .iter()
-                .map(|r| (r.t_s, r.truth.to_euler()[i].to_degrees()))
-                .collect();
-            let est: Vec<(f64, f64)> = recs
-                .iter()
-                .map(|r| (r.t_s, r.est.to_euler()[i].to_degrees()))
-                .collect();
-            for seg in segments(&truth) {
-                c.draw_series(LineSeries::new(seg, color.mix(0.35).stroke_width(5)))?;
-            }
-            let mut first = true;
-            for seg in segments(&est) {
-                let s = c.draw_series(LineSeries::new(seg, color.stroke_width(1)))?;
-                if first && text {
-                    let name = ["roll", "pitch", "yaw"][i];
-                    let col = *color;
-                    s.label(name).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
-                    });
-                }
-                first = false;
-            }
-        }
-        if text {
-            c.configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 14))
-                .draw()?;
-        }
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    title: &str,
+    series: &PlotSeries,
+    mag: &MagCalRun,
+) -> Res
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let root = root.titled(title, (FONT, 26))?;
+    let rows = root.split_by_breakpoints([] as [u32; 0], [210, 420, 630, 870, 1090]);
+    let p = &series.points;
+    let t_max = p.last().map_or(1.0, |r| r.t_s).max(1.0);
+    let names = ["roll", "pitch", "yaw"];
+    for (axis, area) in rows.iter().take(3).enumerate() {
+        draw_angle(area, p, t_max, axis, names[axis])?;
     }
+    draw_errors(&rows[3], p, t_max)?;
+    draw_height(&rows[4], p, t_max)?;
+    draw_mag(&rows[5], mag)?;
+    root.present()?;
+    Ok(())
+}
 
-    // Height.
-    {
-        let hs: Vec<f64> = recs
-            .iter()
-            .flat_map(|r| [Some(r.true_height_m), r.est_height_m])
-            .flatten()
-            .collect();
-        let lo = hs.iter().cloned().fold(f64::INFINITY, f64::min).min(0.0) - 1.0;
-        let hi = hs
-            .iter()
-            .cloned()
-            .fold(f64::NEG_INFINITY, f64::max)
-            .max(1.0)
-            + 1.0;
-        let mut b = ChartBuilder::on(&mid);
-        b.margin(10)
-            .x_label_area_size(if text { 35 } else { 0 })
-            .y_label_area_size(if text { 55 } else { 0 });
-        if text {
-            b.caption(
-                "height above take-off: estimate (blue) vs truth (thick, grey) [m]",
-                ("sans-serif", 18),
-            );
-        }
-        let mut c = b.build_cartesian_2d(0.0..t_max, lo..hi)?;
-        let mut mesh = c.configure_mesh();
-        if text {
-            mesh.x_desc("t [s]")
-                .y_desc("m")
-                .label_style(("sans-serif", 14));
-        } else {
-            mesh.x_labels(0).y_labels(0);
-        }
-        mesh.draw()?;
+/// Wraps an angle difference into (-180, 180] degrees.
+fn wrap_deg(d: f64) -> f64 {
+    let w = (d + 180.0).rem_euclid(360.0) - 180.0;
+    if w == -180.0 {
+        180.0
+    } else {
+        w
+    }
+}
+
+/// A polyline in chart coordinates.
+type Line = Vec<(f64, f64)>;
+
+/// Truth unwrapped into a continuous line; the estimate placed at the
+/// truth plus their wrapped difference, so both stay on one side of ±180°.
+fn unwrapped(p: &[Point], axis: usize) -> (Line, Line) {
+    let mut truth = Vec::with_capacity(p.len());
+    let mut est = Vec::with_capacity(p.len());
+    let mut prev: Option<(f64, f64)> = None;
+    for r in p {
+        let raw = r.truth_deg[axis];
+        let t = match prev {
+            Some((prev_raw, prev_t)) => prev_t + wrap_deg(raw - prev_raw),
+            None => raw,
+        };
+        prev = Some((raw, t));
+        truth.push((r.t_s, t));
+        est.push((r.t_s, t + wrap_deg(r.est_deg[axis] - raw)));
+    }
+    (truth, est)
+}
+
+/// `lo..hi` around the values with a 10 % margin and at least `min_span`.
+fn autoscale<'a>(values: impl Iterator<Item = &'a f64>, min_span: f64) -> std::ops::Range<f64> {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(*v), hi.max(*v))
+        });
+    if lo > hi {
+        return -min_span / 2.0..min_span / 2.0;
+    }
+    let mid = 0.5 * (lo + hi);
+    let half = (0.5 * (hi - lo) * 1.1).max(min_span / 2.0);
+    mid - half..mid + half
+}
+
+/// A time-series chart with its legend strip; returns the chart.
+fn time_chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    t_max: f64,
+    y: std::ops::Range<f64>,
+    y_desc: &str,
+    legend: &[(&str, ShapeStyle)],
+) -> Result<
+    ChartContext<
+        'a,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    Box<dyn std::error::Error>,
+>
+where
+    DB::ErrorType: 'static,
+{
+    let (plot_area, legend_area) = area.split_horizontally(area.dim_in_pixel().0 - LEGEND_W);
+    draw_legend(&legend_area, legend)?;
+    let mut c = ChartBuilder::on(&plot_area)
+        .margin(8)
+        .caption(caption, (FONT, 17))
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..t_max, y)?;
+    c.configure_mesh()
+        .x_desc("t [s]")
+        .y_desc(y_desc)
+        .label_style((FONT, 13))
+        .draw()?;
+    Ok(c)
+}
+
+/// Legend entries (a line sample and a name) stacked in their own strip.
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[(&str, ShapeStyle)],
+) -> Res
+where
+    DB::ErrorType: 'static,
+{
+    for (i, (name, style)) in entries.iter().enumerate() {
+        let y = 50 + 24 * i as i32;
+        area.draw(&PathElement::new(vec![(10, y), (40, y)], *style))?;
+        area.draw(&Text::new(name.to_string(), (48, y - 8), (FONT, 15)))?;
+    }
+    Ok(())
+}
+
+fn draw_angle<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &[Point],
+    t_max: f64,
+    axis: usize,
+    name: &str,
+) -> Res
+where
+    DB::ErrorType: 'static,
+{
+    let (truth, est) = unwrapped(p, axis);
+    let y = autoscale(truth.iter().chain(&est).map(|(_, v)| v), 2.0);
+    let color = COLORS[axis];
+    let truth_style = color.mix(0.35).stroke_width(5);
+    let est_style = color.stroke_width(1);
+    let caption = format!("{name}: estimate vs truth [deg]");
+    let legend = [("truth", truth_style), ("estimate", est_style)];
+    let mut c = time_chart(area, &caption, t_max, y, "deg", &legend)?;
+    c.draw_series(LineSeries::new(truth, truth_style))?;
+    c.draw_series(LineSeries::new(est, est_style))?;
+    Ok(())
+}
+
+fn draw_errors<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &[Point], t_max: f64) -> Res
+where
+    DB::ErrorType: 'static,
+{
+    let hi = p
+        .iter()
+        .flat_map(|r| r.err_deg)
+        .filter(|v| v.is_finite())
+        .fold(1.0, f64::max)
+        * 1.1;
+    let styles = [
+        BLACK.stroke_width(2),
+        COLORS[2].stroke_width(1),
+        COLORS[0].stroke_width(1),
+    ];
+    let legend = [
+        ("total", styles[0]),
+        ("heading", styles[1]),
+        ("inclination", styles[2]),
+    ];
+    let mut c = time_chart(
+        area,
+        "attitude error, estimate vs truth [deg]",
+        t_max,
+        0.0..hi,
+        "deg",
+        &legend,
+    )?;
+    for (k, style) in styles.iter().enumerate() {
         c.draw_series(LineSeries::new(
-            recs.iter().map(|r| (r.t_s, r.true_height_m)),
-            BLACK.mix(0.3).stroke_width(5),
-        ))?;
-        c.draw_series(LineSeries::new(
-            recs.iter()
-                .filter_map(|r| r.est_height_m.map(|h| (r.t_s, h))),
-            COLORS[2].stroke_width(1),
+            p.iter().map(|r| (r.t_s, r.err_deg[k])),
+            *style,
         ))?;
     }
+    Ok(())
+}
 
-    // Magnetometer scatter.
-    let panels = bottom.split_evenly((1, 3));
+fn draw_height<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &[Point], t_max: f64) -> Res
+where
+    DB::ErrorType: 'static,
+{
+    let values: Vec<f64> = p
+        .iter()
+        .flat_map(|r| [Some(r.true_height_m), r.est_height_m])
+        .flatten()
+        .collect();
+    let y = autoscale(values.iter(), 1.0);
+    let truth_style = BLACK.mix(0.3).stroke_width(5);
+    let est_style = COLORS[2].stroke_width(1);
+    let legend = [("truth", truth_style), ("estimate", est_style)];
+    let mut c = time_chart(area, "height above take-off [m]", t_max, y, "m", &legend)?;
+    c.draw_series(LineSeries::new(
+        p.iter().map(|r| (r.t_s, r.true_height_m)),
+        truth_style,
+    ))?;
+    c.draw_series(LineSeries::new(
+        p.iter().filter_map(|r| r.est_height_m.map(|h| (r.t_s, h))),
+        est_style,
+    ))?;
+    Ok(())
+}
+
+fn draw_mag<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, mag: &MagCalRun) -> Res
+where
+    DB::ErrorType: 'static,
+{
     let raw = &mag.raw_mpu_ut;
     let cal: Vec<[f32; 3]> = raw.iter().map(|m| mag.calibration.apply(*m)).collect();
     let lim = raw
         .iter()
         .chain(cal.iter())
         .flat_map(|m| m.iter().map(|v| f64::from(v.abs())))
+        .filter(|v| v.is_finite())
         .fold(10.0, f64::max)
         * 1.05;
-    for (k, (area, (a, b_axis))) in panels
+    let every = (raw.len() / 1500).max(1);
+    let names = ["x", "y", "z"];
+    for (area, (a, b)) in area
+        .split_evenly((1, 3))
         .iter()
         .zip([(0usize, 1usize), (1, 2), (0, 2)])
-        .enumerate()
     {
-        let names = ["x", "y", "z"];
-        let mut b = ChartBuilder::on(area);
-        b.margin(10)
-            .x_label_area_size(if text { 35 } else { 0 })
-            .y_label_area_size(if text { 45 } else { 0 });
-        if text {
-            b.caption(
+        let mut c = ChartBuilder::on(area)
+            .margin(10)
+            .caption(
                 format!(
                     "mag {}{} [µT]: raw (red) / calibrated (blue)",
-                    names[a], names[b_axis]
+                    names[a], names[b]
                 ),
-                ("sans-serif", 16),
-            );
-        }
-        let mut c = b.build_cartesian_2d(-lim..lim, -lim..lim)?;
-        let mut mesh = c.configure_mesh();
-        if text {
-            mesh.x_desc(format!("{} [µT]", names[a]))
-                .y_desc(format!("{} [µT]", names[b_axis]))
-                .label_style(("sans-serif", 12));
-        } else {
-            mesh.x_labels(0).y_labels(0);
-        }
-        mesh.draw()?;
-        let _ = k;
-        let every = (raw.len() / 1500).max(1);
-        c.draw_series(raw.iter().step_by(every).map(|m| {
-            Circle::new(
-                (f64::from(m[a]), f64::from(m[b_axis])),
-                2,
-                COLORS[0].mix(0.5).filled(),
+                (FONT, 16),
             )
-        }))?;
-        c.draw_series(cal.iter().step_by(every).map(|m| {
-            Circle::new(
-                (f64::from(m[a]), f64::from(m[b_axis])),
-                2,
-                COLORS[2].mix(0.5).filled(),
-            )
-        }))?;
+            .x_label_area_size(35)
+            .y_label_area_size(45)
+            .build_cartesian_2d(-lim..lim, -lim..lim)?;
+        c.configure_mesh()
+            .x_desc(format!("{} [µT]", names[a]))
+            .y_desc(format!("{} [µT]", names[b]))
+            .label_style((FONT, 12))
+            .draw()?;
+        for (points, color) in [(raw, COLORS[0]), (&cal, COLORS[2])] {
+            c.draw_series(points.iter().step_by(every).map(|m| {
+                Circle::new(
+                    (f64::from(m[a]), f64::from(m[b])),
+                    2,
+                    color.mix(0.5).filled(),
+                )
+            }))?;
+        }
     }
-    root.present()?;
     Ok(())
 }
 
-/// Splits a wrapped angle series where it jumps by more than 180°.
-fn segments(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
-    let mut out: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
-    for w in points {
-        if let Some(last) = out.last_mut().and_then(|s| s.last().copied()) {
-            if (w.1 - last.1).abs() > 180.0 {
-                out.push(Vec::new());
-            }
-        }
-        if let Some(s) = out.last_mut() {
-            s.push(*w);
-        }
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn format_by_extension() {
+        assert_eq!(
+            PlotFormat::from_path(Path::new("a/b.png")),
+            Ok(PlotFormat::Png)
+        );
+        assert_eq!(
+            PlotFormat::from_path(Path::new("b.SVG")),
+            Ok(PlotFormat::Svg)
+        );
+        assert!(PlotFormat::from_path(Path::new("b.jpg"))
+            .unwrap_err()
+            .contains(".jpg"));
+        assert!(PlotFormat::from_path(Path::new("b")).is_err());
     }
-    out
+
+    #[test]
+    fn wrap_is_half_open_and_unwrap_is_continuous() {
+        assert_eq!(wrap_deg(190.0), -170.0);
+        assert_eq!(wrap_deg(-180.0), 180.0);
+        assert_eq!(wrap_deg(540.0), 180.0);
+        // Truth yaw through +180 -> -180; estimate 2° behind, already wrapped.
+        let pts: Vec<Point> = [(178.0, 176.0), (-179.0, 179.0), (-176.0, -178.0)]
+            .iter()
+            .enumerate()
+            .map(|(i, &(t, e))| Point {
+                t_s: i as f64,
+                est_deg: [0.0, 0.0, e],
+                truth_deg: [0.0, 0.0, t],
+                err_deg: [0.0; 3],
+                est_height_m: None,
+                true_height_m: 0.0,
+            })
+            .collect();
+        let (truth, est) = unwrapped(&pts, 2);
+        assert_eq!(
+            truth.iter().map(|p| p.1).collect::<Vec<_>>(),
+            [178.0, 181.0, 184.0]
+        );
+        assert_eq!(
+            est.iter().map(|p| p.1).collect::<Vec<_>>(),
+            [176.0, 179.0, 182.0]
+        );
+        let r = autoscale(truth.iter().chain(&est).map(|p| &p.1), 2.0);
+        assert!(
+            r.start < 176.0 && r.end > 184.0 && r.end - r.start < 10.0,
+            "{r:?}"
+        );
+    }
+
+    #[test]
+    fn series_stays_bounded_and_spans_the_run() {
+        let mut s = PlotSeries::default();
+        let rec = |t_s: f64| Record {
+            t_s,
+            est: sim::Quat::IDENTITY,
+            truth: sim::Quat::IDENTITY,
+            est_height_m: None,
+            true_height_m: 0.0,
+            est_vspeed_mps: None,
+            true_vspeed_mps: 0.0,
+            gyro_mpu_rps: [0.0; 3],
+            accel_mpu_mps2: [0.0; 3],
+            mag_mpu_ut: None,
+            moving: false,
+        };
+        for i in 0..100_000 {
+            s.push(&rec(i as f64 * 1e-3)).unwrap();
+        }
+        let n = s.points.len();
+        assert!(n <= MAX_POINTS && n > MAX_POINTS / 4, "{n}");
+        let last = s.points.last().unwrap().t_s;
+        assert!(last > 99.0, "{last}");
+        let d: Vec<f64> = s.points.windows(2).map(|w| w[1].t_s - w[0].t_s).collect();
+        assert!(
+            d.iter().all(|x| (x - d[0]).abs() < 1e-9),
+            "uneven decimation"
+        );
+    }
 }

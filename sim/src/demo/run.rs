@@ -1,22 +1,30 @@
 //! Drives a simulated flight through the [`Stack`](super::stack::Stack) and
 //! scores it against the truth.
 
+use super::console::{note, say};
 use super::stack::{self, AccelCalRun, MagCalRun, Stack};
-use sim::{Environment, Quat, SensorErrors, SimBus, SimClock, SimConfig, Trajectory};
+use sim::{Environment, Fault, Quat, SensorErrors, SimBus, SimClock, SimConfig, Trajectory};
+use std::io::Write;
 
 /// What to run.
 #[derive(Clone, Debug)]
 pub struct RunOptions {
     /// The flight.
     pub trajectory: Trajectory,
-    /// Seed of the board's errors and of all noise.
+    /// Seed of all noise (sensor noise, random walks, vibration phases).
     pub seed: u64,
+    /// Seed of the board's fixed errors (biases, scale, misalignment, iron).
+    pub board_seed: u64,
     /// Simulated flight time (s).
     pub duration_s: f64,
     /// Print a status line every this many simulated seconds (0 = never).
     pub print_every_s: f64,
     /// Length of the magnetometer calibration dance (s).
     pub mag_dance_s: f64,
+    /// Faults injected during the flight.
+    pub faults: Vec<ScheduledFault>,
+    /// Show a progress line on stderr during long runs.
+    pub progress: bool,
 }
 
 /// One row of the run (one MPU sample).
@@ -63,6 +71,8 @@ pub struct Summary {
     pub vspeed_rms_mps: f64,
     /// Samples scored.
     pub samples: usize,
+    /// MPU data-ready interrupts whose read failed (bus faults): no sample.
+    pub missed: usize,
     /// Wall-clock time of the run (s).
     pub wall_s: f64,
 }
@@ -78,10 +88,8 @@ pub struct GyroBiasRun {
     pub at_s: f64,
 }
 
-/// Everything a run produced.
+/// Everything a run produced (the records went to the sinks).
 pub struct RunResult {
-    /// Per-sample records.
-    pub records: Vec<Record>,
     /// The accelerometer six-position calibration.
     pub accel_cal: AccelCalRun,
     /// The magnetometer calibration.
@@ -107,130 +115,218 @@ pub fn attitude_errors(est: &Quat, truth: &Quat) -> (f64, f64, f64) {
     let e = est.mul(&truth.conj());
     let w = e.w.abs();
     let total = 2.0 * w.min(1.0).acos();
-    let heading = 2.0 * (e.z / e.w).abs().atan();
+    // atan2, not atan(z/w): a 180° error has w = 0 and must score 180°, not NaN.
+    let heading = 2.0 * e.z.abs().atan2(w);
     let incl = 2.0 * (e.w * e.w + e.z * e.z).sqrt().min(1.0).acos();
     (total, heading, incl)
 }
 
-/// Runs the demo.
-pub fn run(opts: &RunOptions) -> Result<RunResult, String> {
+/// A fault injected into the flight session at a simulated time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScheduledFault {
+    /// When (s of simulated flight time).
+    pub at_s: f64,
+    /// What (`sim::Fault`); persistent ones last to the end of the run.
+    pub fault: Fault,
+}
+
+/// Where each record goes as it is produced (the run keeps none of them).
+pub trait RecordSink {
+    /// Takes one record.
+    fn push(&mut self, record: &Record) -> Result<(), String>;
+}
+
+/// Runs the demo: the ground calibrations, then the flight, handing every
+/// record to `sinks` as it is produced and scoring it on the way, so the
+/// memory used does not grow with the duration.
+pub fn run(opts: &RunOptions, sinks: &mut [&mut dyn RecordSink]) -> Result<RunResult, String> {
     let wall = std::time::Instant::now();
     let base = SimConfig {
         trajectory: opts.trajectory.clone(),
         env: Environment::default(),
-        errors: SensorErrors::datasheet(opts.seed),
+        errors: SensorErrors::datasheet(opts.board_seed),
         seed: opts.seed,
         ..SimConfig::default()
     };
-    println!(
-        "sim: trajectory {}, seed {}, {:.0} s; firmware pipeline (flight) with the {}",
+    say!(
+        "sim: trajectory {}, seed {} (board {}), {} s; firmware pipeline (flight) with the {}",
         opts.trajectory.name(),
         opts.seed,
+        opts.board_seed,
         opts.duration_s,
         flight::pipeline::AHRS_KIND
     );
-    // 1. Ground calibrations (separate sessions, same board), as stored in
-    //    flash on the real board: accelerometer six-position, then the
-    //    magnetometer dance.
-    let accel_cal = stack::calibrate_accel_six_position(&base)?;
-    print_accel_cal(&accel_cal, &base.errors);
-
-    let mag_cal = stack::calibrate_mag_on_dance(&base, opts.mag_dance_s)?;
-    let c = &mag_cal.calibration;
-    println!(
-        "mag calibration ({}, {} samples{}): offset [{:.1}, {:.1}, {:.1}] µT",
-        mag_cal.method,
-        mag_cal.raw_mpu_ut.len(),
-        mag_cal
-            .rms_error
-            .map(|r| format!(", rms residual {:.2} %", r * 100.0))
-            .unwrap_or_default(),
-        c.offset[0],
-        c.offset[1],
-        c.offset[2]
-    );
-    let hi = base.errors.mag.hard_iron_ut;
-    println!(
-        "  injected hard iron (MPU frame) [{:.1}, {:.1}, {:.1}] µT",
-        hi[1], hi[0], -hi[2]
-    );
-
-    // 2. The flight, as the firmware runs it: boot probe, stored
-    //    calibration, start-up gyro bias while still, the 1 kHz pipeline.
+    let (accel_cal, mag_cal) = ground_calibrations(&base, opts.mag_dance_s)?;
     let record = stack::calibration_record(&accel_cal.calibration, &mag_cal.calibration)?;
+    let flight = fly(opts, &base, &record, sinks, wall)?;
+    let mut summary = flight.scorer.summary();
+    summary.wall_s = wall.elapsed().as_secs_f64();
+    summary.missed = flight.missed;
+    Ok(RunResult {
+        accel_cal,
+        mag_cal,
+        gyro_bias: flight.gyro_bias,
+        summary,
+    })
+}
+
+/// The calibrations a user runs once and stores in flash (separate sessions
+/// of the same board): accelerometer six-position, then the magnetometer dance.
+fn ground_calibrations(
+    base: &SimConfig,
+    mag_dance_s: f64,
+) -> Result<(AccelCalRun, MagCalRun), String> {
+    let accel_cal = stack::calibrate_accel_six_position(base)?;
+    print_accel_cal(&accel_cal, &base.errors);
+    let mag_cal = stack::calibrate_mag_on_dance(base, mag_dance_s)?;
+    print_mag_cal(&mag_cal, &base.errors);
+    Ok((accel_cal, mag_cal))
+}
+
+struct Flight {
+    scorer: Scorer,
+    gyro_bias: Option<GyroBiasRun>,
+    missed: usize,
+}
+
+/// The flight as the firmware runs it: boot probe, stored calibration,
+/// start-up gyro bias while still, the 1 kHz pipeline; faults injected on
+/// schedule.
+fn fly(
+    opts: &RunOptions,
+    base: &SimConfig,
+    record: &flight::storage::CalibrationRecord,
+    sinks: &mut [&mut dyn RecordSink],
+    wall: std::time::Instant,
+) -> Result<Flight, String> {
     let clock = SimClock::new();
     let bus = SimBus::new(&clock, base.clone());
     let mut delay = clock.delay();
-    let mut stack = Stack::boot(&bus, &mut delay, &record)?;
-    let b = stack.boot_report();
-    let caps = b.capabilities();
-    println!(
-        "boot: MPU-9250 {}, AK8963 {}, MS5611 {} -> AHRS {:?}, altitude {}",
-        if b.mpu.present() { "ok" } else { "MISSING" },
-        if b.mag.present() { "ok" } else { "MISSING" },
-        if b.baro.present() { "ok" } else { "MISSING" },
-        caps.ahrs,
-        caps.altitude
-    );
-    let mut gyro_bias = None;
-    let mut records = Vec::with_capacity((opts.duration_s * 1000.0) as usize + 16);
+    let mut stack = Stack::boot(&bus, &mut delay, record)?;
+    print_boot(&stack);
+    let mut faults: Vec<ScheduledFault> = opts.faults.clone();
+    faults.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+    let mut faults = faults.into_iter().peekable();
+    let mut progress = Progress::new(opts.duration_s, opts.progress, wall);
+    let mut out = Flight {
+        scorer: Scorer::default(),
+        gyro_bias: None,
+        missed: 0,
+    };
     let mut next_print = 0.0;
     while clock.now_s() < opts.duration_s {
+        while let Some(f) = faults.next_if(|f| f.at_s <= clock.now_s()) {
+            say!("t {:.2} s: injecting {:?}", clock.now_s(), f.fault);
+            bus.inject(f.fault);
+        }
         bus.advance_to_next_mpu_sample();
+        progress.tick(clock.now_s());
         if !bus.data_ready() {
             continue;
         }
-        let Some(est) = stack.on_data_ready(clock.now_us()) else {
+        let Some(r) = sample(&bus, &clock, &mut stack, &mut out.gyro_bias) else {
+            out.missed += 1;
             continue;
-        };
-        let Some(truth) = bus.truth_at_last_mpu_sample() else {
-            continue;
-        };
-        if let (None, Some(measured_rps)) = (gyro_bias, stack.gyro_bias_rps()) {
-            let g = GyroBiasRun {
-                measured_rps,
-                truth_rps: bus.state().world.gyro_bias_dps().map(f64::to_radians),
-                at_s: truth.t_s,
-            };
-            println!(
-                "gyro bias at start-up (t {:.2} s): [{:.4}, {:.4}, {:.4}] rad/s (truth [{:.4}, {:.4}, {:.4}])",
-                g.at_s,
-                g.measured_rps[0],
-                g.measured_rps[1],
-                g.measured_rps[2],
-                g.truth_rps[0],
-                g.truth_rps[1],
-                g.truth_rps[2]
-            );
-            gyro_bias = Some(g);
-        }
-        let r = Record {
-            t_s: truth.t_s,
-            est: q_from(est.q_ned_from_body),
-            truth: truth.q_ned_from_body,
-            est_height_m: est.height_m.map(f64::from),
-            true_height_m: truth.height_m,
-            est_vspeed_mps: est.vertical_speed_mps.map(f64::from),
-            true_vspeed_mps: -truth.velocity_ned_mps[2],
-            gyro_mpu_rps: est.gyro_mpu_rps,
-            accel_mpu_mps2: est.accel_mpu_mps2,
-            mag_mpu_ut: est.mag_mpu_ut,
-            moving: truth.moving,
         };
         if opts.print_every_s > 0.0 && r.t_s >= next_print {
             next_print += opts.print_every_s;
             print_status(&r);
         }
-        records.push(r);
+        out.scorer.push(&r);
+        for sink in sinks.iter_mut() {
+            sink.push(&r)?;
+        }
     }
-    let summary = summarize(&records, wall.elapsed().as_secs_f64());
-    Ok(RunResult {
-        records,
-        accel_cal,
-        mag_cal,
-        gyro_bias,
-        summary,
+    progress.finish();
+    Ok(out)
+}
+
+/// One MPU data-ready through the stack, with its truth; `None` when the
+/// read failed.
+fn sample(
+    bus: &SimBus,
+    clock: &SimClock,
+    stack: &mut Stack,
+    gyro_bias: &mut Option<GyroBiasRun>,
+) -> Option<Record> {
+    let est = stack.on_data_ready(clock.now_us())?;
+    let truth = bus.truth_at_last_mpu_sample()?;
+    if let (None, Some(measured_rps)) = (*gyro_bias, stack.gyro_bias_rps()) {
+        let g = GyroBiasRun {
+            measured_rps,
+            truth_rps: bus.state().world.gyro_bias_dps().map(f64::to_radians),
+            at_s: truth.t_s,
+        };
+        print_gyro_bias(&g);
+        *gyro_bias = Some(g);
+    }
+    Some(Record {
+        t_s: truth.t_s,
+        est: q_from(est.q_ned_from_body),
+        truth: truth.q_ned_from_body,
+        est_height_m: est.height_m.map(f64::from),
+        true_height_m: truth.height_m,
+        est_vspeed_mps: est.vertical_speed_mps.map(f64::from),
+        true_vspeed_mps: -truth.velocity_ned_mps[2],
+        gyro_mpu_rps: est.gyro_mpu_rps,
+        accel_mpu_mps2: est.accel_mpu_mps2,
+        mag_mpu_ut: est.mag_mpu_ut,
+        moving: truth.moving,
     })
+}
+
+/// A progress line on stderr for runs that take a while: nothing for the
+/// first two seconds of wall time, then one line a second (rewritten in
+/// place on a terminal).
+struct Progress {
+    duration_s: f64,
+    enabled: bool,
+    wall: std::time::Instant,
+    next_wall_s: f64,
+    tty: bool,
+    shown: bool,
+}
+
+impl Progress {
+    fn new(duration_s: f64, enabled: bool, wall: std::time::Instant) -> Self {
+        use std::io::IsTerminal;
+        Self {
+            duration_s,
+            enabled,
+            wall,
+            next_wall_s: 2.0,
+            tty: std::io::stderr().is_terminal(),
+            shown: false,
+        }
+    }
+
+    fn tick(&mut self, t_s: f64) {
+        if !self.enabled {
+            return;
+        }
+        let w = self.wall.elapsed().as_secs_f64();
+        if w < self.next_wall_s {
+            return;
+        }
+        self.next_wall_s = w + 1.0;
+        let pct = 100.0 * t_s / self.duration_s;
+        let text = format!(
+            "sim: {t_s:.0} of {} s simulated ({pct:.0} %), {w:.0} s",
+            self.duration_s
+        );
+        if self.tty {
+            let _ = write!(std::io::stderr(), "\r{text}");
+        } else {
+            note!("{text}");
+        }
+        self.shown = true;
+    }
+
+    fn finish(&self) {
+        if self.shown && self.tty {
+            note!("");
+        }
+    }
 }
 
 /// The accelerometer errors the six-position calibration should find, in
@@ -254,13 +350,13 @@ fn print_accel_cal(run: &AccelCalRun, errors: &SensorErrors) {
         .iter()
         .map(|(p, t)| format!("{p:?}@{t:.0}s"))
         .collect();
-    println!(
+    say!(
         "accel six-position ({}; {} window restarts while moving): residual |a|−1g RMS {:.2} mg",
         order.join(" "),
         run.refused_windows,
         run.rms_residual_g * 1000.0
     );
-    println!(
+    say!(
         "  offset [{:+.1}, {:+.1}, {:+.1}] mg (truth [{:+.1}, {:+.1}, {:+.1}]), scale [{:.4}, {:.4}, {:.4}] (truth [{:.4}, {:.4}, {:.4}])",
         c.offset[0] * 1000.0,
         c.offset[1] * 1000.0,
@@ -277,6 +373,56 @@ fn print_accel_cal(run: &AccelCalRun, errors: &SensorErrors) {
     );
 }
 
+fn print_mag_cal(mag_cal: &MagCalRun, errors: &SensorErrors) {
+    let c = &mag_cal.calibration;
+    say!(
+        "mag calibration ({}, {} samples{}): offset [{:.1}, {:.1}, {:.1}] µT",
+        mag_cal.method,
+        mag_cal.raw_mpu_ut.len(),
+        mag_cal
+            .rms_error
+            .map(|r| format!(", rms residual {:.2} %", r * 100.0))
+            .unwrap_or_default(),
+        c.offset[0],
+        c.offset[1],
+        c.offset[2]
+    );
+    let hi = errors.mag.hard_iron_ut;
+    say!(
+        "  injected hard iron (MPU frame) [{:.1}, {:.1}, {:.1}] µT",
+        hi[1],
+        hi[0],
+        -hi[2]
+    );
+}
+
+fn print_boot(stack: &Stack) {
+    let b = stack.boot_report();
+    let caps = b.capabilities();
+    let ok = |present: bool| if present { "ok" } else { "MISSING" };
+    say!(
+        "boot: MPU-9250 {}, AK8963 {}, MS5611 {} -> AHRS {:?}, altitude {}",
+        ok(b.mpu.present()),
+        ok(b.mag.present()),
+        ok(b.baro.present()),
+        caps.ahrs,
+        caps.altitude
+    );
+}
+
+fn print_gyro_bias(g: &GyroBiasRun) {
+    say!(
+        "gyro bias at start-up (t {:.2} s): [{:.4}, {:.4}, {:.4}] rad/s (truth [{:.4}, {:.4}, {:.4}])",
+        g.at_s,
+        g.measured_rps[0],
+        g.measured_rps[1],
+        g.measured_rps[2],
+        g.truth_rps[0],
+        g.truth_rps[1],
+        g.truth_rps[2]
+    );
+}
+
 fn deg3(q: &Quat) -> [f64; 3] {
     q.to_euler().map(f64::to_degrees)
 }
@@ -288,7 +434,7 @@ fn print_status(r: &Record) {
     let h = r
         .est_height_m
         .map_or("   -  ".to_string(), |h| format!("{h:6.2}"));
-    println!(
+    say!(
         "t {:6.1} s | roll/pitch/yaw est {:7.1} {:6.1} {:7.1} true {:7.1} {:6.1} {:7.1} | err {:5.2}° | height est {} m true {:6.2} m",
         r.t_s,
         e[0],
@@ -303,35 +449,55 @@ fn print_status(r: &Record) {
     );
 }
 
-/// Scores the records after a 1 s settling time.
-pub fn summarize(records: &[Record], wall_s: f64) -> Summary {
-    let mut s = Summary {
-        wall_s,
-        ..Summary::default()
-    };
-    let (mut a2, mut h2, mut i2, mut z2, mut nz) = (0.0, 0.0, 0.0, 0.0, 0usize);
-    let (mut v2, mut nv) = (0.0, 0usize);
-    for r in records.iter().filter(|r| r.t_s >= 1.0) {
+/// Scores records as they come, after a 1 s settling time.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Scorer {
+    attitude_sq: f64,
+    heading_sq: f64,
+    inclination_sq: f64,
+    attitude_max_deg: f64,
+    height_sq: f64,
+    heights: usize,
+    vspeed_sq: f64,
+    vspeeds: usize,
+    samples: usize,
+}
+
+impl Scorer {
+    /// Adds one record.
+    pub fn push(&mut self, r: &Record) {
+        if r.t_s < 1.0 {
+            return;
+        }
         let (t, h, i) = attitude_errors(&r.est, &r.truth);
-        a2 += t * t;
-        h2 += h * h;
-        i2 += i * i;
-        s.attitude_max_deg = s.attitude_max_deg.max(t.to_degrees());
-        s.samples += 1;
+        self.attitude_sq += t * t;
+        self.heading_sq += h * h;
+        self.inclination_sq += i * i;
+        self.attitude_max_deg = self.attitude_max_deg.max(t.to_degrees());
+        self.samples += 1;
         if let Some(eh) = r.est_height_m {
-            z2 += (eh - r.true_height_m).powi(2);
-            nz += 1;
+            self.height_sq += (eh - r.true_height_m).powi(2);
+            self.heights += 1;
         }
         if let Some(ev) = r.est_vspeed_mps {
-            v2 += (ev - r.true_vspeed_mps).powi(2);
-            nv += 1;
+            self.vspeed_sq += (ev - r.true_vspeed_mps).powi(2);
+            self.vspeeds += 1;
         }
     }
-    let n = s.samples.max(1) as f64;
-    s.attitude_rms_deg = (a2 / n).sqrt().to_degrees();
-    s.heading_rms_deg = (h2 / n).sqrt().to_degrees();
-    s.inclination_rms_deg = (i2 / n).sqrt().to_degrees();
-    s.height_rms_m = (z2 / nz.max(1) as f64).sqrt();
-    s.vspeed_rms_mps = (v2 / nv.max(1) as f64).sqrt();
-    s
+
+    /// The scores so far (`wall_s` left at 0).
+    pub fn summary(&self) -> Summary {
+        let rms = |sq: f64, n: usize| (sq / n.max(1) as f64).sqrt();
+        Summary {
+            attitude_rms_deg: rms(self.attitude_sq, self.samples).to_degrees(),
+            heading_rms_deg: rms(self.heading_sq, self.samples).to_degrees(),
+            inclination_rms_deg: rms(self.inclination_sq, self.samples).to_degrees(),
+            attitude_max_deg: self.attitude_max_deg,
+            height_rms_m: rms(self.height_sq, self.heights),
+            vspeed_rms_mps: rms(self.vspeed_sq, self.vspeeds),
+            samples: self.samples,
+            missed: 0,
+            wall_s: 0.0,
+        }
+    }
 }

@@ -13,6 +13,7 @@
 //!   → calibration → mounting → AHRS → vertical estimator → controllers),
 //!   called in the same order as the firmware's `imu` and `baro` tasks.
 
+use super::console::note;
 use super::mag::Mag;
 use calibration::{
     AccelCalibration, AccelSixPosition, AccelSixPositionConfig, EllipsoidFit, EllipsoidFitConfig,
@@ -183,7 +184,7 @@ pub fn calibrate_mag_on_dance(base: &SimConfig, duration_s: f64) -> Result<MagCa
             rms_error: Some(sol.rms_error),
         }),
         Err(e) => {
-            eprintln!("ellipsoid fit failed ({e:?}), falling back to min/max");
+            note!("ellipsoid fit failed ({e:?}), falling back to min/max");
             let calibration = minmax.finish().map_err(|e| format!("min/max: {e:?}"))?;
             Ok(MagCalRun {
                 raw_mpu_ut: raw,

@@ -1,227 +1,627 @@
 //! `replay`: run recorded IMU data (BROAD CSV format) through the AHRS and score it.
+//!
+//! `replay --help` lists the options. Exit status: 0 every file replayed,
+//! 1 at least one file failed (the others are still replayed and the mean is
+//! over those), 2 bad arguments (nothing was read). A closed stdout is not
+//! an error: the table stops, the `--out` files are still written.
 
-use replay::{parse_csv, run, score, FilterKind, Mode, Score};
-use std::io::Write;
+mod console;
+
+use clap::Parser;
+use console::{note, say};
+use replay::{read, run, score, FilterKind, Mode, ReadOptions, Recording, Score};
+use std::fs::File;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-const HELP: &str = "\
-replay — run CSV IMU recordings through the fc-ahrs Madgwick filter and score them
-
-USAGE:
-    replay [OPTIONS] FILE.csv [FILE.csv ...]
+const ABOUT: &str = "\
+Run CSV IMU recordings through the fc-ahrs Madgwick filter and score them.
 
 CSV columns (header line, named): t_s, gyr_{x,y,z}_rad_s, acc_{x,y,z}_m_s2, mag_{x,y,z}_ut,
 optional ref_q{w,x,y,z} (sensor relative to ENU; nan = none) and moving (0/1).
 Where a reference exists, prints BROAD-style RMS errors (deg) over moving rows with a valid
-reference, per file and the mean over files.
+reference, per file and the mean over files.";
 
-OPTIONS:
-    --filter f32|fixed          implementation (default f32)
-    --mode imu|marg             sensors to fuse (default marg)
-    --beta RAD_S                Madgwick gain β (default from fc_ahrs::Config::DEFAULT)
-    --beta-mag RAD_S            magnetometer (heading) gain
-    --startup-beta RAD_S        start-up gain
-    --startup-s S               start-up ramp duration (0 = off)
-    --heading-only              magnetometer corrects heading only
-    --no-heading-only           magnetometer corrects inclination too (default)
-    --no-bias-est               disable gyro bias estimation at rest
-    --rest-gyro RAD_S           rest threshold on |ω|
-    --rest-time S               minimum rest duration before the bias is updated
-    --bias-tau S                bias averaging time constant
-    --accel-rejection           enable accelerometer rejection (off by default)
-    --no-accel-rejection        disable accelerometer rejection
-    --accel-norm-tol FRAC       accel norm tolerance (fraction of g)
-    --accel-angle DEG           accel error angle threshold
-    --accel-recovery S          accel rejection recovery timeout
-    --no-mag-rejection          disable magnetic disturbance rejection
-    --mag-norm-tol FRAC         field strength tolerance (fraction)
-    --mag-dip-tol DEG           dip angle tolerance
-    --mag-recovery S            time a new stable field needs (while rotating) to be adopted
-    --gyro-scale-tol FRAC       gyro scale-factor tolerance behind the heading gain schedule
-                                (default 0.03; 0 = constant gains)
-    --gyro-scale-tau S          time constant of the mean vertical rate for that schedule
-    --out FILE                  write q_enu_from_sensor per row (t_s,qw,qx,qy,qz); with several
-                                inputs, FILE gets the input's stem appended (FILE_stem.csv)
-    -h, --help                  this text
-";
+const AFTER: &str = "\
+Input rules: t_s in seconds, finite, strictly increasing, 50 µs..0.5 s between rows;
+samples finite and within ±40 rad/s, ±160 m/s², ±5000 µT (--skip-invalid skips
+such rows and counts them); the header repeated starts a new segment (the filter
+restarts); a last line cut short is dropped with a warning; at least 2 rows.";
 
-struct Args {
-    files: Vec<String>,
+/// Command-line options (see `--help`).
+#[derive(Parser, Debug)]
+#[command(name = "replay", version, about = ABOUT, after_help = AFTER, allow_negative_numbers = true)]
+struct Cli {
+    /// Recordings to replay (`-` = stdin, once).
+    #[arg(value_name = "FILE.csv", required = true)]
+    files: Vec<PathBuf>,
+    /// Filter implementation: f32 or fixed point, the full filter or
+    /// Madgwick's 2010 filter as published (`textbook`, `textbook-fixed`).
+    #[arg(long, value_name = "KIND", default_value = "f32",
+          value_parser = clap::builder::PossibleValuesParser::new(FilterKind::NAMES))]
+    filter: String,
+    /// Sensors to fuse.
+    #[arg(long, value_enum, default_value = "marg")]
+    mode: ModeArg,
+    /// Madgwick gain β, rad/s, >= 0 [default: fc_ahrs::Config::DEFAULT].
+    #[arg(long, value_name = "RAD_S", value_parser = at_least(0.0))]
+    beta: Option<f32>,
+    /// Magnetometer (heading) gain, rad/s, >= 0.
+    #[arg(long, value_name = "RAD_S", value_parser = at_least(0.0))]
+    beta_mag: Option<f32>,
+    /// Start-up gain, rad/s, >= 0.
+    #[arg(long, value_name = "RAD_S", value_parser = at_least(0.0))]
+    startup_beta: Option<f32>,
+    /// Start-up ramp duration, s, >= 0 (0 = off).
+    #[arg(long, value_name = "S", value_parser = at_least(0.0))]
+    startup_s: Option<f32>,
+    /// Time constant of each of the two earth-frame low-pass stages the
+    /// accelerometer's tilt correction goes through, s, > 0.
+    #[arg(long, value_name = "S", value_parser = above(0.0))]
+    tilt_tau: Option<f32>,
+    /// Disable gyro bias estimation at rest.
+    #[arg(long)]
+    no_bias_est: bool,
+    /// Rest threshold on |ω|, rad/s, > 0.
+    #[arg(long, value_name = "RAD_S", value_parser = above(0.0))]
+    rest_gyro: Option<f32>,
+    /// Minimum rest before the bias is updated, s, >= 0.
+    #[arg(long, value_name = "S", value_parser = at_least(0.0))]
+    rest_time: Option<f32>,
+    /// Bias averaging time constant, s, > 0.
+    #[arg(long, value_name = "S", value_parser = above(0.0))]
+    bias_tau: Option<f32>,
+    /// Enable accelerometer rejection.
+    #[arg(long, overrides_with = "no_accel_rejection")]
+    accel_rejection: bool,
+    /// Disable accelerometer rejection.
+    #[arg(long)]
+    no_accel_rejection: bool,
+    /// Accelerometer norm tolerance, fraction of g, in (0, 1].
+    #[arg(long, value_name = "FRAC", value_parser = fraction)]
+    accel_norm_tol: Option<f32>,
+    /// Accelerometer error angle threshold, degrees, > 0.
+    #[arg(long, value_name = "DEG", value_parser = above(0.0))]
+    accel_angle: Option<f32>,
+    /// Accelerometer rejection recovery timeout, s, >= 0.
+    #[arg(long, value_name = "S", value_parser = at_least(0.0))]
+    accel_recovery: Option<f32>,
+    /// Disable magnetic disturbance rejection.
+    #[arg(long)]
+    no_mag_rejection: bool,
+    /// Field strength tolerance, fraction, in (0, 1].
+    #[arg(long, value_name = "FRAC", value_parser = fraction)]
+    mag_norm_tol: Option<f32>,
+    /// Dip angle tolerance, degrees, > 0.
+    #[arg(long, value_name = "DEG", value_parser = above(0.0))]
+    mag_dip_tol: Option<f32>,
+    /// Time a new stable field needs (while rotating) to be adopted, s, >= 0.
+    #[arg(long, value_name = "S", value_parser = at_least(0.0))]
+    mag_recovery: Option<f32>,
+    /// Gyro scale-factor tolerance behind the heading gain schedule, fraction
+    /// in [0, 1] (0 = constant gains).
+    #[arg(long, value_name = "FRAC", value_parser = at_least(0.0))]
+    gyro_scale_tol: Option<f32>,
+    /// Time constant of the mean vertical rate for that schedule, s, > 0.
+    #[arg(long, value_name = "S", value_parser = above(0.0))]
+    gyro_scale_tau: Option<f32>,
+    /// Skip rows with a non-finite or out-of-range sample (counted) instead of failing.
+    #[arg(long)]
+    skip_invalid: bool,
+    /// Write q_enu_from_sensor per row (t_s,qw,qx,qy,qz); `-` = stdout (one
+    /// input). With several inputs FILE is a prefix: FILE_<input>.csv, named
+    /// from each input's path so no two collide. Never an input; folders are created.
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum ModeArg {
+    /// Gyro + accelerometer.
+    Imu,
+    /// Gyro + accelerometer + magnetometer.
+    Marg,
+}
+
+fn finite(s: &str) -> Result<f32, String> {
+    s.parse::<f32>()
+        .ok()
+        .filter(|x| x.is_finite())
+        .ok_or_else(|| format!("`{s}` is not a finite number"))
+}
+
+fn at_least(lo: f32) -> impl Fn(&str) -> Result<f32, String> + Clone {
+    move |s| {
+        let v = finite(s)?;
+        if v < lo {
+            return Err(format!("{v} is below {lo}"));
+        }
+        Ok(v)
+    }
+}
+
+fn above(lo: f32) -> impl Fn(&str) -> Result<f32, String> + Clone {
+    move |s| {
+        let v = finite(s)?;
+        if v <= lo {
+            return Err(format!("{v} must be greater than {lo}"));
+        }
+        Ok(v)
+    }
+}
+
+fn fraction(s: &str) -> Result<f32, String> {
+    let v = finite(s)?;
+    if !(v > 0.0 && v <= 1.0) {
+        return Err(format!("{v} is not in (0, 1]"));
+    }
+    Ok(v)
+}
+
+/// The filter configuration the options describe.
+fn config(cli: &Cli) -> fc_ahrs::Config {
+    let mut c = fc_ahrs::Config::DEFAULT;
+    let set = |slot: &mut f32, v: Option<f32>| {
+        if let Some(v) = v {
+            *slot = v;
+        }
+    };
+    set(&mut c.beta, cli.beta);
+    set(&mut c.beta_mag, cli.beta_mag);
+    set(&mut c.startup_beta, cli.startup_beta);
+    set(&mut c.startup_s, cli.startup_s);
+    set(&mut c.bias.rest_gyro_rps, cli.rest_gyro);
+    set(&mut c.bias.rest_time_s, cli.rest_time);
+    set(&mut c.bias.tau_s, cli.bias_tau);
+    set(&mut c.accel_rejection.norm_tol, cli.accel_norm_tol);
+    set(&mut c.accel_rejection.angle_deg, cli.accel_angle);
+    set(&mut c.accel_rejection.recovery_s, cli.accel_recovery);
+    set(&mut c.mag_rejection.norm_tol, cli.mag_norm_tol);
+    set(&mut c.mag_rejection.dip_tol_deg, cli.mag_dip_tol);
+    set(&mut c.mag_rejection.recovery_s, cli.mag_recovery);
+    set(&mut c.gyro_scale_tol, cli.gyro_scale_tol);
+    set(&mut c.gyro_scale_tau_s, cli.gyro_scale_tau);
+    set(&mut c.tilt_tau_s, cli.tilt_tau);
+    if cli.no_bias_est {
+        c.bias.enabled = false;
+    }
+    if cli.accel_rejection {
+        c.accel_rejection.enabled = true;
+    }
+    if cli.no_accel_rejection {
+        c.accel_rejection.enabled = false;
+    }
+    if cli.no_mag_rejection {
+        c.mag_rejection.enabled = false;
+    }
+    c
+}
+
+/// An opened output with its path (`-` = stdout).
+type Output = (PathBuf, Box<dyn Write>);
+
+/// One input with its output, checked and opened before any replay.
+struct Job {
+    input: PathBuf,
+    out: Option<Output>,
+}
+
+/// Everything validated: the jobs and the filter settings.
+struct Plan {
+    jobs: Vec<Job>,
     kind: FilterKind,
     mode: Mode,
     cfg: fc_ahrs::Config,
-    out: Option<String>,
+    read: ReadOptions,
 }
 
-fn parse_args(argv: &[String]) -> Result<Option<Args>, String> {
-    let mut a = Args {
-        files: Vec::new(),
-        kind: FilterKind::F32,
-        mode: Mode::Marg,
-        cfg: fc_ahrs::Config::DEFAULT,
-        out: None,
+fn is_stdio(p: &Path) -> bool {
+    p == Path::new("-")
+}
+
+/// `p` made absolute with its folder resolved, so two spellings of one
+/// file compare equal even before the file exists.
+fn canonical(p: &Path) -> PathBuf {
+    if let Ok(c) = p.canonicalize() {
+        return c;
+    }
+    let parent = p
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let dir = parent
+        .canonicalize()
+        .unwrap_or_else(|_| parent.to_path_buf());
+    p.file_name().map_or(dir.clone(), |n| dir.join(n))
+}
+
+/// A name for `input` unique among `all`: its file stem, or where stems
+/// collide, its whole path with separators as `_`.
+fn unique_name(input: &Path, all: &[PathBuf]) -> String {
+    let stem = |p: &Path| {
+        if is_stdio(p) {
+            "stdin".to_string()
+        } else {
+            p.file_stem()
+                .map_or_else(|| "input".into(), |s| s.to_string_lossy().into_owned())
+        }
     };
-    let mut it = argv.iter();
-    while let Some(arg) = it.next() {
-        let mut val = |name: &str| -> Result<String, String> {
-            it.next()
-                .cloned()
-                .ok_or_else(|| format!("option {name} needs a value"))
-        };
-        let num = |name: &str, v: String| -> Result<f32, String> {
-            v.parse::<f32>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| format!("option {name}: `{v}` is not a finite number"))
-        };
-        match arg.as_str() {
-            "-h" | "--help" => return Ok(None),
-            "--filter" => {
-                a.kind = match val(arg)?.as_str() {
-                    "f32" => FilterKind::F32,
-                    "fixed" => FilterKind::Fixed,
-                    v => return Err(format!("--filter: expected f32 or fixed, got `{v}`")),
-                }
-            }
-            "--mode" => {
-                a.mode = match val(arg)?.as_str() {
-                    "imu" => Mode::Imu,
-                    "marg" => Mode::Marg,
-                    v => return Err(format!("--mode: expected imu or marg, got `{v}`")),
-                }
-            }
-            "--beta" => a.cfg.beta = num(arg, val(arg)?)?,
-            "--beta-mag" => a.cfg.beta_mag = num(arg, val(arg)?)?,
-            "--startup-beta" => a.cfg.startup_beta = num(arg, val(arg)?)?,
-            "--startup-s" => a.cfg.startup_s = num(arg, val(arg)?)?,
-            "--no-heading-only" => a.cfg.mag_heading_only = false,
-            "--no-bias-est" => a.cfg.bias.enabled = false,
-            "--rest-gyro" => a.cfg.bias.rest_gyro_rps = num(arg, val(arg)?)?,
-            "--rest-time" => a.cfg.bias.rest_time_s = num(arg, val(arg)?)?,
-            "--bias-tau" => a.cfg.bias.tau_s = num(arg, val(arg)?)?,
-            "--no-accel-rejection" => a.cfg.accel_rejection.enabled = false,
-            "--accel-rejection" => a.cfg.accel_rejection.enabled = true,
-            "--heading-only" => a.cfg.mag_heading_only = true,
-            "--accel-norm-tol" => a.cfg.accel_rejection.norm_tol = num(arg, val(arg)?)?,
-            "--accel-angle" => a.cfg.accel_rejection.angle_deg = num(arg, val(arg)?)?,
-            "--accel-recovery" => a.cfg.accel_rejection.recovery_s = num(arg, val(arg)?)?,
-            "--no-mag-rejection" => a.cfg.mag_rejection.enabled = false,
-            "--mag-norm-tol" => a.cfg.mag_rejection.norm_tol = num(arg, val(arg)?)?,
-            "--mag-dip-tol" => a.cfg.mag_rejection.dip_tol_deg = num(arg, val(arg)?)?,
-            "--mag-recovery" => a.cfg.mag_rejection.recovery_s = num(arg, val(arg)?)?,
-            "--gyro-scale-tol" => a.cfg.gyro_scale_tol = num(arg, val(arg)?)?,
-            "--gyro-scale-tau" => a.cfg.gyro_scale_tau_s = num(arg, val(arg)?)?,
-            "--out" => a.out = Some(val(arg)?),
-            s if s.starts_with('-') => return Err(format!("unknown option `{s}` (see --help)")),
-            s => a.files.push(s.to_string()),
+    let mine = stem(input);
+    if all.iter().filter(|p| stem(p) == mine).count() <= 1 {
+        return mine;
+    }
+    let path = input.with_extension("");
+    path.components()
+        .filter_map(|c| match c {
+            std::path::Component::Normal(s) => Some(s.to_string_lossy().into_owned()),
+            std::path::Component::ParentDir => Some("up".into()),
+            _ => None,
+        })
+        .collect::<Vec<_>>()
+        .join("_")
+}
+
+fn out_path(base: &Path, input: &Path, all: &[PathBuf]) -> PathBuf {
+    if all.len() == 1 {
+        return base.to_path_buf();
+    }
+    let b = base.to_string_lossy();
+    let b = b.strip_suffix(".csv").unwrap_or(&b);
+    PathBuf::from(format!("{b}_{}.csv", unique_name(input, all)))
+}
+
+fn plan(cli: &Cli) -> Result<Plan, String> {
+    let kind = FilterKind::from_name(&cli.filter)
+        .ok_or_else(|| format!("--filter: unknown filter `{}`", cli.filter))?;
+    let mode = match cli.mode {
+        ModeArg::Imu => Mode::Imu,
+        ModeArg::Marg => Mode::Marg,
+    };
+    check_inputs(&cli.files)?;
+    let outs: Vec<Option<Output>> = match &cli.out {
+        None => cli.files.iter().map(|_| None).collect(),
+        Some(base) => open_outputs(base, &cli.files)?
+            .into_iter()
+            .map(Some)
+            .collect(),
+    };
+    let jobs = cli
+        .files
+        .iter()
+        .zip(outs)
+        .map(|(input, out)| Job {
+            input: input.clone(),
+            out,
+        })
+        .collect();
+    Ok(Plan {
+        jobs,
+        kind,
+        mode,
+        cfg: config(cli),
+        read: ReadOptions {
+            skip_invalid: cli.skip_invalid,
+        },
+    })
+}
+
+fn check_inputs(files: &[PathBuf]) -> Result<(), String> {
+    if files.iter().filter(|p| is_stdio(p)).count() > 1 {
+        return Err("`-` (stdin) can be given once".into());
+    }
+    let mut seen: Vec<PathBuf> = Vec::new();
+    for f in files.iter().filter(|p| !is_stdio(p)) {
+        let meta = std::fs::metadata(f).map_err(|e| format!("{}: {e}", f.display()))?;
+        if meta.is_dir() {
+            return Err(format!("{}: is a folder, not a recording", f.display()));
+        }
+        let c = canonical(f);
+        if seen.contains(&c) {
+            return Err(format!("{}: given twice", f.display()));
+        }
+        seen.push(c);
+    }
+    Ok(())
+}
+
+/// Creates every output (and its folders) now, refusing any that is an input.
+fn open_outputs(base: &Path, files: &[PathBuf]) -> Result<Vec<Output>, String> {
+    if is_stdio(base) {
+        if files.len() > 1 {
+            return Err("--out -: stdout takes the estimates of one input only".into());
+        }
+        console::use_stderr();
+        return Ok(vec![(base.to_path_buf(), Box::new(std::io::stdout()))]);
+    }
+    let inputs: Vec<PathBuf> = files.iter().map(|f| canonical(f)).collect();
+    let paths: Vec<PathBuf> = files.iter().map(|f| out_path(base, f, files)).collect();
+    check_distinct(&paths, files)?;
+    for p in &paths {
+        if inputs.contains(&canonical(p)) {
+            return Err(format!(
+                "--out {}: that is an input; refusing to overwrite a recording",
+                p.display()
+            ));
         }
     }
-    if a.files.is_empty() {
-        return Err("no input files (see --help)".into());
+    let mut outs: Vec<Output> = Vec::new();
+    for p in paths {
+        if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| format!("--out: creating folder {}: {e}", dir.display()))?;
+        }
+        let f = File::create(&p).map_err(|e| format!("--out {}: {e}", p.display()))?;
+        outs.push((p, Box::new(f)));
     }
-    Ok(Some(a))
+    Ok(outs)
 }
 
-fn out_path(base: &str, input: &str, several: bool) -> String {
-    if !several {
-        return base.to_string();
+/// Two inputs whose paths flatten to the same name (`a_b/x.csv`,
+/// `a/b/x.csv`) would share an output: refuse rather than overwrite.
+fn check_distinct(paths: &[PathBuf], files: &[PathBuf]) -> Result<(), String> {
+    for (i, p) in paths.iter().enumerate() {
+        if let Some(j) = paths[..i].iter().position(|q| canonical(q) == canonical(p)) {
+            return Err(format!(
+                "--out: inputs {} and {} would both write {}; replay them in separate runs",
+                files[j].display(),
+                files[i].display(),
+                p.display()
+            ));
+        }
     }
-    let stem = std::path::Path::new(input)
-        .file_stem()
-        .map_or_else(|| "out".to_string(), |s| s.to_string_lossy().into_owned());
-    let b = base.strip_suffix(".csv").unwrap_or(base);
-    format!("{b}_{stem}.csv")
+    Ok(())
 }
 
 fn main() -> ExitCode {
-    let argv: Vec<String> = std::env::args().skip(1).collect();
-    let args = match parse_args(&argv) {
-        Ok(Some(a)) => a,
-        Ok(None) => {
-            print!("{HELP}");
-            return ExitCode::SUCCESS;
-        }
+    let cli = Cli::parse();
+    let plan = match plan(&cli) {
+        Ok(p) => p,
         Err(e) => {
-            eprintln!("replay: {e}");
+            note!("replay: {e}");
             return ExitCode::from(2);
         }
     };
-    println!(
+    let failed = replay_all(plan);
+    if console::stdout_failed() {
+        note!("replay: writing to stdout failed");
+        return ExitCode::FAILURE;
+    }
+    if failed > 0 {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+/// Replays every job, reporting failures as it goes; returns how many failed.
+fn replay_all(plan: Plan) -> usize {
+    say!(
         "filter {:?}, mode {:?}, beta {}",
-        args.kind, args.mode, args.cfg.beta
+        plan.kind,
+        plan.mode,
+        plan.cfg.beta
     );
-    println!(
+    say!(
         "{:<40} {:>8} {:>9} {:>9} {:>9}",
-        "file", "rows", "total°", "heading°", "incl°"
+        "file",
+        "rows",
+        "total°",
+        "heading°",
+        "incl°"
     );
     let mut scores: Vec<Score> = Vec::new();
-    let several = args.files.len() > 1;
-    for file in &args.files {
-        let text = match std::fs::read_to_string(file) {
-            Ok(t) => t,
-            Err(e) => {
-                eprintln!("replay: {file}: {e}");
-                return ExitCode::FAILURE;
-            }
-        };
-        let samples = match parse_csv(&text) {
-            Ok(s) => s,
-            Err(e) => {
-                eprintln!("replay: {file}: {e}");
-                return ExitCode::FAILURE;
-            }
-        };
-        let est = run(&samples, args.kind, args.mode, &args.cfg);
-        if let Some(base) = &args.out {
-            let path = out_path(base, file, several);
-            if let Err(e) = write_out(&path, &samples, &est) {
-                eprintln!("replay: {path}: {e}");
-                return ExitCode::FAILURE;
-            }
-        }
-        let name = std::path::Path::new(file)
-            .file_stem()
-            .map_or_else(|| file.clone(), |s| s.to_string_lossy().into_owned());
-        match score(&samples, &est) {
-            Some(s) => {
-                println!(
+    let mut failed = Vec::new();
+    for job in plan.jobs {
+        let name = job.input.display().to_string();
+        match replay_one(job, plan.kind, plan.mode, &plan.cfg, plan.read) {
+            Ok((rows, Some(s))) => {
+                say!(
                     "{:<40} {:>8} {:>9.3} {:>9.3} {:>9.3}",
-                    name, s.rows, s.total_deg, s.heading_deg, s.inclination_deg
+                    name,
+                    rows,
+                    s.total_deg,
+                    s.heading_deg,
+                    s.inclination_deg
                 );
                 scores.push(s);
             }
-            None => println!("{:<40} {:>8} (no reference)", name, samples.len()),
+            Ok((rows, None)) => say!("{:<40} {:>8} (no reference to score against)", name, rows),
+            Err(e) => {
+                note!("replay: {name}: {e}");
+                failed.push(name);
+            }
         }
     }
-    if !scores.is_empty() {
-        let n = scores.len() as f64;
-        let m = |f: fn(&Score) -> f64| scores.iter().map(f).sum::<f64>() / n;
-        println!(
-            "{:<40} {:>8} {:>9.3} {:>9.3} {:>9.3}",
-            format!("MEAN over {} file(s)", scores.len()),
-            "",
-            m(|s| s.total_deg),
-            m(|s| s.heading_deg),
-            m(|s| s.inclination_deg)
+    print_mean(&scores);
+    if !failed.is_empty() {
+        note!(
+            "replay: {} file(s) failed, not in the mean: {}",
+            failed.len(),
+            failed.join(", ")
         );
     }
-    ExitCode::SUCCESS
+    failed.len()
+}
+
+fn print_mean(scores: &[Score]) {
+    if scores.is_empty() {
+        return;
+    }
+    let n = scores.len() as f64;
+    let m = |f: fn(&Score) -> f64| scores.iter().map(f).sum::<f64>() / n;
+    say!(
+        "{:<40} {:>8} {:>9.3} {:>9.3} {:>9.3}",
+        format!("MEAN over {} file(s)", scores.len()),
+        "",
+        m(|s| s.total_deg),
+        m(|s| s.heading_deg),
+        m(|s| s.inclination_deg)
+    );
+}
+
+fn read_input(path: &Path) -> Result<String, String> {
+    let mut text = String::new();
+    let res = if is_stdio(path) {
+        std::io::stdin().read_to_string(&mut text)
+    } else {
+        File::open(path).and_then(|mut f| f.read_to_string(&mut text))
+    };
+    res.map_err(|e| e.to_string())?;
+    Ok(text)
+}
+
+/// Reads, replays and scores one input, writing its estimates; on failure
+/// its output file is removed.
+fn replay_one(
+    job: Job,
+    kind: FilterKind,
+    mode: Mode,
+    cfg: &fc_ahrs::Config,
+    opts: ReadOptions,
+) -> Result<(usize, Option<Score>), String> {
+    let Job { input, out } = job;
+    let (samples, est) = match replay_recording(&input, kind, mode, cfg, opts) {
+        Ok(v) => v,
+        Err(e) => {
+            if let Some((p, _)) = &out {
+                if !is_stdio(p) {
+                    let _ = std::fs::remove_file(p);
+                }
+            }
+            return Err(e);
+        }
+    };
+    if let Some((path, w)) = out {
+        write_out(w, &samples, &est).map_err(|e| format!("--out {}: {e}", path.display()))?;
+    }
+    Ok((samples.len(), score(&samples, &est)))
+}
+
+/// The rows of every segment and the filter's estimate for each.
+fn replay_recording(
+    input: &Path,
+    kind: FilterKind,
+    mode: Mode,
+    cfg: &fc_ahrs::Config,
+    opts: ReadOptions,
+) -> Result<(Vec<replay::Sample>, Vec<fc_ahrs::Quaternion>), String> {
+    let text = read_input(input)?;
+    let rec = read(&text, opts).map_err(|e| e.to_string())?;
+    report(input, &rec);
+    let est = rec
+        .segments
+        .iter()
+        .flat_map(|s| run(&s.samples, kind, mode, cfg))
+        .collect();
+    let samples = rec
+        .segments
+        .iter()
+        .flat_map(|s| s.samples.iter().copied())
+        .collect();
+    Ok((samples, est))
+}
+
+fn report(input: &Path, rec: &Recording) {
+    for w in &rec.warnings {
+        note!("replay: {}: warning: {w}", input.display());
+    }
+    if rec.skipped_rows > 0 {
+        note!(
+            "replay: {}: skipped {} invalid row(s) of {}",
+            input.display(),
+            rec.skipped_rows,
+            rec.skipped_rows + rec.rows()
+        );
+    }
+    if rec.segments.len() > 1 {
+        note!(
+            "replay: {}: {} segments (header repeated), each replayed from a fresh filter",
+            input.display(),
+            rec.segments.len()
+        );
+    }
 }
 
 fn write_out(
-    path: &str,
+    w: Box<dyn Write>,
     samples: &[replay::Sample],
     est: &[fc_ahrs::Quaternion],
 ) -> std::io::Result<()> {
-    let f = std::fs::File::create(path)?;
-    let mut w = std::io::BufWriter::new(f);
-    writeln!(w, "t_s,qw,qx,qy,qz")?;
-    for (s, q) in samples.iter().zip(est) {
-        writeln!(
-            w,
-            "{:.6},{:.7},{:.7},{:.7},{:.7}",
-            s.t_s, q.w, q.x, q.y, q.z
-        )?;
+    let mut w = std::io::BufWriter::new(w);
+    let res = (|| {
+        writeln!(w, "t_s,qw,qx,qy,qz")?;
+        for (s, q) in samples.iter().zip(est) {
+            writeln!(
+                w,
+                "{:.6},{:.7},{:.7},{:.7},{:.7}",
+                s.t_s, q.w, q.x, q.y, q.z
+            )?;
+        }
+        w.flush()
+    })();
+    match res {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other,
     }
-    w.flush()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::{CommandFactory, Parser};
+    use proptest::prelude::*;
+
+    #[test]
+    fn the_argument_definitions_are_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    /// Option-like and value-like words.
+    fn word() -> impl Strategy<Value = String> {
+        prop_oneof![
+            Just("--duration".to_string()),
+            Just("--beta".to_string()),
+            Just("--fault".to_string()),
+            Just("--out".to_string()),
+            Just("--plot".to_string()),
+            Just("--filter".to_string()),
+            Just("-".to_string()),
+            Just("--".to_string()),
+            "-?[0-9.eE+-]{0,8}",
+            "--[a-z-]{1,14}(=[^\\x00]{0,8})?",
+            "[^\\x00]{0,12}",
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
+
+        /// Distinct inputs get distinct outputs, or the plan is refused.
+        #[test]
+        fn output_names_never_collide(
+            names in proptest::collection::btree_set("[ab_]{1,3}(/[ab_]{1,3}){0,2}", 2..6)
+        ) {
+            let files: Vec<std::path::PathBuf> =
+                names.iter().map(|n| format!("{n}.csv").into()).collect();
+            let outs: Vec<_> = files
+                .iter()
+                .map(|f| super::out_path(std::path::Path::new("q.csv"), f, &files))
+                .collect();
+            if super::check_distinct(&outs, &files).is_ok() {
+                let set: std::collections::BTreeSet<_> = outs.iter().collect();
+                prop_assert_eq!(set.len(), outs.len());
+            }
+            for o in &outs {
+                prop_assert!(!files.contains(o));
+            }
+        }
+
+        /// Whatever the command line, parsing gives options or an error, never a panic.
+        #[test]
+        fn any_command_line_parses_or_errs(args in proptest::collection::vec(word(), 0..8)) {
+            let argv = std::iter::once("prog".to_string()).chain(args);
+            let _ = Cli::try_parse_from(argv);
+        }
+    }
 }

@@ -1,0 +1,1277 @@
+//! The emulated Blue Pill: memory map, MMIO dispatch to the peripheral
+//! models, the run loop (instruction-count slices with interrupts delivered
+//! between them), resets, RTT and the test/CLI API.
+//!
+//! Time: the board retires one instruction per 72 MHz cycle (13.9 ns), so
+//! simulated time, SysTick and DWT CYCCNT are instruction counts. A real
+//! Cortex-M3 with two flash wait states takes more cycles for the same
+//! code: logged cycle figures are lower bounds, CPU loads likewise.
+
+use crate::elf::{Firmware, FLASH_BASE, FLASH_SIZE};
+use crate::exceptions;
+use crate::exti::{irq_of_line, Exti};
+use crate::flash::{Flash, FlashEffect};
+use crate::gpio::{Afio, PinConfig, Port};
+use crate::i2c1::{I2c1, PinMode};
+use crate::iwdg::{Iwdg, LSI_NOMINAL_HZ};
+use crate::rcc::{Rcc, ResetCause};
+use crate::rtt::{LogLine, RttHost, RttMode, TargetMemory};
+use crate::scs::{Dwt, Nvic, SysTick, IRQ0, SYSTICK};
+use std::path::Path;
+use unicorn_engine::unicorn_const::{uc_error, Arch, Mode, Prot};
+use unicorn_engine::{ArmCpuModel, RegisterARM, Unicorn};
+
+/// CPU clock (the firmware's configuration; checked when it switches SYSCLK).
+pub const CPU_HZ: u64 = 72_000_000;
+/// SRAM base and size of the STM32F103C8 (20 KiB).
+pub const RAM_BASE: u32 = 0x2000_0000;
+/// SRAM size.
+pub const RAM_SIZE: u32 = 20 * 1024;
+const PERIPH_BASE: u32 = 0x4000_0000;
+const PERIPH_SIZE: u32 = 0x3_0000;
+const PERIPH_BB: u32 = 0x4200_0000;
+const RAM_BB: u32 = 0x2200_0000;
+const PPB_BASE: u32 = 0xE000_0000;
+const PPB_SIZE: u32 = 0x10_0000;
+/// Longest slice between two looks at interrupts (≈ 0.28 ms).
+const MAX_SLICE: u64 = 20_000;
+/// Slice length while an interrupt is pending but masked, so that a
+/// BASEPRI/PRIMASK release is seen within ~7 µs (unicorn has no hook on
+/// MSR/CPSIE; a per-instruction hook would cost more than this latency).
+const MASKED_SLICE: u64 = 500;
+/// How often the host polls RTT (simulated), like a probe's poll loop.
+const RTT_POLL_NS: u64 = 1_000_000;
+/// EXTI9_5's exception number (the MPU-9250 INT on PB5).
+pub const EXTI9_5: usize = IRQ0 + 23;
+
+/// Simulated ns for `cycles` at 72 MHz.
+pub fn cycles_to_ns(cycles: u64) -> u64 {
+    cycles * 125 / 9
+}
+/// Cycles at 72 MHz for `ns`, rounded up.
+pub fn ns_to_cycles(ns: u64) -> u64 {
+    (ns * 9).div_ceil(125)
+}
+
+/// What stops the emulated board.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum BoardError {
+    /// A register the board does not model was accessed.
+    Unmodelled {
+        /// Address.
+        addr: u32,
+        /// Value written (`None`: a read).
+        write: Option<u32>,
+        /// Access size in bytes.
+        size: usize,
+        /// PC of the block doing it.
+        pc: u32,
+    },
+    /// A peripheral was accessed with its RCC clock disabled (reads 0 and
+    /// ignores writes on silicon: always a firmware bug).
+    ClockDisabled {
+        /// Which peripheral.
+        peripheral: &'static str,
+        /// Address.
+        addr: u32,
+        /// PC.
+        pc: u32,
+    },
+    /// The CPU stopped on an emulation error (unmapped or protected access).
+    Cpu(String),
+    /// A core feature the board does not model.
+    Unsupported(String),
+    /// A flash access the controller answers with a bus error.
+    FlashBusError(&'static str),
+    /// An exception frame outside RAM (stack overflow).
+    StackOutsideRam {
+        /// Address.
+        sp: u32,
+    },
+    /// The firmware configured a clock tree other than the one the time
+    /// base assumes.
+    Clock(String),
+    /// The firmware ELF could not be used.
+    Elf(String),
+}
+
+impl std::fmt::Display for BoardError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Unmodelled {
+                addr,
+                write,
+                size,
+                pc,
+            } => match write {
+                Some(v) => write!(
+                    f,
+                    "write of {v:#x} ({size} B) to unmodelled register {addr:#010x} (pc {pc:#010x})"
+                ),
+                None => write!(
+                    f,
+                    "read ({size} B) of unmodelled register {addr:#010x} (pc {pc:#010x})"
+                ),
+            },
+            Self::ClockDisabled {
+                peripheral,
+                addr,
+                pc,
+            } => write!(
+                f,
+                "{peripheral} accessed at {addr:#010x} with its RCC clock disabled (pc {pc:#010x})"
+            ),
+            Self::Cpu(e) => write!(f, "CPU stopped: {e}"),
+            Self::Unsupported(e) => write!(f, "not modelled: {e}"),
+            Self::FlashBusError(e) => write!(f, "flash bus error: {e}"),
+            Self::StackOutsideRam { sp } => write!(f, "exception frame at {sp:#010x} outside RAM"),
+            Self::Clock(e) => write!(f, "clock configuration: {e}"),
+            Self::Elf(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for BoardError {}
+
+/// Something that happened to the board (not printed by the firmware).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BoardEvent {
+    /// Simulated time (ns).
+    pub time_ns: u64,
+    /// What.
+    pub what: String,
+}
+
+/// Faults outside the simulator's chip models.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BoardFault {
+    /// The MPU-9250 INT line stops toggling (PB5 held low).
+    ImuIntStops,
+    /// The MPU-9250 INT line works again.
+    ImuIntRestored,
+    /// The host stops reading RTT (a closed `cargo embed`).
+    RttReaderStops,
+    /// The host reads RTT again.
+    RttReaderResumes,
+    /// The button on PA0 is pressed (`true`) or released.
+    Button(bool),
+    /// A fault of the I2C1 peripheral itself (errata BUSY lock-up of the
+    /// analog filter, spurious BERR).
+    I2c(crate::i2c1::PeripheralFault),
+}
+
+/// A translated block's size in bytes, instruction count, and whether it
+/// is an idle loop.
+#[derive(Clone, Copy, Debug, Default)]
+struct BlockInfo {
+    size: u32,
+    insns: u32,
+    idle: bool,
+}
+
+/// The state behind the CPU: every peripheral model and the board's wiring.
+pub struct Hw {
+    /// Instructions retired since power-on (the time base).
+    pub cycles: u64,
+    slice_end: u64,
+    first_block: bool,
+    exc_return: Option<u32>,
+    cpu_fault: Option<(u32, u32)>,
+    error: Option<BoardError>,
+    /// NVIC and SCB.
+    pub nvic: Nvic,
+    systick: SysTick,
+    dwt: Dwt,
+    rcc: Rcc,
+    /// Flash memory and controller.
+    pub flash: Flash,
+    ports: [Port; 3],
+    afio: Afio,
+    exti: Exti,
+    iwdg: Iwdg,
+    i2c: I2c1,
+    clock: sim::SimClock,
+    tail_base: u32,
+    blocks: Vec<BlockInfo>,
+    /// Exception entries per exception number since power-on.
+    pub entries: Vec<u64>,
+    dbgmcu_cr: u32,
+    button_pressed: bool,
+    imu_int_cut: bool,
+    stall_ns: u64,
+    code_changed: bool,
+    last_poll: Option<(u32, u16, u64)>,
+    /// A register access in this slice may have moved the next event.
+    resched: bool,
+}
+
+impl Hw {
+    fn now_ns(&self) -> u64 {
+        cycles_to_ns(self.cycles)
+    }
+
+    fn fail(&mut self, e: BoardError) {
+        if self.error.is_none() {
+            self.error = Some(e);
+        }
+    }
+
+    fn sync_clock(&self) {
+        self.clock.advance_to_ns(self.now_ns());
+    }
+
+    /// Level of a GPIO pin including what the board drives onto it.
+    fn pin_level(&mut self, port: usize, pin: u32) -> bool {
+        let now = self.now_ns();
+        let external = match (port, pin) {
+            (0, 0) => self.button_pressed.then_some(false),
+            (1, 5) => {
+                self.sync_clock();
+                let high = !self.imu_int_cut && {
+                    let s = self.i2c.bus().state();
+                    s.mpu.int_pin_high(now)
+                };
+                Some(high)
+            }
+            (1, 6) if self.afio.mapr & 2 == 0 => {
+                self.sync_clock();
+                return self.i2c.scl_high(now);
+            }
+            (1, 7) if self.afio.mapr & 2 == 0 => {
+                self.sync_clock();
+                return self.i2c.sda_high(now);
+            }
+            _ => None,
+        };
+        self.ports[port].level(pin, external)
+    }
+
+    fn idr(&mut self, port: usize) -> u32 {
+        (0..16).fold(0, |v, pin| {
+            v | (u32::from(self.pin_level(port, pin)) << pin)
+        })
+    }
+
+    fn pin_mode(&self, pin: u32) -> PinMode {
+        let p = &self.ports[1];
+        let high = p.odr & (1 << pin) != 0;
+        match p.config(pin) {
+            PinConfig::Alternate { .. } => PinMode::AlternateOpenDrain,
+            PinConfig::Output { open_drain: true } => PinMode::GpioOutputOpenDrain { high },
+            PinConfig::Output { open_drain: false } => PinMode::GpioOutputPushPull { high },
+            _ => PinMode::Input,
+        }
+    }
+
+    fn update_i2c_pins(&mut self) {
+        let (scl, sda) = (self.pin_mode(6), self.pin_mode(7));
+        let now = self.now_ns();
+        self.sync_clock();
+        self.i2c.set_pins(scl, sda, now);
+    }
+
+    /// Samples the EXTI-selected pins (edges latch pending bits).
+    fn sample_exti(&mut self) {
+        for line in 0..16 {
+            let port = self.afio.exti_port(line) as usize;
+            if port < 3 {
+                let level = self.pin_level(port, line);
+                self.exti.input(line, level);
+            }
+        }
+    }
+
+    fn clock_enabled(&self, addr: u32) -> Option<&'static str> {
+        let (name, on) = match addr {
+            0x4001_0000..=0x4001_03FF => ("AFIO", self.rcc.apb2enr & 1 != 0),
+            0x4001_0800..=0x4001_0BFF => ("GPIOA", self.rcc.apb2enr & (1 << 2) != 0),
+            0x4001_0C00..=0x4001_0FFF => ("GPIOB", self.rcc.apb2enr & (1 << 3) != 0),
+            0x4001_1000..=0x4001_13FF => ("GPIOC", self.rcc.apb2enr & (1 << 4) != 0),
+            0x4000_5400..=0x4000_57FF => ("I2C1", self.rcc.apb1enr & (1 << 21) != 0),
+            _ => return None,
+        };
+        (!on).then_some(name)
+    }
+
+    /// Word-register read (`None`: not modelled).
+    fn periph_read(&mut self, a: u32) -> Option<u32> {
+        let now = self.now_ns();
+        match a {
+            0x4000_3000..=0x4000_33FF => self.iwdg.read(a - 0x4000_3000, now),
+            0x4000_5400..=0x4000_5420 => {
+                self.sync_clock();
+                let off = a - 0x4000_5400;
+                self.resched = true;
+                let v = self.i2c.read(off, now);
+                self.skip_idle_poll(off, v);
+                Some(u32::from(v))
+            }
+            0x4001_0000..=0x4001_03FF => self.afio.read(a - 0x4001_0000),
+            0x4001_0400..=0x4001_07FF => self.exti.read(a - 0x4001_0400),
+            0x4001_0800..=0x4001_13FF => {
+                let port = ((a - 0x4001_0800) / 0x400) as usize;
+                let off = (a - 0x4001_0800) % 0x400;
+                let idr = if off == 8 { self.idr(port) } else { 0 };
+                self.ports[port].read(off, || idr)
+            }
+            0x4002_1000..=0x4002_13FF => self.rcc.read(a - 0x4002_1000, now),
+            0x4002_2000..=0x4002_23FF => self.flash.read(a - 0x4002_2000),
+            0xE000_1000..=0xE000_1FFF => self.dwt.read(a - 0xE000_1000, self.cycles),
+            0xE000_E010..=0xE000_E01F => self.systick.read(a - 0xE000_E010, self.cycles),
+            0xE000_EDF0 => Some(0), // DHCSR: no debugger halting
+            0xE000_EDFC => Some(self.dwt.demcr()),
+            0xE000_E000..=0xE000_EFFF => self.nvic.read(a - 0xE000_E000),
+            0xE004_2000 => Some(0x2003_6410), // DBGMCU_IDCODE: medium density
+            0xE004_2004 => Some(self.dbgmcu_cr),
+            _ => None,
+        }
+    }
+
+    /// Word-register write with byte-lane `mask`; false if not modelled.
+    fn periph_write(&mut self, a: u32, v: u32, mask: u32) -> bool {
+        let now = self.now_ns();
+        let merged = |old: u32| (old & !mask) | (v & mask);
+        match a {
+            0x4000_3000..=0x4000_33FF => match self.iwdg.write(a - 0x4000_3000, v & mask, now) {
+                Some(started) => {
+                    if started {
+                        self.rcc.force_lsi(now);
+                    }
+                    true
+                }
+                None => false,
+            },
+            0x4000_5400..=0x4000_5420 => {
+                self.sync_clock();
+                let value = if mask & 0xFFFF == 0 {
+                    0
+                } else {
+                    (v & mask) as u16
+                };
+                self.i2c.write(a - 0x4000_5400, value, now);
+                true
+            }
+            0x4001_0000..=0x4001_03FF => {
+                let ok = self.afio.write(a - 0x4001_0000, v, mask);
+                if self.afio.mapr & 2 != 0 {
+                    self.fail(BoardError::Unsupported(
+                        "I2C1 remapped to PB8/PB9 (AFIO_MAPR.I2C1_REMAP)".into(),
+                    ));
+                }
+                ok
+            }
+            0x4001_0400..=0x4001_07FF => self.exti.write(a - 0x4001_0400, v, mask),
+            0x4001_0800..=0x4001_13FF => {
+                let port = ((a - 0x4001_0800) / 0x400) as usize;
+                let ok = self.ports[port].write((a - 0x4001_0800) % 0x400, v, mask);
+                if port == 1 {
+                    self.update_i2c_pins();
+                }
+                ok
+            }
+            0x4002_1000..=0x4002_13FF => {
+                let old_rst = self.rcc.apb1rstr;
+                let old2 = self.rcc.apb2rstr;
+                let off = a - 0x4002_1000;
+                let current = self.rcc.read(off, now).unwrap_or(0);
+                match self.rcc.write(off, merged(current), now) {
+                    None => return false,
+                    Some(Err(e)) => self.fail(BoardError::Clock(e)),
+                    Some(Ok(())) => {}
+                }
+                if self.rcc.apb1rstr & (1 << 21) != 0 && old_rst & (1 << 21) == 0 {
+                    self.i2c.peripheral_reset();
+                }
+                for (bit, port) in [(2, 0), (3, 1), (4, 2)] {
+                    if self.rcc.apb2rstr & (1 << bit) != 0 && old2 & (1 << bit) == 0 {
+                        self.ports[port] = Port::default();
+                    }
+                }
+                if self.rcc.apb2rstr & 1 != 0 {
+                    self.afio = Afio::default();
+                }
+                true
+            }
+            0x4002_2000..=0x4002_23FF => match self.flash.write(a - 0x4002_2000, v & mask) {
+                Some(effect) => {
+                    self.flash_effect(effect);
+                    true
+                }
+                None => false,
+            },
+            0xE000_1000..=0xE000_1FFF => self.dwt.write(a - 0xE000_1000, merged(0), self.cycles),
+            0xE000_E010..=0xE000_E01F => self.systick.write(a - 0xE000_E010, v & mask, self.cycles),
+            0xE000_EDF0..=0xE000_EDF8 => true, // DHCSR/DCRSR/DCRDR: debugger side
+            0xE000_EDFC => {
+                let d = merged(self.dwt.demcr());
+                self.dwt.set_demcr(d, self.cycles);
+                true
+            }
+            0xE000_E000..=0xE000_EFFF => self.nvic.write(a - 0xE000_E000, v, mask),
+            0xE004_2004 => {
+                self.dbgmcu_cr = merged(self.dbgmcu_cr);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// A tight loop polling an unchanged I2C1 status or control register
+    /// (the same value read again within a few instructions) would only
+    /// spin until the peripheral's next bus event: skip to that event. Time
+    /// (and so DWT timeouts) stays exact; only the loop's iteration count
+    /// shrinks.
+    fn skip_idle_poll(&mut self, off: u32, v: u16) {
+        const POLL_WINDOW: u64 = 40;
+        let same = self.last_poll.is_some_and(|(o, pv, c)| {
+            o == off && pv == v && self.cycles.saturating_sub(c) <= POLL_WINDOW
+        });
+        self.last_poll = Some((off, v, self.cycles));
+        if !same || !matches!(off, 0x00 | 0x14 | 0x18) {
+            return;
+        }
+        if let Some(t) = self.i2c.next_event_ns() {
+            let target = ns_to_cycles(t).min(self.slice_end);
+            if target > self.cycles {
+                self.cycles = target;
+            }
+        }
+    }
+
+    fn flash_effect(&mut self, effect: FlashEffect) {
+        match effect {
+            FlashEffect::None => {}
+            FlashEffect::Stall { ns, changed } => {
+                self.stall_ns += ns;
+                if (changed.start as u32) < self.tail_base - FLASH_BASE {
+                    self.code_changed = true;
+                }
+            }
+            FlashEffect::BusError(e) => self.fail(BoardError::FlashBusError(e)),
+        }
+    }
+}
+
+/// Re-pends IRQs whose peripheral line is asserted (EXTI pending bits):
+/// an NVIC input that is still high after its handler returns pends again.
+pub fn refresh_irq_lines(hw: &mut Hw) {
+    // I2C1_EV (31) and I2C1_ER (32), RM0008 §26.4 table 122.
+    for (irq, on) in [(31, hw.i2c.event_irq()), (32, hw.i2c.error_irq())] {
+        if on && !hw.nvic.active.contains(&(IRQ0 + irq)) {
+            hw.nvic.pending[IRQ0 + irq] = true;
+        }
+    }
+    for line in 0..19 {
+        if let Some(irq) = irq_of_line(line) {
+            let n = IRQ0 + irq;
+            if hw.exti.irq_asserted(irq) && !hw.nvic.active.contains(&n) {
+                hw.nvic.pending[n] = true;
+            }
+        }
+    }
+}
+
+fn pc_of(uc: &Unicorn<'_, Hw>) -> u32 {
+    uc.reg_read(RegisterARM::PC).unwrap_or(0) as u32
+}
+
+fn lanes(addr: u64, size: usize) -> (u32, u32, u32) {
+    let shift = (addr as u32 & 3) * 8;
+    let m = match size {
+        1 => 0xFF,
+        2 => 0xFFFF,
+        _ => 0xFFFF_FFFF,
+    };
+    (addr as u32 & !3, shift, m << shift)
+}
+
+fn mmio_read(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize) -> u64 {
+    let (a, shift, mask) = lanes(u64::from(addr), size);
+    let pc = pc_of(uc);
+    let hw = uc.get_data_mut();
+    if let Some(p) = hw.clock_enabled(addr) {
+        hw.fail(BoardError::ClockDisabled {
+            peripheral: p,
+            addr,
+            pc,
+        });
+        let _ = uc.emu_stop();
+        return 0;
+    }
+    match hw.periph_read(a) {
+        Some(v) => u64::from((v & mask) >> shift),
+        None => {
+            hw.fail(BoardError::Unmodelled {
+                addr,
+                write: None,
+                size,
+                pc,
+            });
+            let _ = uc.emu_stop();
+            0
+        }
+    }
+}
+
+fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
+    let (a, shift, mask) = lanes(u64::from(addr), size);
+    let pc = pc_of(uc);
+    let hw = uc.get_data_mut();
+    if let Some(p) = hw.clock_enabled(addr) {
+        hw.fail(BoardError::ClockDisabled {
+            peripheral: p,
+            addr,
+            pc,
+        });
+        let _ = uc.emu_stop();
+        return;
+    }
+    let pend_before = hw.nvic.pending;
+    let hw = uc.get_data_mut();
+    hw.resched = true;
+    if !hw.periph_write(a, (value as u32) << shift, mask) {
+        hw.fail(BoardError::Unmodelled {
+            addr,
+            write: Some(value as u32),
+            size,
+            pc,
+        });
+    }
+    // A write that pends an exception, stalls the CPU or resets ends the
+    // slice at the next block so the run loop acts on it at once. (Not
+    // `emu_stop` here: unicorn would re-execute the store on restart.)
+    if hw.error.is_some() {
+        let _ = uc.emu_stop();
+    } else if hw.stall_ns > 0
+        || hw.nvic.reset_requested
+        || hw.nvic.pending != pend_before
+        || hw.code_changed
+        || (0x4001_0400..0x4001_0800).contains(&a)
+    {
+        hw.slice_end = hw.cycles;
+    }
+}
+
+fn bitband_target(alias_base: u32, target_base: u32, off: u32) -> (u32, u32) {
+    let _ = alias_base;
+    (target_base + ((off >> 5) & !3), (off >> 2) & 31)
+}
+
+fn ram_bitband_read(uc: &mut Unicorn<'_, Hw>, off: u32) -> u64 {
+    let (addr, bit) = bitband_target(RAM_BB, RAM_BASE, off);
+    let mut b = [0u8; 4];
+    let _ = uc.mem_read(u64::from(addr), &mut b);
+    u64::from((u32::from_le_bytes(b) >> bit) & 1)
+}
+
+fn ram_bitband_write(uc: &mut Unicorn<'_, Hw>, off: u32, value: u64) {
+    let (addr, bit) = bitband_target(RAM_BB, RAM_BASE, off);
+    let mut b = [0u8; 4];
+    let _ = uc.mem_read(u64::from(addr), &mut b);
+    let mut w = u32::from_le_bytes(b);
+    if value & 1 != 0 {
+        w |= 1 << bit;
+    } else {
+        w &= !(1 << bit);
+    }
+    let _ = uc.mem_write(u64::from(addr), &w.to_le_bytes());
+}
+
+/// Instruction count of a Thumb-2 block and whether it is an idle loop
+/// (a branch to itself, optionally after NOPs/WFIs): first halfwords
+/// 0b11101, 0b11110 and 0b11111 start 32-bit instructions.
+fn scan_block(code: &[u8], addr: u32) -> (u32, bool) {
+    let hws: Vec<u16> = code
+        .chunks_exact(2)
+        .map(|c| u16::from_le_bytes([c[0], c[1]]))
+        .collect();
+    let mut n = 0;
+    let mut i = 0;
+    let mut last = (0usize, 1usize);
+    while i < hws.len() {
+        let wide = matches!(hws[i] >> 11, 0b11101..=0b11111);
+        last = (i, if wide { 2 } else { 1 });
+        i += last.1;
+        n += 1;
+    }
+    let (li, lw) = last;
+    let branch_to_start = match (lw, hws.get(li), hws.get(li + 1)) {
+        (1, Some(&h), _) if h >> 11 == 0b11100 => {
+            let imm = (i32::from(h & 0x7FF) << 21) >> 20;
+            (addr as i32 + 2 * li as i32 + 4 + imm) as u32 == addr
+        }
+        (2, Some(&0xF7FF), Some(&0xBFFE)) => li == 0,
+        _ => false,
+    };
+    let only_waits = hws[..li].iter().all(|&h| h == 0xBF00 || h == 0xBF30);
+    (n.max(1), branch_to_start && only_waits)
+}
+
+/// Builds the configuration of a board.
+#[derive(Clone, Debug)]
+pub struct BoardConfig {
+    /// The simulated world (its `bus_hz` is ignored: I2C1 times the bus).
+    pub sim: sim::SimConfig,
+    /// LSI frequency (the IWDG's clock; 30–60 kHz on real parts).
+    pub lsi_hz: u32,
+    /// RTT mode set on channel 0 at attach (`None`: leave the firmware's).
+    pub rtt_mode: Option<RttMode>,
+    /// Flash contents to start with instead of the ELF alone (e.g. with a
+    /// calibration page from an earlier run).
+    pub flash: Option<Vec<u8>>,
+    /// The HSE crystal oscillates.
+    pub hse_works: bool,
+}
+
+impl Default for BoardConfig {
+    fn default() -> Self {
+        let embed = std::fs::read_to_string(crate::elf::workspace_root().join("Embed.toml"))
+            .ok()
+            .and_then(|t| RttMode::from_embed_toml(&t));
+        Self {
+            sim: sim::SimConfig::default(),
+            lsi_hz: LSI_NOMINAL_HZ,
+            rtt_mode: embed,
+            flash: None,
+            hse_works: true,
+        }
+    }
+}
+
+/// The emulated board running a firmware image.
+pub struct Board {
+    uc: Unicorn<'static, Hw>,
+    bus: sim::SimBus,
+    rtt: RttHost,
+    lines: Vec<LogLine>,
+    events: Vec<BoardEvent>,
+    next_rtt_poll_ns: u64,
+    locked_up: bool,
+    resets: Vec<(u64, ResetCause)>,
+    csr: u32,
+}
+
+fn uc_err(e: uc_error) -> BoardError {
+    BoardError::Cpu(format!("{e:?}"))
+}
+
+impl Board {
+    /// Boots the release ELF at `path` (power-on reset).
+    pub fn from_elf(path: &Path, config: BoardConfig) -> Result<Self, BoardError> {
+        let fw = Firmware::load(path).map_err(|e| BoardError::Elf(e.to_string()))?;
+        Self::new(&fw, config)
+    }
+
+    /// Boots `fw` on a new board.
+    pub fn new(fw: &Firmware, config: BoardConfig) -> Result<Self, BoardError> {
+        let mut sim_cfg = config.sim.clone();
+        sim_cfg.bus_hz = None;
+        let clock = sim::SimClock::new();
+        let bus = sim::SimBus::new(&clock, sim_cfg);
+        let image = config.flash.clone().unwrap_or_else(|| fw.flash.clone());
+        if image.len() != FLASH_SIZE as usize {
+            return Err(BoardError::Elf(format!(
+                "flash image is {} bytes, not {FLASH_SIZE}",
+                image.len()
+            )));
+        }
+        let tail_base = fw
+            .image_end
+            .next_multiple_of(0x1000)
+            .min(FLASH_BASE + FLASH_SIZE);
+        let mut rcc = Rcc::new(ResetCause::PowerOn, 0);
+        rcc.hse_works = config.hse_works;
+        let hw = Hw {
+            cycles: 0,
+            slice_end: 0,
+            first_block: true,
+            exc_return: None,
+            cpu_fault: None,
+            error: None,
+            nvic: Nvic::default(),
+            systick: SysTick::default(),
+            dwt: Dwt::default(),
+            rcc,
+            flash: Flash::new(image),
+            ports: Default::default(),
+            afio: Afio::default(),
+            exti: Exti::default(),
+            iwdg: Iwdg::new(config.lsi_hz),
+            i2c: I2c1::new(bus.clone()),
+            clock,
+            tail_base,
+            blocks: vec![BlockInfo::default(); FLASH_SIZE as usize / 2],
+            entries: vec![0; crate::scs::EXCEPTIONS],
+            dbgmcu_cr: 0,
+            button_pressed: false,
+            imu_int_cut: false,
+            stall_ns: 0,
+            code_changed: false,
+            last_poll: None,
+            resched: false,
+        };
+        let mut uc =
+            Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, hw).map_err(uc_err)?;
+        uc.ctl_set_cpu_model(ArmCpuModel::CORTEX_M3 as i32)
+            .map_err(uc_err)?;
+        Self::map(&mut uc, tail_base)?;
+        let mut board = Self {
+            uc,
+            rtt: RttHost::new(fw.rtt_address, fw.table, config.rtt_mode),
+            bus,
+            lines: Vec::new(),
+            events: Vec::new(),
+            next_rtt_poll_ns: 0,
+            locked_up: false,
+            resets: Vec::new(),
+            csr: 0,
+        };
+        board.reset(ResetCause::PowerOn)?;
+        Ok(board)
+    }
+
+    fn map(uc: &mut Unicorn<'static, Hw>, tail_base: u32) -> Result<(), BoardError> {
+        let code_len = u64::from(tail_base - FLASH_BASE);
+        uc.mem_map(u64::from(FLASH_BASE), code_len, Prot::READ | Prot::EXEC)
+            .map_err(uc_err)?;
+        let tail_len = u64::from(FLASH_BASE + FLASH_SIZE - tail_base);
+        if tail_len > 0 {
+            let base = tail_base;
+            uc.mmio_map(
+                u64::from(base),
+                tail_len,
+                Some(move |uc: &mut Unicorn<'_, Hw>, off: u64, size: usize| {
+                    u64::from(
+                        uc.get_data()
+                            .flash
+                            .read_memory(base - FLASH_BASE + off as u32, size),
+                    )
+                }),
+                Some(
+                    move |uc: &mut Unicorn<'_, Hw>, off: u64, size: usize, v: u64| {
+                        let hw = uc.get_data_mut();
+                        let e =
+                            hw.flash
+                                .write_memory(base - FLASH_BASE + off as u32, size, v as u32);
+                        hw.flash_effect(e);
+                        if hw.error.is_some() {
+                            let _ = uc.emu_stop();
+                        } else {
+                            hw.slice_end = hw.cycles;
+                        }
+                    },
+                ),
+            )
+            .map_err(uc_err)?;
+        }
+        uc.mem_map(u64::from(RAM_BASE), u64::from(RAM_SIZE), Prot::ALL)
+            .map_err(uc_err)?;
+        uc.mmio_map(
+            u64::from(PERIPH_BASE),
+            u64::from(PERIPH_SIZE),
+            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize| {
+                mmio_read(uc, PERIPH_BASE + off as u32, size)
+            }),
+            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize, v: u64| {
+                mmio_write(uc, PERIPH_BASE + off as u32, size, v)
+            }),
+        )
+        .map_err(uc_err)?;
+        uc.mmio_map(
+            u64::from(PERIPH_BB),
+            u64::from(PERIPH_SIZE) * 32,
+            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, _size: usize| {
+                let (addr, bit) = bitband_target(PERIPH_BB, PERIPH_BASE, off as u32);
+                (mmio_read(uc, addr, 4) >> bit) & 1
+            }),
+            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, _size: usize, v: u64| {
+                // A bit-band write is a locked read-modify-write of the word.
+                let (addr, bit) = bitband_target(PERIPH_BB, PERIPH_BASE, off as u32);
+                let w = mmio_read(uc, addr, 4) as u32;
+                let w = if v & 1 != 0 {
+                    w | (1 << bit)
+                } else {
+                    w & !(1 << bit)
+                };
+                mmio_write(uc, addr, 4, u64::from(w));
+            }),
+        )
+        .map_err(uc_err)?;
+        uc.mmio_map(
+            u64::from(RAM_BB),
+            u64::from(RAM_SIZE) * 32,
+            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, _size: usize| {
+                ram_bitband_read(uc, off as u32)
+            }),
+            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, _size: usize, v: u64| {
+                ram_bitband_write(uc, off as u32, v)
+            }),
+        )
+        .map_err(uc_err)?;
+        uc.mmio_map(
+            u64::from(PPB_BASE),
+            u64::from(PPB_SIZE),
+            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize| {
+                mmio_read(uc, PPB_BASE + off as u32, size)
+            }),
+            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize, v: u64| {
+                mmio_write(uc, PPB_BASE + off as u32, size, v)
+            }),
+        )
+        .map_err(uc_err)?;
+        uc.add_block_hook(1, 0, |uc: &mut Unicorn<'_, Hw>, addr: u64, size: u32| {
+            // Per-halfword cache of flash blocks (a hash map here cost more
+            // than the emulation itself).
+            let slot = (addr as u32).wrapping_sub(FLASH_BASE) as usize / 2;
+            let known = uc
+                .get_data()
+                .blocks
+                .get(slot)
+                .copied()
+                .filter(|b| b.size == size && b.insns > 0);
+            let (n, idle) = match known {
+                Some(b) => (b.insns, b.idle),
+                None => {
+                    let code = uc.mem_read_as_vec(addr, size as usize).unwrap_or_default();
+                    let (insns, idle) = scan_block(&code, addr as u32);
+                    if let Some(b) = uc.get_data_mut().blocks.get_mut(slot) {
+                        *b = BlockInfo { size, insns, idle };
+                    }
+                    (insns, idle)
+                }
+            };
+            // A stop requested here takes effect before this block runs, so
+            // a block is counted only when it will execute; the first block
+            // of a slice always runs (progress).
+            let hw = uc.get_data_mut();
+            if idle {
+                // Nothing observable happens until the next event: sleep,
+                // unless a register access since the slice started may have
+                // scheduled an earlier one (then end the slice to recompute).
+                if !std::mem::take(&mut hw.resched) {
+                    hw.cycles = hw.cycles.max(hw.slice_end);
+                }
+                let _ = uc.emu_stop();
+                return;
+            }
+            if !hw.first_block && hw.cycles + u64::from(n) > hw.slice_end {
+                let _ = uc.emu_stop();
+                return;
+            }
+            hw.first_block = false;
+            hw.cycles += u64::from(n);
+        })
+        .map_err(uc_err)?;
+        uc.add_intr_hook(|uc: &mut Unicorn<'_, Hw>, intno: u32| {
+            let pc = pc_of(uc);
+            let hw = uc.get_data_mut();
+            match intno {
+                8 => hw.exc_return = Some(pc | 1),
+                // UDF (1), BKPT without a debugger (7), invalid state (18):
+                // escalate to HardFault (HFSR.FORCED).
+                1 | 7 | 18 => hw.cpu_fault = Some((pc, 1 << 30)),
+                other => hw.fail(BoardError::Unsupported(format!(
+                    "CPU exception {other} at pc {pc:#010x}"
+                ))),
+            }
+            let _ = uc.emu_stop();
+        })
+        .map_err(uc_err)?;
+        Ok(())
+    }
+
+    /// Resets the MCU: peripherals to reset values, RAM cleared, flash and
+    /// the world outside the chip (sensors, bus lines, time) kept.
+    pub fn reset(&mut self, cause: ResetCause) -> Result<(), BoardError> {
+        let now = self.now_ns();
+        let csr = self.csr;
+        {
+            let hw = self.uc.get_data_mut();
+            let hse_works = hw.rcc.hse_works;
+            hw.rcc = Rcc::new(cause, csr);
+            hw.rcc.hse_works = hse_works;
+            hw.nvic = Nvic::default();
+            hw.systick = SysTick::default();
+            hw.dwt = Dwt::default();
+            let image = std::mem::take(&mut hw.flash.image);
+            hw.flash = Flash::new(image);
+            hw.ports = Default::default();
+            hw.afio = Afio::default();
+            hw.exti = Exti::default();
+            hw.iwdg = Iwdg::new(hw.iwdg.lsi_hz);
+            hw.i2c.peripheral_reset();
+            hw.update_i2c_pins();
+            hw.exc_return = None;
+            hw.cpu_fault = None;
+            hw.stall_ns = 0;
+            hw.code_changed = false;
+            hw.dbgmcu_cr = 0;
+        }
+        let (code, tail_base) = {
+            let hw = self.uc.get_data();
+            (hw.flash.image.clone(), hw.tail_base)
+        };
+        let code_len = (tail_base - FLASH_BASE) as usize;
+        self.uc
+            .mem_write(u64::from(FLASH_BASE), &code[..code_len])
+            .map_err(uc_err)?;
+        self.uc
+            .mem_write(u64::from(RAM_BASE), &vec![0; RAM_SIZE as usize])
+            .map_err(uc_err)?;
+        let sp = u32::from_le_bytes([code[0], code[1], code[2], code[3]]);
+        let pc = u32::from_le_bytes([code[4], code[5], code[6], code[7]]);
+        let regs = [
+            (RegisterARM::PRIMASK, 0),
+            (RegisterARM::BASEPRI, 0),
+            (RegisterARM::FAULTMASK, 0),
+            (RegisterARM::CONTROL, 0),
+            (RegisterARM::XPSR, 1 << 24),
+            (RegisterARM::SP, sp),
+            (RegisterARM::LR, 0xFFFF_FFFF),
+            (RegisterARM::PC, pc | 1),
+        ];
+        for (r, v) in regs {
+            self.uc.reg_write(r, u64::from(v)).map_err(uc_err)?;
+        }
+        self.locked_up = false;
+        self.rtt.target_reset();
+        self.resets.push((now, cause));
+        self.csr = self.uc.get_data().rcc.csr();
+        if cause != ResetCause::PowerOn {
+            self.event(format!("MCU reset ({cause:?}): RAM cleared, flash kept"));
+        }
+        Ok(())
+    }
+
+    fn event(&mut self, what: String) {
+        self.events.push(BoardEvent {
+            time_ns: self.now_ns(),
+            what,
+        });
+    }
+
+    /// Simulated time since power-on (ns).
+    pub fn now_ns(&self) -> u64 {
+        self.uc.get_data().now_ns()
+    }
+
+    /// The simulator's bus (chips, world, truth, fault injection).
+    pub fn sim(&self) -> &sim::SimBus {
+        &self.bus
+    }
+
+    /// Every log line decoded so far.
+    pub fn log_lines(&self) -> &[LogLine] {
+        &self.lines
+    }
+
+    /// Board events (resets, faults taken) so far.
+    pub fn events(&self) -> &[BoardEvent] {
+        &self.events
+    }
+
+    /// MCU resets so far: (time, cause), the power-on first.
+    pub fn resets(&self) -> &[(u64, ResetCause)] {
+        &self.resets
+    }
+
+    /// How many times exception `n` was entered since power-on.
+    pub fn exception_entries(&self, n: usize) -> u64 {
+        self.uc.get_data().entries.get(n).copied().unwrap_or(0)
+    }
+
+    /// Current flash contents (64 KiB from 0x0800_0000).
+    pub fn flash_image(&self) -> &[u8] {
+        &self.uc.get_data().flash.image
+    }
+
+    /// The LED on PC13 (active low) is lit.
+    pub fn led_on(&self) -> bool {
+        let p = &self.uc.get_data().ports[2];
+        matches!(p.config(13), PinConfig::Output { .. }) && p.odr & (1 << 13) == 0
+    }
+
+    /// Applies a board-level fault or stimulus now.
+    pub fn apply(&mut self, fault: BoardFault) {
+        let hw = self.uc.get_data_mut();
+        match fault {
+            BoardFault::ImuIntStops => hw.imu_int_cut = true,
+            BoardFault::ImuIntRestored => hw.imu_int_cut = false,
+            BoardFault::Button(p) => hw.button_pressed = p,
+            BoardFault::RttReaderStops => self.rtt.reading = false,
+            BoardFault::RttReaderResumes => self.rtt.reading = true,
+            BoardFault::I2c(f) => {
+                let now = hw.now_ns();
+                hw.sync_clock();
+                hw.i2c.inject(f, now);
+            }
+        }
+        self.event(format!("{fault:?}"));
+    }
+
+    /// Whether the host reads RTT.
+    pub fn rtt_reading(&self) -> bool {
+        self.rtt.reading
+    }
+
+    /// Runs for `ns` of simulated time.
+    pub fn run_for_ns(&mut self, ns: u64) -> Result<(), BoardError> {
+        let t = self.now_ns() + ns;
+        self.run_until_ns(t)
+    }
+
+    /// Runs until `t_ns` (simulated); stops early with the error that
+    /// stopped the board.
+    pub fn run_until_ns(&mut self, t_ns: u64) -> Result<(), BoardError> {
+        let end = ns_to_cycles(t_ns);
+        while self.uc.get_data().cycles < end {
+            self.step(end)?;
+        }
+        self.poll_rtt();
+        Ok(())
+    }
+
+    /// Runs until a new log line containing `pattern` appears, for at most
+    /// `timeout_ns` of simulated time; returns the line.
+    pub fn wait_for_line(
+        &mut self,
+        pattern: &str,
+        timeout_ns: u64,
+    ) -> Result<Option<LogLine>, BoardError> {
+        let deadline = self.now_ns() + timeout_ns;
+        let mut seen = self.lines.len();
+        while self.now_ns() < deadline {
+            let t = (self.now_ns() + RTT_POLL_NS).min(deadline);
+            self.run_until_ns(t)?;
+            if let Some(l) = self.lines[seen..].iter().find(|l| l.text.contains(pattern)) {
+                return Ok(Some(l.clone()));
+            }
+            seen = self.lines.len();
+        }
+        Ok(None)
+    }
+
+    fn poll_rtt(&mut self) {
+        struct Mem<'a, 'b>(&'a mut Unicorn<'b, Hw>);
+        impl TargetMemory for Mem<'_, '_> {
+            fn read_u32(&mut self, addr: u32) -> Option<u32> {
+                let mut b = [0u8; 4];
+                self.0.mem_read(u64::from(addr), &mut b).ok()?;
+                Some(u32::from_le_bytes(b))
+            }
+            fn write_u32(&mut self, addr: u32, v: u32) -> Option<()> {
+                self.0.mem_write(u64::from(addr), &v.to_le_bytes()).ok()
+            }
+            fn read_bytes(&mut self, addr: u32, buf: &mut [u8]) -> Option<()> {
+                self.0.mem_read(u64::from(addr), buf).ok()
+            }
+        }
+        let now = self.now_ns();
+        let new = self.rtt.poll(&mut Mem(&mut self.uc), now);
+        self.lines.extend(new);
+    }
+
+    /// Brings the peripherals to the current time and acts on what they
+    /// did: SysTick, EXTI edges, watchdog and software resets, RTT.
+    fn service(&mut self) -> Result<(), BoardError> {
+        let now = self.now_ns();
+        if now >= self.next_rtt_poll_ns {
+            self.poll_rtt();
+            self.next_rtt_poll_ns = now + RTT_POLL_NS;
+        }
+        let hw = self.uc.get_data_mut();
+        if let Some(e) = hw.error.take() {
+            return Err(e);
+        }
+        if hw.systick.advance(hw.cycles) {
+            hw.nvic.pending[SYSTICK] = true;
+        }
+        hw.sync_clock();
+        hw.i2c.advance(now);
+        hw.sample_exti();
+        refresh_irq_lines(hw);
+        if hw.nvic.reset_requested {
+            self.reset(ResetCause::Software)?;
+        } else if hw.iwdg.timeout_ns().is_some_and(|t| now >= t) {
+            self.event("IWDG timeout".into());
+            self.reset(ResetCause::Watchdog)?;
+        }
+        Ok(())
+    }
+
+    /// Cycle of the next thing that happens without the CPU.
+    fn next_event_cycle(&self, end: u64) -> u64 {
+        let hw = self.uc.get_data();
+        let now = hw.cycles;
+        let mut next = end.min(now + MAX_SLICE);
+        let mut at_ns = |t: Option<u64>| {
+            if let Some(t) = t {
+                next = next.min(ns_to_cycles(t).max(now + 1));
+            }
+        };
+        at_ns(Some(self.next_rtt_poll_ns));
+        at_ns(hw.i2c.next_event_ns());
+        at_ns(hw.rcc.next_event_ns());
+        at_ns(hw.iwdg.timeout_ns());
+        let s = self.bus.state();
+        at_ns(Some(s.mpu.next_sample_ns()));
+        if let Some(last) = s.mpu.last_sample_ns() {
+            let fall = last + 50_001;
+            if fall > hw.now_ns() {
+                at_ns(Some(fall));
+            }
+        }
+        drop(s);
+        if let Some(t) = hw.systick.next_event() {
+            next = next.min(t.max(now + 1));
+        }
+        next
+    }
+
+    fn step(&mut self, end: u64) -> Result<(), BoardError> {
+        self.service()?;
+        if self.locked_up {
+            let next = self.next_event_cycle(end);
+            self.uc.get_data_mut().cycles = next;
+            return Ok(());
+        }
+        exceptions::deliver(&mut self.uc)?;
+        let mut slice_end = self.next_event_cycle(end);
+        {
+            let hw = self.uc.get_data();
+            if hw.nvic.highest_pending().is_some() {
+                slice_end = slice_end.min(hw.cycles + MASKED_SLICE);
+            }
+        }
+        let hw = self.uc.get_data_mut();
+        hw.slice_end = slice_end;
+        hw.first_block = true;
+        hw.resched = false;
+        let pc = pc_of(&self.uc);
+        let r = self.uc.emu_start(u64::from(pc | 1), 0, 0, 0);
+        let hw = self.uc.get_data_mut();
+        if hw.stall_ns > 0 {
+            hw.cycles += ns_to_cycles(hw.stall_ns);
+            hw.stall_ns = 0;
+        }
+        if hw.code_changed {
+            hw.code_changed = false;
+            let tail = hw.tail_base;
+            let code: Vec<u8> = hw.flash.image[..(tail - FLASH_BASE) as usize].to_vec();
+            hw.blocks.fill(BlockInfo::default());
+            self.uc
+                .mem_write(u64::from(FLASH_BASE), &code)
+                .map_err(uc_err)?;
+            let _ = self
+                .uc
+                .ctl_remove_cache(u64::from(FLASH_BASE), u64::from(tail));
+        }
+        if let Some(e) = self.uc.get_data_mut().error.take() {
+            return Err(e);
+        }
+        if let Err(e) = r {
+            return Err(BoardError::Cpu(format!(
+                "{e:?} at pc {:#010x}",
+                pc_of(&self.uc)
+            )));
+        }
+        if let Some(ret) = self.uc.get_data_mut().exc_return.take() {
+            exceptions::exception_return(&mut self.uc, ret)?;
+        }
+        if let Some((pc, hfsr)) = self.uc.get_data_mut().cpu_fault.take() {
+            self.event(format!("HardFault (fault at pc {pc:#010x})"));
+            if !exceptions::fault(&mut self.uc, pc, hfsr)? {
+                self.event("lockup: fault inside HardFault".into());
+                self.locked_up = true;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::panic)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn block_scan_counts_wide_and_narrow_instructions() {
+        // movs r0,#1 ; ldr.w r1,[r2] ; b .-6
+        let code = [0x01, 0x20, 0xD2, 0xF8, 0x00, 0x10, 0xFB, 0xE7];
+        assert_eq!(scan_block(&code, 0x100), (3, false));
+        // b . (0xE7FE)
+        assert_eq!(scan_block(&[0xFE, 0xE7], 0x100), (1, true));
+        // nop ; b .-2 back to the nop
+        assert_eq!(scan_block(&[0x00, 0xBF, 0xFD, 0xE7], 0x100), (2, true));
+    }
+
+    /// A bare image: vector table (SP, reset, SysTick → 0x120), `code` at
+    /// 0x100, a SysTick handler `adds r4, #1; bx lr` at 0x120.
+    fn bare(code: &[u16], literal: u32) -> Firmware {
+        let mut flash = vec![0xFF; FLASH_SIZE as usize];
+        let mut put = |at: usize, w: u32| flash[at..at + 4].copy_from_slice(&w.to_le_bytes());
+        put(0, 0x2000_5000);
+        put(4, 0x0800_0101);
+        put(15 * 4, 0x0800_0121);
+        for (i, h) in code.iter().enumerate() {
+            flash[0x100 + 2 * i..0x102 + 2 * i].copy_from_slice(&h.to_le_bytes());
+        }
+        flash[0x10C..0x110].copy_from_slice(&literal.to_le_bytes());
+        flash[0x120..0x124].copy_from_slice(&[0x01, 0x34, 0x70, 0x47]);
+        Firmware {
+            flash,
+            rtt_address: RAM_BASE,
+            image_end: FLASH_BASE + 0x200,
+            table: None,
+            symbols: Default::default(),
+        }
+    }
+
+    fn reg(b: &Board, r: RegisterARM) -> u32 {
+        b.uc.reg_read(r).unwrap_or(0) as u32
+    }
+
+    #[test]
+    fn systick_exceptions_stack_run_the_handler_and_unstack() {
+        // ldr r0,=SYST; movs r1,#100; str r1,[r0,#4]; movs r1,#7; str r1,[r0]; b .
+        let fw = bare(
+            &[0x4802, 0x2164, 0x6041, 0x2107, 0x6001, 0xE7FE],
+            0xE000_E010,
+        );
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        b.run_until_ns(cycles_to_ns(10_100))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let ticks = reg(&b, RegisterARM::R4);
+        // One tick every LOAD + 1 = 101 cycles from the enable.
+        assert!((97..=100).contains(&ticks), "{ticks} ticks");
+        assert_eq!(u64::from(ticks), b.exception_entries(SYSTICK));
+        assert_eq!(reg(&b, RegisterARM::SP), 0x2000_5000, "frame unstacked");
+        assert_eq!(reg(&b, RegisterARM::IPSR), 0, "back in thread mode");
+        assert_eq!(reg(&b, RegisterARM::PC), 0x0800_010A);
+    }
+
+    #[test]
+    fn unmodelled_register_stops_the_board() {
+        // ldr r0,=TIM2; ldr r1,[r0]; b .
+        let fw = bare(&[0x4802, 0x6801, 0xE7FE], 0x4000_0000);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        let e = b.run_until_ns(1_000).err();
+        assert!(
+            matches!(
+                e,
+                Some(BoardError::Unmodelled {
+                    addr: 0x4000_0000,
+                    write: None,
+                    ..
+                })
+            ),
+            "{e:?}"
+        );
+    }
+
+    #[test]
+    fn time_base_is_72_mhz() {
+        assert_eq!(cycles_to_ns(72_000_000), 1_000_000_000);
+        assert_eq!(ns_to_cycles(1_000), 72);
+    }
+}

@@ -1,0 +1,68 @@
+//! Human-readable output that survives a closed pipe.
+//!
+//! `sim ... | head` closes stdout early. Rust ignores SIGPIPE, so `println!`
+//! would panic there; instead the first failed write marks the stream gone,
+//! later lines are dropped, and the run carries on so that the CSV and plot
+//! files are still written. A closed pipe is not an error (exit status 0);
+//! any other write error on stdout (e.g. a full disk behind a redirect) is
+//! remembered and makes the process exit non-zero at the end.
+
+use std::io::{ErrorKind, Write};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+
+/// Where the status lines go: stdout unless the CSV goes there.
+static TO_STDERR: AtomicBool = AtomicBool::new(false);
+/// 0 = open, 1 = closed by the reader, 2 = failed otherwise.
+static STATE: AtomicU8 = AtomicU8::new(0);
+
+/// Sends the status lines to stderr (stdout carries data).
+pub fn use_stderr() {
+    TO_STDERR.store(true, Ordering::Relaxed);
+}
+
+/// Writes one line of human-readable output.
+pub fn line(args: std::fmt::Arguments<'_>) {
+    if TO_STDERR.load(Ordering::Relaxed) {
+        let _ = writeln!(std::io::stderr().lock(), "{args}");
+        return;
+    }
+    if STATE.load(Ordering::Relaxed) != 0 {
+        return;
+    }
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = writeln!(out, "{args}").and_then(|()| out.flush()) {
+        let state = if e.kind() == ErrorKind::BrokenPipe {
+            1
+        } else {
+            2
+        };
+        STATE.store(state, Ordering::Relaxed);
+    }
+}
+
+/// Whether stdout failed with something other than a closed pipe.
+pub fn stdout_failed() -> bool {
+    STATE.load(Ordering::Relaxed) == 2
+}
+
+/// Writes one line to stderr. Unlike `eprintln!` it does not panic when
+/// stderr is a closed pipe: there is nowhere left to report that.
+pub fn err_line(args: std::fmt::Arguments<'_>) {
+    let _ = writeln!(std::io::stderr().lock(), "{args}");
+}
+
+/// `eprintln!` that never panics (see [`err_line`]).
+macro_rules! note {
+    ($($arg:tt)*) => {
+        $crate::demo::console::err_line(format_args!($($arg)*))
+    };
+}
+pub(crate) use note;
+
+/// `println!` that never panics (see the module docs).
+macro_rules! say {
+    ($($arg:tt)*) => {
+        $crate::demo::console::line(format_args!($($arg)*))
+    };
+}
+pub(crate) use say;

@@ -1,0 +1,120 @@
+//! The `sim` binary as a user meets it: bad arguments fail before any work
+//! (status 2, a message naming the option), outputs are created with their
+//! folders, a closed stdout is not a panic and the files are still written.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use std::path::PathBuf;
+use std::process::{Command, Output, Stdio};
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sim-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn sim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_sim"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Fails with status 2 and `msg`, quickly (before the calibrations run:
+/// nothing on stdout).
+fn refused(args: &[&str], msg: &str) {
+    let o = sim(args);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    assert!(
+        stderr(&o).contains(msg),
+        "{args:?}: wanted `{msg}` in {}",
+        stderr(&o)
+    );
+    assert!(o.stdout.is_empty(), "{args:?} did work before failing");
+}
+
+#[test]
+fn bad_values_are_refused_before_work() {
+    refused(&["--duration", "0"], "out of range");
+    refused(&["--duration", "1e-9"], "out of range");
+    refused(&["--duration=nan"], "out of range");
+    refused(&["--duration", "-5"], "out of range");
+    refused(&["--duration", "100000"], "out of range");
+    refused(&["--print-every", "-1"], "out of range");
+    refused(&["--print-every", "inf"], "out of range");
+    refused(&["--mag-dance", "0"], "out of range");
+    refused(&["--seed", "-1"], "--seed");
+    refused(&["--trajectory", "moon"], "moon");
+    refused(&["--fault", "laser"], "unknown fault kind `laser`");
+    refused(&["--fault", "magnet@-1"], "-1");
+    refused(&["-d", "10", "--fault", "magnet@20"], "after the end");
+    refused(&["--plot", "x.jpg"], "unsupported plot format `.jpg`");
+    refused(&["--plot", "noext"], "needs an extension");
+    refused(&["--plot", "-"], "--plot needs a file name");
+}
+
+#[test]
+fn unwritable_or_clashing_outputs_are_refused_before_work() {
+    let d = dir("outs");
+    let blocker = d.join("file");
+    std::fs::write(&blocker, "x").unwrap();
+    // A folder that cannot be created (a file is in the way).
+    let under_file = blocker.join("x.png");
+    refused(&["--plot", under_file.to_str().unwrap()], "creating folder");
+    let under_file = blocker.join("x.csv");
+    refused(&["--csv", under_file.to_str().unwrap()], "creating folder");
+    let a = d.join("a.png");
+    let a2 = d.join(".").join("a.png");
+    refused(
+        &["--csv", a.to_str().unwrap(), "--plot", a2.to_str().unwrap()],
+        "name the same file",
+    );
+}
+
+#[test]
+fn files_are_written_into_new_folders_even_when_stdout_closes() {
+    let d = dir("pipe");
+    let csv = d.join("new/deeper/run.csv");
+    let png = d.join("new/run.png");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sim"))
+        .args([
+            "-d",
+            "3",
+            "--mag-dance",
+            "10",
+            "--print-every",
+            "0.1",
+            "--fault",
+            "vibration@2",
+            "--csv",
+            csv.to_str().unwrap(),
+            "--plot",
+            png.to_str().unwrap(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.lines().count() > 2500, "{}", text.lines().count());
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+}
+
+#[test]
+fn csv_to_stdout_keeps_status_lines_off_it() {
+    let o = sim(&["-d", "2", "--mag-dance", "10", "--csv", "-", "-q"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let mut lines = out.lines();
+    assert!(lines.next().unwrap().starts_with("t_s,"));
+    assert!(lines.all(|l| l.split(',').count() == 15));
+    assert!(stderr(&o).contains("== summary"));
+}
