@@ -140,7 +140,7 @@ mod app {
     /// Magnetometer calibration used on the board: per-axis min/max.
     /// `flight::calmode::MagCalMode` (the ellipsoid fit with integer
     /// moments and an f32 solve) is the full alternative: swap this one
-    /// line (6.5 KiB more flash: 54,396 B, over the 48 KiB budget).
+    /// line (6.4 KiB more flash: 54,396 B, over the 48 KiB budget).
     type MagCal = flight::calmode::MagMinMaxMode;
 
     systick_monotonic!(Mono, 1_000);
