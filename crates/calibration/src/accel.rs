@@ -348,7 +348,7 @@ impl AccelSixPosition {
         }
         let mean = window.mean();
         let [x, y, z] = mean;
-        let norm = libm::sqrtf(x * x + y * y + z * z);
+        let norm = crate::sqrt::sqrtf(x * x + y * y + z * z);
         let (position, dominant) = Position::classify(mean);
         let magnitude_ok = (norm - c.gravity).abs() <= c.magnitude_tolerance * c.gravity;
         if !magnitude_ok || dominant < c.min_alignment * norm {

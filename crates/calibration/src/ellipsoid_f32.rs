@@ -347,7 +347,7 @@ impl EllipsoidFitF32 {
         if !(s2 > 0.0 && s2.is_finite()) {
             return Err(Error::Singular);
         }
-        let scale = libm::sqrtf(s2);
+        let scale = crate::sqrt::sqrtf(s2);
         let inv = 1.0 / scale;
         let inv_pow = [inv, inv * inv, inv * inv * inv, (inv * inv) * (inv * inv)];
         // Degrees in accumulation order: 3 × 1, 6 × 2, 10 × 3, 15 × 4.
@@ -417,7 +417,7 @@ fn solve(mom: &MomentsF32) -> Result<FitF32, Error> {
         if !(nii > 0.0 && nii.is_finite()) {
             return Err(Error::Singular);
         }
-        *di = 1.0 / libm::sqrtf(nii);
+        *di = 1.0 / crate::sqrt::sqrtf(nii);
     }
     for (row, di) in a.iter_mut().zip(&d) {
         for (aij, dj) in row.iter_mut().zip(&d) {
@@ -448,9 +448,9 @@ fn solve(mom: &MomentsF32) -> Result<FitF32, Error> {
     if !lambda.iter().all(|l| *l > 0.0 && l.is_finite()) {
         return Err(Error::NotEllipsoid);
     }
-    let mut semi_axes = lambda.map(|l| 1.0 / libm::sqrtf(l));
+    let mut semi_axes = lambda.map(|l| 1.0 / crate::sqrt::sqrtf(l));
     let radius = (semi_axes[0] + semi_axes[1] + semi_axes[2]) / 3.0;
-    let root = lambda.map(|l| radius * libm::sqrtf(l));
+    let root = lambda.map(|l| radius * crate::sqrt::sqrtf(l));
     // W = V diag(root) Vᵀ, symmetric: element (i, j) = Σₖ V[i][k] root[k] V[j][k].
     let w = transpose(&mul_diag_t(&v, root, &v));
     sort3(&mut semi_axes);
@@ -473,7 +473,7 @@ fn solve(mom: &MomentsF32) -> Result<FitF32, Error> {
         w,
         radius,
         semi_axes,
-        rms_error: 0.5 * libm::sqrtf(mean_p2.max(0.0)),
+        rms_error: 0.5 * crate::sqrt::sqrtf(mean_p2.max(0.0)),
     })
 }
 
@@ -499,7 +499,7 @@ fn cholesky_solve_f32(a: &mut [[f32; 9]; 9], b: &mut [f32; 9]) -> Result<(), Err
                 if !(sum >= PIVOT_MIN_F32 && sum.is_finite()) {
                     return Err(Error::Singular);
                 }
-                libm::sqrtf(sum)
+                crate::sqrt::sqrtf(sum)
             } else {
                 sum / at(&lj, j)
             };
@@ -569,8 +569,8 @@ fn rotate<const P: usize, const Q: usize>(a: &mut M3, v: &mut M3) {
         return;
     }
     let theta = (a[Q][Q] - a[P][P]) / (2.0 * apq);
-    let t = theta.signum() / (theta.abs() + libm::sqrtf(theta * theta + 1.0));
-    let c = 1.0 / libm::sqrtf(t * t + 1.0);
+    let t = theta.signum() / (theta.abs() + crate::sqrt::sqrtf(theta * theta + 1.0));
+    let c = 1.0 / crate::sqrt::sqrtf(t * t + 1.0);
     let s = t * c;
     let turn = |x: f32, y: f32| (c * x - s * y, s * x + c * y);
     for row in a.iter_mut().chain(v.iter_mut()) {

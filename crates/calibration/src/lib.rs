@@ -68,6 +68,7 @@ mod ellipsoid_f32;
 mod error;
 mod gyro;
 mod minmax;
+mod sqrt;
 mod stats;
 
 pub use accel::{AccelSixPosition, AccelSixPositionConfig, Position, Progress, SixPositionEvent};

@@ -108,7 +108,7 @@ impl Stats3 {
         let mut axis = 0u8;
         for v in var {
             if v > lim2 {
-                return Some((axis, libm::sqrtf(v)));
+                return Some((axis, crate::sqrt::sqrtf(v)));
             }
             axis = axis.saturating_add(1);
         }

@@ -66,7 +66,9 @@ pub(crate) fn check_dt(dt_s: f32) -> Result<f32, Error> {
 }
 
 /// Checks that a gain is finite and `>= 0`.
-#[inline]
+// Out of line: a config-time check called from every constructor;
+// one copy instead of one per call site saves flash.
+#[inline(never)]
 pub(crate) fn check_gain(g: f32) -> Result<(), Error> {
     if g.is_finite() && g >= 0.0 {
         Ok(())
@@ -76,7 +78,9 @@ pub(crate) fn check_gain(g: f32) -> Result<(), Error> {
 }
 
 /// Checks that `min <= max` and both are finite.
-#[inline]
+// Out of line: a config-time check called from every constructor;
+// one copy instead of one per call site saves flash.
+#[inline(never)]
 pub(crate) fn check_limits(min: f32, max: f32) -> Result<(), Error> {
     if min.is_finite() && max.is_finite() && min <= max {
         Ok(())
@@ -86,7 +90,9 @@ pub(crate) fn check_limits(min: f32, max: f32) -> Result<(), Error> {
 }
 
 /// Checks that a parameter is finite and strictly positive.
-#[inline]
+// Out of line: a config-time check called from every constructor;
+// one copy instead of one per call site saves flash.
+#[inline(never)]
 pub(crate) fn check_positive(x: f32) -> Result<(), Error> {
     if x.is_finite() && x > 0.0 {
         Ok(())

@@ -239,6 +239,9 @@ pub struct AttitudeQ {
 impl AttitudeQ {
     /// The controller for `cfg` run every `dt_s` seconds; errors as
     /// [`PidQ::new`] and [`AttitudeConfig::validate`].
+    // Out of line: config-time only, and inlined its result is moved
+    // through the caller's frame once more (less flash).
+    #[inline(never)]
     pub fn new(cfg: &AttitudeConfig, dt_s: f32) -> Result<Self, Error> {
         Ok(Self {
             axes: [
@@ -305,6 +308,9 @@ pub struct AltitudeHoldQ {
 impl AltitudeHoldQ {
     /// The controller for `cfg` run every `dt_s` seconds; errors as
     /// [`PidQ::new`] and [`AltitudeHoldConfig::validate`].
+    // Out of line: config-time only, and inlined its result is moved
+    // through the caller's frame once more (less flash).
+    #[inline(never)]
     pub fn new(cfg: &AltitudeHoldConfig, dt_s: f32) -> Result<Self, Error> {
         cfg.validate()?;
         Ok(Self {

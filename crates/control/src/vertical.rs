@@ -223,6 +223,9 @@ pub struct VerticalEstimator {
 impl VerticalEstimator {
     /// Creates an uninitialised estimator (the first baro sample sets the
     /// height). Errors: see [`Config::validate`].
+    // Out of line: config-time only, and inlined its result is moved
+    // through the caller's frame once more (less flash).
+    #[inline(never)]
     pub fn new(cfg: Config) -> Result<Self, Error> {
         cfg.validate()?;
         let w = cfg.crossover_rad_s;

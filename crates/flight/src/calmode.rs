@@ -758,6 +758,8 @@ impl<M: MagCalibrator> CalSession<M> {
 
     /// The button level at `now_ms` (debounced here); a press changes the
     /// mode.
+    // Out of line: measured smaller in the firmware than inlined into its task.
+    #[inline(never)]
     pub fn on_button(&mut self, now_ms: u32, pressed: bool) -> Option<CalEvent> {
         self.button
             .update(now_ms, pressed)
@@ -765,6 +767,8 @@ impl<M: MagCalibrator> CalSession<M> {
     }
 
     /// A magnetometer sample (ignored unless calibrating the magnetometer).
+    // Out of line: measured smaller in the firmware than inlined into its task.
+    #[inline(never)]
     pub fn push_mag(&mut self, mag_ut: [f32; 3]) {
         if let Some(m) = self.mag.as_mut() {
             m.push(mag_ut);
@@ -782,6 +786,9 @@ impl<M: MagCalibrator> CalSession<M> {
     /// calibration is complete, its result written into `record` (the
     /// session then returns to [`Mode::Normal`]). The magnetometer fit
     /// runs here.
+    // Out of line: run from the slow log task, and inlined there its
+    // calibration record is copied once more (less flash).
+    #[inline(never)]
     pub fn poll(&mut self, record: &mut CalibrationRecord) -> Option<CalEvent> {
         self.polls = self.polls.wrapping_add(1);
         match self.mode {
