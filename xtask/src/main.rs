@@ -50,7 +50,25 @@ enum Task {
     },
 }
 
+/// A closed stdout (`cargo xtask bench | head`) ends the process quietly,
+/// as Unix tools do, instead of a panic in `println!`: Rust's runtime
+/// ignores SIGPIPE, so put back the default action.
+#[cfg(unix)]
+fn quiet_on_closed_pipe() {
+    // SAFETY: `signal` with a valid signal number and `SIG_DFL` only
+    // changes this process's disposition; it runs first in `main`, before
+    // any thread exists or any output is written.
+    #[allow(unsafe_code)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+#[cfg(not(unix))]
+fn quiet_on_closed_pipe() {}
+
 fn main() -> ExitCode {
+    quiet_on_closed_pipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Task::Size { elf } => size(elf),
