@@ -1,4 +1,10 @@
 //! ESC pulse widths and timer values for the Blue Pill's 72 MHz timer clock.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::field_reassign_with_default
+)]
 
 use control::esc::{pulse_ns, EscError, EscProtocol, EscTimer, MIN_STEPS};
 use proptest::prelude::*;

@@ -1,4 +1,10 @@
 //! Quad-X mixer: geometry signs, and properties of the desaturation.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::field_reassign_with_default
+)]
 
 use control::controllers::TorqueCommand;
 use control::mixer::{unmix, Mixer, MixerConfig, MOTORS, QUAD_X};

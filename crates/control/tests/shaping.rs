@@ -1,4 +1,10 @@
 //! Stick shaping: signs, full-stick rates, expo, max angle, throttle curve.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::field_reassign_with_default
+)]
 
 use control::shaping::{AxisRates, StickShaping, Sticks, SticksConfig, ThrottleCurve};
 use proptest::prelude::*;
