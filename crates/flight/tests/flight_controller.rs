@@ -9,6 +9,9 @@ use flight::flightctl::*;
 
 const STEP_US: u32 = 1_000;
 
+/// A change made to the rig before a step.
+type Setup = fn(&mut Rig);
+
 struct Rig {
     fc: FlightController,
     now_us: u32,
@@ -75,12 +78,7 @@ impl Rig {
 
     /// Runs until an event matching `f` or `max_ms`; returns the ms taken.
     fn run_until(&mut self, max_ms: u32, f: impl Fn(&Event) -> bool) -> Option<u32> {
-        for ms in 1..=max_ms {
-            if self.step().events.iter().any(|e| f(&e)) {
-                return Some(ms);
-            }
-        }
-        None
+        (1..=max_ms).find(|_| self.step().events.iter().any(|e| f(&e)))
     }
 
     /// Switch off for a while, then on: one arm request.
@@ -164,7 +162,7 @@ fn refusal_after(setup: impl FnOnce(&mut Rig)) -> (Rig, Vec<Event>) {
 
 #[test]
 fn each_refusal_is_named() {
-    let cases: [(ArmRefusal, fn(&mut Rig)); 6] = [
+    let cases: [(ArmRefusal, Setup); 6] = [
         (ArmRefusal::CalibrationRunning, |r| {
             r.status.calibration_running = true
         }),
@@ -463,7 +461,7 @@ fn motor_test_spins_one_motor_and_ends_on_stick_movement() {
 
 #[test]
 fn motor_test_ends_on_link_loss_arm_switch_timeout_and_stop() {
-    let ends: [(MotorTestEnd, fn(&mut Rig)); 3] = [
+    let ends: [(MotorTestEnd, Setup); 3] = [
         (MotorTestEnd::LinkLost, |r| r.pilot.link_ok = false),
         (MotorTestEnd::ArmSwitch, |r| r.pilot.arm_switch = true),
         (MotorTestEnd::Stopped, |r| r.fc.stop_motor_test()),
