@@ -655,21 +655,19 @@ fn fly_roll_stick(mode: FlightMode, stick: f32, ms: u32) -> (Rig, Vec<f32>) {
             y: w[1],
             z: w[2],
         });
-        let n = |v: Quat| {
-            let k = 1.0 / (v.w * v.w + v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
-            Quat {
-                w: v.w * k,
-                x: v.x * k,
-                y: v.y * k,
-                z: v.z * k,
-            }
-        };
-        q = n(Quat {
+        let v = Quat {
             w: q.w + 0.5e-3 * dq.w,
             x: q.x + 0.5e-3 * dq.x,
             y: q.y + 0.5e-3 * dq.y,
             z: q.z + 0.5e-3 * dq.z,
-        });
+        };
+        let k = 1.0 / (v.w * v.w + v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
+        q = Quat {
+            w: v.w * k,
+            x: v.x * k,
+            y: v.y * k,
+            z: v.z * k,
+        };
         roll_trace.push((2.0 * (q.w * q.x + q.y * q.z)).atan2(1.0 - 2.0 * (q.x * q.x + q.y * q.y)));
     }
     (r, roll_trace)
