@@ -56,18 +56,37 @@ fn error_ignores_heading_and_scale() {
 fn error_matches_the_exact_rotation_vector() {
     // Against the textbook construction with atan2 heading and normalised
     // quaternions, over a grid of attitudes and setpoints.
-    for (r, p, y) in [(0.3f32, -0.2f32, 2.9f32), (-1.2, 0.4, -3.1), (2.8, 0.1, 1.0), (0.0, 1.4, -0.5)] {
+    for (r, p, y) in [
+        (0.3f32, -0.2f32, 2.9f32),
+        (-1.2, 0.4, -3.1),
+        (2.8, 0.1, 1.0),
+        (0.0, 1.4, -0.5),
+    ] {
         let q = Quat::from_euler(r, p, y);
         let yaw = (2.0 * (q.w * q.z + q.x * q.y)).atan2(1.0 - 2.0 * (q.y * q.y + q.z * q.z));
         for (sr, sp) in [(0.0f32, 0.0f32), (0.5, -0.3), (-0.2, 0.6)] {
             let qd = Quat::from_euler(sr, sp, yaw);
             let mut e = q.conj().mul(&qd);
             if e.w < 0.0 {
-                e = Quat { w: -e.w, x: -e.x, y: -e.y, z: -e.z };
+                e = Quat {
+                    w: -e.w,
+                    x: -e.x,
+                    y: -e.y,
+                    z: -e.z,
+                };
             }
-            let got = attitude_error(&q, &TiltSetpoint { roll_rad: sr, pitch_rad: sp });
+            let got = attitude_error(
+                &q,
+                &TiltSetpoint {
+                    roll_rad: sr,
+                    pitch_rad: sp,
+                },
+            );
             for (g, want) in got.iter().zip([2.0 * e.x, 2.0 * e.y, 2.0 * e.z]) {
-                assert!((g - want).abs() < 1e-4, "({r}, {p}, {y}) → ({sr}, {sp}): {got:?} vs {e:?}");
+                assert!(
+                    (g - want).abs() < 1e-4,
+                    "({r}, {p}, {y}) → ({sr}, {sp}): {got:?} vs {e:?}"
+                );
             }
         }
     }

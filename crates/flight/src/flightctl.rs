@@ -58,9 +58,9 @@
 //! a huge step); two calls with the same time do not run the loops again.
 
 use control::controllers::{AltitudeHold, AltitudeHoldConfig, BodyRates, TorqueCommand};
-use control::loops::{LevelConfig, LevelController, Quat, RateConfig, RateController};
+use control::loops::{LevelConfig, LevelController, Quat, RateConfig, RateController, TiltQuat};
 use control::mixer::{MixOutput, Mixer, MixerConfig, MOTORS};
-use control::shaping::{StickShaping, Sticks, SticksConfig, TiltSetpoint};
+use control::shaping::{StickShaping, Sticks, SticksConfig};
 
 pub use crate::arming::{
     ArmBlockers, ArmRefusal, DisarmCause, Event, Events, MotorTestEnd, MotorTestRefusal,
@@ -279,6 +279,34 @@ impl Hold {
     }
 }
 
+/// Everything derived from one stick position (recomputed only when the
+/// sticks change, at the receiver's frame rate rather than 1 kHz).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Shaped {
+    sticks: Sticks,
+    acro_rates: BodyRates,
+    tilt: TiltQuat,
+    yaw_rps: f32,
+    throttle: f32,
+}
+
+impl Shaped {
+    fn new(shaping: &StickShaping, s: &Sticks) -> Self {
+        let acro_rates = shaping.rate_setpoint(s).unwrap_or_default();
+        let (tilt, yaw_rps) = match shaping.level_setpoint(s) {
+            Ok((t, y)) => (TiltQuat::new(&t).unwrap_or(TiltQuat::LEVEL), y),
+            Err(_) => (TiltQuat::LEVEL, 0.0),
+        };
+        Self {
+            sticks: *s,
+            acro_rates,
+            tilt,
+            yaw_rps,
+            throttle: shaping.throttle(s.throttle).unwrap_or(0.0),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct MotorTestRun {
     motor: u8,
@@ -332,6 +360,7 @@ pub struct FlightController {
     landed: Hold,
     bad_input: Hold,
     motor_test: Option<MotorTestRun>,
+    shaped: Shaped,
 }
 
 impl FlightController {
@@ -376,6 +405,7 @@ impl FlightController {
             landed: Hold::default(),
             bad_input: Hold::default(),
             motor_test: None,
+            shaped: Shaped::new(&StickShaping::new(cfg.sticks)?, &Sticks::default()),
         })
     }
 
@@ -721,7 +751,7 @@ impl FlightController {
             }
             let rate_sp = self
                 .level
-                .rate_setpoint(q, &TiltSetpoint::default(), 0.0)
+                .rate_setpoint_q(q, &TiltQuat::LEVEL, 0.0)
                 .unwrap_or_default();
             let collective = match alt {
                 Some(a) => {
@@ -749,12 +779,16 @@ impl FlightController {
         self.alt_fallback = fallback;
         out.mode = mode;
         let s = &pilot.sticks;
+        if self.shaped.sticks != *s {
+            self.shaped = Shaped::new(&self.shaping, s);
+        }
+        let sh = self.shaped;
         let rate_sp = match mode {
-            FlightMode::Acro => self.shaping.rate_setpoint(s).unwrap_or_default(),
-            FlightMode::Angle | FlightMode::AltitudeHold => match self.shaping.level_setpoint(s) {
-                Ok((tilt, yaw)) => self.level.rate_setpoint(q, &tilt, yaw).unwrap_or_default(),
-                Err(_) => BodyRates::default(),
-            },
+            FlightMode::Acro => sh.acro_rates,
+            FlightMode::Angle | FlightMode::AltitudeHold => self
+                .level
+                .rate_setpoint_q(q, &sh.tilt, sh.yaw_rps)
+                .unwrap_or_default(),
         };
         let collective = match (mode, alt) {
             (FlightMode::AltitudeHold, Some(a)) => {
@@ -763,7 +797,7 @@ impl FlightController {
             }
             _ => {
                 self.alt_engaged = false;
-                self.shaping.throttle(s.throttle).unwrap_or(0.0)
+                sh.throttle
             }
         };
         Some((rate_sp, collective, mode != FlightMode::Acro))
