@@ -40,7 +40,9 @@
 //! collective; then, with altitude, a descent at
 //! [`SafetyConfig::failsafe_descent_mps`] (0.5 m/s) until the landing
 //! detector disarms ([`DisarmCause::FailsafeLanded`]); without altitude a
-//! disarm ([`DisarmCause::FailsafeNoAltitude`]). If the link returns during
+//! disarm ([`DisarmCause::FailsafeNoAltitude`]). Should the altitude
+//! estimate fail during the descent, the collective ramps down at
+//! [`FAILSAFE_BLIND_RAMP_PER_S`] until the landing detector disarms. If the link returns during
 //! the failsafe, the pilot has control again (and the arm switch decides).
 //!
 //! **Motor test** (props off!): [`FlightController::start_motor_test`]
@@ -71,6 +73,9 @@ const RAD_PER_DEG: f32 = core::f32::consts::PI / 180.0;
 
 /// Longest step the loops integrate, µs.
 pub const MAX_DT_US: u32 = 20_000;
+/// Collective ramp-down per second in a failsafe descent that lost its
+/// altitude estimate (hover at ~0.5 reaches the landing threshold in ~7 s).
+pub const FAILSAFE_BLIND_RAMP_PER_S: f32 = 0.05;
 /// Step assumed for the first call, µs (the 1 kHz IMU period).
 pub const FIRST_DT_US: u32 = 1_000;
 
@@ -762,6 +767,11 @@ impl FlightController {
                         0.0
                     };
                     self.altitude_collective(a, climb, dt_s)
+                }
+                // Altitude lost during the descent: keep going down by
+                // ramping the collective off, so the landing detector ends it.
+                None if phase == FailsafePhase::Descend => {
+                    (self.last_collective - FAILSAFE_BLIND_RAMP_PER_S * dt_s).max(0.0)
                 }
                 None => self.last_collective,
             };

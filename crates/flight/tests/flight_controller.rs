@@ -703,3 +703,26 @@ fn closed_loop_acro_stick_gives_the_shaped_rate() {
         d.to_degrees()
     );
 }
+
+#[test]
+fn altitude_lost_during_failsafe_descent_still_lands() {
+    let mut r = Rig::new();
+    r.vehicle.altitude = Some(AltitudeEstimate {
+        height_m: 5.0,
+        vertical_speed_mps: 0.0,
+    });
+    r.take_off();
+    r.pilot.link_ok = false;
+    assert!(r
+        .run_until(1_100, |e| *e == Event::FailsafeDescent)
+        .is_some());
+    r.vehicle.altitude = None; // the barometer fails
+    let c0 = r.step().collective;
+    r.run_ms(1_000);
+    let c1 = r.last.unwrap().collective;
+    assert!(c1 < c0 - 0.04, "collective {c0} → {c1}");
+    assert!(r
+        .run_until(30_000, |e| *e
+            == Event::Disarmed(DisarmCause::FailsafeLanded))
+        .is_some());
+}
