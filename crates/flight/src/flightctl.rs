@@ -3,6 +3,26 @@
 //! [`FlightController::step`] once per IMU sample (1 kHz) and writes
 //! [`Motors`] to the ESC timer; nothing else decides anything.
 //!
+//! ```
+//! use control::esc::{EscProtocol, EscTimer};
+//! use flight::flightctl::*;
+//! use flight::pipeline::{Pipeline, PipelineConfig};
+//!
+//! let pipeline = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
+//! let esc = EscTimer::for_clock(EscProtocol::Pwm, 400, 72_000_000).unwrap();
+//! let mut fc = FlightController::new(FlightConfig::default()).unwrap();
+//! let status = SystemStatus { sensors_healthy: true, gyro_bias_done: true, calibration_running: false };
+//! let mut pilot = PilotInput { link_ok: true, ..Default::default() };
+//! let vehicle = VehicleState::from_pipeline(&pipeline);
+//! let out = fc.step(1_000, &pilot, &status, &vehicle);       // switch off
+//! assert_eq!(out.motors.compares(&esc), [esc.off_compare(); 4]);
+//! pilot.arm_switch = true;                                    // off → on: arm
+//! let out = fc.step(2_000, &pilot, &status, &vehicle);
+//! assert!(out.events.contains(Event::Armed));
+//! let out = fc.step(3_000, &pilot, &status, &vehicle);       // from the next step: idle
+//! assert!(out.motors.compares(&esc)[0] > esc.off_compare());
+//! ```
+//!
 //! # Rules
 //!
 //! **Arming** happens on the arm switch going off → on (a switch already on
@@ -60,9 +80,12 @@
 //! a huge step); two calls with the same time do not run the loops again.
 
 use control::controllers::{AltitudeHold, AltitudeHoldConfig, BodyRates, TorqueCommand};
+use control::esc::EscTimer;
 use control::loops::{LevelConfig, LevelController, Quat, RateConfig, RateController, TiltQuat};
 use control::mixer::{MixOutput, Mixer, MixerConfig, MOTORS};
 use control::shaping::{StickShaping, Sticks, SticksConfig};
+
+use crate::pipeline::Pipeline;
 
 pub use crate::arming::{
     ArmBlockers, ArmRefusal, DisarmCause, Event, Events, MotorTestEnd, MotorTestRefusal,
@@ -158,6 +181,32 @@ impl Motors {
         match self {
             Self::Off => [0.0; MOTORS],
             Self::Run(m) => *m,
+        }
+    }
+
+    /// Timer compare values per motor (`CCRn`), the "off" pulse for
+    /// [`Motors::Off`]: what the firmware writes and the emulator expects.
+    pub fn compares(&self, esc: &EscTimer) -> [u16; MOTORS] {
+        match self {
+            Self::Off => [esc.off_compare(); MOTORS],
+            Self::Run(m) => m.map(|c| esc.compare(c)),
+        }
+    }
+}
+
+impl VehicleState {
+    /// The pipeline's latest attitude, gyro and (when the barometer runs)
+    /// altitude.
+    pub fn from_pipeline(p: &Pipeline) -> Self {
+        Self {
+            attitude: quat_from_ahrs(&p.quaternion()),
+            gyro: p.body_rates(),
+            altitude: p.altitude_estimate().map(|(height_m, vertical_speed_mps)| {
+                AltitudeEstimate {
+                    height_m,
+                    vertical_speed_mps,
+                }
+            }),
         }
     }
 }
