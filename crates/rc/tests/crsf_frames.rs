@@ -1,6 +1,9 @@
 //! CRSF frames from published sources: CRC, channel values, link
 //! statistics, and the counters for everything that is not a good frame.
 
+// Tests may unwrap and panic (workspace rules).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod common;
 
 use common::*;

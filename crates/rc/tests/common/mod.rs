@@ -1,4 +1,5 @@
 //! Frames from published sources, and helpers to feed a parser.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 #![allow(dead_code)]
 
 use rc_input::{CrsfParser, Event};
