@@ -475,15 +475,13 @@ impl CrsfParser {
                 // Only the address byte so far: the length byte must follow.
                 None => 2,
             };
-            let Some(frame) = pending.get(..total) else {
-                if self.barrier.is_some_and(|b| self.start + total > b) {
-                    // Torn by an idle gap: the rest will never come.
-                    bump(&mut self.stats.idle_resyncs);
-                    self.start += 1;
-                    continue;
-                }
-                return None;
-            };
+            if self.barrier.is_some_and(|b| self.start + total > b) {
+                // Torn by an idle gap: the bytes after it belong to a new frame.
+                bump(&mut self.stats.idle_resyncs);
+                self.start += 1;
+                continue;
+            }
+            let frame = pending.get(..total)?;
             let checked = check_and_decode(frame);
             if let Some(event) = self.resolve(checked, total) {
                 return Some(event);
