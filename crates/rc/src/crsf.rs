@@ -351,8 +351,9 @@ impl CrsfParser {
     }
 
     /// A parser that abandons a partial frame when no byte arrived for more
-    /// than `idle_gap_us`. `u32::MAX` disables the idle rule (for a caller
-    /// that cannot time bytes individually, e.g. one draining a DMA buffer).
+    /// than `idle_gap_us`. `u32::MAX` disables the idle rule (for bytes with
+    /// no arrival times, e.g. a file). A caller draining a DMA buffer can
+    /// keep the rule by stamping each chunk with the time it was drained.
     pub const fn with_idle_gap_us(idle_gap_us: u32) -> Self {
         Self {
             buf: [0; MAX_FRAME_BYTES],
@@ -420,7 +421,10 @@ impl CrsfParser {
 
     fn mark_idle_gap(&mut self, now_us: u32) {
         if let Some(last) = self.last_byte_us {
-            if self.end > self.start && now_us.wrapping_sub(last) > self.idle_gap_us {
+            // An earlier barrier still ahead of `start` is kept: the frames
+            // before it are not finished, and one barrier is all there is.
+            let idle = now_us.wrapping_sub(last) > self.idle_gap_us;
+            if idle && self.end > self.start && self.barrier.is_none() {
                 self.barrier = Some(self.end);
             }
         }
