@@ -324,6 +324,8 @@ impl core::fmt::Display for FlightConfigError {
     }
 }
 
+impl core::error::Error for FlightConfigError {}
+
 /// Seconds → µs, saturating (config times are validated ≤ 60 s).
 fn us(s: f32) -> u32 {
     (s * 1.0e6) as u32
