@@ -62,6 +62,8 @@
 mod bus;
 mod clocks;
 mod delay;
+mod outputs;
+mod receiver;
 mod stack;
 mod store;
 mod watchdog;
@@ -81,13 +83,14 @@ fn led_off() {
     };
 }
 
-/// Panic: outputs to a safe state (LED off; there are no motor outputs
-/// yet), the location over defmt (no `core::fmt`: the message is not
+/// Panic: outputs to a safe state (the ESC off pulse, `outputs::force_off`;
+/// LED off), the location over defmt (no `core::fmt`: the message is not
 /// formatted, which keeps ~4 KiB of formatting code out of flash), then a
 /// trap: probe-rs halts and shows the backtrace; without a probe the
 /// HardFault handler waits for the watchdog reset.
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
+    outputs::force_off();
     led_off();
     match info.location() {
         Some(l) => defmt::error!("PANIC at {=str}:{=u32}", l.file(), l.line()),
@@ -96,25 +99,32 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     cortex_m::asm::udf()
 }
 
-/// HardFault (also reached from a panic): LED off, then wait for the
-/// independent watchdog to reset the MCU.
+/// HardFault (also reached from a panic): ESC off pulse, LED off, then
+/// wait for the independent watchdog to reset the MCU (the reset boots
+/// into the off pulse again).
 #[allow(unsafe_code)]
 #[cortex_m_rt::exception]
 unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    outputs::force_off();
     led_off();
     loop {
         cortex_m::asm::nop();
     }
 }
 
-#[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [USART1, USART2])]
+// The software tasks run on SPI1 and SPI2's vectors: the app uses neither
+// SPI, and USART1 is the receiver's own interrupt.
+#[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [SPI1, SPI2])]
 mod app {
     use crate::bus::{self, BusHandle};
     use crate::clocks::{self, Source};
     use crate::delay::{cpu_hz, AsmDelay};
+    use crate::outputs::EscOutputs;
+    use crate::receiver::{self, CrsfUart, Pilot};
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
+    use control::esc::{EscProtocol, EscTimer};
     use cortex_m::peripheral::DWT;
     use flight::boot::{BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
@@ -127,6 +137,7 @@ mod app {
     };
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
+    use rc_input::{CrsfParser, LinkStatus};
     use rtic_monotonics::fugit::ExtU32;
     use rtic_monotonics::rtic_time::monotonic::TimerQueueBasedInstant;
     use rtic_monotonics::systick::prelude::*;
@@ -144,6 +155,13 @@ mod app {
     type MagCal = flight::calmode::MagMinMaxMode;
 
     systick_monotonic!(Mono, 1_000);
+
+    /// ESC protocol: standard PWM at 400 Hz, or OneShot125 at 2 kHz with
+    /// the `oneshot125` feature.
+    #[cfg(not(feature = "oneshot125"))]
+    const ESC_PROTOCOL: EscProtocol = EscProtocol::Pwm;
+    #[cfg(feature = "oneshot125")]
+    const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
 
     /// Shortest watchdog timeout while booting (probing with retries and
     /// the MPU's power-up waits take ≤ 1.1 s), at the LSI's fastest 60 kHz.
@@ -163,6 +181,7 @@ mod app {
         stats: LoopStats,
         session: CalSession<MagCal>,
         bias: BiasStatus,
+        pilot: Pilot,
     }
 
     #[local]
@@ -175,6 +194,9 @@ mod app {
         record: CalibrationRecord,
         step: SampleStep,
         dt: DtClock,
+        esc: EscOutputs,
+        uart: CrsfUart,
+        parser: CrsfParser,
     }
 
     #[init]
@@ -196,6 +218,8 @@ mod app {
         let mut gpioa = dp.GPIOA.split(&mut rcc);
         let mut gpiob = dp.GPIOB.split(&mut rcc);
         let mut gpioc = dp.GPIOC.split(&mut rcc);
+        // After the port splits (they reset GPIOA/B), before anything slow.
+        let esc = start_outputs(dp.TIM3);
         // The Blue Pill LED is active low: start with it off.
         let led = gpioc
             .pc13
@@ -210,6 +234,7 @@ mod app {
         let pipeline = build_pipeline(&sensors, &sensors.capabilities(), &record);
         let bias = start_gyro_bias(&sensors);
         let session = start_session(&button_pin);
+        let uart = start_receiver(dp.USART1);
 
         let mut exti = dp.EXTI;
         let mut mpu_int = gpiob.pb5.into_pull_up_input(&mut gpiob.crl);
@@ -230,6 +255,7 @@ mod app {
                 stats: LoopStats::new(now),
                 session,
                 bias: BiasStatus::GaveUp,
+                pilot: Pilot::new(),
             },
             Local {
                 led,
@@ -240,8 +266,43 @@ mod app {
                 record,
                 step: SampleStep::new(bias),
                 dt: DtClock::new(cpu_hz(), IMU_RATE_HZ),
+                esc,
+                uart,
+                parser: CrsfParser::new(),
             },
         )
+    }
+
+    /// Boot step: the ESC outputs at the off pulse. The timer clock is
+    /// APB1 × 2 = SYSCLK (APB1 runs at SYSCLK / 2).
+    #[inline(never)]
+    fn start_outputs(tim: pac::TIM3) -> EscOutputs {
+        let timer =
+            match EscTimer::for_clock(ESC_PROTOCOL, ESC_PROTOCOL.default_rate_hz(), cpu_hz()) {
+                Ok(t) => t,
+                // Both protocols fit TIM3 at 64 and 72 MHz (control's tests);
+                // a failure here is a build configuration error.
+                Err(e) => defmt::panic!("ESC timer: {}", e),
+            };
+        let esc = EscOutputs::start(tim, timer);
+        defmt::info!(
+            "outputs: {} on TIM3 CH1-4 (PA6 PA7 PB0 PB1), {=u32} Hz, off pulse {=u32} ns",
+            ESC_PROTOCOL,
+            1_000_000_000 / timer.period_ns().max(1),
+            timer.pulse_ns(timer.off_compare())
+        );
+        esc
+    }
+
+    /// Boot step: the CRSF receiver on USART1 RX (PA10); APB2 runs at SYSCLK.
+    #[inline(never)]
+    fn start_receiver(usart: pac::USART1) -> CrsfUart {
+        let uart = CrsfUart::start(usart, cpu_hz());
+        defmt::info!(
+            "receiver: CRSF on USART1 RX (PA10), {=u32} baud",
+            receiver::CRSF_BAUD
+        );
+        uart
     }
 
     /// Boot step: the boot line, with the clock source.
@@ -382,12 +443,15 @@ mod app {
 
     /// MPU-9250 data-ready (1 kHz): read, process, hand on.
     #[task(binds = EXTI9_5, priority = 3,
-           local = [mpu_int, step, dt, sched: SampleScheduler = SampleScheduler::new(MAG_DIVIDER)],
+           local = [mpu_int, step, dt, esc, sched: SampleScheduler = SampleScheduler::new(MAG_DIVIDER)],
            shared = [sensors, pipeline, clock, stats, session, bias])]
     fn imu(mut cx: imu::Context) {
         let t0 = DWT::cycle_count();
         cx.local.mpu_int.clear_interrupt_pending_bit();
-        let now_us = cx.shared.clock.lock(|c| c.now_us(t0));
+        // Read inside the lock: the receive interrupt advances the same
+        // clock, and a count taken before it preempts would be older than
+        // the clock's and read as a 59 s jump.
+        let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
         let tick = cx.local.sched.on_imu_sample();
         let dt_cycles = cx.local.dt.step_cycles(t0);
         let (raw, mag) = cx.shared.sensors.lock(|s| s.read_sample(tick.read_mag));
@@ -421,8 +485,31 @@ mod app {
                 }
             }
         }
+        // Disarmed: the off pulse.
+        cx.local.esc.off();
         let t1 = DWT::cycle_count();
         cx.shared.stats.lock(|s| s.record(t1.wrapping_sub(t0)));
+    }
+
+    /// USART1 receive (priority 4, above the IMU task: at 420 kbaud a byte
+    /// arrives every 24 µs and an I2C burst in `imu` takes longer): bytes
+    /// into the CRSF parser, frames into the pilot state.
+    #[task(binds = USART1, priority = 4, local = [uart, parser], shared = [clock, pilot])]
+    fn crsf_rx(mut cx: crsf_rx::Context) {
+        let clock = &mut cx.shared.clock;
+        let pilot = &mut cx.shared.pilot;
+        receiver::drain(
+            cx.local.uart,
+            cx.local.parser,
+            || clock.lock(|c| c.now_us(DWT::cycle_count())),
+            |ev, now_us, stats, uart| {
+                pilot.lock(|p| {
+                    p.on_event(ev, now_us);
+                    p.stats = *stats;
+                    p.uart = uart;
+                })
+            },
+        );
     }
 
     /// One raw-log row, positionally in `RawLogRow::columns` order (the
@@ -555,9 +642,10 @@ mod app {
 
     /// 20 Hz: watchdog, button and calibration session, live log, LED.
     #[task(priority = 1, local = [led, button_pin, iwdg, flash, record],
-           shared = [sensors, pipeline, stats, session, bias])]
+           shared = [sensors, pipeline, stats, session, bias, pilot, clock])]
     async fn log(mut cx: log::Context) {
         let mut gate = WatchdogGate::new();
+        let mut link = LinkStatus::NeverReceived;
         let mut tick: u32 = 0;
         loop {
             tick = tick.wrapping_add(1);
@@ -590,6 +678,7 @@ mod app {
                 on_cal_event(ev, cx.local.flash, record, &mut cx.shared.pipeline);
             }
 
+            link = log_pilot(tick, link, &mut cx.shared.pilot, &mut cx.shared.clock);
             if mode == flight::calmode::Mode::Normal {
                 log_status(
                     tick,
@@ -664,6 +753,48 @@ mod app {
             Err(SaveError::Storage(_)) => defmt::error!("calibration save: flash error"),
         }
         pipeline.lock(|p| p.as_mut().map(|p| p.set_calibration(record)));
+    }
+
+    /// The receiver's link state on every change; channels and counters
+    /// every second while frames arrive.
+    fn log_pilot(
+        tick: u32,
+        last: LinkStatus,
+        pilot: &mut impl rtic::Mutex<T = Pilot>,
+        clock: &mut impl rtic::Mutex<T = MicrosClock>,
+    ) -> LinkStatus {
+        let now_us = clock.lock(|c| c.now_us(DWT::cycle_count()));
+        let (status, frame, stats, uart, lq) = pilot.lock(|p| {
+            (
+                p.status(now_us),
+                p.frame,
+                p.stats,
+                p.uart,
+                p.link_quality_pct,
+            )
+        });
+        if status != last {
+            match status {
+                LinkStatus::Ok => defmt::info!("rc: link up"),
+                other => defmt::warn!("rc: link lost ({})", other),
+            }
+        }
+        if tick.is_multiple_of(20) && status == LinkStatus::Ok {
+            if let Some(f) = frame {
+                let c = f.channels();
+                defmt::info!(
+                    "rc: ch1-8 {} us | lq {} % | frames {=u32} crc_err {=u32} dropped {=u32} | uart ore {=u32} fe {=u32}",
+                    c.get(..8).unwrap_or(c),
+                    lq,
+                    stats.rc_frames,
+                    stats.crc_errors,
+                    stats.dropped(),
+                    uart.overruns,
+                    uart.framing
+                );
+            }
+        }
+        status
     }
 
     /// The live log: attitude every call; loop timing, health, bus counters

@@ -1,0 +1,225 @@
+//! ESC outputs and the CRSF receiver on the real firmware: the off pulse on
+//! TIM3 CH1–CH4 (PA6, PA7, PB0, PB1) from the first boot steps and again
+//! after a watchdog reset; CRSF frames on USART1 RX reach the firmware and
+//! signal loss is seen.
+
+#![allow(clippy::panic, clippy::expect_used, clippy::unwrap_used)]
+
+mod common;
+use common::*;
+use emulator::{Board, BoardFault};
+
+/// Standard PWM at 400 Hz: 2.5 ms frames, 1000 µs off pulse.
+const PERIOD_NS: u64 = 2_500_000;
+const OFF_NS: u64 = 1_000_000;
+const CRSF_BAUD: u32 = 420_000;
+
+fn outputs(b: &mut Board) -> [Option<(u64, u64)>; 4] {
+    [0, 1, 2, 3].map(|ch| b.esc_pwm_ns(ch))
+}
+
+fn assert_off(b: &mut Board, when: &str) {
+    let o = outputs(b);
+    assert!(
+        o.iter().all(|&x| x == Some((PERIOD_NS, OFF_NS))),
+        "{when}: outputs {o:?}, want the 1000 µs off pulse at 400 Hz\n{}",
+        tail(b, 30)
+    );
+}
+
+/// The pin really toggles: high for the off pulse, low for the rest, over
+/// one frame sampled every 10 µs.
+fn measured_high_ns(b: &mut Board, port: usize, pin: u32) -> u64 {
+    let step = 10_000;
+    let mut high = 0;
+    let end = b.now_ns() + PERIOD_NS;
+    while b.now_ns() < end {
+        if b.pin_high(port, pin) {
+            high += step;
+        }
+        let t = b.now_ns() + step;
+        run_until(b, t);
+    }
+    high
+}
+
+#[test]
+fn outputs_carry_the_off_pulse_from_boot() {
+    let Some(mut b) = board() else { return };
+    // Before any sensor is probed (the MPU-9250 needs 100 ms after power-up).
+    let line = b.wait_for_line("outputs:", 50 * MS).unwrap();
+    assert!(line.is_some(), "no outputs line\n{}", tail(&b, 20));
+    assert_logged(&b, "outputs: Pwm on TIM3 CH1-4 (PA6 PA7 PB0 PB1), 400 Hz");
+    assert!(lines_with(&b, "probe ").is_empty(), "outputs after probing");
+    assert_off(&mut b, "at the outputs step");
+    boot_ok(&mut b);
+    run_until(&mut b, 2 * S);
+    assert_off(&mut b, "disarmed at 2 s");
+    for (port, pin) in emulator::TIM3_PINS {
+        let high = measured_high_ns(&mut b, port, pin);
+        assert!(
+            (OFF_NS - 10_000..=OFF_NS + 10_000).contains(&high),
+            "pin {port}/{pin}: high {high} ns per frame"
+        );
+    }
+    assert_no_reset(&b);
+}
+
+#[test]
+fn outputs_return_to_the_off_pulse_after_a_watchdog_reset() {
+    let Some(mut b) = board() else { return };
+    boot_ok(&mut b);
+    run_until(&mut b, S);
+    assert_off(&mut b, "before the reset");
+    b.apply(BoardFault::ImuIntStops);
+    let mut t = b.now_ns();
+    while resets_after_power_on(&b).is_empty() && t < 3 * S {
+        t += MS;
+        run_until(&mut b, t);
+    }
+    assert_eq!(
+        resets_after_power_on(&b).first(),
+        Some(&emulator::ResetCause::Watchdog)
+    );
+    // Reset state: the pins are inputs, no pulses.
+    assert_eq!(outputs(&mut b), [None; 4], "right after the reset");
+    let reset_at = b.resets()[1].0;
+    run_until(&mut b, reset_at + 50 * MS);
+    assert!(!lines_after(&b, reset_at, "outputs:").is_empty());
+    assert_off(&mut b, "50 ms after the watchdog reset");
+}
+
+/// CRC-8/DVB-S2 (polynomial 0xD5), the CRSF frame check.
+fn crc8_dvb_s2(bytes: &[u8]) -> u8 {
+    bytes.iter().fold(0u8, |mut crc, &b| {
+        crc ^= b;
+        for _ in 0..8 {
+            crc = if crc & 0x80 != 0 {
+                (crc << 1) ^ 0xD5
+            } else {
+                crc << 1
+            };
+        }
+        crc
+    })
+}
+
+/// An RC_CHANNELS_PACKED frame (type 0x16) to the flight controller
+/// (0xC8): 16 channels of 11 bits, little-endian, LSB first.
+fn rc_frame(ticks: [u16; 16]) -> Vec<u8> {
+    let mut payload = vec![0u8; 22];
+    for (i, &t) in ticks.iter().enumerate() {
+        for bit in 0..11 {
+            if t & (1 << bit) != 0 {
+                let at = i * 11 + bit;
+                payload[at / 8] |= 1 << (at % 8);
+            }
+        }
+    }
+    let mut body = vec![0x16];
+    body.extend_from_slice(&payload);
+    let crc = crc8_dvb_s2(&body);
+    let mut f = vec![0xC8, (body.len() + 1) as u8];
+    f.extend_from_slice(&body);
+    f.push(crc);
+    f
+}
+
+/// CRSF ticks for a pulse in µs (the specification's
+/// `us = (ticks − 992) · 5/8 + 1500`, inverted; exact for these values).
+fn ticks(us: i32) -> u16 {
+    ((us - 1500) * 8 / 5 + 992) as u16
+}
+
+/// Sends `frame` every `period_ns` until `until_ns`.
+fn stream(b: &mut Board, frame: &[u8], period_ns: u64, until_ns: u64) {
+    while b.now_ns() < until_ns {
+        b.apply(BoardFault::UsartRx {
+            bytes: frame.to_vec(),
+            baud: CRSF_BAUD,
+        });
+        let t = b.now_ns() + period_ns;
+        run_until(b, t);
+    }
+}
+
+#[test]
+fn crsf_frames_reach_the_firmware_and_loss_is_detected() {
+    let Some(mut b) = board() else { return };
+    let rx = b.wait_for_line("receiver:", 2 * S).unwrap();
+    assert!(
+        rx.is_some_and(|l| l.text.contains("CRSF on USART1 RX (PA10), 420000 baud")),
+        "{}",
+        tail(&b, 20)
+    );
+    let mut ch = [ticks(1500); 16];
+    ch[2] = ticks(1000); // throttle low (AETR)
+    ch[4] = ticks(2000); // a switch high
+    let frame = rc_frame(ch);
+    // 250 Hz, as ExpressLRS sends by default.
+    let start = b.now_ns();
+    stream(&mut b, &frame, 4 * MS, start + 1_500 * MS);
+    assert!(
+        !lines_after(&b, start, "rc: link up").is_empty(),
+        "{}",
+        tail(&b, 40)
+    );
+    let rc = lines_after(&b, start, "rc: ch1-8");
+    let last = rc
+        .last()
+        .unwrap_or_else(|| panic!("no channel line\n{}", tail(&b, 40)));
+    assert!(
+        last.contains("[1500, 1500, 1000, 1500, 2000, 1500, 1500, 1500]"),
+        "{last}"
+    );
+    assert!(last.contains("crc_err 0"), "{last}");
+    assert!(last.contains("fe 0"), "{last}");
+    // defmt-rtt encodes each log message with interrupts disabled; a long
+    // line outlasts a byte time (24 µs) and the USART overruns. A lost
+    // byte costs its frame (dropped, never misparsed): allow 5 %.
+    let (received, overruns) = b.usart1_counts();
+    let sent = 1_500 / 4;
+    assert!(received + overruns >= 26 * (sent - 2), "{received} bytes");
+    let (frames, dropped) = (field(last, "frames "), field(last, "dropped "));
+    assert!(frames >= 200 && dropped * 20 <= frames, "{last}");
+    // Stop sending: lost within the 100 ms timeout plus one 50 ms log tick.
+    let stop = b.now_ns();
+    run_until(&mut b, stop + 200 * MS);
+    let lost = lines_after(&b, stop, "rc: link lost");
+    assert!(
+        lost.first().is_some_and(|l| l.contains("TimedOut")),
+        "{lost:?}\n{}",
+        tail(&b, 20)
+    );
+    assert_no_reset(&b);
+}
+
+#[test]
+fn corrupted_crsf_frames_are_dropped_and_counted() {
+    let Some(mut b) = board() else { return };
+    boot_ok(&mut b);
+    let mut bad = rc_frame([ticks(1500); 16]);
+    bad[10] ^= 0x40;
+    let start = b.now_ns();
+    stream(&mut b, &bad, 4 * MS, start + 500 * MS);
+    assert!(
+        lines_after(&b, start, "rc: link up").is_empty(),
+        "a frame with a bad CRC counted as a link\n{}",
+        tail(&b, 20)
+    );
+    // Then good frames: the counters show the earlier CRC errors.
+    let good = rc_frame([ticks(1500); 16]);
+    stream(&mut b, &good, 4 * MS, start + 1_600 * MS);
+    let rc = lines_after(&b, start, "rc: ch1-8");
+    let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
+    assert!(field(last, "crc_err ") >= 100, "{last}");
+}
+
+/// The number after `key` in a log line (0 if absent).
+fn field(line: &str, key: &str) -> u64 {
+    line.split(key)
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0)
+}
