@@ -273,7 +273,8 @@ pub struct CrsfStats {
     pub bad_length: u32,
     /// Frames of a known type whose payload had the wrong size.
     pub bad_payload_length: u32,
-    /// Partial frames abandoned after an idle gap.
+    /// Partial frames (or false starts) abandoned because the line went
+    /// idle before they were complete.
     pub idle_resyncs: u32,
     /// Bytes skipped while looking for an address byte.
     pub skipped_bytes: u32,
@@ -330,6 +331,8 @@ pub struct CrsfParser {
     buf: [u8; MAX_FRAME_BYTES],
     start: usize,
     end: usize,
+    /// Buffer index of the first byte after an idle gap: no frame spans it.
+    barrier: Option<usize>,
     last_byte_us: Option<u32>,
     idle_gap_us: u32,
     stats: CrsfStats,
@@ -355,6 +358,7 @@ impl CrsfParser {
             buf: [0; MAX_FRAME_BYTES],
             start: 0,
             end: 0,
+            barrier: None,
             last_byte_us: None,
             idle_gap_us,
             stats: CrsfStats {
@@ -385,25 +389,41 @@ impl CrsfParser {
     pub fn clear(&mut self) {
         self.start = 0;
         self.end = 0;
+        self.barrier = None;
     }
 
     /// Feeds one received byte, stamped with the time it arrived (µs,
     /// wrapping). Returns the decoded content when the byte completes a
     /// valid frame.
     ///
-    /// If one byte completes more than one buffered frame (possible only
-    /// after a false start swallowed several frames), the later ones are
-    /// returned by the following calls.
+    /// A byte that arrives more than the idle gap after the previous one
+    /// starts a new frame: no frame is assembled across the gap. Frames
+    /// already complete in the buffer at that point are still delivered.
+    /// One call returns at most one event; if the buffer holds more (only
+    /// after garbage announced a long frame that swallowed real ones), the
+    /// following calls return them.
     pub fn push(&mut self, byte: u8, now_us: u32) -> Option<Event> {
-        if let Some(last) = self.last_byte_us {
-            if self.end > self.start && now_us.wrapping_sub(last) > self.idle_gap_us {
-                bump(&mut self.stats.idle_resyncs);
-                self.clear();
-            }
-        }
+        self.mark_idle_gap(now_us);
         self.last_byte_us = Some(now_us);
         self.append(byte);
         self.scan()
+    }
+
+    /// Delivers frames that are complete in the buffer but wait behind a
+    /// false start, once the line has been idle for the idle gap. Call it
+    /// from a periodic task so that the last frames before a pause are not
+    /// held until the next byte; it returns at most one event per call.
+    pub fn poll(&mut self, now_us: u32) -> Option<Event> {
+        self.mark_idle_gap(now_us);
+        self.scan()
+    }
+
+    fn mark_idle_gap(&mut self, now_us: u32) {
+        if let Some(last) = self.last_byte_us {
+            if self.end > self.start && now_us.wrapping_sub(last) > self.idle_gap_us {
+                self.barrier = Some(self.end);
+            }
+        }
     }
 
     fn append(&mut self, byte: u8) {
@@ -417,6 +437,7 @@ impl CrsfParser {
             }
             self.buf.copy_within(self.start..self.end, 0);
             self.end -= self.start;
+            self.barrier = self.barrier.map(|b| b.saturating_sub(self.start));
             self.start = 0;
         }
         if let Some(slot) = self.buf.get_mut(self.end) {
@@ -429,6 +450,9 @@ impl CrsfParser {
     /// are needed.
     fn scan(&mut self) -> Option<Event> {
         loop {
+            if self.barrier.is_some_and(|b| self.start >= b) {
+                self.barrier = None;
+            }
             let pending = self.buf.get(self.start..self.end).unwrap_or(&[]);
             let Some(&address) = pending.first() else {
                 self.clear();
@@ -439,36 +463,59 @@ impl CrsfParser {
                 self.start += 1;
                 continue;
             }
-            // Wait for the length byte / the rest of the frame.
-            let &length = pending.get(1)?;
-            if !(MIN_LENGTH_BYTE..=MAX_LENGTH_BYTE).contains(&length) {
-                bump(&mut self.stats.bad_length);
+            let total = match pending.get(1) {
+                Some(&length) if (MIN_LENGTH_BYTE..=MAX_LENGTH_BYTE).contains(&length) => {
+                    usize::from(length) + 2
+                }
+                Some(_) => {
+                    bump(&mut self.stats.bad_length);
+                    self.start += 1;
+                    continue;
+                }
+                // Only the address byte so far: the length byte must follow.
+                None => 2,
+            };
+            if self.barrier.is_some_and(|b| self.start + total > b) {
+                // Torn by an idle gap: the bytes after it belong to a new frame.
+                bump(&mut self.stats.idle_resyncs);
                 self.start += 1;
                 continue;
             }
-            let total = usize::from(length) + 2;
             let frame = pending.get(..total)?;
-            match check_and_decode(frame) {
-                Checked::CrcError => {
-                    bump(&mut self.stats.crc_errors);
-                    self.start += 1;
+            let checked = check_and_decode(frame);
+            if let Some(event) = self.resolve(checked, total) {
+                return Some(event);
+            }
+        }
+    }
+
+    /// Acts on a complete candidate of `total` bytes at `start`.
+    fn resolve(&mut self, checked: Checked, total: usize) -> Option<Event> {
+        let s = &mut self.stats;
+        match checked {
+            Checked::CrcError => {
+                bump(&mut s.crc_errors);
+                // Only the first byte is known bad: search the rest again.
+                self.start += 1;
+                None
+            }
+            Checked::BadPayloadLength => {
+                bump(&mut s.bad_payload_length);
+                self.start += total;
+                None
+            }
+            Checked::Unknown => {
+                bump(&mut s.unknown_type);
+                self.start += total;
+                None
+            }
+            Checked::Event(event) => {
+                match event {
+                    Event::Channels(_) => bump(&mut s.rc_frames),
+                    Event::LinkStatistics(_) => bump(&mut s.link_statistics_frames),
                 }
-                Checked::BadPayloadLength => {
-                    bump(&mut self.stats.bad_payload_length);
-                    self.start += total;
-                }
-                Checked::Unknown => {
-                    bump(&mut self.stats.unknown_type);
-                    self.start += total;
-                }
-                Checked::Event(event) => {
-                    match event {
-                        Event::Channels(_) => bump(&mut self.stats.rc_frames),
-                        Event::LinkStatistics(_) => bump(&mut self.stats.link_statistics_frames),
-                    }
-                    self.start += total;
-                    return Some(event);
-                }
+                self.start += total;
+                Some(event)
             }
         }
     }
