@@ -128,6 +128,11 @@ mod app {
     use cortex_m::peripheral::DWT;
     use flight::boot::{BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
+    #[cfg(feature = "flight-controller")]
+    use flight::flightctl::{
+        quat_from_ahrs, AltitudeEstimate, FlightConfig, SystemStatus, VehicleState,
+    };
+    use flight::flightctl::{Event as FlightEvent, Events, FlightController, Motors, PilotInput};
     use flight::health::{HealthCounters, SensorState};
     use flight::pipeline::{Pipeline, PipelineConfig};
     use flight::sample::{SampleIn, SampleStep};
@@ -137,6 +142,8 @@ mod app {
     };
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
+    #[cfg(feature = "flight-controller")]
+    use rc_input::ChannelMap;
     use rc_input::{CrsfParser, LinkStatus};
     use rtic_monotonics::fugit::ExtU32;
     use rtic_monotonics::rtic_time::monotonic::TimerQueueBasedInstant;
@@ -162,6 +169,14 @@ mod app {
     const ESC_PROTOCOL: EscProtocol = EscProtocol::Pwm;
     #[cfg(feature = "oneshot125")]
     const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
+
+    /// Receiver channels: AETR sticks, arm switch on channel 5 (high = arm).
+    #[cfg(feature = "flight-controller")]
+    const CHANNEL_MAP: ChannelMap = ChannelMap::DEFAULT;
+    /// Flight-mode switch: channel 6 (low angle, middle altitude hold, high
+    /// acro).
+    #[cfg(feature = "flight-controller")]
+    const MODE_CHANNEL: u8 = 5;
 
     /// Shortest watchdog timeout while booting (probing with retries and
     /// the MPU's power-up waits take ≤ 1.1 s), at the LSI's fastest 60 kHz.
@@ -195,6 +210,7 @@ mod app {
         step: SampleStep,
         dt: DtClock,
         esc: EscOutputs,
+        fc: Option<FlightController>,
         uart: CrsfUart,
         parser: CrsfParser,
     }
@@ -267,6 +283,7 @@ mod app {
                 step: SampleStep::new(bias),
                 dt: DtClock::new(cpu_hz(), IMU_RATE_HZ),
                 esc,
+                fc: start_flight_controller(),
                 uart,
                 parser: CrsfParser::new(),
             },
@@ -292,6 +309,22 @@ mod app {
             timer.pulse_ns(timer.off_compare())
         );
         esc
+    }
+
+    /// Boot step: the flight controller (disarmed). Without one (an invalid
+    /// configuration) the motors stay off.
+    #[inline(never)]
+    fn start_flight_controller() -> Option<FlightController> {
+        #[cfg(not(feature = "flight-controller"))]
+        return None;
+        #[cfg(feature = "flight-controller")]
+        match FlightController::new(FlightConfig::default()) {
+            Ok(fc) => Some(fc),
+            Err(e) => {
+                defmt::error!("flight controller: {}; motors stay off", e);
+                None
+            }
+        }
     }
 
     /// Boot step: the CRSF receiver on USART1 RX (PA10); APB2 runs at SYSCLK.
@@ -443,8 +476,8 @@ mod app {
 
     /// MPU-9250 data-ready (1 kHz): read, process, hand on.
     #[task(binds = EXTI9_5, priority = 3,
-           local = [mpu_int, step, dt, esc, sched: SampleScheduler = SampleScheduler::new(MAG_DIVIDER)],
-           shared = [sensors, pipeline, clock, stats, session, bias])]
+           local = [mpu_int, step, dt, esc, fc, sched: SampleScheduler = SampleScheduler::new(MAG_DIVIDER)],
+           shared = [sensors, pipeline, clock, stats, session, bias, pilot])]
     fn imu(mut cx: imu::Context) {
         let t0 = DWT::cycle_count();
         cx.local.mpu_int.clear_interrupt_pending_bit();
@@ -454,7 +487,11 @@ mod app {
         let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
         let tick = cx.local.sched.on_imu_sample();
         let dt_cycles = cx.local.dt.step_cycles(t0);
-        let (raw, mag) = cx.shared.sensors.lock(|s| s.read_sample(tick.read_mag));
+        let (raw, mag, mpu_ok) = cx.shared.sensors.lock(|s| {
+            let (raw, mag) = s.read_sample(tick.read_mag);
+            (raw, mag, s.mpu_health.state() == SensorState::Ok)
+        });
+        let fresh = raw.is_some();
         if let Some(raw) = raw {
             let input = SampleIn {
                 raw,
@@ -485,8 +522,42 @@ mod app {
                 }
             }
         }
-        // Disarmed: the off pulse.
-        cx.local.esc.off();
+        #[cfg(feature = "flight-controller")]
+        let motors = {
+            let pilot = cx
+                .shared
+                .pilot
+                .lock(|p| p.input(now_us, &CHANNEL_MAP, MODE_CHANNEL));
+            let status = SystemStatus {
+                sensors_healthy: mpu_ok,
+                gyro_bias_done: cx.shared.bias.lock(|b| matches!(b, BiasStatus::Done(_))),
+                calibration_running: cx.shared.session.lock(|c| {
+                    matches!(
+                        c.mode(),
+                        flight::calmode::Mode::MagCal | flight::calmode::Mode::AccelCal
+                    )
+                }),
+            };
+            let vehicle = cx
+                .shared
+                .pipeline
+                .lock(|p| p.as_ref().map(|p| vehicle_state(p, fresh)));
+            let out = match (cx.local.fc.as_mut(), vehicle) {
+                (Some(fc), Some(v)) => Some(fc.step(now_us, &pilot, &status, &v)),
+                _ => None,
+            };
+            if let Some(o) = out.filter(|o| !o.events.is_empty()) {
+                flight_log::spawn(o.events, pilot).ok();
+            }
+            out.map_or(Motors::Off, |o| o.motors)
+        };
+        // Without the flight controller the outputs stay at the off pulse.
+        #[cfg(not(feature = "flight-controller"))]
+        let motors = {
+            let _ = (&cx.local.fc, mpu_ok, fresh);
+            Motors::Off
+        };
+        cx.local.esc.set(&motors);
         let t1 = DWT::cycle_count();
         cx.shared.stats.lock(|s| s.record(t1.wrapping_sub(t0)));
     }
@@ -510,6 +581,45 @@ mod app {
                 })
             },
         );
+    }
+
+    /// The flight controller's view of the vehicle. Without a fresh sample
+    /// the gyro is NaN: the controller keeps the last commands for a single
+    /// miss and disarms when samples stay away.
+    #[cfg(feature = "flight-controller")]
+    fn vehicle_state(p: &Pipeline, fresh: bool) -> VehicleState {
+        let mut gyro = p.body_rates();
+        if !fresh {
+            gyro.roll_rps = f32::NAN;
+        }
+        VehicleState {
+            attitude: quat_from_ahrs(&p.quaternion()),
+            gyro,
+            altitude: p.altitude_estimate().map(|(height_m, vertical_speed_mps)| {
+                AltitudeEstimate {
+                    height_m,
+                    vertical_speed_mps,
+                }
+            }),
+        }
+    }
+
+    /// The flight controller's events (arming, refusals with their reason,
+    /// disarms with their cause, failsafe, motor test).
+    #[task(priority = 1)]
+    async fn flight_log(_cx: flight_log::Context, events: Events, pilot: PilotInput) {
+        for e in events.iter() {
+            match e {
+                FlightEvent::Armed => defmt::warn!("flight: ARMED"),
+                FlightEvent::ArmRefused(r) => defmt::warn!(
+                    "flight: arm refused: {} (throttle {=f32})",
+                    r,
+                    pilot.sticks.throttle
+                ),
+                FlightEvent::Disarmed(c) => defmt::warn!("flight: disarmed: {}", c),
+                other => defmt::warn!("flight: {}", other),
+            }
+        }
     }
 
     /// One raw-log row, positionally in `RawLogRow::columns` order (the

@@ -10,6 +10,7 @@
 
 use control::esc::EscTimer;
 use core::sync::atomic::{AtomicU16, Ordering};
+use flight::flightctl::Motors;
 use stm32f1xx_hal::pac;
 
 /// Compare value of the off pulse, published for the fault paths (0: the
@@ -74,6 +75,18 @@ impl EscOutputs {
     /// The off pulse on all four channels.
     pub fn off(&mut self) {
         self.write([self.timer.off_compare(); 4]);
+    }
+
+    /// The flight controller's motors: mixer motor index `i` on channel
+    /// `i + 1` (`Motors::Off`: the off pulse).
+    pub fn set(&mut self, motors: &Motors) {
+        match motors {
+            Motors::Off => self.off(),
+            Motors::Run(m) => {
+                let c = m.map(|m| self.timer.compare(m));
+                self.write(c);
+            }
+        }
     }
 }
 

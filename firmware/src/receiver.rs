@@ -3,6 +3,12 @@
 //! pilot state the control loop reads. Frame parsing, channel mapping and
 //! signal-loss timing are `rc_input`'s.
 
+#[cfg(feature = "flight-controller")]
+use control::shaping::Sticks;
+#[cfg(feature = "flight-controller")]
+use flight::flightctl::{FlightMode, PilotInput};
+#[cfg(feature = "flight-controller")]
+use rc_input::{ChannelMap, SwitchPosition};
 use rc_input::{CrsfParser, CrsfStats, Event, LinkMonitor, LinkStatus, RcFrame};
 use stm32f1xx_hal::pac;
 
@@ -164,6 +170,40 @@ pub fn drain(
         let t = now_us();
         if let Some(ev) = parser.push(byte, t) {
             on_event(ev, t, parser.stats(), uart.errors());
+        }
+    }
+}
+
+#[cfg(feature = "flight-controller")]
+impl Pilot {
+    /// The flight controller's view of the pilot at `now_us`: sticks and
+    /// the arm switch through `map`, the flight mode from `mode_channel`
+    /// (low: angle, middle: altitude hold, high: acro; angle if absent),
+    /// and whether the link is up. A frame missing a stick or the arm
+    /// switch counts as no link.
+    pub fn input(&mut self, now_us: u32, map: &ChannelMap, mode_channel: u8) -> PilotInput {
+        let link_up = !self.link.is_lost(now_us);
+        let Some(frame) = self.frame.filter(|_| link_up) else {
+            return PilotInput::default();
+        };
+        let (Ok(s), Ok(arm_switch)) = (map.sticks(&frame), map.arm_switch(&frame)) else {
+            return PilotInput::default();
+        };
+        let mode = match ChannelMap::switch(&frame, mode_channel) {
+            Ok(SwitchPosition::Middle) => FlightMode::AltitudeHold,
+            Ok(SwitchPosition::High) => FlightMode::Acro,
+            _ => FlightMode::Angle,
+        };
+        PilotInput {
+            sticks: Sticks {
+                roll: s.roll,
+                pitch: s.pitch,
+                yaw: s.yaw,
+                throttle: s.throttle,
+            },
+            arm_switch,
+            mode,
+            link_ok: true,
         }
     }
 }
