@@ -45,12 +45,20 @@
 //! figure-eight; short press → raw-log mode on/off (CSV order of the BROAD
 //! recordings, 100 Hz), or abort a calibration.
 //!
-//! Safety: there are no motor outputs yet (controller outputs are only
-//! logged). On a panic the handler turns the LED off, logs the location
-//! over defmt and traps into HardFault, which waits for the watchdog reset.
+//! * `crsf_rx` (USART1, priority 4): CRSF bytes from PA10 at 420 kbaud into
+//!   `rc_input`'s parser and link monitor.
 //!
-//! Flash: 49,828 B of the 50 KiB budget (`cargo fw && cargo xtask size`,
-//! release profile at `opt-level = "z"`); static RAM 3.8 KiB. To fit, the
+//! Safety: the ESC outputs (TIM3 CH1-4 on PA6, PA7, PB0, PB1) carry the
+//! "off" pulse from the boot step right after the clock switch, whenever
+//! disarmed, and after a watchdog reset (the boot path). On a panic the
+//! handler writes the off pulse (`outputs::force_off`), turns the LED off,
+//! logs the location over defmt and traps into HardFault, which writes the
+//! off pulse again and waits for the watchdog reset. The flight controller
+//! runs only with the `flight-controller` feature (it does not fit the
+//! flash yet); without it the outputs stay off.
+//!
+//! Flash: 57,096 B of the 63 KiB budget (`cargo fw && cargo xtask size`,
+//! release profile at `opt-level = "z"`); static RAM 4.0 KiB. To fit, the
 //! I2C master is our own register-level driver (`bus.rs`) rather than the
 //! HAL's blocking one, and the magnetometer calibration on the board is the
 //! per-axis min/max (the `MagCal` type below: one line selects the full
