@@ -223,3 +223,112 @@ fn field(line: &str, key: &str) -> u64 {
         .and_then(|s| s.parse().ok())
         .unwrap_or(0)
 }
+
+/// Sends `frame` every 4 ms (250 Hz) until a log line containing
+/// `pattern` appears (returned) or `timeout_ns` passes.
+fn stream_until(b: &mut Board, frame: &[u8], pattern: &str, timeout_ns: u64) -> Option<String> {
+    let start = b.now_ns();
+    while b.now_ns() < start + timeout_ns {
+        b.apply(BoardFault::UsartRx {
+            bytes: frame.to_vec(),
+            baud: CRSF_BAUD,
+        });
+        let t = b.now_ns() + 4 * MS;
+        run_until(b, t);
+        if let Some(l) = lines_after(b, start, pattern).first() {
+            return Some(l.clone());
+        }
+    }
+    None
+}
+
+/// Sticks centred, throttle at `throttle_us`, arm switch (channel 5) on or
+/// off, mode switch (channel 6) low: angle mode.
+fn sticks(throttle_us: i32, arm: bool) -> Vec<u8> {
+    let mut ch = [ticks(1500); 16];
+    ch[2] = ticks(throttle_us);
+    ch[4] = ticks(if arm { 2000 } else { 1000 });
+    ch[5] = ticks(1000);
+    rc_frame(ch)
+}
+
+/// Arming on the real firmware: refused with the throttle high (reason in
+/// the log), armed with the throttle low and the switch, idle pulses while
+/// armed, and on signal loss failsafe, disarm and the off pulse. Skipped
+/// when the firmware was built without the flight controller (the default
+/// while it does not fit the flash).
+#[test]
+fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
+    // Ideal sensors: with the simulator's default noise the start-up gyro
+    // bias restarts until it gives up on the emulated board, and arming is
+    // then refused for it (checked below when it happens).
+    let Some(mut b) = board_with(|c| c.sim.errors = sim::SensorErrors::ideal()) else {
+        return;
+    };
+    let fc = b.wait_for_line("flight controller:", 2 * S).unwrap();
+    if !fc.is_some_and(|l| l.text.contains("ready")) {
+        println!("skipped: firmware built without the flight-controller feature");
+        return;
+    }
+    // The start-up gyro bias needs 1 s of stillness after the probe.
+    let mut t = b.now_ns();
+    let bias_ended = |b: &Board| {
+        !lines_with(b, "gyro bias: Done").is_empty()
+            || !lines_with(b, "gyro bias: GaveUp").is_empty()
+    };
+    while !bias_ended(&b) && t < 8 * S {
+        t += 100 * MS;
+        run_until(&mut b, t);
+    }
+    let bias_done = !lines_with(&b, "gyro bias: Done").is_empty();
+
+    let up = stream_until(&mut b, &sticks(1500, false), "rc: link up", S);
+    assert!(up.is_some(), "{}", tail(&b, 20));
+    let refused = stream_until(&mut b, &sticks(1500, true), "flight: arm refused", S);
+    // The first reason in the controller's order of checks.
+    let reason = if bias_done {
+        "ThrottleNotLow"
+    } else {
+        "GyroBiasPending"
+    };
+    assert!(
+        refused.as_ref().is_some_and(|l| l.contains(reason)),
+        "{refused:?}\n{}",
+        tail(&b, 30)
+    );
+    assert_off(&mut b, "after the refusal");
+    if !bias_done {
+        println!("skipped the rest: the start-up gyro bias gave up on the emulated board");
+        return;
+    }
+
+    stream_until(&mut b, &sticks(1000, false), "never", 300 * MS);
+    let armed = stream_until(&mut b, &sticks(1000, true), "flight: ARMED", S);
+    assert!(armed.is_some(), "{}", tail(&b, 30));
+    stream_until(&mut b, &sticks(1000, true), "never", 100 * MS);
+    for (ch, o) in outputs(&mut b).into_iter().enumerate() {
+        let (period, high) = o.unwrap_or_else(|| panic!("channel {ch} silent"));
+        assert_eq!(period, PERIOD_NS);
+        assert!(
+            (OFF_NS + 10_000..OFF_NS + 200_000).contains(&high),
+            "armed, throttle low: channel {ch} at {high} ns, want idle above the off pulse"
+        );
+    }
+
+    // Signal loss: stop sending.
+    let lost_at = b.now_ns();
+    let disarmed = b.wait_for_line("flight: disarmed", 7 * S).unwrap();
+    assert!(
+        !lines_after(&b, lost_at, "flight: FailsafeHold").is_empty(),
+        "no failsafe\n{}",
+        tail(&b, 40)
+    );
+    assert!(disarmed.is_some(), "{}", tail(&b, 40));
+    let t = b.now_ns() + 10 * MS;
+    run_until(&mut b, t);
+    assert_off(&mut b, "after the failsafe disarm");
+    for l in lines_with(&b, "flight") {
+        println!("{l}");
+    }
+    assert_no_reset(&b);
+}

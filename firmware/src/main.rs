@@ -57,7 +57,7 @@
 //! runs only with the `flight-controller` feature (it does not fit the
 //! flash yet); without it the outputs stay off.
 //!
-//! Flash: 57,096 B of the 63 KiB budget (`cargo fw && cargo xtask size`,
+//! Flash: 57,104 B of the 63 KiB budget (`cargo fw && cargo xtask size`,
 //! release profile at `opt-level = "z"`); static RAM 4.0 KiB. To fit, the
 //! I2C master is our own register-level driver (`bus.rs`) rather than the
 //! HAL's blocking one, and the magnetometer calibration on the board is the
@@ -324,10 +324,20 @@ mod app {
     #[inline(never)]
     fn start_flight_controller() -> Option<FlightController> {
         #[cfg(not(feature = "flight-controller"))]
-        return None;
+        {
+            defmt::warn!("flight controller: not built; outputs stay at the off pulse");
+            None
+        }
         #[cfg(feature = "flight-controller")]
         match FlightController::new(FlightConfig::default()) {
-            Ok(fc) => Some(fc),
+            Ok(fc) => {
+                defmt::info!(
+                    "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}",
+                    CHANNEL_MAP.arm_channel() + 1,
+                    MODE_CHANNEL + 1
+                );
+                Some(fc)
+            }
             Err(e) => {
                 defmt::error!("flight controller: {}; motors stay off", e);
                 None
