@@ -396,6 +396,18 @@ impl ChannelMap {
         Self::channel_us(frame, channel).map(SwitchPosition::from_us)
     }
 
+    /// Position of auxiliary switch `aux` in the radio's numbering: AUX1 is
+    /// channel 5 (index 4), AUX12 channel 16. `aux` outside 1..=12 is
+    /// reported as a missing channel.
+    pub fn aux(frame: &RcFrame, aux: u8) -> Result<SwitchPosition, MissingChannel> {
+        let channel = if (1..=12).contains(&aux) {
+            aux + 3
+        } else {
+            u8::MAX
+        };
+        Self::switch(frame, channel)
+    }
+
     /// Whether the arm switch is in its active position.
     pub fn arm_switch(&self, frame: &RcFrame) -> Result<bool, MissingChannel> {
         Ok(Self::switch(frame, self.arm_channel)? == self.arm_active)

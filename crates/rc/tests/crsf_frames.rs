@@ -314,3 +314,24 @@ fn ticks_conversion_matches_the_specification_range() {
     assert_eq!(us_to_ticks(0), 0);
     assert_eq!(us_to_ticks(u16::MAX), 2047);
 }
+
+#[test]
+fn two_idle_gaps_before_the_held_frames_are_out() {
+    // A false start holds two link-statistics frames; the line goes idle
+    // twice before they are all delivered.
+    let stream = [
+        &[0xC8, 0x3E][..],
+        &ADV_LINK_STATISTICS,
+        &ADV_LINK_STATISTICS,
+    ]
+    .concat();
+    let mut parser = CrsfParser::new();
+    let (events, t) = feed(&mut parser, &stream, 0);
+    assert!(events.is_empty());
+    let (first, t) = feed(&mut parser, &ADV_RC_CENTRED[..1], t + 2_000);
+    assert!(matches!(first[..], [Event::LinkStatistics(_)]));
+    let (rest, _) = feed(&mut parser, &ADV_RC_CENTRED, t + 2_000);
+    assert_eq!(rest.len(), 2, "{rest:?}");
+    assert!(matches!(rest[0], Event::LinkStatistics(_)));
+    assert!(matches!(rest[1], Event::Channels(_)));
+}

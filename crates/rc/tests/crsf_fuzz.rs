@@ -14,8 +14,11 @@ use rc_input::crsf::{
 };
 use rc_input::{CrsfParser, Event, LinkStatistics, RcFrame};
 
+/// A frame's bytes and the event it must produce.
+type Framed = (Vec<u8>, Event);
+
 /// A valid frame and the event it must produce.
-fn frame() -> impl Strategy<Value = (Vec<u8>, Event)> {
+fn frame() -> impl Strategy<Value = Framed> {
     let address = prop::sample::select(vec![0xC8u8, 0xEE, 0xEA]);
     let rc = (address.clone(), prop::array::uniform16(0u16..2048)).prop_map(|(a, ticks)| {
         let bytes = encode_rc_channels(a, &ticks).to_vec();
@@ -65,6 +68,18 @@ fn run(parser: &mut CrsfParser, timed: &[(u8, u32)]) -> Vec<Event> {
     events
 }
 
+/// Garbage and frames back to back, and the events the frames must give.
+fn interleave(parts: Vec<(Vec<u8>, Framed)>) -> (Vec<u8>, Vec<Event>) {
+    let mut bytes = Vec::new();
+    let mut expected = Vec::new();
+    for (garbage, (f, e)) in parts {
+        bytes.extend(garbage);
+        bytes.extend(f);
+        expected.push(e);
+    }
+    (bytes, expected)
+}
+
 /// Stamps bytes one byte time apart from `t0`.
 fn stamp(bytes: &[u8], t0: u32) -> Vec<(u8, u32)> {
     (0u32..)
@@ -98,13 +113,7 @@ proptest! {
         parts in prop::collection::vec((non_address_garbage(40), frame()), 1..12),
         t0 in any::<u32>(),
     ) {
-        let mut bytes = Vec::new();
-        let mut expected = Vec::new();
-        for (garbage, (f, e)) in parts {
-            bytes.extend(garbage);
-            bytes.extend(f);
-            expected.push(e);
-        }
+        let (bytes, expected) = interleave(parts);
         let mut parser = CrsfParser::new();
         let events = run(&mut parser, &stamp(&bytes, t0));
         prop_assert_eq!(events, expected);
@@ -145,13 +154,7 @@ proptest! {
     fn frames_in_garbage_without_gaps_are_lost_only_to_a_chance_crc_match(
         parts in prop::collection::vec((nasty_garbage(30), frame()), 1..12),
     ) {
-        let mut bytes = Vec::new();
-        let mut expected = Vec::new();
-        for (garbage, (f, e)) in parts {
-            bytes.extend(garbage);
-            bytes.extend(f);
-            expected.push(e);
-        }
+        let (mut bytes, expected) = interleave(parts);
         // 64 idle-line bytes complete any false start still pending.
         bytes.extend([0u8; 64]);
         let mut parser = CrsfParser::with_idle_gap_us(u32::MAX);

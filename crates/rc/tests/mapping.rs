@@ -171,6 +171,29 @@ fn switch_positions_and_the_arm_switch() {
 }
 
 #[test]
+fn aux_switches_use_the_radio_numbering() {
+    let f = frame(&[(4, 1000), (5, 1500), (15, 2000)], 16);
+    assert_eq!(ChannelMap::aux(&f, 1), Ok(SwitchPosition::Low));
+    assert_eq!(ChannelMap::aux(&f, 2), Ok(SwitchPosition::Middle));
+    assert_eq!(ChannelMap::aux(&f, 12), Ok(SwitchPosition::High));
+    assert_eq!(
+        ChannelMap::aux(&f, 0),
+        Err(MissingChannel {
+            channel: u8::MAX,
+            count: 16
+        })
+    );
+    assert!(ChannelMap::aux(&f, 13).is_err());
+    assert_eq!(
+        ChannelMap::aux(&frame(&[], 6), 3),
+        Err(MissingChannel {
+            channel: 6,
+            count: 6
+        })
+    );
+}
+
+#[test]
 fn a_short_ppm_frame_lacks_the_arm_channel() {
     let map = ChannelMap::DEFAULT;
     let four = frame(&[], 4);
