@@ -14,7 +14,8 @@
 //! Not modelled: the PLL/HSI clock before the switch (the CPU counts at
 //! 72 MHz from reset), instruction timing (one instruction per cycle),
 //! the process stack, MPU/FPU (none on the M3 part used), DMA, timers
-//! other than TIM3, USART transmit and USART2/3, ADC, sleep modes beyond "idle until the next event".
+//! other than TIM3, USART transmit and USART2/3, ADC, sleep modes beyond
+//! "idle until the next event".
 
 pub mod board;
 pub mod elf;

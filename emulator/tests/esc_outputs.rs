@@ -9,9 +9,24 @@ mod common;
 use common::*;
 use emulator::{Board, BoardFault};
 
-/// Standard PWM at 400 Hz: 2.5 ms frames, 1000 µs off pulse.
-const PERIOD_NS: u64 = 2_500_000;
-const OFF_NS: u64 = 1_000_000;
+/// The protocol the firmware was built for, from its `outputs:` boot line:
+/// (frame period, off pulse) in ns. Standard PWM: 2.5 ms and 1000 µs;
+/// OneShot125 (`--features oneshot125`): 0.5 ms and 125 µs.
+fn protocol(b: &Board) -> (u64, u64) {
+    let line = lines_with(b, "outputs:")
+        .last()
+        .cloned()
+        .unwrap_or_else(|| panic!("no outputs line\n{}", tail(b, 20)));
+    if line.contains("OneShot125") {
+        (500_000, 125_000)
+    } else {
+        assert!(
+            line.contains("Pwm on TIM3") && line.contains("400 Hz"),
+            "{line}"
+        );
+        (2_500_000, 1_000_000)
+    }
+}
 const CRSF_BAUD: u32 = 420_000;
 
 fn outputs(b: &mut Board) -> [Option<(u64, u64)>; 4] {
@@ -19,10 +34,11 @@ fn outputs(b: &mut Board) -> [Option<(u64, u64)>; 4] {
 }
 
 fn assert_off(b: &mut Board, when: &str) {
+    let want = protocol(b);
     let o = outputs(b);
     assert!(
-        o.iter().all(|&x| x == Some((PERIOD_NS, OFF_NS))),
-        "{when}: outputs {o:?}, want the 1000 µs off pulse at 400 Hz\n{}",
+        o.iter().all(|&x| x == Some(want)),
+        "{when}: outputs {o:?}, want the off pulse {want:?}\n{}",
         tail(b, 30)
     );
 }
@@ -32,7 +48,7 @@ fn assert_off(b: &mut Board, when: &str) {
 fn measured_high_ns(b: &mut Board, port: usize, pin: u32) -> u64 {
     let step = 10_000;
     let mut high = 0;
-    let end = b.now_ns() + PERIOD_NS;
+    let end = b.now_ns() + protocol(b).0;
     while b.now_ns() < end {
         if b.pin_high(port, pin) {
             high += step;
@@ -49,7 +65,8 @@ fn outputs_carry_the_off_pulse_from_boot() {
     // Before any sensor is probed (the MPU-9250 needs 100 ms after power-up).
     let line = b.wait_for_line("outputs:", 50 * MS).unwrap();
     assert!(line.is_some(), "no outputs line\n{}", tail(&b, 20));
-    assert_logged(&b, "outputs: Pwm on TIM3 CH1-4 (PA6 PA7 PB0 PB1), 400 Hz");
+    assert_logged(&b, "on TIM3 CH1-4 (PA6 PA7 PB0 PB1)");
+    let (_, off_ns) = protocol(&b);
     assert!(lines_with(&b, "probe ").is_empty(), "outputs after probing");
     assert_off(&mut b, "at the outputs step");
     boot_ok(&mut b);
@@ -58,7 +75,7 @@ fn outputs_carry_the_off_pulse_from_boot() {
     for (port, pin) in emulator::TIM3_PINS {
         let high = measured_high_ns(&mut b, port, pin);
         assert!(
-            (OFF_NS - 10_000..=OFF_NS + 10_000).contains(&high),
+            (off_ns - 10_000..=off_ns + 10_000).contains(&high),
             "pin {port}/{pin}: high {high} ns per frame"
         );
     }
@@ -308,9 +325,11 @@ fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
     stream_until(&mut b, &sticks(1000, true), "never", 100 * MS);
     for (ch, o) in outputs(&mut b).into_iter().enumerate() {
         let (period, high) = o.unwrap_or_else(|| panic!("channel {ch} silent"));
-        assert_eq!(period, PERIOD_NS);
+        let (period_ns, off_ns) = protocol(&b);
+        assert_eq!(period, period_ns);
+        // Idle: a few % of the command range (off to twice off) above off.
         assert!(
-            (OFF_NS + 10_000..OFF_NS + 200_000).contains(&high),
+            (off_ns + off_ns / 100..off_ns + off_ns / 5).contains(&high),
             "armed, throttle low: channel {ch} at {high} ns, want idle above the off pulse"
         );
     }
