@@ -57,7 +57,7 @@
 //! runs only with the `flight-controller` feature (it does not fit the
 //! flash yet); without it the outputs stay off.
 //!
-//! Flash: 57,104 B of the 63 KiB budget (`cargo fw && cargo xtask size`,
+//! Flash: 57,168 B of the 63 KiB budget (`cargo fw && cargo xtask size`,
 //! release profile at `opt-level = "z"`); static RAM 4.0 KiB. To fit, the
 //! I2C master is our own register-level driver (`bus.rs`) rather than the
 //! HAL's blocking one, and the magnetometer calibration on the board is the
