@@ -261,6 +261,8 @@ fn down_row(q: [i32; 4]) -> [i32; 3] {
 /// doubled ones 2q in Q29 (= q's raw Q30 value): products Q58, at most 2^59 + 2^59 + 2^60
 /// = 2^61 (×(1+1e-6)²) per component, so the sums fit and the high word (>> 32) is
 /// ∇f/2 in Q26 with |gᵢ| < 2^30.
+// Used by the textbook filter only.
+#[cfg_attr(not(feature = "textbook"), allow(dead_code))]
 fn accel_grad(q: [i32; 4], down: [i32; 3], d: [i32; 3]) -> [i32; 4] {
     let [d2q1, d2q2, d2q3, d2q4] = q;
     let (q1, q2, q3, q4) = (d2q1 >> 1, d2q2 >> 1, d2q3 >> 1, d2q4 >> 1);
@@ -282,6 +284,8 @@ fn accel_grad(q: [i32; 4], down: [i32; 3], d: [i32; 3]) -> [i32; 4] {
 /// so |f_bᵢ| ≤ 2^29); bx·qᵢ, bz·qᵢ in Q28 (high words, ≤ 2^28), coefficient sums
 /// ≤ 3·2^28; products ≤ 3·2^57, three of them < 2^61; the high word is ∇f/2 in Q24
 /// (|gᵢ| < 2^29).
+// Used by the textbook filter only.
+#[cfg_attr(not(feature = "textbook"), allow(dead_code))]
 fn mag_grad(q: [i32; 4], r0: [i32; 3], r2: [i32; 3], m: [i32; 3], bx: i32, bz: i32) -> [i32; 4] {
     let hi = |x: i64| (x >> 32) as i32;
     let [r00, r01, r02] = r0;
@@ -326,6 +330,8 @@ fn propagate(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
 /// gain with a long dt) reaches but cannot pass the minimum instead of spinning the
 /// estimate away. Same limit as the f32 filter. The step adds at most ½·2^60 to the
 /// accumulator's norm.
+// Used by the textbook filter only.
+#[cfg_attr(not(feature = "textbook"), allow(dead_code))]
 fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: Option<i32>) {
     if let Some((u, _)) = unit4(g) {
         let [g0, g1, g2, g3] = g;
@@ -772,7 +778,15 @@ impl MadgwickFixed {
             return st;
         }
         if self.c.cfg.algorithm == Algorithm::Textbook {
+            #[cfg(feature = "textbook")]
             return self.update_textbook(gyro, accel, mag, dt_q31);
+            // Built without it (the firmware, which runs the full filter): refuse to
+            // update rather than run another algorithm than the one configured.
+            #[cfg(not(feature = "textbook"))]
+            {
+                st.path = UpdatePath::Skipped;
+                return st;
+            }
         }
         let initialising = self.time_q20 < self.c.startup_q20;
         st.initialising = initialising;
@@ -1073,6 +1087,7 @@ impl MadgwickFixed {
 
     /// Madgwick's 2010 filter exactly ([`Algorithm::Textbook`], as the f32 filter's):
     /// J_gᵀf_g + J_bᵀf_b normalised jointly, one fixed β, the raw gyro.
+    #[cfg(feature = "textbook")]
     fn update_textbook(
         &mut self,
         gyro: [i32; 3],
