@@ -138,6 +138,47 @@ fn unit4(v: [i32; 4]) -> Option<([i32; 4], u64)> {
     Some((u, s))
 }
 
+/// The textbook filter's normalisation: `v/‖v‖` in Q30 (`None` if zero) with one
+/// Newton step from the table (relative error of the scale ≤ 1.5·0.016² < 4e-4, and
+/// the same for every component, so the direction is exact to rounding). Enough
+/// there: a common scale error of the accelerometer or magnetometer vector moves the
+/// gradient only to second order near the minimum (J ᵀ·down = 0 for a unit q), and of
+/// the gradient only the step length. No i32::MIN clamp: the callers pass 3-vectors
+/// (4th component 0: Σ < 3·2^62) or the gradient (components < 2^30).
+#[cfg(feature = "textbook")]
+#[inline(never)]
+fn unit_fast(v: [i32; 4]) -> Option<[i32; 4]> {
+    let sq = |x: i32| m64(x, x) as u64;
+    let [a, b, c, d] = v;
+    let s = sq(a) + sq(b) + sq(c) + sq(d);
+    if s == 0 {
+        return None;
+    }
+    // Rare (components ≥ 2^30): v/4 has Σ < 2^60 (and ≥ 2^58: non-zero).
+    let (v, s) = if s < 1 << 62 {
+        (v, s)
+    } else {
+        let v4 = [a >> 2, b >> 2, c >> 2, d >> 2];
+        let [a, b, c, d] = v4;
+        (v4, sq(a) + sq(b) + sq(c) + sq(d))
+    };
+    let (m_q32, k) = norm_parts(s);
+    let idx = ((m_q32 >> 26) as usize).wrapping_sub(16);
+    let y0 = RSQRT_TABLE.get(idx).copied().unwrap_or(1 << 29) << 1;
+    let y = (newton_rsqrt(y0, m_q32) >> 1) as i32;
+    let f = |x: i32| ((m64(x << k, y) + (1 << 29)) >> 30) as i32;
+    let [a, b, c, d] = v;
+    Some([f(a), f(b), f(c), f(d)])
+}
+
+/// [`unit_fast`] of a 3-vector.
+#[cfg(feature = "textbook")]
+#[inline(always)]
+fn unit3_fast(v: [i32; 3]) -> Option<[i32; 3]> {
+    let [a, b, c] = v;
+    unit_fast([a, b, c, 0]).map(|[x, y, z, _]| [x, y, z])
+}
+
 /// Normalise an i32 3-vector to Q30; `None` if zero. Also returns ‖v‖².
 fn unit3(v: [i32; 3]) -> Option<([i32; 3], u64)> {
     let [a, b, c] = v;
@@ -318,37 +359,6 @@ fn propagate(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
         b(q3) + m64(q1, h1) - m64(q2, h2) + m64(q4, h0),
         b(q4) + m64(q1, h2) + m64(q2, h1) - m64(q3, h0),
     ]
-}
-
-/// Normalised gradient step on the Q60 accumulator: acc −= s·∇/‖∇‖ with
-/// s = min(β·dt, ‖∇‖/4, ½) in Q30. `g` is ∇/2 in Q(29 − log₂ `cap_mul`) (< 2^30 per
-/// component), so ‖∇‖/4 in Q30 is ‖g‖·`cap_mul` (8 for the accelerometer's Q26, 32 for
-/// the magnetometer's Q24).
-///
-/// Why ‖∇‖/4: for a small error θ about an axis perpendicular to the sensor's reference,
-/// ∇ = 4·δq (δq ≈ θ/2 is the quaternion step that removes it), so a large β·dt (start-up
-/// gain with a long dt) reaches but cannot pass the minimum instead of spinning the
-/// estimate away. Same limit as the f32 filter. The step adds at most ½·2^60 to the
-/// accumulator's norm.
-// Used by the textbook filter only.
-#[cfg_attr(not(feature = "textbook"), allow(dead_code))]
-fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: Option<i32>) {
-    if let Some((u, _)) = unit4(g) {
-        let [g0, g1, g2, g3] = g;
-        let [u0, u1, u2, u3] = u;
-        // ‖g‖ = g·u/2^30 (|g|·|u| < 2^61).
-        let norm = (m64(g0, u0) + m64(g1, u1) + m64(g2, u2) + m64(g3, u3)) >> 30;
-        // ‖g‖ < 2^30 fits in i32. A product, not a shift: a variable 64-bit shift is a
-        // library call (`__aeabi_llsl`) on the M3.
-        let cap = cap_mul.map_or(i64::MAX, |k| m64(norm as i32, k));
-        let s = beta_dt_q30.min(cap).max(0).min(1 << 29) as i32;
-        // In place, per component (returning the array by value costs a `memcpy`).
-        let [a0, a1, a2, a3] = acc;
-        *a0 -= m64(s, u0);
-        *a1 -= m64(s, u1);
-        *a2 -= m64(s, u2);
-        *a3 -= m64(s, u3);
-    }
 }
 
 /// Renormalise the Q60 accumulator to a unit Q30 quaternion; `None` if (near) zero
@@ -1098,19 +1108,19 @@ impl MadgwickFixed {
         let mut st = UpdateStatus::new();
         let q = self.q;
         let mut nq = propagate(q, half_angles(gyro, dt_q31, &mut st.gyro_step_clamped));
-        let acc = unit3(accel);
+        let acc = unit3_fast(accel);
         st.accel_invalid = acc.is_none();
         st.path = UpdatePath::GyroOnly;
-        if let Some((a, _)) = acc {
+        if let Some(a) = acc {
             let r = rows(q);
             // ∇/2 in Q26 → Q24 to add the magnetometer's.
             let [g0, g1, g2, g3] = accel_grad(q, r[2], a.map(|x| x.saturating_neg()));
             let mut grad = [g0 >> 2, g1 >> 2, g2 >> 2, g3 >> 2];
             st.path = UpdatePath::Imu;
             if let Some(mag) = mag {
-                match unit3(mag) {
+                match unit3_fast(mag) {
                     None => st.mag_invalid = true,
-                    Some((m, _)) => {
+                    Some(m) => {
                         let h = [dot30u(r[0], m), dot30u(r[1], m), dot30u(r[2], m)]
                             .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
                         let bx = isqrt((h[0] * h[0] + h[1] * h[1]) as u64);
@@ -1127,7 +1137,15 @@ impl MadgwickFixed {
             let beta_dt = ((i64::from(self.c.beta_q24.max(0)) * i64::from(dt_q31)) >> 25)
                 .max(0)
                 .min(ONE_Q30);
-            grad_step(&mut nq, grad, beta_dt, None);
+            // Normalised gradient step: nq −= min(β·dt, ½)·∇/‖∇‖ (Q30·Q30 = Q60).
+            if let Some([u0, u1, u2, u3]) = unit_fast(grad) {
+                let s = beta_dt.min(1 << 29) as i32;
+                let [a0, a1, a2, a3] = &mut nq;
+                *a0 -= m64(s, u0);
+                *a1 -= m64(s, u1);
+                *a2 -= m64(s, u2);
+                *a3 -= m64(s, u3);
+            }
         }
         match renormalise(nq) {
             Some(n) => self.q = n,
