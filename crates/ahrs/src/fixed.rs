@@ -281,6 +281,12 @@ fn m64(a: i32, b: i32) -> i64 {
 /// Dot product of two Q30 vectors with |aᵢ|, |bᵢ| ≤ 2^30 + 2^20 (unit vectors, rows of
 /// R(q)): each product < 2^61, the sum < 2^63. Result Q30.
 fn dot30u(a: [i32; 3], b: [i32; 3]) -> i32 {
+    dot30u_inline(a, b)
+}
+
+/// [`dot30u`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn dot30u_inline(a: [i32; 3], b: [i32; 3]) -> i32 {
     ((m64(a[0], b[0]) + m64(a[1], b[1]) + m64(a[2], b[2]) + (1 << 29)) >> 30) as i32
 }
 
@@ -350,6 +356,12 @@ fn mag_grad(q: [i32; 4], r0: [i32; 3], r2: [i32; 3], m: [i32; 3], bx: i32, bz: i
 /// q + ½ q ⊗ (0, ω)·dt in Q60 (`hw` = ½ω·dt in Q30, each |hwᵢ| ≤ 2^29).
 /// Bound: ‖q‖·(1 + ‖hw‖)·2^60 ≤ (1 + √3/2)·2^60·(1 + 1e-6) < 1.87·2^60.
 fn propagate(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
+    propagate_inline(q, hw)
+}
+
+/// [`propagate`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn propagate_inline(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
     let [q1, q2, q3, q4] = q;
     let [h0, h1, h2] = hw;
     let b = |x: i32| i64::from(x) << 30;
@@ -368,6 +380,12 @@ fn propagate(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
 /// Fast path (‖nq‖² = 1 + δ, |δ| < 2^-10, every normal step): nq·(3 − ‖nq‖²)/2, error
 /// 3δ²/8 < 4e-7 (corrected again by the next step); otherwise a full reciprocal square root.
 fn renormalise(acc: [i64; 4]) -> Option<[i32; 4]> {
+    renormalise_inline(acc)
+}
+
+/// [`renormalise`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn renormalise_inline(acc: [i64; 4]) -> Option<[i32; 4]> {
     let q29 = |a: i64| ((a + (1 << 30)) >> 31) as i32;
     let [a0, a1, a2, a3] = acc;
     let (n0, n1, n2, n3) = (q29(a0), q29(a1), q29(a2), q29(a3));
@@ -1107,28 +1125,38 @@ impl MadgwickFixed {
     ) -> UpdateStatus {
         let mut st = UpdateStatus::new();
         let q = self.q;
-        let mut nq = propagate(q, half_angles(gyro, dt_q31, &mut st.gyro_step_clamped));
+        let mut nq = propagate_inline(q, half_angles(gyro, dt_q31, &mut st.gyro_step_clamped));
         let acc = unit3_fast(accel);
         st.accel_invalid = acc.is_none();
         st.path = UpdatePath::GyroOnly;
         if let Some(a) = acc {
-            let r = rows(q);
+            let r = rows_inline(q);
             // ∇/2 in Q26 → Q24 to add the magnetometer's.
-            let [g0, g1, g2, g3] = accel_grad(q, r[2], a.map(|x| x.saturating_neg()));
+            // |aᵢ| ≤ 2^30·(1 + 4e-4): the negation cannot overflow.
+            let [g0, g1, g2, g3] = accel_grad(q, r[2], a.map(|x| -x));
             let mut grad = [g0 >> 2, g1 >> 2, g2 >> 2, g3 >> 2];
             st.path = UpdatePath::Imu;
             if let Some(mag) = mag {
                 match unit3_fast(mag) {
                     None => st.mag_invalid = true,
                     Some(m) => {
-                        let h = [dot30u(r[0], m), dot30u(r[1], m), dot30u(r[2], m)]
-                            .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
-                        let bx = isqrt((h[0] * h[0] + h[1] * h[1]) as u64);
-                        let gb = mag_grad(q, r[0], r[2], m, bx as i32, h[2] as i32);
+                        let h = [
+                            dot30u_inline(r[0], m),
+                            dot30u_inline(r[1], m),
+                            dot30u_inline(r[2], m),
+                        ]
+                        .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
+                        // bx = √(h₀² + h₁²) ≤ √2·2^30: s < 2^62, `isqrt`'s range without
+                        // its large-argument branch.
+                        let (sm, k) = norm_parts((h[0] * h[0] + h[1] * h[1]) as u64);
+                        let bx = sqrt_parts(sm, rsqrt_q29(sm), k) as i32;
+                        let [b0, b1, b2, b3] = mag_grad(q, r[0], r[2], m, bx, h[2] as i32);
                         // |∇_g/2| < 2^28 and |∇_b/2| < 2^29 in Q24: the sum fits.
-                        for (g, b) in grad.iter_mut().zip(gb) {
-                            *g += b;
-                        }
+                        let [g0, g1, g2, g3] = &mut grad;
+                        *g0 += b0;
+                        *g1 += b1;
+                        *g2 += b2;
+                        *g3 += b3;
                         st.path = UpdatePath::Marg;
                     }
                 }
@@ -1147,7 +1175,7 @@ impl MadgwickFixed {
                 *a3 -= m64(s, u3);
             }
         }
-        match renormalise(nq) {
+        match renormalise_inline(nq) {
             Some(n) => self.q = n,
             None => st.path = UpdatePath::Skipped,
         }
@@ -1236,6 +1264,12 @@ impl MadgwickFixed {
 /// Every entry is ≤ 2·‖q‖² − 1 in magnitude: < 2 for the propagated ‖q‖² ≤ 1 + 3/16, so
 /// it fits (see [`down_row`]).
 fn rows(q: [i32; 4]) -> [[i32; 3]; 3] {
+    rows_inline(q)
+}
+
+/// [`rows`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn rows_inline(q: [i32; 4]) -> [[i32; 3]; 3] {
     let [w, x, y, z] = q;
     let r = |v: i64| ((v + (1 << 28)) >> 29) as i32;
     [
