@@ -678,6 +678,21 @@ mod tests {
     }
 
     #[test]
+    fn inverse_t_is_the_inverse_transposed() {
+        // Not symmetric, so a missing or extra transpose shows.
+        let m: M3 = [[2.0, -1.0, 0.5], [0.25, 3.0, -2.0], [1.0, 0.5, 4.0]];
+        let it = inverse_t(&m).unwrap();
+        // m · (M⁻ᵀ)ᵀ = I: row i of m dotted with row j of M⁻ᵀ.
+        for i in 0..3 {
+            for j in 0..3 {
+                let want = if i == j { 1.0 } else { 0.0 };
+                assert!((dot(m[i], it[j]) - want).abs() < 1e-6, "{i} {j}");
+            }
+        }
+        assert!(inverse_t(&[[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 1.0, 0.0]]).is_none());
+    }
+
+    #[test]
     fn state_size_is_as_documented() {
         assert_eq!(core::mem::size_of::<EllipsoidFitF32>(), 568);
     }
