@@ -10,11 +10,11 @@
 mod demo;
 
 use clap::Parser;
-use demo::console::{note, say};
 use demo::output::CsvWriter;
 use demo::plot::{PlotFormat, PlotSeries};
 use demo::run::{run, RecordSink, RunOptions, RunResult, ScheduledFault};
 use demo::stack::Filter;
+use host_console::{note, say};
 use sim::Trajectory;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -130,7 +130,7 @@ fn main() -> ExitCode {
         }
     };
     match execute(&opts, outputs) {
-        Ok(()) if demo::console::stdout_failed() => {
+        Ok(()) if host_console::stdout_failed() => {
             note!("sim: writing to stdout failed");
             ExitCode::FAILURE
         }
@@ -172,7 +172,7 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
     }
     let csv = match &cli.csv {
         Some(p) if is_stdout(p) => {
-            demo::console::use_stderr();
+            host_console::use_stderr();
             Some(CsvWriter::new(Box::new(std::io::stdout()), "stdout")?)
         }
         Some(p) => Some(CsvWriter::new(
@@ -380,30 +380,14 @@ mod tests {
         Cli::command().debug_assert();
     }
 
-    /// Option-like and value-like words.
-    fn word() -> impl Strategy<Value = String> {
-        prop_oneof![
-            Just("--duration".to_string()),
-            Just("--beta".to_string()),
-            Just("--fault".to_string()),
-            Just("--out".to_string()),
-            Just("--plot".to_string()),
-            Just("--filter".to_string()),
-            Just("-".to_string()),
-            Just("--".to_string()),
-            "-?[0-9.eE+-]{0,8}",
-            "--[a-z-]{1,14}(=[^\\x00]{0,8})?",
-            "[^\\x00]{0,12}",
-        ]
-    }
-
     proptest! {
         #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
 
         /// Whatever the command line, parsing gives options or an error, never a panic.
         #[test]
-        fn any_command_line_parses_or_errs(args in proptest::collection::vec(word(), 0..8)) {
-            let argv = std::iter::once("prog".to_string()).chain(args);
+        fn any_command_line_parses_or_errs(
+            argv in host_console::testing::command_line(&Cli::command())
+        ) {
             let _ = Cli::try_parse_from(argv);
         }
     }

@@ -13,7 +13,6 @@
 //!   → calibration → mounting → AHRS → vertical estimator → controllers),
 //!   called in the same order as the firmware's `imu` and `baro` tasks.
 
-use super::console::note;
 use super::mag::Mag;
 use calibration::{
     AccelCalibration, AccelSixPosition, AccelSixPositionConfig, EllipsoidFit, EllipsoidFitConfig,
@@ -25,6 +24,7 @@ use flight::pipeline::{ImuInput, Pipeline, PipelineConfig, G_MPS2};
 use flight::schedule::{DtClock, SampleScheduler, IMU_RATE_HZ, MAG_DIVIDER};
 use flight::sensors::{MagRead, Sensors as FlightSensors, SensorsConfig};
 use flight::storage::{CalibrationRecord, ValidParts};
+use host_console::note;
 use mpu9250::{Address, Config as MpuConfig, Mpu9250};
 use sim::{SimBus, SimConfig, SimDelay, Trajectory};
 

@@ -5,10 +5,8 @@
 //! over those), 2 bad arguments (nothing was read). A closed stdout is not
 //! an error: the table stops, the `--out` files are still written.
 
-mod console;
-
 use clap::Parser;
-use console::{note, say};
+use host_console::{note, say};
 use replay::{read, run, score, FilterKind, Mode, ReadOptions, Recording, Score};
 use std::fs::File;
 use std::io::{Read, Write};
@@ -331,7 +329,7 @@ fn open_outputs(base: &Path, files: &[PathBuf]) -> Result<Vec<Output>, String> {
         if files.len() > 1 {
             return Err("--out -: stdout takes the estimates of one input only".into());
         }
-        console::use_stderr();
+        host_console::use_stderr();
         return Ok(vec![(base.to_path_buf(), Box::new(std::io::stdout()))]);
     }
     let inputs: Vec<PathBuf> = files.iter().map(|f| canonical(f)).collect();
@@ -383,7 +381,7 @@ fn main() -> ExitCode {
         }
     };
     let failed = replay_all(plan);
-    if console::stdout_failed() {
+    if host_console::stdout_failed() {
         note!("replay: writing to stdout failed");
         return ExitCode::FAILURE;
     }
@@ -577,23 +575,6 @@ mod tests {
         Cli::command().debug_assert();
     }
 
-    /// Option-like and value-like words.
-    fn word() -> impl Strategy<Value = String> {
-        prop_oneof![
-            Just("--duration".to_string()),
-            Just("--beta".to_string()),
-            Just("--fault".to_string()),
-            Just("--out".to_string()),
-            Just("--plot".to_string()),
-            Just("--filter".to_string()),
-            Just("-".to_string()),
-            Just("--".to_string()),
-            "-?[0-9.eE+-]{0,8}",
-            "--[a-z-]{1,14}(=[^\\x00]{0,8})?",
-            "[^\\x00]{0,12}",
-        ]
-    }
-
     proptest! {
         #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
 
@@ -619,8 +600,9 @@ mod tests {
 
         /// Whatever the command line, parsing gives options or an error, never a panic.
         #[test]
-        fn any_command_line_parses_or_errs(args in proptest::collection::vec(word(), 0..8)) {
-            let argv = std::iter::once("prog".to_string()).chain(args);
+        fn any_command_line_parses_or_errs(
+            argv in host_console::testing::command_line(&Cli::command())
+        ) {
             let _ = Cli::try_parse_from(argv);
         }
     }

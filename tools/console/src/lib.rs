@@ -1,26 +1,40 @@
-//! Human-readable output that survives a closed pipe.
+//! Human-readable output for the host tools (`sim`, `replay`) that survives a
+//! closed pipe.
 //!
-//! `sim ... | head` closes stdout early. Rust ignores SIGPIPE, so `println!`
+//! `tool ... | head` closes stdout early. Rust ignores SIGPIPE, so `println!`
 //! would panic there; instead the first failed write marks the stream gone,
-//! later lines are dropped, and the run carries on so that the CSV and plot
-//! files are still written. A closed pipe is not an error (exit status 0);
-//! any other write error on stdout (e.g. a full disk behind a redirect) is
-//! remembered and makes the process exit non-zero at the end.
+//! later lines are dropped, and the tool carries on so that its output files
+//! are still written. A closed pipe is not an error (exit status 0); any other
+//! write error on stdout (e.g. a full disk behind a redirect) is remembered,
+//! and the tool asks [`stdout_failed`] at the end to exit non-zero.
+//!
+//! ```
+//! use host_console::{note, say};
+//!
+//! say!("{} samples", 3);
+//! note!("written to {}", "out.csv");
+//! assert!(!host_console::stdout_failed());
+//! ```
+//!
+//! Host-only: it uses `std`'s streams and process-wide state.
 
 use std::io::{ErrorKind, Write};
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
-/// Where the status lines go: stdout unless the CSV goes there.
+#[cfg(feature = "testing")]
+pub mod testing;
+
+/// Where [`say!`] lines go: stdout unless the tool's data goes there.
 static TO_STDERR: AtomicBool = AtomicBool::new(false);
 /// 0 = open, 1 = closed by the reader, 2 = failed otherwise.
 static STATE: AtomicU8 = AtomicU8::new(0);
 
-/// Sends the status lines to stderr (stdout carries data).
+/// Sends [`say!`] lines to stderr from now on (stdout carries data).
 pub fn use_stderr() {
     TO_STDERR.store(true, Ordering::Relaxed);
 }
 
-/// Writes one line of human-readable output.
+/// Writes one line of human-readable output (see the crate docs).
 pub fn line(args: std::fmt::Arguments<'_>) {
     if TO_STDERR.load(Ordering::Relaxed) {
         let _ = writeln!(std::io::stderr().lock(), "{args}");
@@ -52,17 +66,17 @@ pub fn err_line(args: std::fmt::Arguments<'_>) {
 }
 
 /// `eprintln!` that never panics (see [`err_line`]).
+#[macro_export]
 macro_rules! note {
     ($($arg:tt)*) => {
-        $crate::demo::console::err_line(format_args!($($arg)*))
+        $crate::err_line(format_args!($($arg)*))
     };
 }
-pub(crate) use note;
 
-/// `println!` that never panics (see the module docs).
+/// `println!` that never panics (see the crate docs).
+#[macro_export]
 macro_rules! say {
     ($($arg:tt)*) => {
-        $crate::demo::console::line(format_args!($($arg)*))
+        $crate::line(format_args!($($arg)*))
     };
 }
-pub(crate) use say;
