@@ -372,23 +372,10 @@ fn max_abs_diff(a: [f64; 3], b: [f64; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::Cli;
-    use clap::{CommandFactory, Parser};
-    use proptest::prelude::*;
 
+    /// clap's checks of the definitions; any command line parses or errs, never panics.
     #[test]
-    fn the_argument_definitions_are_consistent() {
-        Cli::command().debug_assert();
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
-
-        /// Whatever the command line, parsing gives options or an error, never a panic.
-        #[test]
-        fn any_command_line_parses_or_errs(
-            argv in host_console::testing::command_line(&Cli::command())
-        ) {
-            let _ = Cli::try_parse_from(argv);
-        }
+    fn the_command_line_is_well_defined() {
+        host_console::testing::check_parser::<Cli>();
     }
 }
