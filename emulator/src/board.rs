@@ -651,6 +651,24 @@ pub struct Board {
     csr: u32,
 }
 
+/// Maps `size` bytes at `base` to the peripheral register models
+/// ([`mmio_read`], [`mmio_write`]).
+fn map_registers(uc: &mut Unicorn<'static, Hw>, base: u32, size: u32) -> Result<(), BoardError> {
+    uc.mmio_map(
+        u64::from(base),
+        u64::from(size),
+        Some(move |uc: &mut Unicorn<'_, Hw>, off: u64, size: usize| {
+            mmio_read(uc, base + off as u32, size)
+        }),
+        Some(
+            move |uc: &mut Unicorn<'_, Hw>, off: u64, size: usize, v: u64| {
+                mmio_write(uc, base + off as u32, size, v)
+            },
+        ),
+    )
+    .map_err(uc_err)
+}
+
 fn uc_err(e: uc_error) -> BoardError {
     BoardError::Cpu(format!("{e:?}"))
 }
@@ -766,17 +784,7 @@ impl Board {
         }
         uc.mem_map(u64::from(RAM_BASE), u64::from(RAM_SIZE), Prot::ALL)
             .map_err(uc_err)?;
-        uc.mmio_map(
-            u64::from(PERIPH_BASE),
-            u64::from(PERIPH_SIZE),
-            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize| {
-                mmio_read(uc, PERIPH_BASE + off as u32, size)
-            }),
-            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize, v: u64| {
-                mmio_write(uc, PERIPH_BASE + off as u32, size, v)
-            }),
-        )
-        .map_err(uc_err)?;
+        map_registers(uc, PERIPH_BASE, PERIPH_SIZE)?;
         uc.mmio_map(
             u64::from(PERIPH_BB),
             u64::from(PERIPH_SIZE) * 32,
@@ -808,17 +816,7 @@ impl Board {
             }),
         )
         .map_err(uc_err)?;
-        uc.mmio_map(
-            u64::from(PPB_BASE),
-            u64::from(PPB_SIZE),
-            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize| {
-                mmio_read(uc, PPB_BASE + off as u32, size)
-            }),
-            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize, v: u64| {
-                mmio_write(uc, PPB_BASE + off as u32, size, v)
-            }),
-        )
-        .map_err(uc_err)?;
+        map_registers(uc, PPB_BASE, PPB_SIZE)?;
         uc.add_block_hook(1, 0, |uc: &mut Unicorn<'_, Hw>, addr: u64, size: u32| {
             // Per-halfword cache of flash blocks (a hash map here cost more
             // than the emulation itself).
