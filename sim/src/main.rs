@@ -222,19 +222,9 @@ fn check_filter(want: FilterArg) -> Result<(), String> {
     ))
 }
 
-/// Both paths lead to the same file (compared canonically where they exist).
+/// Both paths lead to the same file (compared canonically).
 fn same_file(a: &Path, b: &Path) -> bool {
-    let canon = |p: &Path| {
-        let parent = p
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let dir = parent
-            .canonicalize()
-            .unwrap_or_else(|_| parent.to_path_buf());
-        p.file_name().map(|n| dir.join(n))
-    };
-    a == b || (canon(a).is_some() && canon(a) == canon(b))
+    a == b || host_console::canonical_path(a) == host_console::canonical_path(b)
 }
 
 /// Creates `path` (and its parent folders) for writing.

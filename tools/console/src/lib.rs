@@ -17,8 +17,12 @@
 //! ```
 //!
 //! Host-only: it uses `std`'s streams and process-wide state.
+//!
+//! [`canonical_path`] is here too: both tools refuse to write over one of
+//! their inputs or to write two outputs to one file, whatever the spelling.
 
 use std::io::{ErrorKind, Write};
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
 #[cfg(feature = "testing")]
@@ -59,6 +63,22 @@ pub fn stdout_failed() -> bool {
     STATE.load(Ordering::Relaxed) == 2
 }
 
+/// `p` made absolute with its folder resolved, so two spellings of one
+/// file compare equal even before the file exists.
+pub fn canonical_path(p: &Path) -> PathBuf {
+    if let Ok(c) = p.canonicalize() {
+        return c;
+    }
+    let parent = p
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let dir = parent
+        .canonicalize()
+        .unwrap_or_else(|_| parent.to_path_buf());
+    p.file_name().map_or(dir.clone(), |n| dir.join(n))
+}
+
 /// Writes one line to stderr. Unlike `eprintln!` it does not panic when
 /// stderr is a closed pipe: there is nowhere left to report that.
 pub fn err_line(args: std::fmt::Arguments<'_>) {
@@ -79,4 +99,29 @@ macro_rules! say {
     ($($arg:tt)*) => {
         $crate::line(format_args!($($arg)*))
     };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::canonical_path;
+    use std::path::Path;
+
+    /// Two spellings of one file that does not exist yet compare equal; a
+    /// different name does not.
+    #[test]
+    fn spellings_of_one_new_file_are_equal() {
+        let dir = std::env::temp_dir();
+        let a = dir.join("host-console-canonical-x.csv");
+        let b = dir.join(".").join("host-console-canonical-x.csv");
+        assert!(!a.exists());
+        assert_eq!(canonical_path(&a), canonical_path(&b));
+        assert_ne!(
+            canonical_path(&a),
+            canonical_path(&dir.join("host-console-canonical-y.csv"))
+        );
+        assert_eq!(
+            canonical_path(Path::new("x")),
+            canonical_path(Path::new("./x"))
+        );
+    }
 }

@@ -6,7 +6,7 @@
 //! an error: the table stops, the `--out` files are still written.
 
 use clap::Parser;
-use host_console::{note, say};
+use host_console::{canonical_path, note, say};
 use replay::{read, run, score, FilterKind, Mode, ReadOptions, Recording, Score};
 use std::fs::File;
 use std::io::{Read, Write};
@@ -218,22 +218,6 @@ fn is_stdio(p: &Path) -> bool {
     p == Path::new("-")
 }
 
-/// `p` made absolute with its folder resolved, so two spellings of one
-/// file compare equal even before the file exists.
-fn canonical(p: &Path) -> PathBuf {
-    if let Ok(c) = p.canonicalize() {
-        return c;
-    }
-    let parent = p
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let dir = parent
-        .canonicalize()
-        .unwrap_or_else(|_| parent.to_path_buf());
-    p.file_name().map_or(dir.clone(), |n| dir.join(n))
-}
-
 /// A name for `input` unique among `all`: its file stem, or where stems
 /// collide, its whole path with separators as `_`.
 fn unique_name(input: &Path, all: &[PathBuf]) -> String {
@@ -314,7 +298,7 @@ fn check_inputs(files: &[PathBuf]) -> Result<(), String> {
         if meta.is_dir() {
             return Err(format!("{}: is a folder, not a recording", f.display()));
         }
-        let c = canonical(f);
+        let c = canonical_path(f);
         if seen.contains(&c) {
             return Err(format!("{}: given twice", f.display()));
         }
@@ -332,11 +316,11 @@ fn open_outputs(base: &Path, files: &[PathBuf]) -> Result<Vec<Output>, String> {
         host_console::use_stderr();
         return Ok(vec![(base.to_path_buf(), Box::new(std::io::stdout()))]);
     }
-    let inputs: Vec<PathBuf> = files.iter().map(|f| canonical(f)).collect();
+    let inputs: Vec<PathBuf> = files.iter().map(|f| canonical_path(f)).collect();
     let paths: Vec<PathBuf> = files.iter().map(|f| out_path(base, f, files)).collect();
     check_distinct(&paths, files)?;
     for p in &paths {
-        if inputs.contains(&canonical(p)) {
+        if inputs.contains(&canonical_path(p)) {
             return Err(format!(
                 "--out {}: that is an input; refusing to overwrite a recording",
                 p.display()
@@ -359,7 +343,10 @@ fn open_outputs(base: &Path, files: &[PathBuf]) -> Result<Vec<Output>, String> {
 /// `a/b/x.csv`) would share an output: refuse rather than overwrite.
 fn check_distinct(paths: &[PathBuf], files: &[PathBuf]) -> Result<(), String> {
     for (i, p) in paths.iter().enumerate() {
-        if let Some(j) = paths[..i].iter().position(|q| canonical(q) == canonical(p)) {
+        if let Some(j) = paths[..i]
+            .iter()
+            .position(|q| canonical_path(q) == canonical_path(p))
+        {
             return Err(format!(
                 "--out: inputs {} and {} would both write {}; replay them in separate runs",
                 files[j].display(),
