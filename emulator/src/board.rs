@@ -281,7 +281,9 @@ impl Hw {
         }
     }
 
-    fn clock_enabled(&self, addr: u32) -> Option<&'static str> {
+    /// The peripheral at `addr` if its RCC clock is off (an access to it is
+    /// the firmware's bug: on silicon it reads 0 and writes are lost).
+    fn unclocked(&self, addr: u32) -> Option<&'static str> {
         let (name, on) = match addr {
             0x4001_0000..=0x4001_03FF => ("AFIO", self.rcc.apb2enr & 1 != 0),
             0x4001_0800..=0x4001_0BFF => ("GPIOA", self.rcc.apb2enr & (1 << 2) != 0),
@@ -485,19 +487,29 @@ fn lanes(addr: u64, size: usize) -> (u32, u32, u32) {
     (addr as u32 & !3, shift, m << shift)
 }
 
+/// An access at `addr` to a peripheral whose clock is off: the run fails
+/// with [`BoardError::ClockDisabled`] and stops. Whether it did.
+fn stopped_on_unclocked(uc: &mut Unicorn<'_, Hw>, addr: u32, pc: u32) -> bool {
+    let hw = uc.get_data_mut();
+    let Some(p) = hw.unclocked(addr) else {
+        return false;
+    };
+    hw.fail(BoardError::ClockDisabled {
+        peripheral: p,
+        addr,
+        pc,
+    });
+    let _ = uc.emu_stop();
+    true
+}
+
 fn mmio_read(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize) -> u64 {
     let (a, shift, mask) = lanes(u64::from(addr), size);
     let pc = pc_of(uc);
-    let hw = uc.get_data_mut();
-    if let Some(p) = hw.clock_enabled(addr) {
-        hw.fail(BoardError::ClockDisabled {
-            peripheral: p,
-            addr,
-            pc,
-        });
-        let _ = uc.emu_stop();
+    if stopped_on_unclocked(uc, addr, pc) {
         return 0;
     }
+    let hw = uc.get_data_mut();
     match hw.periph_read(a) {
         Some(v) => u64::from((v & mask) >> shift),
         None => {
@@ -516,16 +528,10 @@ fn mmio_read(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize) -> u64 {
 fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
     let (a, shift, mask) = lanes(u64::from(addr), size);
     let pc = pc_of(uc);
-    let hw = uc.get_data_mut();
-    if let Some(p) = hw.clock_enabled(addr) {
-        hw.fail(BoardError::ClockDisabled {
-            peripheral: p,
-            addr,
-            pc,
-        });
-        let _ = uc.emu_stop();
+    if stopped_on_unclocked(uc, addr, pc) {
         return;
     }
+    let hw = uc.get_data_mut();
     let pend_before = hw.nvic.pending;
     let hw = uc.get_data_mut();
     hw.resched = true;
@@ -1265,6 +1271,27 @@ mod tests {
             ),
             "{e:?}"
         );
+    }
+
+    #[test]
+    fn unclocked_peripheral_stops_the_board_on_read_and_write() {
+        // ldr r0,=I2C1; ldr r1,[r0]; b .   and   ldr r0,=I2C1; str r1,[r0]; b .
+        for code in [[0x4802, 0x6801, 0xE7FE], [0x4802, 0x6001, 0xE7FE]] {
+            let fw = bare(&code, 0x4000_5400);
+            let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+            let e = b.run_until_ns(1_000).err();
+            assert!(
+                matches!(
+                    e,
+                    Some(BoardError::ClockDisabled {
+                        peripheral: "I2C1",
+                        addr: 0x4000_5400,
+                        ..
+                    })
+                ),
+                "{code:x?}: {e:?}"
+            );
+        }
     }
 
     #[test]
