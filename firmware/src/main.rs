@@ -25,6 +25,8 @@
 //!   stack high-water mark over defmt-RTT; the PA0 button and the
 //!   calibration session; saving a calibration; the watchdog is fed only
 //!   while the IMU loop makes progress (or the MPU is out of the loop).
+//! * `raw_log` (priority 1, spawned by `imu` in raw-log mode, 100 Hz): prints
+//!   one raw-log row in `RAW_LOG_HEADER`'s column order.
 //!
 //! What the board does on a bad bus, and what the log says:
 //! * bus stuck at power-up: recovered before the first probe ("I2C

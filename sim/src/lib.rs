@@ -2,8 +2,11 @@
 //!
 //! Register-level models of the MPU-9250, its AK8963 magnetometer and the
 //! MS5611 barometer sit behind one virtual [`SimBus`] implementing
-//! `embedded_hal::i2c::I2c`, so the real no_std drivers run against them
-//! unchanged. The chips sample a rigid-body [`Trajectory`] (truth) through
+//! `embedded_hal::i2c::I2c` (and, for the MPU-9250 and MS5611, behind
+//! `SpiDevice`s in [`spi`]), so the real no_std drivers run against them
+//! unchanged. The models are written from the datasheets, not from the
+//! drivers: their register maps and the MS5611 compensation repeat the
+//! drivers' on purpose, as independent transcriptions that check them. The chips sample a rigid-body [`Trajectory`] (truth) through
 //! seeded datasheet-size sensor errors, on a simulated [`SimClock`] that the
 //! drivers' [`SimDelay`] advances — a 10-minute flight runs in seconds.
 //! Faults (NACKs, bus errors, arbitration loss, stuck SDA/SCL, a chip left
@@ -19,8 +22,7 @@
 //!
 //! What it is not: an electrical I2C model (no clock stretching by the
 //! chips, no bit timing inside the chips: time per transfer is an optional
-//! estimate or the master model's), nor a model of the MPU-9250's FIFO, DMP
-//! or I2C master.
+//! estimate or the master model's), nor a model of the MPU-9250's DMP.
 //!
 //! ```
 //! use embedded_hal::i2c::I2c;

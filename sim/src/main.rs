@@ -10,11 +10,11 @@
 mod demo;
 
 use clap::Parser;
-use demo::console::{note, say};
 use demo::output::CsvWriter;
 use demo::plot::{PlotFormat, PlotSeries};
 use demo::run::{run, RecordSink, RunOptions, RunResult, ScheduledFault};
 use demo::stack::Filter;
+use host_console::{note, say};
 use sim::Trajectory;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -130,7 +130,7 @@ fn main() -> ExitCode {
         }
     };
     match execute(&opts, outputs) {
-        Ok(()) if demo::console::stdout_failed() => {
+        Ok(()) if host_console::stdout_failed() => {
             note!("sim: writing to stdout failed");
             ExitCode::FAILURE
         }
@@ -172,7 +172,7 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
     }
     let csv = match &cli.csv {
         Some(p) if is_stdout(p) => {
-            demo::console::use_stderr();
+            host_console::use_stderr();
             Some(CsvWriter::new(Box::new(std::io::stdout()), "stdout")?)
         }
         Some(p) => Some(CsvWriter::new(
@@ -222,19 +222,9 @@ fn check_filter(want: FilterArg) -> Result<(), String> {
     ))
 }
 
-/// Both paths lead to the same file (compared canonically where they exist).
+/// Both paths lead to the same file (compared canonically).
 fn same_file(a: &Path, b: &Path) -> bool {
-    let canon = |p: &Path| {
-        let parent = p
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let dir = parent
-            .canonicalize()
-            .unwrap_or_else(|_| parent.to_path_buf());
-        p.file_name().map(|n| dir.join(n))
-    };
-    a == b || (canon(a).is_some() && canon(a) == canon(b))
+    a == b || host_console::canonical_path(a) == host_console::canonical_path(b)
 }
 
 /// Creates `path` (and its parent folders) for writing.
@@ -372,39 +362,10 @@ fn max_abs_diff(a: [f64; 3], b: [f64; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::Cli;
-    use clap::{CommandFactory, Parser};
-    use proptest::prelude::*;
 
+    /// clap's checks of the definitions; any command line parses or errs, never panics.
     #[test]
-    fn the_argument_definitions_are_consistent() {
-        Cli::command().debug_assert();
-    }
-
-    /// Option-like and value-like words.
-    fn word() -> impl Strategy<Value = String> {
-        prop_oneof![
-            Just("--duration".to_string()),
-            Just("--beta".to_string()),
-            Just("--fault".to_string()),
-            Just("--out".to_string()),
-            Just("--plot".to_string()),
-            Just("--filter".to_string()),
-            Just("-".to_string()),
-            Just("--".to_string()),
-            "-?[0-9.eE+-]{0,8}",
-            "--[a-z-]{1,14}(=[^\\x00]{0,8})?",
-            "[^\\x00]{0,12}",
-        ]
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
-
-        /// Whatever the command line, parsing gives options or an error, never a panic.
-        #[test]
-        fn any_command_line_parses_or_errs(args in proptest::collection::vec(word(), 0..8)) {
-            let argv = std::iter::once("prog".to_string()).chain(args);
-            let _ = Cli::try_parse_from(argv);
-        }
+    fn the_command_line_is_well_defined() {
+        host_console::testing::check_parser::<Cli>();
     }
 }

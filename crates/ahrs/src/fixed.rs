@@ -26,6 +26,9 @@
 //! heading error and 1/|y_z| of the tilt correction. Conversions from the f32 [`crate::Config`] happen once, in
 //! [`FixedConfig::from_config`].
 
+// The steps and checks repeat madgwick.rs's, under the same names, on purpose: the two
+// files read side by side, and the fixed-point filter is tested against the f32 one.
+
 // `max(lo).min(hi)` instead of `clamp`: `clamp` asserts lo ≤ hi (a panic path) and stays
 // an out-of-line call at the firmware's opt-level "z".
 #![allow(clippy::manual_clamp)]

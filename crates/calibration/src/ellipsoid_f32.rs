@@ -1,6 +1,10 @@
 //! The ellipsoid fit for the board; the method is documented on
 //! [`EllipsoidFitF32`].
 
+// The API and the solve's steps repeat ellipsoid.rs's on purpose: the same fit with
+// integer moments and f32 arithmetic, so the board links no f64 code; the end-to-end
+// test `board_ellipsoid_fit_agrees_with_the_host_fit` compares the two.
+
 use crate::ellipsoid::{
     check_ranges, moment_index, sort3, Coverage, COVERAGE_COS, DIRECTIONS, EXPONENTS, N_MOMENTS,
 };

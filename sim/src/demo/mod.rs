@@ -7,10 +7,10 @@
 //!   and collects the records.
 //! * [`output`] streams the CSV; [`plot`] keeps a bounded copy of the run
 //!   and draws it (PNG or SVG).
-//! * [`faults`] names the simulator's fault kinds for `--fault`;
-//!   [`console`] prints without panicking on a closed pipe.
+//! * [`faults`] names the simulator's fault kinds for `--fault`.
+//!
+//! Printing that survives a closed pipe is `host_console`, shared with `replay`.
 
-pub mod console;
 pub mod faults;
 pub mod mag;
 pub mod output;

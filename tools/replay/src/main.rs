@@ -5,10 +5,8 @@
 //! over those), 2 bad arguments (nothing was read). A closed stdout is not
 //! an error: the table stops, the `--out` files are still written.
 
-mod console;
-
 use clap::Parser;
-use console::{note, say};
+use host_console::{canonical_path, note, say};
 use replay::{read, run, score, FilterKind, Mode, ReadOptions, Recording, Score};
 use std::fs::File;
 use std::io::{Read, Write};
@@ -220,22 +218,6 @@ fn is_stdio(p: &Path) -> bool {
     p == Path::new("-")
 }
 
-/// `p` made absolute with its folder resolved, so two spellings of one
-/// file compare equal even before the file exists.
-fn canonical(p: &Path) -> PathBuf {
-    if let Ok(c) = p.canonicalize() {
-        return c;
-    }
-    let parent = p
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let dir = parent
-        .canonicalize()
-        .unwrap_or_else(|_| parent.to_path_buf());
-    p.file_name().map_or(dir.clone(), |n| dir.join(n))
-}
-
 /// A name for `input` unique among `all`: its file stem, or where stems
 /// collide, its whole path with separators as `_`.
 fn unique_name(input: &Path, all: &[PathBuf]) -> String {
@@ -316,7 +298,7 @@ fn check_inputs(files: &[PathBuf]) -> Result<(), String> {
         if meta.is_dir() {
             return Err(format!("{}: is a folder, not a recording", f.display()));
         }
-        let c = canonical(f);
+        let c = canonical_path(f);
         if seen.contains(&c) {
             return Err(format!("{}: given twice", f.display()));
         }
@@ -331,14 +313,14 @@ fn open_outputs(base: &Path, files: &[PathBuf]) -> Result<Vec<Output>, String> {
         if files.len() > 1 {
             return Err("--out -: stdout takes the estimates of one input only".into());
         }
-        console::use_stderr();
+        host_console::use_stderr();
         return Ok(vec![(base.to_path_buf(), Box::new(std::io::stdout()))]);
     }
-    let inputs: Vec<PathBuf> = files.iter().map(|f| canonical(f)).collect();
+    let inputs: Vec<PathBuf> = files.iter().map(|f| canonical_path(f)).collect();
     let paths: Vec<PathBuf> = files.iter().map(|f| out_path(base, f, files)).collect();
     check_distinct(&paths, files)?;
     for p in &paths {
-        if inputs.contains(&canonical(p)) {
+        if inputs.contains(&canonical_path(p)) {
             return Err(format!(
                 "--out {}: that is an input; refusing to overwrite a recording",
                 p.display()
@@ -361,7 +343,10 @@ fn open_outputs(base: &Path, files: &[PathBuf]) -> Result<Vec<Output>, String> {
 /// `a/b/x.csv`) would share an output: refuse rather than overwrite.
 fn check_distinct(paths: &[PathBuf], files: &[PathBuf]) -> Result<(), String> {
     for (i, p) in paths.iter().enumerate() {
-        if let Some(j) = paths[..i].iter().position(|q| canonical(q) == canonical(p)) {
+        if let Some(j) = paths[..i]
+            .iter()
+            .position(|q| canonical_path(q) == canonical_path(p))
+        {
             return Err(format!(
                 "--out: inputs {} and {} would both write {}; replay them in separate runs",
                 files[j].display(),
@@ -383,7 +368,7 @@ fn main() -> ExitCode {
         }
     };
     let failed = replay_all(plan);
-    if console::stdout_failed() {
+    if host_console::stdout_failed() {
         note!("replay: writing to stdout failed");
         return ExitCode::FAILURE;
     }
@@ -569,29 +554,12 @@ fn write_out(
 #[cfg(test)]
 mod tests {
     use super::Cli;
-    use clap::{CommandFactory, Parser};
     use proptest::prelude::*;
 
+    /// clap's checks of the definitions; any command line parses or errs, never panics.
     #[test]
-    fn the_argument_definitions_are_consistent() {
-        Cli::command().debug_assert();
-    }
-
-    /// Option-like and value-like words.
-    fn word() -> impl Strategy<Value = String> {
-        prop_oneof![
-            Just("--duration".to_string()),
-            Just("--beta".to_string()),
-            Just("--fault".to_string()),
-            Just("--out".to_string()),
-            Just("--plot".to_string()),
-            Just("--filter".to_string()),
-            Just("-".to_string()),
-            Just("--".to_string()),
-            "-?[0-9.eE+-]{0,8}",
-            "--[a-z-]{1,14}(=[^\\x00]{0,8})?",
-            "[^\\x00]{0,12}",
-        ]
+    fn the_command_line_is_well_defined() {
+        host_console::testing::check_parser::<Cli>();
     }
 
     proptest! {
@@ -615,13 +583,6 @@ mod tests {
             for o in &outs {
                 prop_assert!(!files.contains(o));
             }
-        }
-
-        /// Whatever the command line, parsing gives options or an error, never a panic.
-        #[test]
-        fn any_command_line_parses_or_errs(args in proptest::collection::vec(word(), 0..8)) {
-            let argv = std::iter::once("prog".to_string()).chain(args);
-            let _ = Cli::try_parse_from(argv);
         }
     }
 }
