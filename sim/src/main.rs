@@ -314,7 +314,7 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: &Outputs) -> Result<(), Stri
     let mut opts = ClosedLoopOptions::new(scenario, cli.seed);
     opts.board_seed = cli.board_seed.unwrap_or(cli.seed);
     opts.mag_dance_s = cli.mag_dance;
-    let mut fc = demo::loops_fc::LoopsFc::new()?;
+    let mut fc = demo::flight_fc::FirmwareFc::new(demo::flight_fc::tuned_250())?;
     say!(
         "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",
         scenario.name(),
@@ -338,6 +338,9 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: &Outputs) -> Result<(), Stri
         demo::plot_closed::write_plot(path, &title, &log)
             .map_err(|e| format!("plotting {}: {e}", path.display()))?;
         say!("wrote {}", path.display());
+    }
+    for (t, e) in &log.events {
+        say!("t {t:7.3} s: {e}");
     }
     say!("== figures: {} seed {} ==", scenario.name(), opts.seed);
     for line in demo::figures::figures(&log).lines() {

@@ -11,22 +11,12 @@
 
 use super::stack::{self, Stack};
 use control::shaping::Sticks;
-use flight::mounting::Mounting;
+pub use flight::flightctl::FlightMode as Mode;
 use sim::quad::QuadState;
 use sim::{
     Environment, QuadLink, QuadParams, Quadcopter, Quat, SensorErrors, SimBus, SimClock, SimConfig,
     TruthSample,
 };
-
-/// The flight mode the pilot selects on a switch (the scenarios fly
-/// self-levelled; acro is the flight controller's business, not scripted here).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// Self-level: roll/pitch sticks command tilt, yaw a rate.
-    Angle,
-    /// Self-level with altitude hold: the throttle stick commands a climb rate.
-    AltitudeHold,
-}
 
 /// What the pilot's radio delivers in one frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,13 +32,13 @@ pub struct Pilot {
 /// What the flight controller is given at each IMU sample.
 #[derive(Clone, Copy, Debug)]
 pub struct ControlInput {
-    /// Simulated time (s).
-    pub t_s: f64,
-    /// Time since the previous sample (s).
-    pub dt_s: f32,
+    /// The board's free-running microsecond clock (wraps).
+    pub now_us: u32,
+    /// The IMU read of this sample succeeded (the sensors the flight needs are healthy).
+    pub sensors_healthy: bool,
     /// AHRS `q_ned_from_body` (w, x, y, z).
     pub q_ned_from_body: [f32; 4],
-    /// Bias-corrected angular rate, body FRD (rad/s).
+    /// Bias-corrected angular rate, body FRD (rad/s), as the pipeline gives it.
     pub gyro_body_rps: [f32; 3],
     /// Height above the take-off point (m, up) once the barometer gave one.
     pub height_m: Option<f32>,
@@ -83,12 +73,17 @@ pub trait FlightControl {
     fn name(&self) -> &'static str;
     /// One IMU sample.
     fn step(&mut self, input: &ControlInput) -> Result<ControlOutput, String>;
+    /// What happened since the last call (arming, refusals with their
+    /// reason, failsafe phases, disarm causes), as log lines.
+    fn drain_events(&mut self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// The scripted flights.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Scenario {
-    /// Arm, climb in altitude hold to about 3 m, hover.
+    /// Arm, climb in altitude hold to about 2 m, hover.
     Takeoff,
     /// After the take-off: roll, pitch and yaw stick steps in angle mode.
     Steps,
@@ -103,7 +98,10 @@ pub const ARM_AT_S: f64 = 2.5;
 /// Take-off: climb stick from here...
 pub const CLIMB_FROM_S: f64 = 3.0;
 /// ...to here (then centred: hold).
-pub const CLIMB_TO_S: f64 = 5.5;
+pub const CLIMB_TO_S: f64 = 6.0;
+/// Throttle stick during the take-off climb (altitude hold: 3/4 of the
+/// largest climb rate above the centre band).
+pub const CLIMB_STICK: f32 = 0.9;
 /// Stick steps: roll stick at 0.5 from here for [`STEP_HOLD_S`].
 pub const ROLL_STEP_S: f64 = 10.0;
 /// Pitch stick step start (s).
@@ -177,8 +175,7 @@ impl Scenario {
             // Arming wants the throttle low; it is centred (hold) only once airborne is asked for.
             sticks.throttle = 0.0;
         } else if t_s < CLIMB_TO_S {
-            // 0.75: half the climb rate range.
-            sticks.throttle = 0.75;
+            sticks.throttle = CLIMB_STICK;
         }
         let within = |t0: f64, len: f64| t_s >= t0 && t_s < t0 + len;
         let mut mode = Mode::AltitudeHold;
@@ -278,6 +275,8 @@ pub struct FlightLog {
     pub missed: usize,
     /// Wall-clock time of the flight (s).
     pub wall_s: f64,
+    /// The controller's events with their time (s).
+    pub events: Vec<(f64, String)>,
 }
 
 /// Flies `opts.scenario` with `fc`: ground calibrations (as a user does
@@ -303,7 +302,6 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     let bus = SimBus::new(&clock, base);
     let mut delay = clock.delay();
     let mut stack = Stack::boot(&bus, &mut delay, &record)?;
-    let mounting = Mounting::default();
     let duration_s = opts.duration_s.unwrap_or(opts.scenario.duration_s());
     let esc_period_s = 1.0 / opts.esc_rate_hz;
     let mut esc = [0.0f64; 4];
@@ -311,7 +309,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     let mut out = ControlOutput::default();
     let mut samples = Vec::with_capacity((duration_s * 1000.0) as usize + 16);
     let mut missed = 0;
-    let mut last_t = clock.now_s();
+    let mut events = Vec::new();
     while clock.now_s() < duration_s {
         let t_next = bus.next_mpu_sample_ns() as f64 * 1e-9;
         // The ESCs take a new command at each of their frames.
@@ -332,22 +330,27 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
         }
         let now_s = clock.now_s();
         let Some(est) = stack.on_data_ready(clock.now_us()) else {
+            // The firmware skips a sample whose read failed: the motors keep
+            // their commands until the next one.
             missed += 1;
             continue;
         };
         let pilot = opts.scenario.pilot(now_s);
+        let p = stack.pipeline();
+        let rates = p.body_rates();
+        let altitude = p.altitude_estimate();
         let input = ControlInput {
-            t_s: now_s,
-            dt_s: (now_s - last_t).max(1e-6) as f32,
+            now_us: clock.now_us() as u32,
+            sensors_healthy: true,
             q_ned_from_body: est.q_ned_from_body,
-            gyro_body_rps: mounting.apply_f32(est.gyro_mpu_rps),
-            height_m: est.height_m,
-            vertical_speed_mps: est.vertical_speed_mps,
+            gyro_body_rps: [rates.roll_rps, rates.pitch_rps, rates.yaw_rps],
+            height_m: altitude.map(|a| a.0),
+            vertical_speed_mps: altitude.map(|a| a.1),
             gyro_bias_done: stack.gyro_bias_rps().is_some(),
             pilot,
         };
-        last_t = now_s;
         out = fc.step(&input)?;
+        events.extend(fc.drain_events().into_iter().map(|e| (now_s, e)));
         let q = est.q_ned_from_body.map(f64::from);
         samples.push(Sample {
             t_s: now_s,
@@ -364,6 +367,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
         samples,
         missed,
         wall_s: wall.elapsed().as_secs_f64(),
+        events,
     })
 }
 
@@ -375,13 +379,16 @@ mod tests {
 
     use super::*;
     use crate::demo::figures::{figures, Figures};
-    use crate::demo::loops_fc::{LoopsFc, LINK_LOSS_DESCENT_MPS, LINK_LOSS_HOLD_S};
+    use crate::demo::flight_fc::{tuned_250, FirmwareFc};
 
     fn flown(scenario: Scenario, seed: u64) -> (FlightLog, Figures) {
-        let mut fc = LoopsFc::new().unwrap();
+        let mut fc = FirmwareFc::new(tuned_250()).unwrap();
         let mut o = ClosedLoopOptions::new(scenario, seed);
         o.mag_dance_s = 20.0;
         let log = fly(&o, &mut fc).unwrap();
+        for (t, e) in &log.events {
+            println!("{} seed {seed}: t {t:.3} s {e}", scenario.name());
+        }
         let f = figures(&log);
         for l in f.lines() {
             println!("{} seed {seed}: {l}", scenario.name());
@@ -454,18 +461,21 @@ mod tests {
         let l = f.link_loss.unwrap();
         assert!(l.height_at_loss_m > 1.5, "{l:?}");
         assert!(l.hold_deviation_m < 0.2, "{l:?}");
+        let safety = tuned_250().safety;
+        let hold_s = f64::from(safety.failsafe_hold_s);
+        let descent_mps = f64::from(safety.failsafe_descent_mps);
         let start = l.descent_starts_s.unwrap();
-        assert!(
-            start > LINK_LOSS_HOLD_S && start < LINK_LOSS_HOLD_S + 1.5,
-            "{l:?}"
-        );
+        assert!(start > hold_s && start < hold_s + 1.5, "{l:?}");
         let v = l.descent_mps.unwrap();
+        assert!((v - descent_mps).abs() < 0.3 * descent_mps, "{l:?}");
+        let (landed, disarmed) = (l.landed_s.unwrap(), l.disarmed_s.unwrap());
+        // The landing detector wants 2 s of low collective after touch-down,
+        // and the altitude hold needs a while to wind the collective down.
+        let land_s = f64::from(safety.land_time_s);
         assert!(
-            (v - f64::from(LINK_LOSS_DESCENT_MPS)).abs() < 0.3 * f64::from(LINK_LOSS_DESCENT_MPS),
+            disarmed >= landed + land_s && disarmed < landed + land_s + 3.0,
             "{l:?}"
         );
-        let (landed, disarmed) = (l.landed_s.unwrap(), l.disarmed_s.unwrap());
-        assert!(disarmed >= landed && disarmed < landed + 3.0, "{l:?}");
         assert!(l.max_tilt_deg < 5.0, "{l:?}");
         // Disarmed for good: motors off to the end.
         let end = log.samples.last().unwrap();

@@ -9,7 +9,8 @@
 //!   and draws it (PNG or SVG).
 //! * [`closed_loop`] flies the quadcopter model in a closed loop: its
 //!   motion drives the chips, the same per-sample path estimates it, a
-//!   [`closed_loop::FlightControl`] ([`loops_fc`]) flies it through the
+//!   [`closed_loop::FlightControl`] ([`flight_fc`]: the firmware's flight
+//!   controller) flies it through the
 //!   scripted pilot of a [`closed_loop::Scenario`]; [`figures`] scores it,
 //!   [`plot_closed`] draws it.
 //! * [`faults`] names the simulator's fault kinds for `--fault`;
@@ -19,7 +20,7 @@ pub mod closed_loop;
 pub mod console;
 pub mod faults;
 pub mod figures;
-pub mod loops_fc;
+pub mod flight_fc;
 pub mod mag;
 pub mod output;
 pub mod plot;

@@ -1,0 +1,143 @@
+//! The firmware's flight controller (`flight::flightctl::FlightController`:
+//! arming checks, modes, rate and self-level loops, altitude hold, mixer,
+//! crash/landing disarm, failsafe) as the closed loop's [`FlightControl`].
+
+use super::closed_loop::{ControlInput, ControlOutput, FlightControl, Mode};
+use control::controllers::{AltitudeHoldConfig, BodyRates};
+use control::loops::{Quat, RateConfig};
+use control::pid::PidConfig;
+use control::shaping::{StickShaping, Sticks};
+use flight::flightctl::{
+    AltitudeEstimate, Event, FailsafePhase, FlightConfig, FlightController, FlightState,
+    PilotInput, SystemStatus, VehicleState,
+};
+
+/// The firmware's flight controller in the loop.
+pub struct FirmwareFc {
+    fc: FlightController,
+    shaping: StickShaping,
+    events: Vec<String>,
+}
+
+/// The flight controller's configuration tuned for
+/// [`sim::QuadParams::class_250`] (0.6 kg, hover at 55 % command,
+/// thrust-to-weight 2.7): the rate gains of the defaults (written for a
+/// ~1 kg quad) halved, the hover feed-forward at its hover command.
+pub fn tuned_250() -> FlightConfig {
+    let tilt = PidConfig::new(0.06, 0.15, 0.0012)
+        .with_d_cutoff_hz(60.0)
+        .with_integral_limits(-0.3, 0.3);
+    let mut cfg = FlightConfig {
+        rate: RateConfig {
+            roll: tilt,
+            pitch: tilt,
+            yaw: PidConfig::new(0.15, 0.15, 0.0).with_integral_limits(-0.3, 0.3),
+        },
+        ..FlightConfig::default()
+    };
+    cfg.altitude_hold = AltitudeHoldConfig {
+        height_kp: 1.5,
+        hover_throttle: 0.55,
+        speed_pid: PidConfig::new(0.25, 0.3, 0.0)
+            .with_output_limits(0.05, 0.95)
+            .with_integral_limits(-0.3, 0.3),
+        ..cfg.altitude_hold
+    };
+    cfg
+}
+
+impl FirmwareFc {
+    /// With `cfg`.
+    pub fn new(cfg: FlightConfig) -> Result<Self, String> {
+        Ok(Self {
+            fc: FlightController::new(cfg).map_err(|e| e.to_string())?,
+            shaping: StickShaping::new(cfg.sticks).map_err(|e| format!("sticks: {e:?}"))?,
+            events: Vec::new(),
+        })
+    }
+}
+
+impl FlightControl for FirmwareFc {
+    fn name(&self) -> &'static str {
+        "flight::flightctl::FlightController"
+    }
+
+    fn step(&mut self, input: &ControlInput) -> Result<ControlOutput, String> {
+        let pilot = match input.pilot {
+            Some(p) => PilotInput {
+                sticks: p.sticks,
+                arm_switch: p.arm,
+                mode: p.mode,
+                link_ok: true,
+            },
+            None => PilotInput::default(),
+        };
+        let status = SystemStatus {
+            sensors_healthy: input.sensors_healthy,
+            gyro_bias_done: input.gyro_bias_done,
+            calibration_running: false,
+        };
+        let q = input.q_ned_from_body;
+        let g = input.gyro_body_rps;
+        let vehicle = VehicleState {
+            attitude: Quat {
+                w: q[0],
+                x: q[1],
+                y: q[2],
+                z: q[3],
+            },
+            gyro: BodyRates {
+                roll_rps: g[0],
+                pitch_rps: g[1],
+                yaw_rps: g[2],
+            },
+            altitude: match (input.height_m, input.vertical_speed_mps) {
+                (Some(h), Some(v)) => Some(AltitudeEstimate {
+                    height_m: h,
+                    vertical_speed_mps: v,
+                }),
+                _ => None,
+            },
+        };
+        let out = self.fc.step(input.now_us, &pilot, &status, &vehicle);
+        self.events
+            .extend(out.events.iter().map(|e: Event| format!("{e:?}")));
+        let flying = matches!(out.state, FlightState::Armed | FlightState::Failsafe(_));
+        let failsafe = matches!(out.state, FlightState::Failsafe(_));
+        // The tilt the self-levelling modes aim at: the sticks' (level in a failsafe).
+        let tilt = if !flying || out.mode == Mode::Acro {
+            None
+        } else if failsafe {
+            Some([0.0, 0.0])
+        } else {
+            let sticks = input.pilot.map_or(
+                Sticks {
+                    roll: 0.0,
+                    pitch: 0.0,
+                    yaw: 0.0,
+                    throttle: 0.0,
+                },
+                |p| p.sticks,
+            );
+            let (t, _) = self
+                .shaping
+                .level_setpoint(&sticks)
+                .map_err(|e| format!("sticks: {e:?}"))?;
+            Some([t.roll_rad, t.pitch_rad])
+        };
+        let r = out.rate_setpoint;
+        Ok(ControlOutput {
+            motors: out.motors.commands(),
+            armed: flying,
+            tilt_setpoint_rad: tilt,
+            rate_setpoint_rps: flying.then_some([r.roll_rps, r.pitch_rps, r.yaw_rps]),
+            height_target_m: self.fc.altitude_target_m(),
+            failsafe: failsafe
+                || matches!(out.state, FlightState::Failsafe(FailsafePhase::Descend)),
+        })
+    }
+
+    fn drain_events(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.events)
+    }
+}
