@@ -314,7 +314,7 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: &Outputs) -> Result<(), Stri
     let mut opts = ClosedLoopOptions::new(scenario, cli.seed);
     opts.board_seed = cli.board_seed.unwrap_or(cli.seed);
     opts.mag_dance_s = cli.mag_dance;
-    let mut fc = demo::flight_fc::FirmwareFc::new(demo::flight_fc::tuned_250())?;
+    let mut fc = demo::flight_fc::FirmwareFc::new(flight::flightctl::FlightConfig::default())?;
     say!(
         "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",
         scenario.name(),

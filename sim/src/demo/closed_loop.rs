@@ -379,10 +379,11 @@ mod tests {
 
     use super::*;
     use crate::demo::figures::{figures, Figures};
-    use crate::demo::flight_fc::{tuned_250, FirmwareFc};
+    use crate::demo::flight_fc::FirmwareFc;
+    use flight::flightctl::FlightConfig;
 
     fn flown(scenario: Scenario, seed: u64) -> (FlightLog, Figures) {
-        let mut fc = FirmwareFc::new(tuned_250()).unwrap();
+        let mut fc = FirmwareFc::new(FlightConfig::default()).unwrap();
         let mut o = ClosedLoopOptions::new(scenario, seed);
         o.mag_dance_s = 20.0;
         let log = fly(&o, &mut fc).unwrap();
@@ -461,7 +462,7 @@ mod tests {
         let l = f.link_loss.unwrap();
         assert!(l.height_at_loss_m > 1.5, "{l:?}");
         assert!(l.hold_deviation_m < 0.2, "{l:?}");
-        let safety = tuned_250().safety;
+        let safety = FlightConfig::default().safety;
         let hold_s = f64::from(safety.failsafe_hold_s);
         let descent_mps = f64::from(safety.failsafe_descent_mps);
         let start = l.descent_starts_s.unwrap();

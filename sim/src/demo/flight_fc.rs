@@ -1,11 +1,12 @@
 //! The firmware's flight controller (`flight::flightctl::FlightController`:
 //! arming checks, modes, rate and self-level loops, altitude hold, mixer,
 //! crash/landing disarm, failsafe) as the closed loop's [`FlightControl`].
+//! The scenarios fly it with its default configuration, as the firmware
+//! ships it.
 
 use super::closed_loop::{ControlInput, ControlOutput, FlightControl, Mode};
-use control::controllers::{AltitudeHoldConfig, BodyRates};
-use control::loops::{Quat, RateConfig};
-use control::pid::PidConfig;
+use control::controllers::BodyRates;
+use control::loops::Quat;
 use control::shaping::{StickShaping, Sticks};
 use flight::flightctl::{
     AltitudeEstimate, Event, FailsafePhase, FlightConfig, FlightController, FlightState,
@@ -17,33 +18,6 @@ pub struct FirmwareFc {
     fc: FlightController,
     shaping: StickShaping,
     events: Vec<String>,
-}
-
-/// The flight controller's configuration tuned for
-/// [`sim::QuadParams::class_250`] (0.6 kg, hover at 55 % command,
-/// thrust-to-weight 2.7): the rate gains of the defaults (written for a
-/// ~1 kg quad) halved, the hover feed-forward at its hover command.
-pub fn tuned_250() -> FlightConfig {
-    let tilt = PidConfig::new(0.06, 0.15, 0.0012)
-        .with_d_cutoff_hz(60.0)
-        .with_integral_limits(-0.3, 0.3);
-    let mut cfg = FlightConfig {
-        rate: RateConfig {
-            roll: tilt,
-            pitch: tilt,
-            yaw: PidConfig::new(0.15, 0.15, 0.0).with_integral_limits(-0.3, 0.3),
-        },
-        ..FlightConfig::default()
-    };
-    cfg.altitude_hold = AltitudeHoldConfig {
-        height_kp: 1.5,
-        hover_throttle: 0.55,
-        speed_pid: PidConfig::new(0.25, 0.3, 0.0)
-            .with_output_limits(0.05, 0.95)
-            .with_integral_limits(-0.3, 0.3),
-        ..cfg.altitude_hold
-    };
-    cfg
 }
 
 impl FirmwareFc {
