@@ -34,7 +34,12 @@ What runs, in order (each a separate session of the same simulated board):
   3. the flight: boot probe, start-up gyro bias while still, then every MPU
      data-ready through flight::pipeline::Pipeline (raw counts -> calibration ->
      mounting -> AHRS -> vertical estimator -> controllers), the code the
-     firmware runs. Errors are scored against the truth after the first second.";
+     firmware runs. Errors are scored against the truth after the first second.
+
+With --scenario the flight is closed-loop instead: a 250-class quadcopter
+model is the truth, the same pipeline estimates it, flight::flightctl's
+FlightController flies it (scripted pilot), and the scenario's figures
+(hover height error, rise time, overshoot, failsafe timing) are printed.";
 
 /// Command-line options (see `--help`).
 #[derive(Parser, Debug)]

@@ -150,7 +150,16 @@ fn a_closed_loop_scenario_prints_its_figures_and_plots() {
 #[test]
 fn a_scenario_refuses_the_open_loop_options() {
     refused(&["--scenario", "hover"], "invalid value");
-    refused(&["--scenario", "steps", "--csv", "x.csv"], "cannot be used with");
-    refused(&["--scenario", "steps", "--trajectory", "slow"], "cannot be used with");
-    refused(&["--scenario", "steps", "--fault", "magnet@2"], "cannot be used with");
+    refused(
+        &["--scenario", "steps", "--csv", "x.csv"],
+        "cannot be used with",
+    );
+    refused(
+        &["--scenario", "steps", "--trajectory", "slow"],
+        "cannot be used with",
+    );
+    refused(
+        &["--scenario", "steps", "--fault", "magnet@2"],
+        "cannot be used with",
+    );
 }
