@@ -160,11 +160,107 @@ mod suite {
         control_cases();
         ahrs_cases();
         pipeline_cases();
+        flight_control_cases();
         peer_cases();
 
         hprintln!("BENCH done 0");
         super::rt::exit(true)
     }
+
+    /// The 1 kHz flight-control step (armed, flying) and its parts.
+    fn flight_control_cases() {
+        use control::controllers::{BodyRates, TorqueCommand};
+        use control::loops::{LevelConfig, LevelController, Quat};
+        use control::mixer::{Mixer, MixerConfig};
+        use control::shaping::{Sticks, TiltSetpoint};
+        use flight::flightctl::{
+            FlightConfig, FlightController, FlightMode, FlightState, Motors, PilotInput,
+            SystemStatus, VehicleState,
+        };
+
+        let q: [Quat; CALLS] = core::array::from_fn(|k| {
+            Quat::from_euler(0.05 * k as f32 - 0.1, 0.02 * k as f32, 0.3 * k as f32)
+        });
+        if let Ok(mut level) = LevelController::new(LevelConfig::default()) {
+            let tilt = TiltSetpoint {
+                roll_rad: 0.2,
+                pitch_rad: -0.1,
+            };
+            case(
+                "control::loops::LevelController::rate_setpoint",
+                &mut level,
+                &q,
+                |l, q| l.rate_setpoint(q, &tilt, 0.5),
+            );
+        }
+        if let Ok(mut mixer) = Mixer::new(MixerConfig::default()) {
+            let tq: [TorqueCommand; CALLS] = core::array::from_fn(|k| TorqueCommand {
+                roll: 0.1 * k as f32 - 0.3,
+                pitch: 0.05 * k as f32,
+                yaw: 0.6 - 0.1 * k as f32,
+            });
+            case("control::mixer::Mixer::mix", &mut mixer, &tq, |m, t| {
+                m.mix(0.7, t)
+            });
+        }
+        for (mode, name) in [
+            (FlightMode::Angle, FC_ANGLE_NAME),
+            (FlightMode::Acro, "flight::FlightController::step (armed, acro)"),
+        ] {
+            let Ok(mut fc) = FlightController::new(FlightConfig::default()) else {
+                continue;
+            };
+            let status = SystemStatus {
+                sensors_healthy: true,
+                gyro_bias_done: true,
+                calibration_running: false,
+            };
+            let mut pilot = PilotInput {
+                sticks: Sticks::default(),
+                arm_switch: false,
+                mode,
+                link_ok: true,
+            };
+            let still = VehicleState {
+                attitude: Quat::IDENTITY,
+                gyro: BodyRates::default(),
+                altitude: None,
+            };
+            // Arm (switch off → on), then fly at hover throttle.
+            let mut now_us = 0u32;
+            for k in 0..(2 + WARM_CALLS) {
+                pilot.arm_switch = k > 0;
+                pilot.sticks.throttle = if k > 1 { 0.5 } else { 0.0 };
+                now_us += 1000;
+                let _ = fc.step(now_us, &pilot, &status, &still);
+            }
+            pilot.sticks.roll = 0.3;
+            let inputs: [(u32, VehicleState); CALLS] = core::array::from_fn(|k| {
+                (
+                    now_us + 1000 * (k as u32 + 1),
+                    VehicleState {
+                        attitude: q[k],
+                        gyro: BodyRates {
+                            roll_rps: 0.1 * k as f32,
+                            pitch_rps: -0.05,
+                            yaw_rps: 0.02,
+                        },
+                        altitude: None,
+                    },
+                )
+            });
+            case_checked(
+                name,
+                &mut fc,
+                &inputs,
+                |fc, (t, v)| fc.step(*t, &pilot, &status, v),
+                |o| o.state == FlightState::Armed && matches!(o.motors, Motors::Run(_)),
+            );
+        }
+    }
+
+    /// Name of the budgeted flight-control row (see xtask's budgets).
+    const FC_ANGLE_NAME: &str = "flight::FlightController::step (armed, angle)";
 
     fn calibration_cases() {
         use calibration::{AccelCalibration, GyroBias, MagCalibration};

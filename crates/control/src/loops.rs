@@ -8,7 +8,8 @@
 //!   [`TorqueCommand`] normalised −1..1 for the [`mixer`](crate::mixer).
 //! * [`LevelController`]: tilt setpoint (roll, pitch) → body-rate setpoint.
 //!   The desired attitude is the current heading with the commanded roll
-//!   and pitch, `q_d = twist_z(q) ⊗ q_y(θ) ⊗ q_x(φ)`; the error
+//!   and pitch, `q_d = q_z(ψ) ⊗ q_y(θ) ⊗ q_x(φ)` with ψ the ZYX heading of
+//!   `q`; the error
 //!   `q_e = q⁻¹ ⊗ q_d` is a body-frame rotation whose vector part, times
 //!   `2·sign(w)`, is the rotation vector (exact direction, magnitude
 //!   `2 sin(angle/2)`), and the rate setpoint is `kp` times it, limited to
@@ -164,13 +165,13 @@ impl Default for RateConfig {
     /// Starting point for a ~1 kg, 250 mm quad at 1 kHz (roll/pitch D
     /// low-passed at 40 Hz); re-tune for a real airframe.
     fn default() -> Self {
-        let tilt = PidConfig::new(0.12, 0.25, 0.002)
+        let tilt = PidConfig::new(0.25, 0.8, 0.003)
             .with_d_cutoff_hz(40.0)
             .with_integral_limits(-0.3, 0.3);
         Self {
             roll: tilt,
             pitch: tilt,
-            yaw: PidConfig::new(0.25, 0.2, 0.0).with_integral_limits(-0.3, 0.3),
+            yaw: PidConfig::new(0.5, 0.8, 0.0).with_integral_limits(-0.3, 0.3),
         }
     }
 }
@@ -334,17 +335,25 @@ pub fn attitude_error(q: &Quat, tilt: &TiltSetpoint) -> [f32; 3] {
         y: q.y * r,
         z: q.z * r,
     };
-    // Heading part of q: q = twist_z ⊗ swing, twist = normalise(w, 0, 0, z).
-    let n = libm::sqrtf(q.w * q.w + q.z * q.z);
-    let twist = if n > 1e-6 {
+    // Heading of q as ZYX yaw ψ: the body x axis projected on the
+    // horizontal plane is (cos ψ, sin ψ)·k. q_z(ψ) from its half angle
+    // without trigonometry: cos(ψ/2) = √((1 + cos ψ)/2), sin(ψ/2) the sign
+    // of sin ψ times √((1 − cos ψ)/2).
+    let hx = 1.0 - 2.0 * (q.y * q.y + q.z * q.z);
+    let hy = 2.0 * (q.w * q.z + q.x * q.y);
+    let h2 = hx * hx + hy * hy;
+    let twist = if h2 > 1e-8 {
+        let c = hx / libm::sqrtf(h2);
+        let ch = libm::sqrtf(clamp(0.5 * (1.0 + c), 0.0, 1.0));
+        let sh = libm::sqrtf(clamp(0.5 * (1.0 - c), 0.0, 1.0));
         Quat {
-            w: q.w / n,
+            w: ch,
             x: 0.0,
             y: 0.0,
-            z: q.z / n,
+            z: if hy < 0.0 { -sh } else { sh },
         }
     } else {
-        // Exactly upside down with the heading undefined: any heading does.
+        // Nose straight up or down: the heading is undefined, any will do.
         Quat::IDENTITY
     };
     let qd = twist

@@ -20,9 +20,11 @@
 //! throttle stick centred ± [`SafetyConfig::althold_deadband`] holds
 //! height, beyond it climbs or descends up to
 //! [`SafetyConfig::althold_max_climb_mps`]). Without an altitude estimate
-//! altitude hold falls back to angle with manual throttle. While the
-//! throttle stick is low in a manual-throttle mode the rate integrators are
-//! held at zero, so nothing winds up on the ground.
+//! altitude hold falls back to angle with manual throttle. Until take-off
+//! (the collective first above [`SafetyConfig::land_collective_max`]) the
+//! rate loop is reset every step, so nothing winds up on the ground; in
+//! the air it runs at any throttle (the mixer raises the collective to keep
+//! authority at idle).
 //!
 //! **Disarm** ([`DisarmCause`]): arm switch off; crash (tilt > 70° for
 //! 0.5 s in a self-levelling mode or failsafe — acro may fly inverted — or
@@ -676,10 +678,9 @@ impl FlightController {
             };
 
         let g = &vehicle.gyro;
-        let manual_low = self.state == FlightState::Armed
-            && out.mode != FlightMode::AltitudeHold
-            && pilot.sticks.throttle <= self.cfg.safety.arm_throttle_max;
-        if manual_low {
+        // On the ground nothing can follow the setpoint: integrating
+        // would only wind up and tip the vehicle at take-off.
+        if !self.took_off {
             self.rate.clear();
         }
         let torque = self.rate.update(&rate_sp, g, dt_s).unwrap_or_default();

@@ -603,3 +603,103 @@ fn motors_off_whenever_disarmed_under_random_inputs() {
         "{armed_steps} {disarmed_steps}"
     );
 }
+
+#[test]
+fn no_integrator_windup_before_take_off() {
+    let mut r = Rig::new();
+    r.arm();
+    // Sitting 10° tilted on uneven ground, throttle low: a constant
+    // self-level demand that the vehicle cannot follow.
+    r.vehicle.attitude = tilted_deg(10.0);
+    r.run_ms(100);
+    let early = r.last.unwrap().torque.roll;
+    r.run_ms(3_000);
+    let late = r.last.unwrap().torque.roll;
+    assert!(early < 0.0, "levelling demand expected");
+    assert!((early - late).abs() < 1e-6, "wound up: {early} → {late}");
+    // In the air the integrator acts.
+    r.pilot.sticks.throttle = 0.5;
+    r.run_ms(500);
+    assert!(r.last.unwrap().torque.roll < late - 0.05);
+}
+
+/// Rotational rigid body around the controller's motor outputs (the
+/// mixer's inverse, 25 ms motor lag, 120 rad/s² per unit torque).
+fn fly_roll_stick(mode: FlightMode, stick: f32, ms: u32) -> (Rig, Vec<f32>) {
+    let mut r = Rig::new();
+    r.pilot.mode = mode;
+    r.take_off();
+    let mut motors = [0.5f32; 4];
+    let mut w = [0.0f32; 3];
+    let mut q = Quat::IDENTITY;
+    let mut roll_trace = Vec::new();
+    r.pilot.sticks.roll = stick;
+    for _ in 0..ms {
+        r.vehicle.attitude = q;
+        r.vehicle.gyro = BodyRates {
+            roll_rps: w[0],
+            pitch_rps: w[1],
+            yaw_rps: w[2],
+        };
+        let cmd = r.step().motors.commands();
+        for (m, c) in motors.iter_mut().zip(cmd) {
+            *m += (1.0 / 26.0) * (c - *m);
+        }
+        let (_, t) = control::mixer::unmix(&motors);
+        w[0] += 120.0 * t.roll * 1e-3;
+        w[1] += 120.0 * t.pitch * 1e-3;
+        w[2] += 25.0 * t.yaw * 1e-3;
+        let dq = q.mul(&Quat {
+            w: 0.0,
+            x: w[0],
+            y: w[1],
+            z: w[2],
+        });
+        let v = Quat {
+            w: q.w + 0.5e-3 * dq.w,
+            x: q.x + 0.5e-3 * dq.x,
+            y: q.y + 0.5e-3 * dq.y,
+            z: q.z + 0.5e-3 * dq.z,
+        };
+        let k = 1.0 / (v.w * v.w + v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
+        q = Quat {
+            w: v.w * k,
+            x: v.x * k,
+            y: v.y * k,
+            z: v.z * k,
+        };
+        roll_trace.push((2.0 * (q.w * q.x + q.y * q.z)).atan2(1.0 - 2.0 * (q.x * q.x + q.y * q.y)));
+    }
+    (r, roll_trace)
+}
+
+#[test]
+fn closed_loop_angle_mode_stick_holds_the_commanded_tilt() {
+    // Half stick, no expo on angles: 15° of the 30° maximum.
+    let (r, roll) = fly_roll_stick(FlightMode::Angle, 0.5, 1_500);
+    let target = (0.5f32 - 0.02) / 0.98 * 30.0;
+    let last = roll.last().unwrap().to_degrees();
+    let peak = roll.iter().cloned().fold(f32::MIN, f32::max).to_degrees();
+    assert!((last - target).abs() < 0.5, "{last}° for {target}°");
+    assert!(peak < target * 1.1, "overshoot: {peak}°");
+    assert!(r.fc.is_armed());
+}
+
+#[test]
+fn closed_loop_acro_stick_gives_the_shaped_rate() {
+    let (r, roll) = fly_roll_stick(FlightMode::Acro, 1.0, 600);
+    // Full stick: 500 °/s; rolling continuously (acro may flip).
+    let out = r.last.unwrap();
+    assert!((out.rate_setpoint.roll_rps - 500f32.to_radians()).abs() < 1e-3);
+    let n = roll.len();
+    // Unwrapped roll over the last 100 ms ≈ 50°.
+    let mut d = roll[n - 1] - roll[n - 101];
+    if d < 0.0 {
+        d += 2.0 * core::f32::consts::PI;
+    }
+    assert!(
+        (d.to_degrees() - 50.0).abs() < 5.0,
+        "{}°/100 ms",
+        d.to_degrees()
+    );
+}
