@@ -418,12 +418,20 @@ mod tests {
 
     #[test]
     fn stick_steps_are_followed_quickly_and_without_much_overshoot() {
+        // The self-level loop is a P on the angle error: with an ideal rate
+        // loop a first-order lag whose 10-90 % rise is ln 9 / kp. The real
+        // rate loop and motors may add a fifth to it.
+        let kp = f64::from(FlightConfig::default().level.kp_per_s);
+        let rise_max_s = 1.2 * 9f64.ln() / kp;
         for seed in [1, 3] {
             let (_, f) = flown(Scenario::Steps, seed);
             for s in [f.roll.unwrap(), f.pitch.unwrap()] {
                 // Half stick in angle mode: 15° of tilt, roll right / nose down.
                 assert!((s.to.abs() - 15.0).abs() < 1.0, "{s:?}");
-                assert!(s.rise_s < 0.3 && s.overshoot_pct < 30.0, "{s:?}");
+                assert!(
+                    s.rise_s < rise_max_s && s.overshoot_pct < 30.0,
+                    "{s:?} {rise_max_s}"
+                );
                 // What is left is the AHRS's tilt error under sustained acceleration.
                 assert!(s.final_error.abs() < 4.0, "{s:?}");
             }
