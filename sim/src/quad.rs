@@ -20,8 +20,9 @@
 //!   the square of the terminal voltage;
 //! * ground: flat and rigid at height 0. The body starts at rest on it,
 //!   never goes below it, and while thrust is below weight it stays there
-//!   (no bounce, no tip-over: a landing sets roll and pitch level, as a
-//!   quad settling on its feet).
+//!   (no bounce, no tip-over model: a touch-down within 45° of level
+//!   settles on the feet, roll and pitch level; beyond it the body stays at
+//!   the attitude it hit the ground with, as a crashed quad on its side).
 //!
 //! Not modelled: propeller inertia torque on speed changes, blade flapping,
 //! ground effect, wind, ESC non-linearity.
@@ -411,9 +412,13 @@ impl Quadcopter {
         let at_ground = s.position_ned_m[2] >= 0.0;
         if at_ground && (s.on_ground || s.velocity_ned_mps[2] >= 0.0) && a_ned[2] >= 0.0 {
             if !s.on_ground {
-                // Touch-down: settle on the feet, keeping the heading.
-                let yaw = s.q_ned_from_body.to_euler()[2];
-                s.q_ned_from_body = Quat::from_euler(0.0, 0.0, yaw);
+                // Touch-down: up to 45° of tilt the quad settles on its
+                // feet (heading kept); beyond it, it lies where it fell.
+                let down_body = s.q_ned_from_body.rotate([0.0, 0.0, 1.0]);
+                if down_body[2] >= std::f64::consts::FRAC_1_SQRT_2 {
+                    let yaw = s.q_ned_from_body.to_euler()[2];
+                    s.q_ned_from_body = Quat::from_euler(0.0, 0.0, yaw);
+                }
             }
             s.on_ground = true;
             s.position_ned_m[2] = 0.0;

@@ -265,3 +265,26 @@ fn the_chips_read_the_body_through_the_link() {
     let az = i16::from_be_bytes([raw[4], raw[5]]);
     assert!((f64::from(az) / 16384.0 - 1.0).abs() < 0.05, "{az}");
 }
+
+#[test]
+fn a_gentle_touch_down_settles_level_and_a_crash_stays_on_its_side() {
+    for (roll_deg, stays_tilted) in [(20.0f64, false), (80.0, true)] {
+        let mut q = airborne();
+        let mut s = *q.state();
+        s.position_ned_m[2] = -0.5;
+        s.rotor_rps = [0.0; 4];
+        s.q_ned_from_body = Quat::from_euler(roll_deg.to_radians(), 0.0, 0.3);
+        q.set_state(s);
+        q.advance_to(2.0, [0.0; 4]);
+        assert!(q.state().on_ground);
+        let e = q.truth().q_ned_from_body.to_euler();
+        if stays_tilted {
+            assert!((e[0].to_degrees() - roll_deg).abs() < 1.0, "{e:?}");
+        } else {
+            assert!(e[0].abs() < 1e-9 && e[1].abs() < 1e-9, "{e:?}");
+        }
+        // The heading is kept either way, and nothing moves.
+        assert!((e[2] - 0.3).abs() < 1e-6, "{e:?}");
+        assert!(!q.truth().moving);
+    }
+}

@@ -91,6 +91,9 @@ pub enum Scenario {
     AltHold,
     /// After the take-off: the radio link is lost and stays lost.
     LinkLoss,
+    /// After the take-off: motor 1 (rear right) stops for good, as a
+    /// burnt ESC or a lost propeller would.
+    MotorFailure,
 }
 
 /// Time the arm switch is flipped (s): after boot and the start-up gyro bias.
@@ -124,10 +127,12 @@ pub const FORWARD_HOLD_S: f64 = 3.0;
 pub const FORWARD_STICK: f32 = 0.667;
 /// The radio link is lost from here on (s).
 pub const LINK_LOSS_S: f64 = 10.0;
+/// Motor 1 (index 0) stops from here on (s).
+pub const MOTOR_FAILURE_S: f64 = 10.0;
 
 impl Scenario {
     /// Names for the command line.
-    pub const NAMES: [&'static str; 4] = ["takeoff", "steps", "althold", "linkloss"];
+    pub const NAMES: [&'static str; 5] = ["takeoff", "steps", "althold", "linkloss", "motorfail"];
 
     /// By name.
     pub fn from_name(name: &str) -> Option<Self> {
@@ -136,6 +141,7 @@ impl Scenario {
             "steps" => Self::Steps,
             "althold" => Self::AltHold,
             "linkloss" => Self::LinkLoss,
+            "motorfail" => Self::MotorFailure,
             _ => return None,
         })
     }
@@ -147,6 +153,7 @@ impl Scenario {
             Self::Steps => "steps",
             Self::AltHold => "althold",
             Self::LinkLoss => "linkloss",
+            Self::MotorFailure => "motorfail",
         }
     }
 
@@ -157,7 +164,14 @@ impl Scenario {
             Self::Steps => 22.0,
             Self::AltHold => 26.0,
             Self::LinkLoss => 30.0,
+            Self::MotorFailure => 16.0,
         }
+    }
+
+    /// Whether motor index `i` has failed at `t_s` (it then gets no power
+    /// whatever it is commanded).
+    pub fn motor_failed(&self, i: usize, t_s: f64) -> bool {
+        *self == Self::MotorFailure && i == 0 && t_s >= MOTOR_FAILURE_S
     }
 
     /// The radio frame at `t_s` (`None`: link lost).
@@ -199,7 +213,7 @@ impl Scenario {
                     sticks.pitch = FORWARD_STICK;
                 }
             }
-            Self::Takeoff | Self::LinkLoss => {}
+            Self::Takeoff | Self::LinkLoss | Self::MotorFailure => {}
         }
         if t_s < ARM_AT_S {
             mode = Mode::Angle;
@@ -313,13 +327,22 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     while clock.now_s() < duration_s {
         let t_next = bus.next_mpu_sample_ns() as f64 * 1e-9;
         // The ESCs take a new command at each of their frames.
+        let latch = |t_s: f64| {
+            let mut m = out.motors.map(f64::from);
+            for (i, c) in m.iter_mut().enumerate() {
+                if opts.scenario.motor_failed(i, t_s) {
+                    *c = 0.0;
+                }
+            }
+            m
+        };
         while next_esc_s <= quad.state().t_s {
-            esc = out.motors.map(f64::from);
+            esc = latch(next_esc_s);
             next_esc_s += esc_period_s;
         }
         while next_esc_s < t_next {
             quad.advance_to(next_esc_s, esc);
-            esc = out.motors.map(f64::from);
+            esc = latch(next_esc_s);
             next_esc_s += esc_period_s;
         }
         quad.advance_to(t_next, esc);
@@ -489,6 +512,37 @@ mod tests {
         // Disarmed for good: motors off to the end.
         let end = log.samples.last().unwrap();
         assert!(!end.out.armed && end.out.motors == [0.0; 4] && end.quad.on_ground);
+    }
+
+    #[test]
+    fn a_dead_motor_is_a_crash_and_disarms() {
+        let (log, f) = flown(Scenario::MotorFailure, 1);
+        let m = f.motor_failure.unwrap();
+        // Three motors cannot hold a quad-X: it rolls over, and the crash
+        // detector (beyond 70° for 0.5 s) cuts the others.
+        let safety = FlightConfig::default().safety;
+        let d = m.disarmed_s.unwrap();
+        assert!(d > f64::from(safety.crash_tilt_time_s) && d < 2.0, "{m:?}");
+        assert!(
+            m.tilt_at_disarm_deg > f64::from(safety.crash_tilt_deg),
+            "{m:?}"
+        );
+        assert!(
+            log.events
+                .iter()
+                .any(|(_, e)| e == "Disarmed(CrashTilt)" || e == "Disarmed(CrashRate)"),
+            "{:?}",
+            log.events
+        );
+        let after: Vec<&Sample> = log
+            .samples
+            .iter()
+            .filter(|s| s.t_s >= MOTOR_FAILURE_S + d)
+            .collect();
+        assert!(after
+            .iter()
+            .all(|s| !s.out.armed && s.out.motors == [0.0; 4]));
+        assert!(after.last().unwrap().quad.on_ground);
     }
 
     #[test]

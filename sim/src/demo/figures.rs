@@ -3,7 +3,7 @@
 
 use super::closed_loop::{
     FlightLog, Sample, Scenario, CLIMB2_HOLD_S, CLIMB2_S, CLIMB_TO_S, FORWARD_HOLD_S, FORWARD_S,
-    LINK_LOSS_S, PITCH_STEP_S, ROLL_STEP_S, STEP_HOLD_S, YAW_STEP_S,
+    LINK_LOSS_S, MOTOR_FAILURE_S, PITCH_STEP_S, ROLL_STEP_S, STEP_HOLD_S, YAW_STEP_S,
 };
 
 /// A step response.
@@ -181,6 +181,38 @@ pub fn link_loss(samples: &[Sample]) -> Option<LinkLossFigures> {
     })
 }
 
+/// What happened after a motor stopped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotorFailureFigures {
+    /// Time from the failure until the controller disarmed (s).
+    pub disarmed_s: Option<f64>,
+    /// Tilt when it disarmed (°).
+    pub tilt_at_disarm_deg: f64,
+    /// Largest |body rate| before the disarm (°/s).
+    pub max_rate_dps: f64,
+    /// Height lost by the disarm (m).
+    pub height_lost_m: f64,
+}
+
+/// The motor-failure figures (`None` if the flight ended before the failure).
+pub fn motor_failure(samples: &[Sample]) -> Option<MotorFailureFigures> {
+    let i0 = samples.iter().position(|s| s.t_s >= MOTOR_FAILURE_S)?;
+    let after = samples.get(i0..)?;
+    let s0 = after.first()?;
+    let disarm = after.iter().position(|s| !s.out.armed);
+    let flying = after.get(..disarm.unwrap_or(after.len()))?;
+    let at = disarm.and_then(|i| after.get(i));
+    Some(MotorFailureFigures {
+        disarmed_s: at.map(|s| s.t_s - s0.t_s),
+        tilt_at_disarm_deg: at.map_or(f64::NAN, tilt_deg),
+        max_rate_dps: flying
+            .iter()
+            .map(|s| sim::math::norm(s.truth.omega_body_rps).to_degrees())
+            .fold(0.0, f64::max),
+        height_lost_m: at.map_or(f64::NAN, |s| s0.truth.height_m - s.truth.height_m),
+    })
+}
+
 /// Every figure of a flight.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Figures {
@@ -200,6 +232,8 @@ pub struct Figures {
     pub forward_hold: Option<HoldFigures>,
     /// Link loss.
     pub link_loss: Option<LinkLossFigures>,
+    /// Motor failure.
+    pub motor_failure: Option<MotorFailureFigures>,
     /// Battery voltage at the end (V).
     pub battery_end_v: f64,
 }
@@ -212,6 +246,7 @@ pub fn figures(log: &FlightLog) -> Figures {
         Scenario::Steps => ROLL_STEP_S,
         Scenario::AltHold => CLIMB2_S,
         Scenario::LinkLoss => LINK_LOSS_S,
+        Scenario::MotorFailure => MOTOR_FAILURE_S,
     };
     let mut f = Figures {
         hover: height_hold(s, CLIMB_TO_S + 3.0, hover_end),
@@ -267,6 +302,7 @@ pub fn figures(log: &FlightLog) -> Figures {
             f.forward_hold = height_hold(s, FORWARD_S, FORWARD_S + FORWARD_HOLD_S + 3.0);
         }
         Scenario::LinkLoss => f.link_loss = link_loss(s),
+        Scenario::MotorFailure => f.motor_failure = motor_failure(s),
         Scenario::Takeoff => {}
     }
     f
@@ -322,6 +358,15 @@ impl Figures {
                 opt(l.landed_s, "s"),
                 opt(l.disarmed_s, "s"),
                 l.max_tilt_deg
+            ));
+        }
+        if let Some(m) = self.motor_failure {
+            out.push(format!(
+                "motor 1 stopped: disarmed after {} at {:.0}° of tilt, {:.2} m lower; body rate up to {:.0} °/s",
+                opt(m.disarmed_s, "s"),
+                m.tilt_at_disarm_deg,
+                m.height_lost_m,
+                m.max_rate_dps
             ));
         }
         out.push(format!(
