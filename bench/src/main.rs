@@ -170,7 +170,7 @@ mod suite {
     /// The 1 kHz flight-control step (armed, flying) and its parts.
     fn flight_control_cases() {
         use control::controllers::{BodyRates, TorqueCommand};
-        use control::loops::{LevelConfig, LevelController, Quat};
+        use control::loops::{LevelConfig, LevelController, Quat, TiltQuat};
         use control::mixer::{Mixer, MixerConfig};
         use control::shaping::{Sticks, TiltSetpoint};
         use flight::flightctl::{
@@ -186,26 +186,47 @@ mod suite {
                 roll_rad: 0.2,
                 pitch_rad: -0.1,
             };
-            case(
-                "control::loops::LevelController::rate_setpoint",
-                &mut level,
-                &q,
-                |l, q| l.rate_setpoint(q, &tilt, 0.5),
-            );
+            if let Ok(tq) = TiltQuat::new(&tilt) {
+                case(
+                    "control::loops::LevelController::rate_setpoint_q (1 kHz form)",
+                    &mut level,
+                    &q,
+                    |l, q| l.rate_setpoint_q(q, &tq, 0.5),
+                );
+            }
         }
         if let Ok(mut mixer) = Mixer::new(MixerConfig::default()) {
             let tq: [TorqueCommand; CALLS] = core::array::from_fn(|k| TorqueCommand {
+                roll: 0.02 * k as f32 - 0.06,
+                pitch: 0.01 * k as f32,
+                yaw: 0.1 - 0.02 * k as f32,
+            });
+            case_checked(
+                "control::mixer::Mixer::mix (unsaturated)",
+                &mut mixer,
+                &tq,
+                |m, t| m.mix(0.5, t),
+                |r| r.as_ref().is_ok_and(|o| !o.saturated()),
+            );
+            let sat: [TorqueCommand; CALLS] = core::array::from_fn(|k| TorqueCommand {
                 roll: 0.1 * k as f32 - 0.3,
-                pitch: 0.05 * k as f32,
+                pitch: 0.05 * k as f32 + 0.4,
                 yaw: 0.6 - 0.1 * k as f32,
             });
-            case("control::mixer::Mixer::mix", &mut mixer, &tq, |m, t| {
-                m.mix(0.7, t)
-            });
+            case_checked(
+                "control::mixer::Mixer::mix (saturated)",
+                &mut mixer,
+                &sat,
+                |m, t| m.mix(0.9, t),
+                |r| r.as_ref().is_ok_and(|o| o.saturated()),
+            );
         }
         for (mode, name) in [
             (FlightMode::Angle, FC_ANGLE_NAME),
-            (FlightMode::Acro, "flight::FlightController::step (armed, acro)"),
+            (
+                FlightMode::Acro,
+                "flight::FlightController::step (armed, acro)",
+            ),
         ] {
             let Ok(mut fc) = FlightController::new(FlightConfig::default()) else {
                 continue;

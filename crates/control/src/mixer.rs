@@ -156,23 +156,40 @@ impl Mixer {
 
         let mut rp = [0.0f32; MOTORS];
         let mut y = [0.0f32; MOTORS];
+        let mut m = [0.0f32; MOTORS];
+        let mut fits = true;
         for i in 0..MOTORS {
             rp[i] = QUAD_X[i][0] * roll + QUAD_X[i][1] * pitch;
             y[i] = QUAD_X[i][2] * yaw;
+            m[i] = t + rp[i] + y[i];
+            fits &= m[i] >= lo && m[i] <= hi;
         }
-        let g_rp = max_gain(&[0.0; MOTORS], &rp, width);
+        // The usual case in flight: nothing to give up, no division.
+        if fits {
+            return Ok(MixOutput {
+                motors: m,
+                roll_pitch_gain: 1.0,
+                yaw_gain: 1.0,
+                collective_shift: 0.0,
+            });
+        }
+        // Roll/pitch from a flat base: the gain is width / span (one division).
+        let (rp_lo, rp_hi) = min_max(&rp);
+        let rp_span = rp_hi - rp_lo;
+        let g_rp = if rp_span > width {
+            width / rp_span
+        } else {
+            1.0
+        };
         let mut base = [0.0f32; MOTORS];
         for i in 0..MOTORS {
             base[i] = g_rp * rp[i];
         }
         let g_y = max_gain(&base, &y, width);
-        let mut m = [0.0f32; MOTORS];
-        let (mut lo_v, mut hi_v) = (f32::MAX, f32::MIN);
         for i in 0..MOTORS {
             m[i] = t + base[i] + g_y * y[i];
-            lo_v = lo_v.min(m[i]);
-            hi_v = hi_v.max(m[i]);
         }
+        let (lo_v, hi_v) = min_max(&m);
         // The span fits, so `lo − lo_v <= hi − hi_v` up to rounding; take
         // the shift nearest to 0 (keeps the pilot's throttle when possible).
         let shift = if hi_v > hi {
@@ -192,6 +209,19 @@ impl Mixer {
             collective_shift: shift,
         })
     }
+}
+
+fn min_max(v: &[f32; MOTORS]) -> (f32, f32) {
+    let (mut lo, mut hi) = (v[0], v[0]);
+    for x in &v[1..] {
+        if *x < lo {
+            lo = *x;
+        }
+        if *x > hi {
+            hi = *x;
+        }
+    }
+    (lo, hi)
 }
 
 /// The largest `g` in `[0, 1]` with `span(base + g·add) <= width`, given

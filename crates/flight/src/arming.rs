@@ -17,7 +17,8 @@ const RAD_PER_DEG: f32 = PI / 180.0;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ArmRefusal {
-    /// The pilot link is down (no valid frames).
+    /// The pilot link is down (no valid frames). Only in [`ArmBlockers`]:
+    /// without a link there is no trusted switch edge to refuse.
     LinkLost,
     /// A calibration mode (magnetometer/accelerometer) is running.
     CalibrationRunning,
@@ -31,7 +32,8 @@ pub enum ArmRefusal {
     NotLevel,
     /// Throttle stick above [`SafetyConfig::arm_throttle_max`].
     ThrottleNotLow,
-    /// The props-off motor test is running.
+    /// The props-off motor test is running. Only in [`ArmBlockers`]: the
+    /// arm switch ends the motor test instead.
     MotorTestActive,
 }
 

@@ -3,6 +3,26 @@
 //! [`FlightController::step`] once per IMU sample (1 kHz) and writes
 //! [`Motors`] to the ESC timer; nothing else decides anything.
 //!
+//! ```
+//! use control::esc::{EscProtocol, EscTimer};
+//! use flight::flightctl::*;
+//! use flight::pipeline::{Pipeline, PipelineConfig};
+//!
+//! let pipeline = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
+//! let esc = EscTimer::for_clock(EscProtocol::Pwm, 400, 72_000_000).unwrap();
+//! let mut fc = FlightController::new(FlightConfig::default()).unwrap();
+//! let status = SystemStatus { sensors_healthy: true, gyro_bias_done: true, calibration_running: false };
+//! let mut pilot = PilotInput { link_ok: true, ..Default::default() };
+//! let vehicle = VehicleState::from_pipeline(&pipeline);
+//! let out = fc.step(1_000, &pilot, &status, &vehicle);       // switch off
+//! assert_eq!(out.motors.compares(&esc), [esc.off_compare(); 4]);
+//! pilot.arm_switch = true;                                    // off → on: arm
+//! let out = fc.step(2_000, &pilot, &status, &vehicle);
+//! assert!(out.events.contains(Event::Armed));
+//! let out = fc.step(3_000, &pilot, &status, &vehicle);       // from the next step: idle
+//! assert!(out.motors.compares(&esc)[0] > esc.off_compare());
+//! ```
+//!
 //! # Rules
 //!
 //! **Arming** happens on the arm switch going off → on (a switch already on
@@ -40,7 +60,9 @@
 //! collective; then, with altitude, a descent at
 //! [`SafetyConfig::failsafe_descent_mps`] (0.5 m/s) until the landing
 //! detector disarms ([`DisarmCause::FailsafeLanded`]); without altitude a
-//! disarm ([`DisarmCause::FailsafeNoAltitude`]). If the link returns during
+//! disarm ([`DisarmCause::FailsafeNoAltitude`]). Should the altitude
+//! estimate fail during the descent, the collective ramps down at
+//! [`FAILSAFE_BLIND_RAMP_PER_S`] until the landing detector disarms. If the link returns during
 //! the failsafe, the pilot has control again (and the arm switch decides).
 //!
 //! **Motor test** (props off!): [`FlightController::start_motor_test`]
@@ -58,9 +80,12 @@
 //! a huge step); two calls with the same time do not run the loops again.
 
 use control::controllers::{AltitudeHold, AltitudeHoldConfig, BodyRates, TorqueCommand};
-use control::loops::{LevelConfig, LevelController, Quat, RateConfig, RateController};
+use control::esc::EscTimer;
+use control::loops::{LevelConfig, LevelController, Quat, RateConfig, RateController, TiltQuat};
 use control::mixer::{MixOutput, Mixer, MixerConfig, MOTORS};
-use control::shaping::{StickShaping, Sticks, SticksConfig, TiltSetpoint};
+use control::shaping::{StickShaping, Sticks, SticksConfig};
+
+use crate::pipeline::Pipeline;
 
 pub use crate::arming::{
     ArmBlockers, ArmRefusal, DisarmCause, Event, Events, MotorTestEnd, MotorTestRefusal,
@@ -71,6 +96,9 @@ const RAD_PER_DEG: f32 = core::f32::consts::PI / 180.0;
 
 /// Longest step the loops integrate, µs.
 pub const MAX_DT_US: u32 = 20_000;
+/// Collective ramp-down per second in a failsafe descent that lost its
+/// altitude estimate (hover at ~0.5 reaches the landing threshold in ~7 s).
+pub const FAILSAFE_BLIND_RAMP_PER_S: f32 = 0.05;
 /// Step assumed for the first call, µs (the 1 kHz IMU period).
 pub const FIRST_DT_US: u32 = 1_000;
 
@@ -153,6 +181,32 @@ impl Motors {
         match self {
             Self::Off => [0.0; MOTORS],
             Self::Run(m) => *m,
+        }
+    }
+
+    /// Timer compare values per motor (`CCRn`), the "off" pulse for
+    /// [`Motors::Off`]: what the firmware writes and the emulator expects.
+    pub fn compares(&self, esc: &EscTimer) -> [u16; MOTORS] {
+        match self {
+            Self::Off => [esc.off_compare(); MOTORS],
+            Self::Run(m) => m.map(|c| esc.compare(c)),
+        }
+    }
+}
+
+impl VehicleState {
+    /// The pipeline's latest attitude, gyro and (when the barometer runs)
+    /// altitude.
+    pub fn from_pipeline(p: &Pipeline) -> Self {
+        Self {
+            attitude: quat_from_ahrs(&p.quaternion()),
+            gyro: p.body_rates(),
+            altitude: p.altitude_estimate().map(|(height_m, vertical_speed_mps)| {
+                AltitudeEstimate {
+                    height_m,
+                    vertical_speed_mps,
+                }
+            }),
         }
     }
 }
@@ -279,6 +333,34 @@ impl Hold {
     }
 }
 
+/// Everything derived from one stick position (recomputed only when the
+/// sticks change, at the receiver's frame rate rather than 1 kHz).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Shaped {
+    sticks: Sticks,
+    acro_rates: BodyRates,
+    tilt: TiltQuat,
+    yaw_rps: f32,
+    throttle: f32,
+}
+
+impl Shaped {
+    fn new(shaping: &StickShaping, s: &Sticks) -> Self {
+        let acro_rates = shaping.rate_setpoint(s).unwrap_or_default();
+        let (tilt, yaw_rps) = match shaping.level_setpoint(s) {
+            Ok((t, y)) => (TiltQuat::new(&t).unwrap_or(TiltQuat::LEVEL), y),
+            Err(_) => (TiltQuat::LEVEL, 0.0),
+        };
+        Self {
+            sticks: *s,
+            acro_rates,
+            tilt,
+            yaw_rps,
+            throttle: shaping.throttle(s.throttle).unwrap_or(0.0),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct MotorTestRun {
     motor: u8,
@@ -332,6 +414,7 @@ pub struct FlightController {
     landed: Hold,
     bad_input: Hold,
     motor_test: Option<MotorTestRun>,
+    shaped: Shaped,
 }
 
 impl FlightController {
@@ -376,6 +459,7 @@ impl FlightController {
             landed: Hold::default(),
             bad_input: Hold::default(),
             motor_test: None,
+            shaped: Shaped::new(&StickShaping::new(cfg.sticks)?, &Sticks::default()),
         })
     }
 
@@ -726,7 +810,7 @@ impl FlightController {
             }
             let rate_sp = self
                 .level
-                .rate_setpoint(q, &TiltSetpoint::default(), 0.0)
+                .rate_setpoint_q(q, &TiltQuat::LEVEL, 0.0)
                 .unwrap_or_default();
             let collective = match alt {
                 Some(a) => {
@@ -737,6 +821,11 @@ impl FlightController {
                         0.0
                     };
                     self.altitude_collective(a, climb, dt_s)
+                }
+                // Altitude lost during the descent: keep going down by
+                // ramping the collective off, so the landing detector ends it.
+                None if phase == FailsafePhase::Descend => {
+                    (self.last_collective - FAILSAFE_BLIND_RAMP_PER_S * dt_s).max(0.0)
                 }
                 None => self.last_collective,
             };
@@ -754,12 +843,16 @@ impl FlightController {
         self.alt_fallback = fallback;
         out.mode = mode;
         let s = &pilot.sticks;
+        if self.shaped.sticks != *s {
+            self.shaped = Shaped::new(&self.shaping, s);
+        }
+        let sh = self.shaped;
         let rate_sp = match mode {
-            FlightMode::Acro => self.shaping.rate_setpoint(s).unwrap_or_default(),
-            FlightMode::Angle | FlightMode::AltitudeHold => match self.shaping.level_setpoint(s) {
-                Ok((tilt, yaw)) => self.level.rate_setpoint(q, &tilt, yaw).unwrap_or_default(),
-                Err(_) => BodyRates::default(),
-            },
+            FlightMode::Acro => sh.acro_rates,
+            FlightMode::Angle | FlightMode::AltitudeHold => self
+                .level
+                .rate_setpoint_q(q, &sh.tilt, sh.yaw_rps)
+                .unwrap_or_default(),
         };
         let collective = match (mode, alt) {
             (FlightMode::AltitudeHold, Some(a)) => {
@@ -768,7 +861,7 @@ impl FlightController {
             }
             _ => {
                 self.alt_engaged = false;
-                self.shaping.throttle(s.throttle).unwrap_or(0.0)
+                sh.throttle
             }
         };
         Some((rate_sp, collective, mode != FlightMode::Acro))

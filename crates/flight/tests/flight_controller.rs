@@ -703,3 +703,56 @@ fn closed_loop_acro_stick_gives_the_shaped_rate() {
         d.to_degrees()
     );
 }
+
+#[test]
+fn altitude_lost_during_failsafe_descent_still_lands() {
+    let mut r = Rig::new();
+    r.vehicle.altitude = Some(AltitudeEstimate {
+        height_m: 5.0,
+        vertical_speed_mps: 0.0,
+    });
+    r.take_off();
+    r.pilot.link_ok = false;
+    assert!(r
+        .run_until(1_100, |e| *e == Event::FailsafeDescent)
+        .is_some());
+    r.vehicle.altitude = None; // the barometer fails
+    let c0 = r.step().collective;
+    r.run_ms(1_000);
+    let c1 = r.last.unwrap().collective;
+    assert!(c1 < c0 - 0.04, "collective {c0} → {c1}");
+    assert!(r
+        .run_until(30_000, |e| *e
+            == Event::Disarmed(DisarmCause::FailsafeLanded))
+        .is_some());
+}
+
+#[test]
+fn vehicle_state_from_the_pipeline_is_body_frd_in_rad_per_s() {
+    use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
+    let mut p = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
+    p.set_gyro_bias_counts([0; 3]);
+    // 328 counts at 32.8 counts/(°/s) = 10 °/s about each MPU axis.
+    p.imu_step(&ImuInput {
+        accel: [0, 0, 8192],
+        gyro: [328, 328, 328],
+        dt_cycles: 72_000,
+    });
+    let v = VehicleState::from_pipeline(&p);
+    let ten = 10f32.to_radians();
+    // Default mounting: body = (x, −y, −z) of the MPU.
+    assert!((v.gyro.roll_rps - ten).abs() < 1e-3, "{:?}", v.gyro);
+    assert!((v.gyro.pitch_rps + ten).abs() < 1e-3);
+    assert!((v.gyro.yaw_rps + ten).abs() < 1e-3);
+    assert!(v.altitude.is_none(), "no barometer reading yet");
+    let n = v.attitude.w * v.attitude.w + v.attitude.x * v.attitude.x;
+    assert!(n > 0.99);
+    let esc =
+        control::esc::EscTimer::for_clock(control::esc::EscProtocol::OneShot125, 2_000, 72_000_000)
+            .unwrap();
+    assert_eq!(Motors::Off.compares(&esc), [9_000; 4]);
+    assert_eq!(
+        Motors::Run([0.0, 1.0, 0.5, 0.0]).compares(&esc),
+        [9_000, 18_000, 13_500, 9_000]
+    );
+}
