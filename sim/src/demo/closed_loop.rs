@@ -12,6 +12,7 @@
 use super::stack::{self, Stack};
 use control::shaping::Sticks;
 pub use flight::flightctl::FlightMode as Mode;
+use flight::flightctl::VehicleState;
 use sim::quad::QuadState;
 use sim::{
     Environment, QuadLink, QuadParams, Quadcopter, Quat, SensorErrors, SimBus, SimClock, SimConfig,
@@ -36,14 +37,9 @@ pub struct ControlInput {
     pub now_us: u32,
     /// The IMU read of this sample succeeded (the sensors the flight needs are healthy).
     pub sensors_healthy: bool,
-    /// AHRS `q_ned_from_body` (w, x, y, z).
-    pub q_ned_from_body: [f32; 4],
-    /// Bias-corrected angular rate, body FRD (rad/s), as the pipeline gives it.
-    pub gyro_body_rps: [f32; 3],
-    /// Height above the take-off point (m, up) once the barometer gave one.
-    pub height_m: Option<f32>,
-    /// Vertical speed (m/s, up) with the height.
-    pub vertical_speed_mps: Option<f32>,
+    /// Attitude, gyro and altitude from the pipeline, as the firmware
+    /// hands them over (`VehicleState::from_pipeline`).
+    pub vehicle: VehicleState,
     /// The start-up gyro bias is measured.
     pub gyro_bias_done: bool,
     /// The latest radio frame, `None` while the link is lost.
@@ -359,16 +355,10 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
             continue;
         };
         let pilot = opts.scenario.pilot(now_s);
-        let p = stack.pipeline();
-        let rates = p.body_rates();
-        let altitude = p.altitude_estimate();
         let input = ControlInput {
             now_us: clock.now_us() as u32,
             sensors_healthy: true,
-            q_ned_from_body: est.q_ned_from_body,
-            gyro_body_rps: [rates.roll_rps, rates.pitch_rps, rates.yaw_rps],
-            height_m: altitude.map(|a| a.0),
-            vertical_speed_mps: altitude.map(|a| a.1),
+            vehicle: VehicleState::from_pipeline(stack.pipeline()),
             gyro_bias_done: stack.gyro_bias_rps().is_some(),
             pilot,
         };

@@ -5,12 +5,9 @@
 //! ships it.
 
 use super::closed_loop::{ControlInput, ControlOutput, FlightControl, Mode};
-use control::controllers::BodyRates;
-use control::loops::Quat;
 use control::shaping::{StickShaping, Sticks};
 use flight::flightctl::{
-    AltitudeEstimate, Event, FailsafePhase, FlightConfig, FlightController, FlightState,
-    PilotInput, SystemStatus, VehicleState,
+    Event, FailsafePhase, FlightConfig, FlightController, FlightState, PilotInput, SystemStatus,
 };
 
 /// The firmware's flight controller in the loop.
@@ -51,29 +48,7 @@ impl FlightControl for FirmwareFc {
             gyro_bias_done: input.gyro_bias_done,
             calibration_running: false,
         };
-        let q = input.q_ned_from_body;
-        let g = input.gyro_body_rps;
-        let vehicle = VehicleState {
-            attitude: Quat {
-                w: q[0],
-                x: q[1],
-                y: q[2],
-                z: q[3],
-            },
-            gyro: BodyRates {
-                roll_rps: g[0],
-                pitch_rps: g[1],
-                yaw_rps: g[2],
-            },
-            altitude: match (input.height_m, input.vertical_speed_mps) {
-                (Some(h), Some(v)) => Some(AltitudeEstimate {
-                    height_m: h,
-                    vertical_speed_mps: v,
-                }),
-                _ => None,
-            },
-        };
-        let out = self.fc.step(input.now_us, &pilot, &status, &vehicle);
+        let out = self.fc.step(input.now_us, &pilot, &status, &input.vehicle);
         self.events
             .extend(out.events.iter().map(|e: Event| format!("{e:?}")));
         let flying = matches!(out.state, FlightState::Armed | FlightState::Failsafe(_));
