@@ -238,6 +238,85 @@ impl QuadParams {
     }
 }
 
+/// Which [`QuadParams`] field is out of its physical range.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum QuadParamsError {
+    /// `mass_kg` not finite and > 0.
+    Mass,
+    /// An `inertia_kgm2` entry not finite and > 0.
+    Inertia,
+    /// A motor position not finite.
+    MotorPosition,
+    /// A propulsion figure not finite and > 0, or `efficiency` above 1.
+    Propulsion,
+    /// A battery figure out of range (no cells, capacity ≤ 0, negative
+    /// resistance or current, more charge used than the capacity).
+    Battery,
+    /// A drag coefficient negative or not finite.
+    Drag,
+}
+
+impl std::fmt::Display for QuadParamsError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "quadcopter parameters: {self:?} out of range")
+    }
+}
+
+impl std::error::Error for QuadParamsError {}
+
+impl QuadParams {
+    /// Checks every field is physically meaningful.
+    pub fn validate(&self) -> Result<(), QuadParamsError> {
+        let pos = |x: f64| x.is_finite() && x > 0.0;
+        let non_neg = |x: f64| x.is_finite() && x >= 0.0;
+        if !pos(self.mass_kg) {
+            return Err(QuadParamsError::Mass);
+        }
+        if !self.inertia_kgm2.iter().all(|&i| pos(i)) {
+            return Err(QuadParamsError::Inertia);
+        }
+        if !self
+            .motors
+            .iter()
+            .all(|m| m.position_body_m.iter().all(|x| x.is_finite()))
+        {
+            return Err(QuadParamsError::MotorPosition);
+        }
+        let p = &self.propulsion;
+        let prop = [
+            p.k_f_n_per_rps2,
+            p.k_m_nm_per_rps2,
+            p.omega_max_rps,
+            p.v_nominal_v,
+            p.tau_s,
+            p.efficiency,
+        ];
+        if !prop.iter().all(|&x| pos(x)) || p.efficiency > 1.0 {
+            return Err(QuadParamsError::Propulsion);
+        }
+        let b = &self.battery;
+        if b.cells == 0
+            || !pos(b.capacity_ah)
+            || !non_neg(b.r_internal_ohm)
+            || !non_neg(b.avionics_a)
+            || !non_neg(b.used_at_start_ah)
+            || b.used_at_start_ah > b.capacity_ah
+        {
+            return Err(QuadParamsError::Battery);
+        }
+        let d = &self.drag;
+        let drag = d
+            .linear_n_per_mps
+            .iter()
+            .chain(&d.quadratic_n_per_mps2)
+            .chain(&d.angular_nm_per_rps);
+        if !drag.into_iter().all(|&x| non_neg(x)) {
+            return Err(QuadParamsError::Drag);
+        }
+        Ok(())
+    }
+}
+
 impl Default for QuadParams {
     fn default() -> Self {
         Self::class_250()
@@ -283,13 +362,15 @@ pub struct Quadcopter {
 pub const STEP_S: f64 = 2.5e-4;
 
 impl Quadcopter {
-    /// At rest on the ground, level, facing north, motors stopped.
-    pub fn new(params: QuadParams) -> Self {
+    /// At rest on the ground, level, facing north, motors stopped; the
+    /// parameters are checked first ([`QuadParams::validate`]).
+    pub fn new(params: QuadParams) -> Result<Self, QuadParamsError> {
+        params.validate()?;
         let v = params
             .battery
             .open_circuit_v(params.battery.used_at_start_ah)
             - params.battery.avionics_a * params.battery.r_internal_ohm;
-        Self {
+        Ok(Self {
             params,
             state: QuadState {
                 t_s: 0.0,
@@ -304,7 +385,7 @@ impl Quadcopter {
                 battery_voltage_v: v,
                 on_ground: true,
             },
-        }
+        })
     }
 
     /// The parameters.

@@ -7,7 +7,7 @@ use sim::quad::{QuadState, Spin, STEP_S};
 use sim::*;
 
 fn quad() -> Quadcopter {
-    Quadcopter::new(QuadParams::class_250())
+    Quadcopter::new(QuadParams::class_250()).unwrap()
 }
 
 /// The quad hovering 10 m up, level, rotors at the hover speed.
@@ -181,8 +181,8 @@ fn battery_sag_lowers_thrust_at_the_same_command() {
     let fresh = QuadParams::class_250();
     let mut tired = fresh;
     tired.battery.used_at_start_ah = 0.85 * fresh.battery.capacity_ah;
-    let mut a = Quadcopter::new(fresh);
-    let mut b = Quadcopter::new(tired);
+    let mut a = Quadcopter::new(fresh).unwrap();
+    let mut b = Quadcopter::new(tired).unwrap();
     a.advance_to(1.0, [0.8; 4]);
     b.advance_to(1.0, [0.8; 4]);
     let (va, vb) = (a.state().battery_voltage_v, b.state().battery_voltage_v);
@@ -286,5 +286,30 @@ fn a_gentle_touch_down_settles_level_and_a_crash_stays_on_its_side() {
         // The heading is kept either way, and nothing moves.
         assert!((e[2] - 0.3).abs() < 1e-6, "{e:?}");
         assert!(!q.truth().moving);
+    }
+}
+
+#[test]
+fn unphysical_parameters_are_refused_by_name() {
+    use sim::quad::QuadParamsError as E;
+    let ok = QuadParams::class_250();
+    assert_eq!(ok.validate(), Ok(()));
+    type Break = fn(&mut QuadParams);
+    let cases: [(Break, E); 7] = [
+        (|p| p.mass_kg = 0.0, E::Mass),
+        (|p| p.inertia_kgm2[2] = f64::NAN, E::Inertia),
+        (
+            |p| p.motors[1].position_body_m[0] = f64::INFINITY,
+            E::MotorPosition,
+        ),
+        (|p| p.propulsion.tau_s = 0.0, E::Propulsion),
+        (|p| p.propulsion.efficiency = 1.5, E::Propulsion),
+        (|p| p.battery.used_at_start_ah = 2.0, E::Battery),
+        (|p| p.drag.quadratic_n_per_mps2[0] = -0.1, E::Drag),
+    ];
+    for (break_it, want) in cases {
+        let mut p = ok;
+        break_it(&mut p);
+        assert_eq!(Quadcopter::new(p).err(), Some(want));
     }
 }

@@ -306,7 +306,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     let mag = stack::calibrate_mag_on_dance(&base, opts.mag_dance_s)?;
     let record = stack::calibration_record(&accel.calibration, &mag.calibration)?;
 
-    let mut quad = Quadcopter::new(opts.airframe);
+    let mut quad = Quadcopter::new(opts.airframe).map_err(|e| e.to_string())?;
     link.publish(&quad);
     let clock = SimClock::new();
     let bus = SimBus::new(&clock, base);
