@@ -161,6 +161,7 @@ mod suite {
         ahrs_cases();
         pipeline_cases();
         flight_control_cases();
+        rc_cases();
         peer_cases();
 
         hprintln!("BENCH done 0");
@@ -381,6 +382,77 @@ mod suite {
                 pid.update(0.1, m, DT_S)
             });
         }
+    }
+
+    /// Pilot input: the CRSF receive interrupt's worst byte (the one that
+    /// completes a frame: CRC, unpacking, µs conversion) and a typical one,
+    /// the PPM sync that completes a frame, and the stick mapping.
+    fn rc_cases() {
+        use rc_input::crsf::{encode_rc_channels, ADDRESS_FLIGHT_CONTROLLER};
+        use rc_input::{ChannelMap, CrsfParser, PpmDecoder, RcFrame};
+        let mut rng = bench::Rng::new(61);
+        let frames: [[u8; 26]; CALLS] = core::array::from_fn(|_| {
+            let ticks: [u16; 16] =
+                core::array::from_fn(|_| (992 + rng.symmetric(800)).clamp(172, 1811) as u16);
+            encode_rc_channels(ADDRESS_FLIGHT_CONTROLLER, &ticks)
+        });
+        let feed = |p: &mut CrsfParser, bytes: &[u8]| {
+            p.clear();
+            for (i, &b) in bytes.iter().enumerate() {
+                let _ = p.push(b, 24 * i as u32);
+            }
+        };
+        let mut parser = CrsfParser::new();
+        case_full(
+            "rc_input::CrsfParser::push (byte completing an RC frame)",
+            &mut parser,
+            &frames,
+            |p, f| feed(p, &f[..25]),
+            |p, f| p.push(f[25], 600),
+            |r| r.is_some(),
+        );
+        case_full(
+            "rc_input::CrsfParser::push (byte inside a frame)",
+            &mut parser,
+            &frames,
+            |p, f| feed(p, &f[..12]),
+            |p, f| p.push(f[12], 288),
+            |r| r.is_none(),
+        );
+        let channels: [[u32; 8]; CALLS] =
+            core::array::from_fn(|_| core::array::from_fn(|_| (1500 + rng.symmetric(480)) as u32));
+        let mut ppm = PpmDecoder::new();
+        case_full(
+            "rc_input::PpmDecoder::push_interval_us (sync completing 8 channels)",
+            &mut ppm,
+            &channels,
+            |d, ch| {
+                d.clear();
+                for _ in 0..3 {
+                    let _ = d.push_interval_us(10_000);
+                    for &c in ch {
+                        let _ = d.push_interval_us(c);
+                    }
+                }
+            },
+            |d, _| d.push_interval_us(10_000),
+            |r| r.is_some(),
+        );
+        let rc: [RcFrame; CALLS] = channels.map(|ch| {
+            let mut us = [1500u16; 16];
+            for (u, c) in us.iter_mut().zip(ch) {
+                *u = c as u16;
+            }
+            RcFrame::new(us, 8)
+        });
+        let map = ChannelMap::DEFAULT;
+        case_checked(
+            "rc_input::ChannelMap::sticks + arm_switch",
+            &mut (),
+            &rc,
+            |_, f| (map.sticks(f), map.arm_switch(f)),
+            |(s, a)| s.is_ok() && a.is_ok(),
+        );
     }
 
     fn ahrs_cases() {

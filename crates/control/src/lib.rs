@@ -1,9 +1,12 @@
-//! Barometric altitude, vertical estimation, PID and the altitude/attitude controllers.
+//! Barometric altitude, vertical estimation, PID, the altitude/attitude
+//! controllers, and the flight loops from sticks to ESC pulses.
 //!
 //! `#![no_std]`, no heap, no hardware: plain `f32` maths (plus `libm` for
-//! the exact barometric law), written for a Cortex-M3 **without FPU** where
-//! every float operation is a library call, so the per-sample paths avoid
-//! `powf`, `sqrt` and division.
+//! the exact barometric law and stick-rate trigonometry), written for a
+//! Cortex-M3 **without FPU** where every float operation is a library call,
+//! so the per-sample paths avoid `powf`, trigonometry and most divisions
+//! (the 1 kHz self-level error takes two square roots; the mixer divides
+//! only when a motor saturates).
 //!
 //! * [`baro`] — exact ISA height ↔ pressure ([`baro::altitude_m`],
 //!   [`baro::pressure_pa`]) and [`baro::CheapBaro`], a table form costing

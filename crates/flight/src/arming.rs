@@ -131,6 +131,34 @@ pub enum MotorTestRefusal {
     InvalidMotor,
 }
 
+impl core::fmt::Display for MotorTestRefusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Armed => "motor test refused: armed",
+            Self::LinkLost => "motor test refused: pilot link lost",
+            Self::ArmSwitchOn => "motor test refused: arm switch on",
+            Self::InvalidMotor => "motor test refused: motor index not 0..=3",
+        })
+    }
+}
+
+impl core::error::Error for MotorTestRefusal {}
+
+impl core::fmt::Display for ArmRefusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::LinkLost => "pilot link lost",
+            Self::CalibrationRunning => "calibration running",
+            Self::SensorsUnhealthy => "sensor not healthy",
+            Self::GyroBiasPending => "gyro bias not measured yet",
+            Self::AttitudeInvalid => "attitude or gyro unusable",
+            Self::NotLevel => "not level",
+            Self::ThrottleNotLow => "throttle not low",
+            Self::MotorTestActive => "motor test running",
+        })
+    }
+}
+
 /// Why the motor test stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -130,6 +130,30 @@ pub struct PilotInput {
     pub link_ok: bool,
 }
 
+impl PilotInput {
+    /// From the receiver crate's mapped sticks (same conventions: roll and
+    /// yaw +1 = right, pitch +1 = forward = nose down, throttle 0..1), the
+    /// arm switch, the selected mode and the link state.
+    pub fn from_rc(
+        sticks: &rc_input::Sticks,
+        arm_switch: bool,
+        mode: FlightMode,
+        link_ok: bool,
+    ) -> Self {
+        Self {
+            sticks: Sticks {
+                roll: sticks.roll,
+                pitch: sticks.pitch,
+                yaw: sticks.yaw,
+                throttle: sticks.throttle,
+            },
+            arm_switch,
+            mode,
+            link_ok,
+        }
+    }
+}
+
 /// Readiness of the rest of the firmware, for the arming checks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -299,6 +323,8 @@ impl core::fmt::Display for FlightConfigError {
         }
     }
 }
+
+impl core::error::Error for FlightConfigError {}
 
 /// Seconds → µs, saturating (config times are validated ≤ 60 s).
 fn us(s: f32) -> u32 {

@@ -756,3 +756,24 @@ fn vehicle_state_from_the_pipeline_is_body_frd_in_rad_per_s() {
         [9_000, 18_000, 13_500, 9_000]
     );
 }
+
+#[test]
+fn receiver_sticks_map_with_the_same_signs() {
+    use rc_input::{ChannelMap, ChannelOrder, RcFrame};
+    let map = ChannelMap::new(ChannelOrder::AETR);
+    let mut ch = [1500u16; 16];
+    ch[0] = 2000; // roll full right
+    ch[1] = 2000; // pitch full forward
+    ch[2] = 1000; // throttle low
+    let sticks = map.sticks(&RcFrame::new(ch, 8)).unwrap();
+    let pilot = PilotInput::from_rc(&sticks, false, FlightMode::Acro, true);
+    let mut r = Rig::new();
+    r.pilot = pilot;
+    r.pilot.mode = FlightMode::Acro;
+    r.arm();
+    r.pilot = PilotInput::from_rc(&sticks, true, FlightMode::Acro, true);
+    let out = r.step();
+    // Right roll stick → right wing down (+p); forward → nose down (−q).
+    assert!(out.rate_setpoint.roll_rps > 8.0);
+    assert!(out.rate_setpoint.pitch_rps < -8.0);
+}
