@@ -352,8 +352,9 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: &Outputs) -> Result<(), Stri
         say!("{line}");
     }
     say!(
-        "{} samples in {:.2} s wall{}",
+        "{} samples, {} CRSF frames through the receiver code, in {:.2} s wall{}",
         log.samples.len(),
+        log.radio_frames,
         log.wall_s,
         if log.missed > 0 {
             format!(", {} data-ready interrupts without a sample", log.missed)

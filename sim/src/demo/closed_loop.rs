@@ -9,10 +9,11 @@
 //! Each [`Scenario`] is a scripted pilot (sticks, arm switch, mode, radio
 //! link) with the figures that judge it ([`figures`]).
 
+use super::radio::Radio;
 use super::stack::{self, Stack};
 use control::shaping::Sticks;
 pub use flight::flightctl::FlightMode as Mode;
-use flight::flightctl::VehicleState;
+use flight::flightctl::{PilotInput, VehicleState};
 use sim::quad::QuadState;
 use sim::{
     Environment, QuadLink, QuadParams, Quadcopter, Quat, SensorErrors, SimBus, SimClock, SimConfig,
@@ -42,8 +43,8 @@ pub struct ControlInput {
     pub vehicle: VehicleState,
     /// The start-up gyro bias is measured.
     pub gyro_bias_done: bool,
-    /// The latest radio frame, `None` while the link is lost.
-    pub pilot: Option<Pilot>,
+    /// The pilot input as the firmware's receiver code delivers it.
+    pub pilot: PilotInput,
 }
 
 /// What the controller asks of the motors, and what it aimed at.
@@ -287,6 +288,8 @@ pub struct FlightLog {
     pub wall_s: f64,
     /// The controller's events with their time (s).
     pub events: Vec<(f64, String)>,
+    /// CRSF frames the receiver code accepted.
+    pub radio_frames: u32,
 }
 
 /// Flies `opts.scenario` with `fc`: ground calibrations (as a user does
@@ -320,6 +323,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     let mut samples = Vec::with_capacity((duration_s * 1000.0) as usize + 16);
     let mut missed = 0;
     let mut events = Vec::new();
+    let mut radio = Radio::default();
     while clock.now_s() < duration_s {
         let t_next = bus.next_mpu_sample_ns() as f64 * 1e-9;
         // The ESCs take a new command at each of their frames.
@@ -355,12 +359,13 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
             continue;
         };
         let pilot = opts.scenario.pilot(now_s);
+        let now_us = clock.now_us() as u32;
         let input = ControlInput {
-            now_us: clock.now_us() as u32,
+            now_us,
             sensors_healthy: true,
             vehicle: VehicleState::from_pipeline(stack.pipeline()),
             gyro_bias_done: stack.gyro_bias_rps().is_some(),
-            pilot,
+            pilot: radio.poll(now_s, now_us, pilot),
         };
         out = fc.step(&input)?;
         events.extend(fc.drain_events().into_iter().map(|e| (now_s, e)));
@@ -381,6 +386,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
         missed,
         wall_s: wall.elapsed().as_secs_f64(),
         events,
+        radio_frames: radio.frames(),
     })
 }
 
@@ -415,6 +421,10 @@ mod tests {
         for seed in [1, 2] {
             let (log, f) = flown(Scenario::Takeoff, seed);
             assert_eq!(log.missed, 0);
+            // Every 4 ms CRSF frame of the flight went through the parser.
+            let frames = f64::from(log.radio_frames);
+            let expected = Scenario::Takeoff.duration_s() / super::super::radio::FRAME_PERIOD_S;
+            assert!((frames - expected).abs() < 0.02 * expected, "{frames}");
             // On the ground, disarmed, until the arm switch.
             let before = log.samples.iter().filter(|s| s.t_s < ARM_AT_S);
             assert!(before
@@ -483,6 +493,15 @@ mod tests {
         let l = f.link_loss.unwrap();
         assert!(l.height_at_loss_m > 1.5, "{l:?}");
         assert!(l.hold_deviation_m < 0.2, "{l:?}");
+        // The receiver code's link monitor declares the loss after its
+        // timeout (the script's loss falls between two 4 ms frames).
+        let timeout_s = f64::from(rc_input::CRSF_TIMEOUT_US) * 1e-6;
+        let detected = l.detected_s.unwrap();
+        assert!(
+            detected >= timeout_s - super::super::radio::FRAME_PERIOD_S
+                && detected < timeout_s + 0.01,
+            "{l:?}"
+        );
         let safety = FlightConfig::default().safety;
         let hold_s = f64::from(safety.failsafe_hold_s);
         let descent_mps = f64::from(safety.failsafe_descent_mps);

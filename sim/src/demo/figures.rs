@@ -129,6 +129,8 @@ pub fn height_hold(samples: &[Sample], t0: f64, t1: f64) -> Option<HoldFigures> 
 pub struct LinkLossFigures {
     /// Height when the link was lost (m).
     pub height_at_loss_m: f64,
+    /// Time from the last radio frame until the controller flew its failsafe (s).
+    pub detected_s: Option<f64>,
     /// Largest |height change| during the first second after the loss (m).
     pub hold_deviation_m: f64,
     /// Time from the loss until the body was 0.3 m below that height (s).
@@ -168,6 +170,7 @@ pub fn link_loss(samples: &[Sample]) -> Option<LinkLossFigures> {
     let landed = after.iter().find(|s| s.truth.height_m < 0.02);
     Some(LinkLossFigures {
         height_at_loss_m: h0,
+        detected_s: after.iter().find(|s| s.out.failsafe).map(since),
         hold_deviation_m,
         descent_starts_s,
         descent_mps,
@@ -350,8 +353,9 @@ impl Figures {
         }
         if let Some(l) = self.link_loss {
             out.push(format!(
-                "link lost at {:.2} m: height within {:.3} m for 1 s; descent from +{} at {}; landed +{}, disarmed +{}; max tilt {:.1}°",
+                "link lost at {:.2} m: failsafe after {}; height within {:.3} m for 1 s; descent from +{} at {}; landed +{}, disarmed +{}; max tilt {:.1}°",
                 l.height_at_loss_m,
+                opt(l.detected_s, "s"),
                 l.hold_deviation_m,
                 opt(l.descent_starts_s, "s"),
                 opt(l.descent_mps, "m/s"),

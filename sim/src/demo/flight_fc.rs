@@ -5,9 +5,9 @@
 //! ships it.
 
 use super::closed_loop::{ControlInput, ControlOutput, FlightControl, Mode};
-use control::shaping::{StickShaping, Sticks};
+use control::shaping::StickShaping;
 use flight::flightctl::{
-    Event, FailsafePhase, FlightConfig, FlightController, FlightState, PilotInput, SystemStatus,
+    Event, FailsafePhase, FlightConfig, FlightController, FlightState, SystemStatus,
 };
 
 /// The firmware's flight controller in the loop.
@@ -34,21 +34,14 @@ impl FlightControl for FirmwareFc {
     }
 
     fn step(&mut self, input: &ControlInput) -> Result<ControlOutput, String> {
-        let pilot = match input.pilot {
-            Some(p) => PilotInput {
-                sticks: p.sticks,
-                arm_switch: p.arm,
-                mode: p.mode,
-                link_ok: true,
-            },
-            None => PilotInput::default(),
-        };
         let status = SystemStatus {
             sensors_healthy: input.sensors_healthy,
             gyro_bias_done: input.gyro_bias_done,
             calibration_running: false,
         };
-        let out = self.fc.step(input.now_us, &pilot, &status, &input.vehicle);
+        let out = self
+            .fc
+            .step(input.now_us, &input.pilot, &status, &input.vehicle);
         self.events
             .extend(out.events.iter().map(|e: Event| format!("{e:?}")));
         let flying = matches!(out.state, FlightState::Armed | FlightState::Failsafe(_));
@@ -59,15 +52,7 @@ impl FlightControl for FirmwareFc {
         } else if failsafe {
             Some([0.0, 0.0])
         } else {
-            let sticks = input.pilot.map_or(
-                Sticks {
-                    roll: 0.0,
-                    pitch: 0.0,
-                    yaw: 0.0,
-                    throttle: 0.0,
-                },
-                |p| p.sticks,
-            );
+            let sticks = input.pilot.sticks;
             let (t, _) = self
                 .shaping
                 .level_setpoint(&sticks)

@@ -25,6 +25,7 @@ pub mod mag;
 pub mod output;
 pub mod plot;
 pub mod plot_closed;
+pub mod radio;
 pub mod run;
 pub mod stack;
 
