@@ -919,7 +919,9 @@ impl FlightController {
             self.alt_engaged = true;
         }
         let t = self.alt_target_m + climb_mps * dt_s;
-        self.alt_target_m = t.clamp(a.height_m - LEASH_M, a.height_m + LEASH_M);
+        // max/min, not f32::clamp: clamp's bounds assertion links core::fmt's
+        // float formatting (~8 KiB of flash) for a panic that cannot happen.
+        self.alt_target_m = t.max(a.height_m - LEASH_M).min(a.height_m + LEASH_M);
         self.alt
             .update(self.alt_target_m, a.height_m, a.vertical_speed_mps, dt_s)
             .unwrap_or(self.last_collective)
