@@ -12,7 +12,9 @@
 //! Faults (NACKs, bus errors, arbitration loss, stuck SDA/SCL, a chip left
 //! holding SDA mid-byte, wrong ids, corrupted PROM, overflow, frozen data,
 //! magnets, vibration, spontaneous resets) are injected with
-//! [`SimBus::inject`].
+//! [`SimBus::inject`]. A [`Quadcopter`] model (motors, battery, drag,
+//! ground) can be the truth instead, through a [`QuadLink`], for closed-loop
+//! flight.
 //!
 //! The same bus is open at the wire level ([`wire`]): START + address,
 //! bytes with the master's ACK/NACK, STOP, and the SCL/SDA levels with what
@@ -45,6 +47,7 @@ pub mod math;
 pub mod mpu9250;
 pub mod ms5611;
 pub mod physics;
+pub mod quad;
 pub mod rng;
 pub mod spi;
 pub mod wire;
@@ -55,5 +58,6 @@ pub use clock::{SimClock, SimDelay};
 pub use errors::SensorErrors;
 pub use math::{Quat, Vec3};
 pub use physics::{Environment, MagneticField, Trajectory, TruthSample};
+pub use quad::{QuadLink, QuadParams, Quadcopter};
 pub use spi::{SimSpi, SimSpiError, SpiChip};
 pub use world::{MagnetPass, Vibration};

@@ -34,7 +34,12 @@ What runs, in order (each a separate session of the same simulated board):
   3. the flight: boot probe, start-up gyro bias while still, then every MPU
      data-ready through flight::pipeline::Pipeline (raw counts -> calibration ->
      mounting -> AHRS -> vertical estimator -> controllers), the code the
-     firmware runs. Errors are scored against the truth after the first second.";
+     firmware runs. Errors are scored against the truth after the first second.
+
+With --scenario the flight is closed-loop instead: a 250-class quadcopter
+model is the truth, the same pipeline estimates it, flight::flightctl's
+FlightController flies it (scripted pilot), and the scenario's figures
+(hover height error, rise time, overshoot, failsafe timing) are printed.";
 
 /// Command-line options (see `--help`).
 #[derive(Parser, Debug)]
@@ -78,6 +83,13 @@ struct Cli {
     /// time); repeatable. Kinds are listed below.
     #[arg(long, value_name = "KIND[@T]", value_parser = demo::faults::parse)]
     fault: Vec<ScheduledFault>,
+    /// Fly the quadcopter model in a closed loop instead of a trajectory:
+    /// the chips read its motion, the firmware's pipeline estimates it, the
+    /// flight controller flies it through a scripted pilot. Prints the
+    /// scenario's figures; --plot draws the responses.
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["trajectory", "csv", "fault", "duration"],
+          value_parser = clap::builder::PossibleValuesParser::new(demo::closed_loop::Scenario::NAMES))]
+    scenario: Option<String>,
     /// No progress line on stderr.
     #[arg(short, long)]
     quiet: bool,
@@ -129,7 +141,11 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match execute(&opts, outputs) {
+    let done = match &cli.scenario {
+        Some(name) => execute_scenario(name, &cli, &outputs),
+        None => execute(&opts, outputs),
+    };
+    match done {
         Ok(()) if host_console::stdout_failed() => {
             note!("sim: writing to stdout failed");
             ExitCode::FAILURE
@@ -283,6 +299,59 @@ fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
             opts.duration_s
         ));
     }
+    Ok(())
+}
+
+/// A closed-loop scenario: fly it, print its figures, plot it.
+fn execute_scenario(name: &str, cli: &Cli, outputs: &Outputs) -> Result<(), String> {
+    use demo::closed_loop::{fly, ClosedLoopOptions, FlightControl, Scenario};
+    let scenario = Scenario::from_name(name).ok_or_else(|| format!("unknown scenario `{name}`"))?;
+    let mut opts = ClosedLoopOptions::new(scenario, cli.seed);
+    opts.board_seed = cli.board_seed.unwrap_or(cli.seed);
+    opts.mag_dance_s = cli.mag_dance;
+    let mut fc = demo::flight_fc::FirmwareFc::new(flight::flightctl::FlightConfig::default())?;
+    say!(
+        "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",
+        scenario.name(),
+        opts.seed,
+        opts.board_seed,
+        scenario.duration_s(),
+        flight::pipeline::AHRS_KIND,
+        fc.name()
+    );
+    let log = match fly(&opts, &mut fc) {
+        Ok(l) => l,
+        Err(e) => {
+            if let Some(p) = &outputs.plot {
+                let _ = std::fs::remove_file(p);
+            }
+            return Err(e);
+        }
+    };
+    if let Some(path) = &outputs.plot {
+        let title = format!("sim closed loop: {} seed {}", scenario.name(), opts.seed);
+        demo::plot_closed::write_plot(path, &title, &log)
+            .map_err(|e| format!("plotting {}: {e}", path.display()))?;
+        say!("wrote {}", path.display());
+    }
+    for (t, e) in &log.events {
+        say!("t {t:7.3} s: {e}");
+    }
+    say!("== figures: {} seed {} ==", scenario.name(), opts.seed);
+    for line in demo::figures::figures(&log).lines() {
+        say!("{line}");
+    }
+    say!(
+        "{} samples, {} CRSF frames through the receiver code, in {:.2} s wall{}",
+        log.samples.len(),
+        log.radio_frames,
+        log.wall_s,
+        if log.missed > 0 {
+            format!(", {} data-ready interrupts without a sample", log.missed)
+        } else {
+            String::new()
+        }
+    );
     Ok(())
 }
 

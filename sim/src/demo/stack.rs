@@ -300,6 +300,11 @@ impl Stack {
         })
     }
 
+    /// The pipeline (for the flight controller's inputs).
+    pub fn pipeline(&self) -> &Pipeline {
+        &self.pipeline
+    }
+
     /// The boot probe's verdicts.
     pub fn boot_report(&self) -> &BootReport {
         &self.boot
