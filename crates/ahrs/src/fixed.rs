@@ -423,7 +423,7 @@ pub struct FixedConfig {
     /// The physical configuration this was built from.
     pub cfg: Config,
     beta_q24: i32,
-    beta_mag_q24: i32,
+    inv_heading_tau_q24: i32,
     startup_beta_q24: i32,
     half_scale_tol_q30: i64,
     inv_scale_tau_q20: i64,
@@ -518,7 +518,10 @@ impl FixedConfig {
         Self {
             cfg: *cfg,
             beta_q24: float_to_q(cfg.beta, 24),
-            beta_mag_q24: float_to_q(cfg.beta_mag, 24),
+            inv_heading_tau_q24: float_to_q(
+                crate::madgwick::inv_heading_tau(cfg.heading_tau_s),
+                24,
+            ),
             startup_beta_q24: float_to_q(cfg.startup_beta, 24),
             // ½·tol in Q30, tol clamped to [0, 1] (NaN → 0).
             half_scale_tol_q30: f30(0.5 * cfg.gyro_scale_tol.clamp(0.0, 1.0)),
@@ -996,41 +999,52 @@ impl MadgwickFixed {
             return None;
         }
         // Heading error, as the f32 filter: the east component over the north one (tan of
-        // the error) in units of the linear zone, ±1 beyond it or with the field pointing
-        // south. One 32-bit division in Q12: h_N is first scaled to [2^17, 2^18) (h_E with
-        // it), so |20·h_E| < h_N keeps the numerator < 2^30 and h_E keeps 17 bits.
+        // the error), in units of the linear zone (`e`) and in radians (`e_mag`), each ±1
+        // beyond its zone or with the field pointing south. 32-bit divisions in Q12: h_N
+        // is first scaled to [2^17, 2^18) (h_E with it), so a numerator below h_N·2^12
+        // stays < 2^30 and h_E keeps 17 bits.
         let (hn, he) = (h[0] as i32, h[1] as i32); // |hᵢ| ≤ 2^30
         let g = crate::madgwick::HEADING_LINEAR_GAIN;
-        let e_q12 = if hn >= 1 << 17 {
+        let (e_q12, e_mag_q12) = if hn >= 1 << 17 {
             let r = 14 - hn.leading_zeros().min(14); // hn >> r ∈ [2^17, 2^18)
             let (hn, he) = (hn >> r, he >> r);
-            if (i64::from(he) * i64::from(g)).abs() >= i64::from(hn) {
-                he.signum() << 12
+            let sat = he.signum() << 12;
+            if he.abs() >= hn {
+                (sat, sat)
             } else {
-                ((he * g) << 12).checked_div(hn).unwrap_or(0)
+                let e_mag = (he << 12).checked_div(hn).unwrap_or(0);
+                if (i64::from(he) * i64::from(g)).abs() >= i64::from(hn) {
+                    (sat, e_mag)
+                } else {
+                    (((he * g) << 12).checked_div(hn).unwrap_or(0), e_mag)
+                }
             }
         } else {
-            he.signum() << 12
+            (he.signum() << 12, he.signum() << 12)
         };
         let c = &self.c;
-        let beta_mag = if initialising && c.startup_q20 > 0 {
+        // Start-up: a constant rate 2β ramping from `startup_beta` to 0.
+        let beta_start = if initialising && c.startup_q20 > 0 {
             let frac = ((self.time_q20 * c.inv_startup_q30) >> 20)
                 .max(0)
                 .min(ONE_Q30);
-            let b = i64::from(c.beta_mag_q24);
             let sb = i64::from(c.startup_beta_q24);
-            sb + (((b - sb) * frac) >> 30)
+            sb - ((sb * frac) >> 30)
         } else {
-            i64::from(c.beta_mag_q24)
+            0
         };
         // β_head = ½·tol·|ω̄_D|: Q20 (< 2^27) · Q30 → >> 26 gives Q24.
         let beta_head = (((self.rate_lp_down_q40 >> 20).abs()) * c.half_scale_tol_q30) >> 26;
-        // 2β·dt: Q24·Q31 >> 24 is β·dt in Q31, i.e. 2β·dt in Q30. β_mag at a constant
-        // rate towards the field, β_head proportionally (as the f32 filter).
+        // 2β·dt: Q24·Q31 >> 24 is β·dt in Q31, i.e. 2β·dt in Q30. The start-up rate is
+        // constant towards the field, β_head proportional within the linear zone, the
+        // first-order term tan(error)/τ (as the f32 filter).
         let two_dt = |b: i64| (b.max(0).min(i64::from(i32::MAX)) * i64::from(dt_q31)) >> 24;
-        let mag_dt = two_dt(beta_mag).min(ONE_Q30);
+        let start_dt = two_dt(beta_start).min(ONE_Q30);
         let head = (two_dt(beta_head).min(ONE_Q30) * i64::from(e_q12)) >> 12;
-        let step = head + mag_dt * h[1].signum();
+        // (1/τ)·dt: Q24·Q31 >> 25 is Q30.
+        let tau_dt = (i64::from(c.inv_heading_tau_q24) * i64::from(dt_q31)) >> 25;
+        let first = (tau_dt * i64::from(e_mag_q12)) >> 12;
+        let step = head + first + start_dt * h[1].signum();
         // A step never passes the field's heading (|h_E| ≤ the error's sine; as the f32
         // filter).
         let lim = h[1].abs().min(ONE_Q30 / 2);

@@ -514,29 +514,36 @@ impl Madgwick {
         if !self.check_mag(n2, h[2], w2, dt_s, initialising, st) {
             return None;
         }
-        // Heading error (sin, from the field's east component), saturated to ±1 beyond
-        // HEADING_LINEAR_ZONE; > 0 when the estimate is east of the field.
-        // tan of the error in the linear zone (±1 beyond it or with the field south).
-        let e = if h[0] > 0.0 {
-            (h[1] / (h[0] * HEADING_LINEAR_ZONE)).clamp(-1.0, 1.0)
+        // Heading error (> 0 when the estimate is east of the field) as tan = h_E/h_N:
+        // `e` in units of HEADING_LINEAR_ZONE, `e_mag` in radians, each saturated to ±1
+        // beyond its zone or with the field pointing south.
+        let (e, e_mag) = if h[0] > 0.0 {
+            let t = h[1] / h[0];
+            (
+                (t / HEADING_LINEAR_ZONE).clamp(-1.0, 1.0),
+                t.clamp(-1.0, 1.0),
+            )
         } else {
-            sign(h[1])
+            (sign(h[1]), sign(h[1]))
         };
         let cfg = self.cfg;
-        let beta_mag = if initialising && cfg.startup_s > 0.0 {
-            cfg.startup_beta + (cfg.beta_mag - cfg.startup_beta) * (self.time_s / cfg.startup_s)
+        // Start-up: a constant rate 2β ramping from `startup_beta` to 0.
+        let beta_start = if initialising && cfg.startup_s > 0.0 {
+            cfg.startup_beta * (1.0 - self.time_s / cfg.startup_s).max(0.0)
         } else {
-            cfg.beta_mag
+            0.0
         };
+        let inv_tau = inv_heading_tau(cfg.heading_tau_s);
         // Scale-factor heading gain β_head = ½·tol·|ω̄_D| (`Config::gyro_scale_tol`).
         let beta_head = 0.5 * cfg.gyro_scale_tol.max(0.0) * self.rate_lp_down_rps.abs();
         // Earth rate 2β about the vertical (β is a quaternion rate), towards the field;
         // a step never passes the field's heading (a large gain·dt reaches it instead).
         // (|h_E| ≤ the sine of the error.)
         let lim = h[1].abs().min(0.5);
-        // β_mag at a constant rate (it covers the residual gyro bias), β_head
+        // First order with τ = `heading_tau_s` (it holds the residual gyro bias), β_head
         // proportionally within HEADING_LINEAR_ZONE (it follows the turn rate).
-        Some((-2.0 * (beta_mag * sign(h[1]) + beta_head * e) * dt_s).clamp(-lim, lim))
+        let rate = 2.0 * (beta_start * sign(h[1]) + beta_head * e) + inv_tau * e_mag;
+        Some((-rate * dt_s).clamp(-lim, lim))
     }
 
     /// Apply the earth-frame correction θ (rad) to the propagated orientation,
@@ -724,6 +731,15 @@ fn half_angle_step(w: [f32; 3], dt_s: f32) -> (Quaternion, bool) {
     let h = w.map(|x| 0.5 * x * dt_s);
     let c = h.map(|x| x.clamp(-0.25, 0.25));
     (Quaternion::new(1.0, c[0], c[1], c[2]), c != h)
+}
+
+/// 1/τ of the heading correction (1/s, ≤ 100; 0 for τ ≤ 0 or NaN: no correction).
+pub(crate) fn inv_heading_tau(tau_s: f32) -> f32 {
+    if tau_s > 0.0 {
+        (1.0 / tau_s).min(100.0)
+    } else {
+        0.0
+    }
 }
 
 /// 1/τ of the tilt low-pass stages (1/s, ≤ 2000): ramps linearly from

@@ -24,18 +24,22 @@ pub enum FilterKind {
     Textbook,
     /// `fc_ahrs::fixed::MadgwickFixed` with `Algorithm::Textbook`.
     TextbookFixed,
+    /// `vqf-rs` (VQF, Laidig & Seel 2023) with its default parameters, as the
+    /// published reference: none of the `Config` options apply to it.
+    Vqf,
 }
 
 impl FilterKind {
     /// Every kind, in the order of [`FilterKind::NAMES`].
-    pub const ALL: [FilterKind; 4] = [
+    pub const ALL: [FilterKind; 5] = [
         FilterKind::F32,
         FilterKind::Fixed,
         FilterKind::Textbook,
         FilterKind::TextbookFixed,
+        FilterKind::Vqf,
     ];
     /// Command-line names.
-    pub const NAMES: [&'static str; 4] = ["f32", "fixed", "textbook", "textbook-fixed"];
+    pub const NAMES: [&'static str; 5] = ["f32", "fixed", "textbook", "textbook-fixed", "vqf"];
 
     /// The kind with command-line name `name`.
     pub fn from_name(name: &str) -> Option<Self> {
@@ -79,7 +83,34 @@ pub fn run(samples: &[Sample], kind: FilterKind, mode: Mode, cfg: &Config) -> Ve
         FilterKind::Fixed => run_fixed(first, steps, mode, cfg),
         FilterKind::Textbook => run_f32(first, steps, mode, &textbook),
         FilterKind::TextbookFixed => run_fixed(first, steps, mode, &textbook),
+        FilterKind::Vqf => run_vqf(steps, mode, f64::from(dt0 as f32)),
     }
+}
+
+/// VQF with its defaults at the recording's first step as its fixed sample time (it
+/// has no per-sample dt); it starts from its own first sample, in ENU already.
+fn run_vqf<'a>(
+    steps: impl Iterator<Item = (&'a Sample, f32)>,
+    mode: Mode,
+    dt_s: f64,
+) -> Vec<Quaternion> {
+    let mut f = vqf_rs::VQF::new(dt_s, None, None, None);
+    let d = |v: [f32; 3]| v.map(f64::from);
+    steps
+        .map(|(s, _)| {
+            let q = match mode {
+                Mode::Imu => {
+                    f.update(d(s.gyr_rps), d(s.acc_mps2), None);
+                    f.quat_6d()
+                }
+                Mode::Marg => {
+                    f.update(d(s.gyr_rps), d(s.acc_mps2), Some(d(s.mag_ut)));
+                    f.quat_9d()
+                }
+            };
+            Quaternion::new(q.0 as f32, q.1 as f32, q.2 as f32, q.3 as f32)
+        })
+        .collect()
 }
 
 fn run_f32<'a>(

@@ -47,9 +47,9 @@ struct Cli {
     /// Madgwick gain β, rad/s, >= 0 [default: fc_ahrs::Config::DEFAULT].
     #[arg(long, value_name = "RAD_S", value_parser = at_least(0.0))]
     beta: Option<f32>,
-    /// Magnetometer (heading) gain, rad/s, >= 0.
-    #[arg(long, value_name = "RAD_S", value_parser = at_least(0.0))]
-    beta_mag: Option<f32>,
+    /// Time constant of the magnetometer's heading correction, s, > 0.
+    #[arg(long, value_name = "S", value_parser = above(0.0))]
+    heading_tau: Option<f32>,
     /// Start-up gain, rad/s, >= 0.
     #[arg(long, value_name = "RAD_S", value_parser = at_least(0.0))]
     startup_beta: Option<f32>,
@@ -168,7 +168,7 @@ fn config(cli: &Cli) -> fc_ahrs::Config {
         }
     };
     set(&mut c.beta, cli.beta);
-    set(&mut c.beta_mag, cli.beta_mag);
+    set(&mut c.heading_tau_s, cli.heading_tau);
     set(&mut c.startup_beta, cli.startup_beta);
     set(&mut c.startup_s, cli.startup_s);
     set(&mut c.bias.rest_gyro_rps, cli.rest_gyro);
