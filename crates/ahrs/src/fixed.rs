@@ -30,7 +30,7 @@
 // an out-of-line call at the firmware's opt-level "z".
 #![allow(clippy::manual_clamp)]
 
-use crate::config::{Algorithm, Config, UpdatePath, UpdateStatus};
+use crate::config::{Algorithm, Config, MagState, UpdatePath, UpdateStatus};
 use crate::Quaternion;
 
 const ONE_Q30: i64 = 1 << 30;
@@ -445,6 +445,8 @@ pub struct FixedConfig {
     mag_recovery_q20: i64,
     mag_min_rate_sq_q40: i64,
     mag_fallback_q20: i64,
+    /// 1/`ref_tau_s` in Q30 (≤ 1/s; 0 = frozen).
+    inv_mag_ref_tau_q30: i64,
     inv_tilt_tau_q20: i64,
     inv_tilt_tau0_q20: i64,
     inv_g_q32: i32,
@@ -545,6 +547,11 @@ impl FixedConfig {
             mag_recovery_q20: s_to_q20(mr.recovery_s),
             mag_min_rate_sq_q40: sq_q40(mr.recovery_min_rate_rps),
             mag_fallback_q20: s_to_q20(mr.fallback_s),
+            inv_mag_ref_tau_q30: if mr.ref_tau_s > 0.0 {
+                f30((1.0 / mr.ref_tau_s).min(1.0))
+            } else {
+                0
+            },
             inv_tilt_tau_q20: inv_q20(cfg.tilt_tau_s),
             inv_tilt_tau0_q20: inv_q20(cfg.tilt_tau_s.min(crate::madgwick::STARTUP_TILT_TAU_S)),
             inv_g_q32,
@@ -990,6 +997,7 @@ impl MadgwickFixed {
     ) -> Option<i32> {
         let Some((m, n2)) = unit3(mag) else {
             st.mag_invalid = true;
+            st.mag_state = MagState::Invalid;
             return None;
         };
         // h = R m (eq. 45), NED, Q30.
@@ -1146,6 +1154,7 @@ impl MadgwickFixed {
         st: &mut UpdateStatus,
     ) -> bool {
         let c = &self.c;
+        st.mag_state = MagState::Undisturbed;
         // By reference: copying the reference or the rejection configuration out of
         // `self` costs a `memcpy` per update.
         let Some(re) = self.mag_ref.as_ref() else {
@@ -1169,9 +1178,30 @@ impl MadgwickFixed {
             self.cand = None;
             self.cand_q20 = 0;
             self.mag_reject_q20 = 0;
+            if c.inv_mag_ref_tau_q30 > 0 && w2_q40 > c.mag_min_rate_sq_q40 {
+                // Moving and undisturbed: the reference follows the field (as the f32
+                // filter; the dip tolerance is kept). k = dt/τ in Q31; ‖m‖² moves in
+                // steps of 2^12 so the product stays in 64 bits.
+                let k = (i64::from(dt_q31) * c.inv_mag_ref_tau_q30) >> 30;
+                let d = (n2 as i64).wrapping_sub(re.n2 as i64) >> 12;
+                let n2r = (re.n2 as i64)
+                    .saturating_add(d.saturating_mul(k) >> 19)
+                    .max(0) as u64;
+                let scaled = |q: u64| (n2r >> 16).saturating_mul(q);
+                let r = MagRef {
+                    n2: n2r,
+                    lo: scaled(c.mag_lo_q16),
+                    hi: scaled(c.mag_hi_q16),
+                    hz_q30: re.hz_q30 + ((k * (hz - re.hz_q30)) >> 31),
+                    hz_tol_q30: re.hz_tol_q30,
+                };
+                self.mag_ref = Some(r);
+                st.mag_state = MagState::Learning;
+            }
             return true;
         }
         st.mag_rejected = true;
+        st.mag_state = MagState::Rejected;
         self.mag_reject_q20 = (self.mag_reject_q20 + i64::from(dt_q31 >> 11)).min(1 << 50);
         if self.mag_reject_q20 >= c.mag_fallback_q20 {
             // Fallback: the disturbance persisted; adopt the field as it is now.
@@ -1181,6 +1211,7 @@ impl MadgwickFixed {
             self.mag_reject_q20 = 0;
             st.mag_rejected = false;
             st.mag_reference_relearned = true;
+            st.mag_state = MagState::Fallback;
             return true;
         }
         let cand_ok = self.cand.is_some_and(|(cn2, chz)| {
@@ -1203,6 +1234,7 @@ impl MadgwickFixed {
                 self.mag_reject_q20 = 0;
                 st.mag_rejected = false;
                 st.mag_reference_relearned = true;
+                st.mag_state = MagState::Recovered;
                 return true;
             }
         } else {

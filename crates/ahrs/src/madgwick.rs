@@ -14,7 +14,7 @@
 //! it the direction of −a (gravity "down" as seen in the body frame). The magnetic
 //! reference is b = (bx, 0, bz) with bz > 0 in the northern hemisphere.
 
-use crate::config::{Algorithm, Config, UpdatePath, UpdateStatus};
+use crate::config::{Algorithm, Config, MagState, UpdatePath, UpdateStatus};
 use crate::quat::mat_vec;
 use crate::Quaternion;
 
@@ -507,6 +507,7 @@ impl Madgwick {
     ) -> Option<f32> {
         let Some((m, n2)) = unit3(mag) else {
             st.mag_invalid = true;
+            st.mag_state = MagState::Invalid;
             return None;
         };
         // The field in NED (eq. 45); hz = m·down.
@@ -652,6 +653,7 @@ impl Madgwick {
         st: &mut UpdateStatus,
     ) -> bool {
         let mr = self.cfg.mag_rejection;
+        st.mag_state = MagState::Undisturbed;
         let Some(re) = self.mag_ref else {
             self.set_mag_reference(n2, hz);
             return true;
@@ -677,9 +679,21 @@ impl Madgwick {
             self.mag_cand = None;
             self.mag_cand_s = 0.0;
             self.mag_reject_s = 0.0;
+            if mr.ref_tau_s > 0.0 && w2 > mr.recovery_min_rate_rps * mr.recovery_min_rate_rps {
+                // Moving and undisturbed: the reference follows the field (the dip
+                // tolerance, set from the dip, is kept).
+                let k = (dt_s / mr.ref_tau_s).clamp(0.0, 1.0);
+                self.mag_ref = Some(MagReference {
+                    norm_sq: re.norm_sq + k * (n2 - re.norm_sq),
+                    hz: re.hz + k * (hz - re.hz),
+                    hz_tol: re.hz_tol,
+                });
+                st.mag_state = MagState::Learning;
+            }
             return true;
         }
         st.mag_rejected = true;
+        st.mag_state = MagState::Rejected;
         self.mag_reject_s = (self.mag_reject_s + dt_s).min(1e6);
         if self.mag_reject_s >= mr.fallback_s {
             // Fallback: the disturbance persisted; adopt the field as it is now.
@@ -689,6 +703,7 @@ impl Madgwick {
             self.mag_reject_s = 0.0;
             st.mag_rejected = false;
             st.mag_reference_relearned = true;
+            st.mag_state = MagState::Fallback;
             return true;
         }
         // Recovery: a new field that stays consistent while rotating becomes the reference.
@@ -704,6 +719,7 @@ impl Madgwick {
                     self.mag_reject_s = 0.0;
                     st.mag_rejected = false;
                     st.mag_reference_relearned = true;
+                    st.mag_state = MagState::Recovered;
                     return true;
                 }
             }
