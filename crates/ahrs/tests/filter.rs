@@ -92,7 +92,8 @@ fn static_tilts_give_roll_pitch_and_known_fields_give_yaw() {
         if yaw.abs() > 170.0 {
             continue; // 180° from the start: a saddle of the cost function
         }
-        // Convergence from the identity (start-up gain, then β_mag ≈ 0.4°/s for the rest).
+        // Convergence from the identity (start-up gain, then the first-order heading
+        // correction, τ 40 s).
         let mut f = Madgwick::new(Config::DEFAULT);
         for _ in 0..40_000 {
             f.update_marg([0.0; 3], a, m, 0.001);
@@ -266,7 +267,7 @@ fn magnetic_disturbance_is_rejected_and_recovers() {
     for _ in 0..4000 {
         g.update_marg([0.0; 3], a, m, 0.001);
     }
-    // (30 s: the heading gain is small, 2·β_mag = 0.17 °/s.)
+    // (30 s: the heading correction is slow, τ 40 s.)
     for _ in 0..30_000 {
         g.update_marg([0.0; 3], a, dist, 0.001);
     }

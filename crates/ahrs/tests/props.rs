@@ -113,7 +113,7 @@ proptest! {
     fn f32_and_fixed_agree((segments, dt, textbook) in motion()) {
         use fc_ahrs::fixed::{dt_s_to_q31, float_to_q, rps_to_q20};
         use fc_ahrs::{Algorithm, Quaternion};
-        // After the start-up phase: its gains (β_mag 2.5 rad/s, tilt τ 0.2 s) under 2 g and
+        // After the start-up phase: its gains (start-up heading β 2.5 rad/s, tilt τ 0.2 s) under 2 g and
         // 2000 °/s make the corrections bang-bang and amplify rounding differences
         // (0.0102° in one case); the steady state is what runs in flight.
         let cfg = Config {

@@ -101,7 +101,7 @@ fn spin_with_scale_error_stays_bounded_f32() {
             "scale {scale}: max heading error {worst}° after 10 s"
         );
         // A scale error at exactly the tolerance is balanced by the schedule's full rate,
-        // reached at the edge of its proportional zone (2.9°); β_mag adds little.
+        // reached at the edge of its proportional zone (2.9°); the first-order term adds little.
         assert!(last < 4.0, "scale {scale}: final heading error {last}°");
     }
 }
@@ -116,7 +116,7 @@ fn spin_with_scale_error_stays_bounded_fixed() {
             "scale {scale}: max heading error {worst}° after 10 s"
         );
         // A scale error at exactly the tolerance is balanced by the schedule's full rate,
-        // reached at the edge of its proportional zone (2.9°); β_mag adds little.
+        // reached at the edge of its proportional zone (2.9°); the first-order term adds little.
         assert!(last < 4.0, "scale {scale}: final heading error {last}°");
     }
 }
