@@ -255,9 +255,12 @@ pub struct UpdateStatus {
     pub path: UpdatePath,
     /// Gyro or dt not finite / out of range.
     pub gyro_invalid: bool,
-    /// The gyro step was limited: a half angle ½ω·dt beyond ¼ rad on some axis (a long
-    /// dt at a high rate) was clamped, so part of that step's rotation is lost; the
-    /// accelerometer and magnetometer corrections then bring the estimate back.
+    /// The gyro step was limited. The full filter splits a step whose rotation is too
+    /// large for one first-order step into up to 1024 sub-steps (half angles ≤ 1/32 rad
+    /// each), so this only happens past 512 rad in one step (½ω·dt beyond ¼ rad per
+    /// sub-step, clamped; the textbook filter, which does not sub-step, clamps every
+    /// step's ½ω·dt at ¼ rad): part of that rotation is lost and the accelerometer and
+    /// magnetometer corrections bring the estimate back.
     pub gyro_step_clamped: bool,
     /// Accelerometer zero or not finite.
     pub accel_invalid: bool,

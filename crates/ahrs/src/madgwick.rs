@@ -340,9 +340,18 @@ impl Madgwick {
         let w = self.estimate_bias(gyro_rps, acc.map(|(_, n2)| n2), dt_s, &mut st);
         // Gyro step, renormalised only after the corrections (as the fixed filter): the
         // rows of R carry ‖q‖² ≤ 1 + 3/16 as a common scale the corrections do not see.
-        let (step, clamped) = half_angle_step(w, dt_s);
-        st.gyro_step_clamped = clamped;
-        let q = self.q.mul(&step);
+        // A step whose rotation is too large for one first-order step is split into
+        // equal sub-steps (as the fixed filter), renormalised between them.
+        let (n, dt_sub) = substeps(w, dt_s);
+        let mut q0 = self.q;
+        for _ in 1..n {
+            let (step, clamped) = half_angle_step(w, dt_sub);
+            st.gyro_step_clamped |= clamped;
+            q0 = q0.mul(&step).normalized().unwrap_or(q0);
+        }
+        let (step, clamped) = half_angle_step(w, dt_sub);
+        st.gyro_step_clamped |= clamped;
+        let q = q0.mul(&step);
         let rot = q.to_matrix(); // rows: NED axes in body coordinates (× ‖q‖²)
         self.track_vertical_rate(rot[2], w, dt_s);
         let tilt = self.correct_tilt(&rot, accel, acc, dt_s, initialising, &mut st);
@@ -738,6 +747,24 @@ pub(crate) fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     ]
+}
+
+/// Most sub-steps of one gyro step: 2000 °/s (the MPU-9250's full scale) on every axis
+/// for [`MAX_DT_S`] takes 559. Beyond 1024 (64 rad/s for 1 s) the sub-steps grow
+/// instead, and past ¼ rad (512 rad in one step) their half angles are clamped
+/// (`UpdateStatus::gyro_step_clamped`).
+pub(crate) const MAX_SUBSTEPS: u32 = 1024;
+
+/// Sub-steps of the full filter's gyro step and their dt (s): 1 + ⌊|ω·dt|max / (1/16)⌋
+/// (half angles ≤ 1/32 rad each, the first-order step's error 0.001° each), at most
+/// [`MAX_SUBSTEPS`], as the fixed filter computes it.
+fn substeps(w: [f32; 3], dt_s: f32) -> (u32, f32) {
+    let m = w.iter().fold(0.0f32, |m, x| m.max((x * dt_s).abs()));
+    if m < 0.0625 {
+        return (1, dt_s);
+    }
+    let n = ((m * 16.0) as u32).min(MAX_SUBSTEPS - 1) + 1;
+    (n, dt_s / n as f32)
 }
 
 /// Quaternion of a gyro step, (1, ½ω·dt) (first order, eq. 12 integrated over dt), each
