@@ -199,24 +199,29 @@ fn half_angles(w: [i32; 3], dt_q31: i32, clamped: &mut bool) -> [i32; 3] {
     [h(w[0]), h(w[1]), h(w[2])]
 }
 
-/// How many equal sub-steps the gyro step of the full filter takes, and their dt (Q31):
-/// 1 + ⌊|ω·dt|max / (2·`SUBSTEP_HALF_ANGLE`)⌋ up to `MAX_SUBSTEPS` (as the f32 filter).
-/// At ≤ 1/32 rad of half angle per sub-step the first-order step's error (2(h − atan h)
-/// ≈ ⅔h³ rad) is 0.001° each, ~0.5° over the 559 sub-steps of 2000 °/s for 1 s; at 1 kHz
-/// the MPU-9250's 2000 °/s is one step.
-fn substeps(w: [i32; 3], dt_q31: i32) -> (u32, i32) {
-    // ω·dt in Q51; one sub-step's limit on it, 2·(1/32) rad, is 2^47.
+/// |ω·dt| (Q51) beyond which the full filter's gyro step is split: 2·(1/32) rad.
+const SUBSTEP_WDT_Q51: u64 = 1 << 47;
+
+/// The full filter's gyro step split into n = 1 + ⌊|ω·dt|max / (1/16)⌋ (at most
+/// `MAX_SUBSTEPS`) equal sub-steps, renormalised between them, the last one left for the
+/// caller's renormalisation (as the f32 filter). At ≤ 1/32 rad of half angle per
+/// sub-step the first-order step's error (2(h − atan h) ≈ ⅔h³ rad) is 0.001° each, ~0.5°
+/// over the 559 sub-steps of 2000 °/s for 1 s; at 1 kHz the MPU-9250's 2000 °/s is one
+/// step and never comes here (out of line: the common path stays short).
+#[inline(never)]
+fn substep(q: [i32; 4], w: [i32; 3], dt_q31: i32, clamped: &mut bool) -> [i64; 4] {
     let m = w
         .iter()
         .map(|&x| m64(x, dt_q31).unsigned_abs())
         .max()
         .unwrap_or(0);
-    let n = ((m >> 47) as u32).min(crate::madgwick::MAX_SUBSTEPS - 1) + 1;
-    if n == 1 {
-        (1, dt_q31)
-    } else {
-        (n, dt_q31 / n as i32)
+    let n = ((m / SUBSTEP_WDT_Q51) as u32).min(crate::madgwick::MAX_SUBSTEPS - 1) + 1;
+    let dt_sub = dt_q31 / n as i32;
+    let mut q0 = q;
+    for _ in 1..n {
+        q0 = renormalise(propagate(q0, half_angles(w, dt_sub, clamped))).unwrap_or(q0);
     }
+    propagate(q0, half_angles(w, dt_sub, clamped))
 }
 
 /// |ω|² in Q40 for ω in Q20: three squares ≤ 2^62 each sum exactly in u64 (< 3·2^62),
@@ -815,13 +820,12 @@ impl MadgwickFixed {
         // corrections do not see), and one renormalisation after the corrections does.
         // A step whose rotation is too large for one first-order step is split into
         // equal sub-steps (as the f32 filter), renormalised between them.
-        let (n, dt_sub) = substeps(w, dt_q31);
-        let mut q0 = self.q;
-        for _ in 1..n {
-            let a = propagate(q0, half_angles(w, dt_sub, &mut st.gyro_step_clamped));
-            q0 = renormalise(a).unwrap_or(q0);
-        }
-        let nq = propagate(q0, half_angles(w, dt_sub, &mut st.gyro_step_clamped));
+        let big = |x: i32| m64(x, dt_q31).unsigned_abs() >= SUBSTEP_WDT_Q51;
+        let nq = if big(w[0]) || big(w[1]) || big(w[2]) {
+            substep(self.q, w, dt_q31, &mut st.gyro_step_clamped)
+        } else {
+            propagate(self.q, half_angles(w, dt_q31, &mut st.gyro_step_clamped))
+        };
         let q = nq.map(|a| ((a + (1 << 29)) >> 30) as i32);
         let r = rows(q);
         self.track_vertical_rate(r[2], w, dt_q31);
