@@ -160,11 +160,129 @@ mod suite {
         control_cases();
         ahrs_cases();
         pipeline_cases();
+        flight_control_cases();
+        rc_cases();
         peer_cases();
 
         hprintln!("BENCH done 0");
         super::rt::exit(true)
     }
+
+    /// The 1 kHz flight-control step (armed, flying) and its parts.
+    fn flight_control_cases() {
+        use control::controllers::{BodyRates, TorqueCommand};
+        use control::loops::{LevelConfig, LevelController, Quat, TiltQuat};
+        use control::mixer::{Mixer, MixerConfig};
+        use control::shaping::{Sticks, TiltSetpoint};
+        use flight::flightctl::{
+            FlightConfig, FlightController, FlightMode, FlightState, Motors, PilotInput,
+            SystemStatus, VehicleState,
+        };
+
+        let q: [Quat; CALLS] = core::array::from_fn(|k| {
+            Quat::from_euler(0.05 * k as f32 - 0.1, 0.02 * k as f32, 0.3 * k as f32)
+        });
+        if let Ok(mut level) = LevelController::new(LevelConfig::default()) {
+            let tilt = TiltSetpoint {
+                roll_rad: 0.2,
+                pitch_rad: -0.1,
+            };
+            if let Ok(tq) = TiltQuat::new(&tilt) {
+                case(
+                    "control::loops::LevelController::rate_setpoint_q (1 kHz form)",
+                    &mut level,
+                    &q,
+                    |l, q| l.rate_setpoint_q(q, &tq, 0.5),
+                );
+            }
+        }
+        if let Ok(mut mixer) = Mixer::new(MixerConfig::default()) {
+            let tq: [TorqueCommand; CALLS] = core::array::from_fn(|k| TorqueCommand {
+                roll: 0.02 * k as f32 - 0.06,
+                pitch: 0.01 * k as f32,
+                yaw: 0.1 - 0.02 * k as f32,
+            });
+            case_checked(
+                "control::mixer::Mixer::mix (unsaturated)",
+                &mut mixer,
+                &tq,
+                |m, t| m.mix(0.5, t),
+                |r| r.as_ref().is_ok_and(|o| !o.saturated()),
+            );
+            let sat: [TorqueCommand; CALLS] = core::array::from_fn(|k| TorqueCommand {
+                roll: 0.1 * k as f32 - 0.3,
+                pitch: 0.05 * k as f32 + 0.4,
+                yaw: 0.6 - 0.1 * k as f32,
+            });
+            case_checked(
+                "control::mixer::Mixer::mix (saturated)",
+                &mut mixer,
+                &sat,
+                |m, t| m.mix(0.9, t),
+                |r| r.as_ref().is_ok_and(|o| o.saturated()),
+            );
+        }
+        for (mode, name) in [
+            (FlightMode::Angle, FC_ANGLE_NAME),
+            (
+                FlightMode::Acro,
+                "flight::FlightController::step (armed, acro)",
+            ),
+        ] {
+            let Ok(mut fc) = FlightController::new(FlightConfig::default()) else {
+                continue;
+            };
+            let status = SystemStatus {
+                sensors_healthy: true,
+                gyro_bias_done: true,
+                calibration_running: false,
+            };
+            let mut pilot = PilotInput {
+                sticks: Sticks::default(),
+                arm_switch: false,
+                mode,
+                link_ok: true,
+            };
+            let still = VehicleState {
+                attitude: Quat::IDENTITY,
+                gyro: BodyRates::default(),
+                altitude: None,
+            };
+            // Arm (switch off → on), then fly at hover throttle.
+            let mut now_us = 0u32;
+            for k in 0..(2 + WARM_CALLS) {
+                pilot.arm_switch = k > 0;
+                pilot.sticks.throttle = if k > 1 { 0.5 } else { 0.0 };
+                now_us += 1000;
+                let _ = fc.step(now_us, &pilot, &status, &still);
+            }
+            pilot.sticks.roll = 0.3;
+            let inputs: [(u32, VehicleState); CALLS] = core::array::from_fn(|k| {
+                (
+                    now_us + 1000 * (k as u32 + 1),
+                    VehicleState {
+                        attitude: q[k],
+                        gyro: BodyRates {
+                            roll_rps: 0.1 * k as f32,
+                            pitch_rps: -0.05,
+                            yaw_rps: 0.02,
+                        },
+                        altitude: None,
+                    },
+                )
+            });
+            case_checked(
+                name,
+                &mut fc,
+                &inputs,
+                |fc, (t, v)| fc.step(*t, &pilot, &status, v),
+                |o| o.state == FlightState::Armed && matches!(o.motors, Motors::Run(_)),
+            );
+        }
+    }
+
+    /// Name of the budgeted flight-control row (see xtask's budgets).
+    const FC_ANGLE_NAME: &str = "flight::FlightController::step (armed, angle)";
 
     fn calibration_cases() {
         use calibration::{AccelCalibration, GyroBias, MagCalibration};
@@ -264,6 +382,77 @@ mod suite {
                 pid.update(0.1, m, DT_S)
             });
         }
+    }
+
+    /// Pilot input: the CRSF receive interrupt's worst byte (the one that
+    /// completes a frame: CRC, unpacking, µs conversion) and a typical one,
+    /// the PPM sync that completes a frame, and the stick mapping.
+    fn rc_cases() {
+        use rc_input::crsf::{encode_rc_channels, ADDRESS_FLIGHT_CONTROLLER};
+        use rc_input::{ChannelMap, CrsfParser, PpmDecoder, RcFrame};
+        let mut rng = bench::Rng::new(61);
+        let frames: [[u8; 26]; CALLS] = core::array::from_fn(|_| {
+            let ticks: [u16; 16] =
+                core::array::from_fn(|_| (992 + rng.symmetric(800)).clamp(172, 1811) as u16);
+            encode_rc_channels(ADDRESS_FLIGHT_CONTROLLER, &ticks)
+        });
+        let feed = |p: &mut CrsfParser, bytes: &[u8]| {
+            p.clear();
+            for (i, &b) in bytes.iter().enumerate() {
+                let _ = p.push(b, 24 * i as u32);
+            }
+        };
+        let mut parser = CrsfParser::new();
+        case_full(
+            "rc_input::CrsfParser::push (byte completing an RC frame)",
+            &mut parser,
+            &frames,
+            |p, f| feed(p, &f[..25]),
+            |p, f| p.push(f[25], 600),
+            |r| r.is_some(),
+        );
+        case_full(
+            "rc_input::CrsfParser::push (byte inside a frame)",
+            &mut parser,
+            &frames,
+            |p, f| feed(p, &f[..12]),
+            |p, f| p.push(f[12], 288),
+            |r| r.is_none(),
+        );
+        let channels: [[u32; 8]; CALLS] =
+            core::array::from_fn(|_| core::array::from_fn(|_| (1500 + rng.symmetric(480)) as u32));
+        let mut ppm = PpmDecoder::new();
+        case_full(
+            "rc_input::PpmDecoder::push_interval_us (sync completing 8 channels)",
+            &mut ppm,
+            &channels,
+            |d, ch| {
+                d.clear();
+                for _ in 0..3 {
+                    let _ = d.push_interval_us(10_000);
+                    for &c in ch {
+                        let _ = d.push_interval_us(c);
+                    }
+                }
+            },
+            |d, _| d.push_interval_us(10_000),
+            |r| r.is_some(),
+        );
+        let rc: [RcFrame; CALLS] = channels.map(|ch| {
+            let mut us = [1500u16; 16];
+            for (u, c) in us.iter_mut().zip(ch) {
+                *u = c as u16;
+            }
+            RcFrame::new(us, 8)
+        });
+        let map = ChannelMap::DEFAULT;
+        case_checked(
+            "rc_input::ChannelMap::sticks + arm_switch",
+            &mut (),
+            &rc,
+            |_, f| (map.sticks(f), map.arm_switch(f)),
+            |(s, a)| s.is_ok() && a.is_ok(),
+        );
     }
 
     fn ahrs_cases() {

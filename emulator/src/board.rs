@@ -17,6 +17,8 @@ use crate::iwdg::{Iwdg, LSI_NOMINAL_HZ};
 use crate::rcc::{Rcc, ResetCause};
 use crate::rtt::{LogLine, RttHost, RttMode, TargetMemory};
 use crate::scs::{Dwt, Nvic, SysTick, IRQ0, SYSTICK};
+use crate::tim::GpTimer;
+use crate::usart::Usart;
 use std::path::Path;
 use unicorn_engine::unicorn_const::{uc_error, Arch, Mode, Prot};
 use unicorn_engine::{ArmCpuModel, RegisterARM, Unicorn};
@@ -43,6 +45,13 @@ const MASKED_SLICE: u64 = 500;
 const RTT_POLL_NS: u64 = 1_000_000;
 /// EXTI9_5's exception number (the MPU-9250 INT on PB5).
 pub const EXTI9_5: usize = IRQ0 + 23;
+/// TIM3's exception number (RM0008 §10.1.2 table 63: IRQ 29).
+pub const TIM3_IRQ: usize = IRQ0 + 29;
+/// USART1's exception number (IRQ 37).
+pub const USART1_IRQ: usize = IRQ0 + 37;
+/// TIM3 channel outputs in channel order: PA6, PA7, PB0, PB1 (RM0008
+/// §9.3.7 table 43, no remap).
+pub const TIM3_PINS: [(usize, u32); 4] = [(0, 6), (0, 7), (1, 0), (1, 1)];
 
 /// Simulated ns for `cycles` at 72 MHz.
 pub fn cycles_to_ns(cycles: u64) -> u64 {
@@ -143,7 +152,7 @@ pub struct BoardEvent {
 }
 
 /// Faults outside the simulator's chip models.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub enum BoardFault {
     /// The MPU-9250 INT line stops toggling (PB5 held low).
     ImuIntStops,
@@ -153,6 +162,14 @@ pub enum BoardFault {
     RttReaderStops,
     /// The host reads RTT again.
     RttReaderResumes,
+    /// Bytes put on USART1's RX line (PA10) back to back at the given
+    /// baud rate, from now (or when the bytes before them are through).
+    UsartRx {
+        /// The bytes (8N1 frames).
+        bytes: Vec<u8>,
+        /// Line baud rate.
+        baud: u32,
+    },
     /// The button on PA0 is pressed (`true`) or released.
     Button(bool),
     /// A fault of the I2C1 peripheral itself (errata BUSY lock-up of the
@@ -190,6 +207,8 @@ pub struct Hw {
     exti: Exti,
     iwdg: Iwdg,
     i2c: I2c1,
+    tim3: GpTimer,
+    usart1: Usart,
     clock: sim::SimClock,
     tail_base: u32,
     blocks: Vec<BlockInfo>,
@@ -232,6 +251,16 @@ impl Hw {
                     s.mpu.int_pin_high(now)
                 };
                 Some(high)
+            }
+            (0, 6) | (0, 7) | (1, 0) | (1, 1)
+                if matches!(self.ports[port].config(pin), PinConfig::Alternate { .. })
+                    && self.afio.mapr & (3 << 10) == 0 =>
+            {
+                let ch = TIM3_PINS
+                    .iter()
+                    .position(|&p| p == (port, pin))
+                    .unwrap_or(0);
+                return self.tim3.output_high(ch, now);
             }
             (1, 6) if self.afio.mapr & 2 == 0 => {
                 self.sync_clock();
@@ -288,6 +317,8 @@ impl Hw {
             0x4001_0C00..=0x4001_0FFF => ("GPIOB", self.rcc.apb2enr & (1 << 3) != 0),
             0x4001_1000..=0x4001_13FF => ("GPIOC", self.rcc.apb2enr & (1 << 4) != 0),
             0x4000_5400..=0x4000_57FF => ("I2C1", self.rcc.apb1enr & (1 << 21) != 0),
+            0x4000_0400..=0x4000_07FF => ("TIM3", self.rcc.apb1enr & (1 << 1) != 0),
+            0x4001_3800..=0x4001_3BFF => ("USART1", self.rcc.apb2enr & (1 << 14) != 0),
             _ => return None,
         };
         (!on).then_some(name)
@@ -298,6 +329,14 @@ impl Hw {
         let now = self.now_ns();
         match a {
             0x4000_3000..=0x4000_33FF => self.iwdg.read(a - 0x4000_3000, now),
+            0x4000_0400..=0x4000_07FF => {
+                self.resched = true;
+                self.tim3.read(a - 0x4000_0400, now)
+            }
+            0x4001_3800..=0x4001_3BFF => {
+                self.resched = true;
+                self.usart1.read(a - 0x4001_3800, now)
+            }
             0x4000_5400..=0x4000_5420 => {
                 self.sync_clock();
                 let off = a - 0x4000_5400;
@@ -341,6 +380,14 @@ impl Hw {
                 }
                 None => false,
             },
+            0x4000_0400..=0x4000_07FF => {
+                let r = self.tim3.write(a - 0x4000_0400, merged(0), now);
+                self.peripheral_result(r)
+            }
+            0x4001_3800..=0x4001_3BFF => {
+                let r = self.usart1.write(a - 0x4001_3800, merged(0), now);
+                self.peripheral_result(r)
+            }
             0x4000_5400..=0x4000_5420 => {
                 self.sync_clock();
                 let value = if mask & 0xFFFF == 0 {
@@ -382,6 +429,14 @@ impl Hw {
                 if self.rcc.apb1rstr & (1 << 21) != 0 && old_rst & (1 << 21) == 0 {
                     self.i2c.peripheral_reset();
                 }
+                if self.rcc.apb1rstr & (1 << 1) != 0 {
+                    self.tim3.reset();
+                }
+                if self.rcc.apb2rstr & (1 << 14) != 0 {
+                    self.usart1.reset();
+                }
+                self.tim3.set_clock_hz(self.rcc.apb1_timer_hz(), now);
+                self.usart1.set_pclk_hz(self.rcc.pclk2_hz());
                 for (bit, port) in [(2, 0), (3, 1), (4, 2)] {
                     if self.rcc.apb2rstr & (1 << bit) != 0 && old2 & (1 << bit) == 0 {
                         self.ports[port] = Port::default();
@@ -438,6 +493,19 @@ impl Hw {
         }
     }
 
+    /// Acts on a timer/USART write: not modelled (`false`), or a feature
+    /// the model lacks (the board stops with the reason).
+    fn peripheral_result(&mut self, r: Option<Result<(), String>>) -> bool {
+        match r {
+            None => false,
+            Some(Err(e)) => {
+                self.fail(BoardError::Unsupported(e));
+                true
+            }
+            Some(Ok(())) => true,
+        }
+    }
+
     fn flash_effect(&mut self, effect: FlashEffect) {
         match effect {
             FlashEffect::None => {}
@@ -459,6 +527,11 @@ pub fn refresh_irq_lines(hw: &mut Hw) {
     for (irq, on) in [(31, hw.i2c.event_irq()), (32, hw.i2c.error_irq())] {
         if on && !hw.nvic.active.contains(&(IRQ0 + irq)) {
             hw.nvic.pending[IRQ0 + irq] = true;
+        }
+    }
+    for (n, on) in [(TIM3_IRQ, hw.tim3.irq()), (USART1_IRQ, hw.usart1.irq())] {
+        if on && !hw.nvic.active.contains(&n) {
+            hw.nvic.pending[n] = true;
         }
     }
     for line in 0..19 {
@@ -698,6 +771,8 @@ impl Board {
             exti: Exti::default(),
             iwdg: Iwdg::new(config.lsi_hz),
             i2c: I2c1::new(bus.clone()),
+            tim3: GpTimer::new("TIM3", 8_000_000),
+            usart1: Usart::new("USART1", 8_000_000),
             clock,
             tail_base,
             blocks: vec![BlockInfo::default(); FLASH_SIZE as usize / 2],
@@ -901,6 +976,10 @@ impl Board {
             hw.iwdg = Iwdg::new(hw.iwdg.lsi_hz);
             hw.i2c.peripheral_reset();
             hw.update_i2c_pins();
+            hw.tim3.reset();
+            hw.tim3.set_clock_hz(hw.rcc.apb1_timer_hz(), now);
+            hw.usart1.reset();
+            hw.usart1.set_pclk_hz(hw.rcc.pclk2_hz());
             hw.exc_return = None;
             hw.cpu_fault = None;
             hw.stall_ns = 0;
@@ -991,19 +1070,63 @@ impl Board {
         matches!(p.config(13), PinConfig::Output { .. }) && p.odr & (1 << 13) == 0
     }
 
+    /// TIM3 channel `ch` (0..4) as seen on its pin (PA6, PA7, PB0, PB1):
+    /// (period, high time) in ns of the waveform the timer's active
+    /// registers produce now. `None` while the pin is not an
+    /// alternate-function output (no pulses reach the ESC) or the counter
+    /// is stopped.
+    pub fn esc_pwm_ns(&mut self, ch: usize) -> Option<(u64, u64)> {
+        let now = self.now_ns();
+        let hw = self.uc.get_data_mut();
+        let &(port, pin) = TIM3_PINS.get(ch)?;
+        let af = matches!(
+            hw.ports[port].config(pin),
+            PinConfig::Alternate { open_drain: false }
+        );
+        if !af || hw.afio.mapr & (3 << 10) != 0 {
+            return None;
+        }
+        hw.tim3.advance(now);
+        hw.tim3.pwm_ns(ch)
+    }
+
+    /// Level of a GPIO pin now (`port` 0 = A, 1 = B, 2 = C), including
+    /// what the board and the peripherals drive onto it.
+    pub fn pin_high(&mut self, port: usize, pin: u32) -> bool {
+        self.uc.get_data_mut().pin_level(port, pin)
+    }
+
+    /// USART1: bytes received into DR and bytes lost to overrun since the
+    /// last reset.
+    pub fn usart1_counts(&self) -> (u64, u64) {
+        self.uc.get_data().usart1.counts()
+    }
+
+    /// When USART1's RX line has sent everything injected so far (ns).
+    pub fn usart1_line_free_ns(&self) -> Option<u64> {
+        self.uc.get_data().usart1.line_free_ns()
+    }
+
     /// Applies a board-level fault or stimulus now.
     pub fn apply(&mut self, fault: BoardFault) {
         let hw = self.uc.get_data_mut();
-        match fault {
+        match &fault {
+            BoardFault::UsartRx { bytes, baud } => {
+                let now = hw.now_ns();
+                hw.usart1.advance(now);
+                hw.usart1.inject(bytes, *baud, now);
+                // Byte-level stimuli would flood the event list.
+                return;
+            }
             BoardFault::ImuIntStops => hw.imu_int_cut = true,
             BoardFault::ImuIntRestored => hw.imu_int_cut = false,
-            BoardFault::Button(p) => hw.button_pressed = p,
+            BoardFault::Button(p) => hw.button_pressed = *p,
             BoardFault::RttReaderStops => self.rtt.reading = false,
             BoardFault::RttReaderResumes => self.rtt.reading = true,
             BoardFault::I2c(f) => {
                 let now = hw.now_ns();
                 hw.sync_clock();
-                hw.i2c.inject(f, now);
+                hw.i2c.inject(*f, now);
             }
         }
         self.event(format!("{fault:?}"));
@@ -1088,6 +1211,8 @@ impl Board {
         }
         hw.sync_clock();
         hw.i2c.advance(now);
+        hw.tim3.advance(now);
+        hw.usart1.advance(now);
         hw.sample_exti();
         refresh_irq_lines(hw);
         if hw.nvic.reset_requested {
@@ -1113,6 +1238,8 @@ impl Board {
         at_ns(hw.i2c.next_event_ns());
         at_ns(hw.rcc.next_event_ns());
         at_ns(hw.iwdg.timeout_ns());
+        at_ns(hw.tim3.next_update_ns());
+        at_ns(hw.usart1.next_event_ns());
         let s = self.bus.state();
         at_ns(Some(s.mpu.next_sample_ns()));
         if let Some(last) = s.mpu.last_sample_ns() {

@@ -4,7 +4,8 @@
 //! The CPU core is unicorn's Cortex-M3; the exception model (stacking,
 //! NVIC priorities, tail-chaining) and every peripheral the firmware
 //! touches are register-level models written from RM0008 and PM0056
-//! (`scs`, `exceptions`, `rcc`, `flash`, `gpio`, `exti`, `iwdg`, `i2c1`);
+//! (`scs`, `exceptions`, `rcc`, `flash`, `gpio`, `exti`, `iwdg`, `i2c1`,
+//! `tim` for TIM3, `usart` for USART1's receiver);
 //! the sensor chips on I2C1 are the simulator's (`sim`). The firmware's
 //! defmt-RTT output is read like a probe does and decoded from the ELF's
 //! own table (`rtt`). Any access to a register that is not modelled stops
@@ -12,8 +13,9 @@
 //!
 //! Not modelled: the PLL/HSI clock before the switch (the CPU counts at
 //! 72 MHz from reset), instruction timing (one instruction per cycle),
-//! the process stack, MPU/FPU (none on the M3 part used), DMA, timers,
-//! USART, ADC, sleep modes beyond "idle until the next event".
+//! the process stack, MPU/FPU (none on the M3 part used), DMA, timers
+//! other than TIM3, USART transmit and USART2/3, ADC, sleep modes beyond
+//! "idle until the next event".
 
 pub mod board;
 pub mod elf;
@@ -26,8 +28,13 @@ pub mod iwdg;
 pub mod rcc;
 pub mod rtt;
 pub mod scs;
+pub mod tim;
+pub mod usart;
 
-pub use board::{Board, BoardConfig, BoardError, BoardEvent, BoardFault, EXTI9_5};
+pub use board::{
+    Board, BoardConfig, BoardError, BoardEvent, BoardFault, EXTI9_5, TIM3_IRQ, TIM3_PINS,
+    USART1_IRQ,
+};
 pub use elf::{release_elf_path, Firmware};
 pub use rcc::ResetCause;
 pub use rtt::{LogLine, RttMode};

@@ -140,6 +140,42 @@ impl Rcc {
         }
     }
 
+    /// HCLK: SYSCLK through the AHB prescaler (CFGR.HPRE).
+    pub fn hclk_hz(&self) -> u32 {
+        let hpre = (self.cfgr >> 4) & 0xF;
+        let shift = match hpre {
+            0..=7 => 0,
+            8..=11 => hpre - 7,
+            _ => hpre - 6,
+        };
+        self.sysclk_hz() >> shift
+    }
+
+    fn apb_shift(ppre: u32) -> u32 {
+        if ppre < 4 {
+            0
+        } else {
+            ppre - 3
+        }
+    }
+
+    /// The kernel clock of TIM2–TIM7: PCLK1, doubled when the APB1
+    /// prescaler is not 1 (RM0008 §7.2, figure 8).
+    pub fn apb1_timer_hz(&self) -> u32 {
+        let shift = Self::apb_shift((self.cfgr >> 8) & 7);
+        let pclk1 = self.hclk_hz() >> shift;
+        if shift == 0 {
+            pclk1
+        } else {
+            pclk1 * 2
+        }
+    }
+
+    /// PCLK2 (USART1's clock): HCLK through CFGR.PPRE2.
+    pub fn pclk2_hz(&self) -> u32 {
+        self.hclk_hz() >> Self::apb_shift((self.cfgr >> 11) & 7)
+    }
+
     /// The LSI was started by the watchdog (KR 0xCCCC forces it on).
     pub fn force_lsi(&mut self, now_ns: u64) {
         if self.lsi_on_at.is_none() {

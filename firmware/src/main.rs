@@ -45,16 +45,26 @@
 //! figure-eight; short press → raw-log mode on/off (CSV order of the BROAD
 //! recordings, 100 Hz), or abort a calibration.
 //!
-//! Safety: there are no motor outputs yet (controller outputs are only
-//! logged). On a panic the handler turns the LED off, logs the location
-//! over defmt and traps into HardFault, which waits for the watchdog reset.
+//! * `crsf_rx` (USART1, priority 4): CRSF bytes from PA10 at 420 kbaud into
+//!   `rc_input`'s parser and link monitor.
 //!
-//! Flash: 49,828 B of the 50 KiB budget (`cargo fw && cargo xtask size`,
-//! release profile at `opt-level = "z"`); static RAM 3.8 KiB. To fit, the
+//! Safety: the ESC outputs (TIM3 CH1-4 on PA6, PA7, PB0, PB1) carry the
+//! "off" pulse from the boot step right after the clock switch, whenever
+//! disarmed, and after a watchdog reset (the boot path). On a panic the
+//! handler writes the off pulse (`outputs::force_off`), turns the LED off,
+//! logs the location over defmt and traps into HardFault, which writes the
+//! off pulse again and waits for the watchdog reset. The flight controller
+//! runs only with the `flight-controller` feature (it does not fit the
+//! flash yet); without it the outputs stay off.
+//!
+//! Flash: 57,168 B of the 63 KiB budget (`cargo fw && cargo xtask size`,
+//! release profile at `opt-level = "z"`); static RAM 4.0 KiB. To fit, the
 //! I2C master is our own register-level driver (`bus.rs`) rather than the
-//! HAL's blocking one, and the magnetometer calibration on the board is the
-//! per-axis min/max (the `MagCal` type below: one line selects the full
-//! ellipsoid fit, ~6.4 KiB more, which does not fit the budget yet).
+//! HAL's blocking one, the fixed-point textbook filter is left out (`fc-ahrs`
+//! without its `textbook` feature: the firmware runs the full filter), and
+//! the magnetometer calibration on the board is the per-axis min/max (the
+//! `MagCal` type below: one line selects the full ellipsoid fit, 5.5 KiB
+//! more, which does not fit the budget yet).
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
@@ -62,6 +72,8 @@
 mod bus;
 mod clocks;
 mod delay;
+mod outputs;
+mod receiver;
 mod stack;
 mod store;
 mod watchdog;
@@ -81,13 +93,14 @@ fn led_off() {
     };
 }
 
-/// Panic: outputs to a safe state (LED off; there are no motor outputs
-/// yet), the location over defmt (no `core::fmt`: the message is not
+/// Panic: outputs to a safe state (the ESC off pulse, `outputs::force_off`;
+/// LED off), the location over defmt (no `core::fmt`: the message is not
 /// formatted, which keeps ~4 KiB of formatting code out of flash), then a
 /// trap: probe-rs halts and shows the backtrace; without a probe the
 /// HardFault handler waits for the watchdog reset.
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
+    outputs::force_off();
     led_off();
     match info.location() {
         Some(l) => defmt::error!("PANIC at {=str}:{=u32}", l.file(), l.line()),
@@ -96,28 +109,40 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     cortex_m::asm::udf()
 }
 
-/// HardFault (also reached from a panic): LED off, then wait for the
-/// independent watchdog to reset the MCU.
+/// HardFault (also reached from a panic): ESC off pulse, LED off, then
+/// wait for the independent watchdog to reset the MCU (the reset boots
+/// into the off pulse again).
 #[allow(unsafe_code)]
 #[cortex_m_rt::exception]
 unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    outputs::force_off();
     led_off();
     loop {
         cortex_m::asm::nop();
     }
 }
 
-#[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [USART1, USART2])]
+// The software tasks run on SPI1 and SPI2's vectors: the app uses neither
+// SPI, and USART1 is the receiver's own interrupt.
+#[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [SPI1, SPI2])]
 mod app {
     use crate::bus::{self, BusHandle};
     use crate::clocks::{self, Source};
     use crate::delay::{cpu_hz, AsmDelay};
+    use crate::outputs::EscOutputs;
+    use crate::receiver::{self, CrsfUart, Pilot};
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
+    use control::esc::{EscProtocol, EscTimer};
     use cortex_m::peripheral::DWT;
     use flight::boot::{BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
+    #[cfg(feature = "flight-controller")]
+    use flight::flightctl::{
+        quat_from_ahrs, AltitudeEstimate, FlightConfig, SystemStatus, VehicleState,
+    };
+    use flight::flightctl::{Event as FlightEvent, Events, FlightController, Motors, PilotInput};
     use flight::health::{HealthCounters, SensorState};
     use flight::pipeline::{Pipeline, PipelineConfig};
     use flight::sample::{SampleIn, SampleStep};
@@ -127,6 +152,9 @@ mod app {
     };
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
+    #[cfg(feature = "flight-controller")]
+    use rc_input::ChannelMap;
+    use rc_input::{CrsfParser, LinkStatus};
     use rtic_monotonics::fugit::ExtU32;
     use rtic_monotonics::rtic_time::monotonic::TimerQueueBasedInstant;
     use rtic_monotonics::systick::prelude::*;
@@ -140,10 +168,25 @@ mod app {
     /// Magnetometer calibration used on the board: per-axis min/max.
     /// `flight::calmode::MagCalMode` (the ellipsoid fit with integer
     /// moments and an f32 solve) is the full alternative: swap this one
-    /// line (6.4 KiB more flash: 56,356 B, over the 50 KiB budget).
+    /// line (5.5 KiB more flash: 53,884 B, over the 48 KiB budget).
     type MagCal = flight::calmode::MagMinMaxMode;
 
     systick_monotonic!(Mono, 1_000);
+
+    /// ESC protocol: standard PWM at 400 Hz, or OneShot125 at 2 kHz with
+    /// the `oneshot125` feature.
+    #[cfg(not(feature = "oneshot125"))]
+    const ESC_PROTOCOL: EscProtocol = EscProtocol::Pwm;
+    #[cfg(feature = "oneshot125")]
+    const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
+
+    /// Receiver channels: AETR sticks, arm switch on channel 5 (high = arm).
+    #[cfg(feature = "flight-controller")]
+    const CHANNEL_MAP: ChannelMap = ChannelMap::DEFAULT;
+    /// Flight-mode switch: channel 6 (low angle, middle altitude hold, high
+    /// acro).
+    #[cfg(feature = "flight-controller")]
+    const MODE_CHANNEL: u8 = 5;
 
     /// Shortest watchdog timeout while booting (probing with retries and
     /// the MPU's power-up waits take ≤ 1.1 s), at the LSI's fastest 60 kHz.
@@ -163,6 +206,7 @@ mod app {
         stats: LoopStats,
         session: CalSession<MagCal>,
         bias: BiasStatus,
+        pilot: Pilot,
     }
 
     #[local]
@@ -175,6 +219,10 @@ mod app {
         record: CalibrationRecord,
         step: SampleStep,
         dt: DtClock,
+        esc: EscOutputs,
+        fc: Option<FlightController>,
+        uart: CrsfUart,
+        parser: CrsfParser,
     }
 
     #[init]
@@ -196,6 +244,8 @@ mod app {
         let mut gpioa = dp.GPIOA.split(&mut rcc);
         let mut gpiob = dp.GPIOB.split(&mut rcc);
         let mut gpioc = dp.GPIOC.split(&mut rcc);
+        // After the port splits (they reset GPIOA/B), before anything slow.
+        let esc = start_outputs(dp.TIM3);
         // The Blue Pill LED is active low: start with it off.
         let led = gpioc
             .pc13
@@ -210,6 +260,7 @@ mod app {
         let pipeline = build_pipeline(&sensors, &sensors.capabilities(), &record);
         let bias = start_gyro_bias(&sensors);
         let session = start_session(&button_pin);
+        let uart = start_receiver(dp.USART1);
 
         let mut exti = dp.EXTI;
         let mut mpu_int = gpiob.pb5.into_pull_up_input(&mut gpiob.crl);
@@ -230,6 +281,7 @@ mod app {
                 stats: LoopStats::new(now),
                 session,
                 bias: BiasStatus::GaveUp,
+                pilot: Pilot::new(),
             },
             Local {
                 led,
@@ -240,8 +292,70 @@ mod app {
                 record,
                 step: SampleStep::new(bias),
                 dt: DtClock::new(cpu_hz(), IMU_RATE_HZ),
+                esc,
+                fc: start_flight_controller(),
+                uart,
+                parser: CrsfParser::new(),
             },
         )
+    }
+
+    /// Boot step: the ESC outputs at the off pulse. The timer clock is
+    /// APB1 × 2 = SYSCLK (APB1 runs at SYSCLK / 2).
+    #[inline(never)]
+    fn start_outputs(tim: pac::TIM3) -> EscOutputs {
+        let timer =
+            match EscTimer::for_clock(ESC_PROTOCOL, ESC_PROTOCOL.default_rate_hz(), cpu_hz()) {
+                Ok(t) => t,
+                // Both protocols fit TIM3 at 64 and 72 MHz (control's tests);
+                // a failure here is a build configuration error.
+                Err(e) => defmt::panic!("ESC timer: {}", e),
+            };
+        let esc = EscOutputs::start(tim, timer);
+        defmt::info!(
+            "outputs: {} on TIM3 CH1-4 (PA6 PA7 PB0 PB1), {=u32} Hz, off pulse {=u32} ns",
+            ESC_PROTOCOL,
+            1_000_000_000 / timer.period_ns().max(1),
+            timer.pulse_ns(timer.off_compare())
+        );
+        esc
+    }
+
+    /// Boot step: the flight controller (disarmed). Without one (an invalid
+    /// configuration) the motors stay off.
+    #[inline(never)]
+    fn start_flight_controller() -> Option<FlightController> {
+        #[cfg(not(feature = "flight-controller"))]
+        {
+            defmt::warn!("flight controller: not built; outputs stay at the off pulse");
+            None
+        }
+        #[cfg(feature = "flight-controller")]
+        match FlightController::new(FlightConfig::default()) {
+            Ok(fc) => {
+                defmt::info!(
+                    "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}",
+                    CHANNEL_MAP.arm_channel() + 1,
+                    MODE_CHANNEL + 1
+                );
+                Some(fc)
+            }
+            Err(e) => {
+                defmt::error!("flight controller: {}; motors stay off", e);
+                None
+            }
+        }
+    }
+
+    /// Boot step: the CRSF receiver on USART1 RX (PA10); APB2 runs at SYSCLK.
+    #[inline(never)]
+    fn start_receiver(usart: pac::USART1) -> CrsfUart {
+        let uart = CrsfUart::start(usart, cpu_hz());
+        defmt::info!(
+            "receiver: CRSF on USART1 RX (PA10), {=u32} baud",
+            receiver::CRSF_BAUD
+        );
+        uart
     }
 
     /// Boot step: the boot line, with the clock source.
@@ -382,15 +496,22 @@ mod app {
 
     /// MPU-9250 data-ready (1 kHz): read, process, hand on.
     #[task(binds = EXTI9_5, priority = 3,
-           local = [mpu_int, step, dt, sched: SampleScheduler = SampleScheduler::new(MAG_DIVIDER)],
-           shared = [sensors, pipeline, clock, stats, session, bias])]
+           local = [mpu_int, step, dt, esc, fc, sched: SampleScheduler = SampleScheduler::new(MAG_DIVIDER)],
+           shared = [sensors, pipeline, clock, stats, session, bias, pilot])]
     fn imu(mut cx: imu::Context) {
         let t0 = DWT::cycle_count();
         cx.local.mpu_int.clear_interrupt_pending_bit();
-        let now_us = cx.shared.clock.lock(|c| c.now_us(t0));
+        // Read inside the lock: the receive interrupt advances the same
+        // clock, and a count taken before it preempts would be older than
+        // the clock's and read as a 59 s jump.
+        let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
         let tick = cx.local.sched.on_imu_sample();
         let dt_cycles = cx.local.dt.step_cycles(t0);
-        let (raw, mag) = cx.shared.sensors.lock(|s| s.read_sample(tick.read_mag));
+        let (raw, mag, mpu_ok) = cx.shared.sensors.lock(|s| {
+            let (raw, mag) = s.read_sample(tick.read_mag);
+            (raw, mag, s.mpu_health.state() == SensorState::Ok)
+        });
+        let fresh = raw.is_some();
         if let Some(raw) = raw {
             let input = SampleIn {
                 raw,
@@ -421,8 +542,104 @@ mod app {
                 }
             }
         }
+        #[cfg(feature = "flight-controller")]
+        let motors = {
+            let pilot = cx
+                .shared
+                .pilot
+                .lock(|p| p.input(now_us, &CHANNEL_MAP, MODE_CHANNEL));
+            let status = SystemStatus {
+                sensors_healthy: mpu_ok,
+                gyro_bias_done: cx.shared.bias.lock(|b| matches!(b, BiasStatus::Done(_))),
+                calibration_running: cx.shared.session.lock(|c| {
+                    matches!(
+                        c.mode(),
+                        flight::calmode::Mode::MagCal | flight::calmode::Mode::AccelCal
+                    )
+                }),
+            };
+            let vehicle = cx
+                .shared
+                .pipeline
+                .lock(|p| p.as_ref().map(|p| vehicle_state(p, fresh)));
+            let out = match (cx.local.fc.as_mut(), vehicle) {
+                (Some(fc), Some(v)) => Some(fc.step(now_us, &pilot, &status, &v)),
+                _ => None,
+            };
+            if let Some(o) = out.filter(|o| !o.events.is_empty()) {
+                flight_log::spawn(o.events, pilot).ok();
+            }
+            out.map_or(Motors::Off, |o| o.motors)
+        };
+        // Without the flight controller the outputs stay at the off pulse.
+        #[cfg(not(feature = "flight-controller"))]
+        let motors = {
+            let _ = (&cx.local.fc, mpu_ok, fresh);
+            Motors::Off
+        };
+        cx.local.esc.set(&motors);
         let t1 = DWT::cycle_count();
         cx.shared.stats.lock(|s| s.record(t1.wrapping_sub(t0)));
+    }
+
+    /// USART1 receive (priority 4, above the IMU task: at 420 kbaud a byte
+    /// arrives every 24 µs and an I2C burst in `imu` takes longer): bytes
+    /// into the CRSF parser, frames into the pilot state.
+    #[task(binds = USART1, priority = 4, local = [uart, parser], shared = [clock, pilot])]
+    fn crsf_rx(mut cx: crsf_rx::Context) {
+        let clock = &mut cx.shared.clock;
+        let pilot = &mut cx.shared.pilot;
+        receiver::drain(
+            cx.local.uart,
+            cx.local.parser,
+            || clock.lock(|c| c.now_us(DWT::cycle_count())),
+            |ev, now_us, stats, uart| {
+                pilot.lock(|p| {
+                    p.on_event(ev, now_us);
+                    p.stats = *stats;
+                    p.uart = uart;
+                })
+            },
+        );
+    }
+
+    /// The flight controller's view of the vehicle. Without a fresh sample
+    /// the gyro is NaN: the controller keeps the last commands for a single
+    /// miss and disarms when samples stay away.
+    #[cfg(feature = "flight-controller")]
+    fn vehicle_state(p: &Pipeline, fresh: bool) -> VehicleState {
+        let mut gyro = p.body_rates();
+        if !fresh {
+            gyro.roll_rps = f32::NAN;
+        }
+        VehicleState {
+            attitude: quat_from_ahrs(&p.quaternion()),
+            gyro,
+            altitude: p.altitude_estimate().map(|(height_m, vertical_speed_mps)| {
+                AltitudeEstimate {
+                    height_m,
+                    vertical_speed_mps,
+                }
+            }),
+        }
+    }
+
+    /// The flight controller's events (arming, refusals with their reason,
+    /// disarms with their cause, failsafe, motor test).
+    #[task(priority = 1)]
+    async fn flight_log(_cx: flight_log::Context, events: Events, pilot: PilotInput) {
+        for e in events.iter() {
+            match e {
+                FlightEvent::Armed => defmt::warn!("flight: ARMED"),
+                FlightEvent::ArmRefused(r) => defmt::warn!(
+                    "flight: arm refused: {} (throttle {=f32})",
+                    r,
+                    pilot.sticks.throttle
+                ),
+                FlightEvent::Disarmed(c) => defmt::warn!("flight: disarmed: {}", c),
+                other => defmt::warn!("flight: {}", other),
+            }
+        }
     }
 
     /// One raw-log row, positionally in `RawLogRow::columns` order (the
@@ -555,9 +772,10 @@ mod app {
 
     /// 20 Hz: watchdog, button and calibration session, live log, LED.
     #[task(priority = 1, local = [led, button_pin, iwdg, flash, record],
-           shared = [sensors, pipeline, stats, session, bias])]
+           shared = [sensors, pipeline, stats, session, bias, pilot, clock])]
     async fn log(mut cx: log::Context) {
         let mut gate = WatchdogGate::new();
+        let mut link = LinkStatus::NeverReceived;
         let mut tick: u32 = 0;
         loop {
             tick = tick.wrapping_add(1);
@@ -590,6 +808,7 @@ mod app {
                 on_cal_event(ev, cx.local.flash, record, &mut cx.shared.pipeline);
             }
 
+            link = log_pilot(tick, link, &mut cx.shared.pilot, &mut cx.shared.clock);
             if mode == flight::calmode::Mode::Normal {
                 log_status(
                     tick,
@@ -664,6 +883,48 @@ mod app {
             Err(SaveError::Storage(_)) => defmt::error!("calibration save: flash error"),
         }
         pipeline.lock(|p| p.as_mut().map(|p| p.set_calibration(record)));
+    }
+
+    /// The receiver's link state on every change; channels and counters
+    /// every second while frames arrive.
+    fn log_pilot(
+        tick: u32,
+        last: LinkStatus,
+        pilot: &mut impl rtic::Mutex<T = Pilot>,
+        clock: &mut impl rtic::Mutex<T = MicrosClock>,
+    ) -> LinkStatus {
+        let now_us = clock.lock(|c| c.now_us(DWT::cycle_count()));
+        let (status, frame, stats, uart, lq) = pilot.lock(|p| {
+            (
+                p.status(now_us),
+                p.frame,
+                p.stats,
+                p.uart,
+                p.link_quality_pct,
+            )
+        });
+        if status != last {
+            match status {
+                LinkStatus::Ok => defmt::info!("rc: link up"),
+                other => defmt::warn!("rc: link lost ({})", other),
+            }
+        }
+        if tick.is_multiple_of(20) && status == LinkStatus::Ok {
+            if let Some(f) = frame {
+                let c = f.channels();
+                defmt::info!(
+                    "rc: ch1-8 {} us | lq {} % | frames {=u32} crc_err {=u32} dropped {=u32} | uart ore {=u32} fe {=u32}",
+                    c.get(..8).unwrap_or(c),
+                    lq,
+                    stats.rc_frames,
+                    stats.crc_errors,
+                    stats.dropped(),
+                    uart.overruns,
+                    uart.framing
+                );
+            }
+        }
+        status
     }
 
     /// The live log: attitude every call; loop timing, health, bus counters

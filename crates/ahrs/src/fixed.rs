@@ -138,6 +138,47 @@ fn unit4(v: [i32; 4]) -> Option<([i32; 4], u64)> {
     Some((u, s))
 }
 
+/// The textbook filter's normalisation: `v/‖v‖` in Q30 (`None` if zero) with one
+/// Newton step from the table (relative error of the scale ≤ 1.5·0.016² < 4e-4, and
+/// the same for every component, so the direction is exact to rounding). Enough
+/// there: a common scale error of the accelerometer or magnetometer vector moves the
+/// gradient only to second order near the minimum (J ᵀ·down = 0 for a unit q), and of
+/// the gradient only the step length. No i32::MIN clamp: the callers pass 3-vectors
+/// (4th component 0: Σ < 3·2^62) or the gradient (components < 2^30).
+#[cfg(feature = "textbook")]
+#[inline(never)]
+fn unit_fast(v: [i32; 4]) -> Option<[i32; 4]> {
+    let sq = |x: i32| m64(x, x) as u64;
+    let [a, b, c, d] = v;
+    let s = sq(a) + sq(b) + sq(c) + sq(d);
+    if s == 0 {
+        return None;
+    }
+    // Rare (components ≥ 2^30): v/4 has Σ < 2^60 (and ≥ 2^58: non-zero).
+    let (v, s) = if s < 1 << 62 {
+        (v, s)
+    } else {
+        let v4 = [a >> 2, b >> 2, c >> 2, d >> 2];
+        let [a, b, c, d] = v4;
+        (v4, sq(a) + sq(b) + sq(c) + sq(d))
+    };
+    let (m_q32, k) = norm_parts(s);
+    let idx = ((m_q32 >> 26) as usize).wrapping_sub(16);
+    let y0 = RSQRT_TABLE.get(idx).copied().unwrap_or(1 << 29) << 1;
+    let y = (newton_rsqrt(y0, m_q32) >> 1) as i32;
+    let f = |x: i32| ((m64(x << k, y) + (1 << 29)) >> 30) as i32;
+    let [a, b, c, d] = v;
+    Some([f(a), f(b), f(c), f(d)])
+}
+
+/// [`unit_fast`] of a 3-vector.
+#[cfg(feature = "textbook")]
+#[inline(always)]
+fn unit3_fast(v: [i32; 3]) -> Option<[i32; 3]> {
+    let [a, b, c] = v;
+    unit_fast([a, b, c, 0]).map(|[x, y, z, _]| [x, y, z])
+}
+
 /// Normalise an i32 3-vector to Q30; `None` if zero. Also returns ‖v‖².
 fn unit3(v: [i32; 3]) -> Option<([i32; 3], u64)> {
     let [a, b, c] = v;
@@ -265,6 +306,12 @@ fn m64(a: i32, b: i32) -> i64 {
 /// Dot product of two Q30 vectors with |aᵢ|, |bᵢ| ≤ 2^30 + 2^20 (unit vectors, rows of
 /// R(q)): each product < 2^61, the sum < 2^63. Result Q30.
 fn dot30u(a: [i32; 3], b: [i32; 3]) -> i32 {
+    dot30u_inline(a, b)
+}
+
+/// [`dot30u`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn dot30u_inline(a: [i32; 3], b: [i32; 3]) -> i32 {
     ((m64(a[0], b[0]) + m64(a[1], b[1]) + m64(a[2], b[2]) + (1 << 29)) >> 30) as i32
 }
 
@@ -286,6 +333,8 @@ fn down_row(q: [i32; 4]) -> [i32; 3] {
 /// doubled ones 2q in Q29 (= q's raw Q30 value): products Q58, at most 2^59 + 2^59 + 2^60
 /// = 2^61 (×(1+1e-6)²) per component, so the sums fit and the high word (>> 32) is
 /// ∇f/2 in Q26 with |gᵢ| < 2^30.
+// Used by the textbook filter only.
+#[cfg_attr(not(feature = "textbook"), allow(dead_code))]
 fn accel_grad(q: [i32; 4], down: [i32; 3], d: [i32; 3]) -> [i32; 4] {
     let [d2q1, d2q2, d2q3, d2q4] = q;
     let (q1, q2, q3, q4) = (d2q1 >> 1, d2q2 >> 1, d2q3 >> 1, d2q4 >> 1);
@@ -307,6 +356,8 @@ fn accel_grad(q: [i32; 4], down: [i32; 3], d: [i32; 3]) -> [i32; 4] {
 /// so |f_bᵢ| ≤ 2^29); bx·qᵢ, bz·qᵢ in Q28 (high words, ≤ 2^28), coefficient sums
 /// ≤ 3·2^28; products ≤ 3·2^57, three of them < 2^61; the high word is ∇f/2 in Q24
 /// (|gᵢ| < 2^29).
+// Used by the textbook filter only.
+#[cfg_attr(not(feature = "textbook"), allow(dead_code))]
 fn mag_grad(q: [i32; 4], r0: [i32; 3], r2: [i32; 3], m: [i32; 3], bx: i32, bz: i32) -> [i32; 4] {
     let hi = |x: i64| (x >> 32) as i32;
     let [r00, r01, r02] = r0;
@@ -330,6 +381,12 @@ fn mag_grad(q: [i32; 4], r0: [i32; 3], r2: [i32; 3], m: [i32; 3], bx: i32, bz: i
 /// q + ½ q ⊗ (0, ω)·dt in Q60 (`hw` = ½ω·dt in Q30, each |hwᵢ| ≤ 2^29).
 /// Bound: ‖q‖·(1 + ‖hw‖)·2^60 ≤ (1 + √3/2)·2^60·(1 + 1e-6) < 1.87·2^60.
 fn propagate(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
+    propagate_inline(q, hw)
+}
+
+/// [`propagate`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn propagate_inline(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
     let [q1, q2, q3, q4] = q;
     let [h0, h1, h2] = hw;
     let b = |x: i32| i64::from(x) << 30;
@@ -341,35 +398,6 @@ fn propagate(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
     ]
 }
 
-/// Normalised gradient step on the Q60 accumulator: acc −= s·∇/‖∇‖ with
-/// s = min(β·dt, ‖∇‖/4, ½) in Q30. `g` is ∇/2 in Q(29 − log₂ `cap_mul`) (< 2^30 per
-/// component), so ‖∇‖/4 in Q30 is ‖g‖·`cap_mul` (8 for the accelerometer's Q26, 32 for
-/// the magnetometer's Q24).
-///
-/// Why ‖∇‖/4: for a small error θ about an axis perpendicular to the sensor's reference,
-/// ∇ = 4·δq (δq ≈ θ/2 is the quaternion step that removes it), so a large β·dt (start-up
-/// gain with a long dt) reaches but cannot pass the minimum instead of spinning the
-/// estimate away. Same limit as the f32 filter. The step adds at most ½·2^60 to the
-/// accumulator's norm.
-fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: Option<i32>) {
-    if let Some((u, _)) = unit4(g) {
-        let [g0, g1, g2, g3] = g;
-        let [u0, u1, u2, u3] = u;
-        // ‖g‖ = g·u/2^30 (|g|·|u| < 2^61).
-        let norm = (m64(g0, u0) + m64(g1, u1) + m64(g2, u2) + m64(g3, u3)) >> 30;
-        // ‖g‖ < 2^30 fits in i32. A product, not a shift: a variable 64-bit shift is a
-        // library call (`__aeabi_llsl`) on the M3.
-        let cap = cap_mul.map_or(i64::MAX, |k| m64(norm as i32, k));
-        let s = beta_dt_q30.min(cap).max(0).min(1 << 29) as i32;
-        // In place, per component (returning the array by value costs a `memcpy`).
-        let [a0, a1, a2, a3] = acc;
-        *a0 -= m64(s, u0);
-        *a1 -= m64(s, u1);
-        *a2 -= m64(s, u2);
-        *a3 -= m64(s, u3);
-    }
-}
-
 /// Renormalise the Q60 accumulator to a unit Q30 quaternion; `None` if (near) zero
 /// (‖acc‖ < 2^-10). Bound: ‖acc‖ < (1.87 + 3·½)·2^60 = 3.37·2^60 (propagation, two
 /// gradient steps and the heading term, each ≤ ½), so the Q29 components are < 2^31 and
@@ -377,6 +405,12 @@ fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: Option<
 /// Fast path (‖nq‖² = 1 + δ, |δ| < 2^-10, every normal step): nq·(3 − ‖nq‖²)/2, error
 /// 3δ²/8 < 4e-7 (corrected again by the next step); otherwise a full reciprocal square root.
 fn renormalise(acc: [i64; 4]) -> Option<[i32; 4]> {
+    renormalise_inline(acc)
+}
+
+/// [`renormalise`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn renormalise_inline(acc: [i64; 4]) -> Option<[i32; 4]> {
     let q29 = |a: i64| ((a + (1 << 30)) >> 31) as i32;
     let [a0, a1, a2, a3] = acc;
     let (n0, n1, n2, n3) = (q29(a0), q29(a1), q29(a2), q29(a3));
@@ -807,7 +841,15 @@ impl MadgwickFixed {
             return st;
         }
         if self.c.cfg.algorithm == Algorithm::Textbook {
+            #[cfg(feature = "textbook")]
             return self.update_textbook(gyro, accel, mag, dt_q31);
+            // Built without it (the firmware, which runs the full filter): refuse to
+            // update rather than run another algorithm than the one configured.
+            #[cfg(not(feature = "textbook"))]
+            {
+                st.path = UpdatePath::Skipped;
+                return st;
+            }
         }
         let initialising = self.time_q20 < self.c.startup_q20;
         st.initialising = initialising;
@@ -1127,6 +1169,7 @@ impl MadgwickFixed {
 
     /// Madgwick's 2010 filter exactly ([`Algorithm::Textbook`], as the f32 filter's):
     /// J_gᵀf_g + J_bᵀf_b normalised jointly, one fixed β, the raw gyro.
+    #[cfg(feature = "textbook")]
     fn update_textbook(
         &mut self,
         gyro: [i32; 3],
@@ -1136,28 +1179,38 @@ impl MadgwickFixed {
     ) -> UpdateStatus {
         let mut st = UpdateStatus::new();
         let q = self.q;
-        let mut nq = propagate(q, half_angles(gyro, dt_q31, &mut st.gyro_step_clamped));
-        let acc = unit3(accel);
+        let mut nq = propagate_inline(q, half_angles(gyro, dt_q31, &mut st.gyro_step_clamped));
+        let acc = unit3_fast(accel);
         st.accel_invalid = acc.is_none();
         st.path = UpdatePath::GyroOnly;
-        if let Some((a, _)) = acc {
-            let r = rows(q);
+        if let Some(a) = acc {
+            let r = rows_inline(q);
             // ∇/2 in Q26 → Q24 to add the magnetometer's.
-            let [g0, g1, g2, g3] = accel_grad(q, r[2], a.map(|x| x.saturating_neg()));
+            // |aᵢ| ≤ 2^30·(1 + 4e-4): the negation cannot overflow.
+            let [g0, g1, g2, g3] = accel_grad(q, r[2], a.map(|x| -x));
             let mut grad = [g0 >> 2, g1 >> 2, g2 >> 2, g3 >> 2];
             st.path = UpdatePath::Imu;
             if let Some(mag) = mag {
-                match unit3(mag) {
+                match unit3_fast(mag) {
                     None => st.mag_invalid = true,
-                    Some((m, _)) => {
-                        let h = [dot30u(r[0], m), dot30u(r[1], m), dot30u(r[2], m)]
-                            .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
-                        let bx = isqrt((h[0] * h[0] + h[1] * h[1]) as u64);
-                        let gb = mag_grad(q, r[0], r[2], m, bx as i32, h[2] as i32);
+                    Some(m) => {
+                        let h = [
+                            dot30u_inline(r[0], m),
+                            dot30u_inline(r[1], m),
+                            dot30u_inline(r[2], m),
+                        ]
+                        .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
+                        // bx = √(h₀² + h₁²) ≤ √2·2^30: s < 2^62, `isqrt`'s range without
+                        // its large-argument branch.
+                        let (sm, k) = norm_parts((h[0] * h[0] + h[1] * h[1]) as u64);
+                        let bx = sqrt_parts(sm, rsqrt_q29(sm), k) as i32;
+                        let [b0, b1, b2, b3] = mag_grad(q, r[0], r[2], m, bx, h[2] as i32);
                         // |∇_g/2| < 2^28 and |∇_b/2| < 2^29 in Q24: the sum fits.
-                        for (g, b) in grad.iter_mut().zip(gb) {
-                            *g += b;
-                        }
+                        let [g0, g1, g2, g3] = &mut grad;
+                        *g0 += b0;
+                        *g1 += b1;
+                        *g2 += b2;
+                        *g3 += b3;
                         st.path = UpdatePath::Marg;
                     }
                 }
@@ -1166,9 +1219,17 @@ impl MadgwickFixed {
             let beta_dt = ((i64::from(self.c.beta_q24.max(0)) * i64::from(dt_q31)) >> 25)
                 .max(0)
                 .min(ONE_Q30);
-            grad_step(&mut nq, grad, beta_dt, None);
+            // Normalised gradient step: nq −= min(β·dt, ½)·∇/‖∇‖ (Q30·Q30 = Q60).
+            if let Some([u0, u1, u2, u3]) = unit_fast(grad) {
+                let s = beta_dt.min(1 << 29) as i32;
+                let [a0, a1, a2, a3] = &mut nq;
+                *a0 -= m64(s, u0);
+                *a1 -= m64(s, u1);
+                *a2 -= m64(s, u2);
+                *a3 -= m64(s, u3);
+            }
         }
-        match renormalise(nq) {
+        match renormalise_inline(nq) {
             Some(n) => self.q = n,
             None => st.path = UpdatePath::Skipped,
         }
@@ -1281,6 +1342,12 @@ impl MadgwickFixed {
 /// Every entry is ≤ 2·‖q‖² − 1 in magnitude: < 2 for the propagated ‖q‖² ≤ 1 + 3/16, so
 /// it fits (see [`down_row`]).
 fn rows(q: [i32; 4]) -> [[i32; 3]; 3] {
+    rows_inline(q)
+}
+
+/// [`rows`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn rows_inline(q: [i32; 4]) -> [[i32; 3]; 3] {
     let [w, x, y, z] = q;
     let r = |v: i64| ((v + (1 << 28)) >> 29) as i32;
     [

@@ -1,9 +1,12 @@
-//! Barometric altitude, vertical estimation, PID and the altitude/attitude controllers.
+//! Barometric altitude, vertical estimation, PID, the altitude/attitude
+//! controllers, and the flight loops from sticks to ESC pulses.
 //!
 //! `#![no_std]`, no heap, no hardware: plain `f32` maths (plus `libm` for
-//! the exact barometric law), written for a Cortex-M3 **without FPU** where
-//! every float operation is a library call, so the per-sample paths avoid
-//! `powf`, `sqrt` and division.
+//! the exact barometric law and stick-rate trigonometry), written for a
+//! Cortex-M3 **without FPU** where every float operation is a library call,
+//! so the per-sample paths avoid `powf`, trigonometry and most divisions
+//! (the 1 kHz self-level error takes two square roots; the mixer divides
+//! only when a motor saturates).
 //!
 //! * [`baro`] — exact ISA height ↔ pressure ([`baro::altitude_m`],
 //!   [`baro::pressure_pa`]) and [`baro::CheapBaro`], a table form costing
@@ -16,6 +19,17 @@
 //! * [`controllers`] — [`controllers::AltitudeHold`] (height P → speed PID
 //!   → throttle) and [`controllers::AttitudeController`] (angle P → rate PID
 //!   per axis).
+//! * [`shaping`] — stick expo, rates and max angle, throttle curve:
+//!   [`shaping::StickShaping`] turns normalised sticks into rate or tilt
+//!   setpoints.
+//! * [`loops`] — [`loops::RateController`] (1 kHz body-rate PIDs on the
+//!   gyro → normalised torques) and [`loops::LevelController`] (self-level:
+//!   P on the quaternion attitude error, rate-limited).
+//! * [`mixer`] — quad-X [`mixer::Mixer`] (Betaflight numbering, props in)
+//!   with PX4-style desaturation: roll/pitch first, yaw gives way, the
+//!   collective shifts; idle when armed.
+//! * [`esc`] — [`esc::EscTimer`]: motor command → PWM (1000–2000 µs) or
+//!   OneShot125 (125–250 µs) pulse → timer compare value, and the off value.
 //! * [`fixed`] — the PID and both controllers in fixed point (Q16 inputs,
 //!   Q30 outputs) for a constant loop period: the same laws, integer
 //!   arithmetic only, for the 100 Hz control step on the M3.
@@ -24,8 +38,8 @@
 //! above the baro reference pressure; attitude is NED/FRD Euler angles in
 //! radians, rates in rad/s. Units are in every name.
 //!
-//! What it does **not** do: read sensors, run the AHRS, mix motors, or
-//! decide flight modes — those belong to the driver crates, `fc-ahrs` and
+//! What it does **not** do: read sensors, run the AHRS, drive timers, or
+//! decide flight modes, arming and failsafe — those belong to the driver crates, `fc-ahrs` and
 //! `flight`. Every fallible call returns [`Error`] and leaves the state
 //! untouched on error.
 //!
@@ -50,8 +64,12 @@
 pub mod baro;
 pub mod controllers;
 mod error;
+pub mod esc;
 pub mod fixed;
+pub mod loops;
+pub mod mixer;
 pub mod pid;
+pub mod shaping;
 pub mod vertical;
 
 pub use error::Error;

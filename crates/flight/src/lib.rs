@@ -20,6 +20,8 @@
 //! | [`sample`] | one 1 kHz sample end to end: start-up bias, pipeline steps, calibration and raw-log values |
 //! | [`pipeline`] | the 1 kHz / 100 Hz processing chain (fixed-point AHRS by default, f32 with `f32-ahrs`) |
 //! | [`mounting`] | MPU frame → body FRD signed axis permutation |
+//! | [`flightctl`] | [`flightctl::FlightController`]: pilot input + attitude + gyro + time → 4 motor commands, state, events (modes, arming, crash/landing disarm, failsafe, motor test) |
+//! | [`arming`] | arming refusals, disarm causes, events and the safety limits |
 //! | [`angles`] | integer Euler angles and the down axis from the Q30 quaternion |
 //!
 //! ```
@@ -40,9 +42,11 @@
 )]
 
 pub mod angles;
+pub mod arming;
 pub mod boot;
 pub mod calmode;
 pub mod crc32;
+pub mod flightctl;
 pub mod health;
 pub mod mounting;
 pub mod pipeline;

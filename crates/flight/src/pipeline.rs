@@ -563,6 +563,30 @@ impl Pipeline {
     pub fn quaternion(&self) -> Quaternion {
         self.ahrs.quaternion()
     }
+
+    /// The latest gyro sample in body FRD, bias removed, rad/s (the rate
+    /// loop's measurement).
+    pub fn body_rates(&self) -> control::controllers::BodyRates {
+        // Q16 rad/s per count, in Q16: counts · k / 2³² rad/s.
+        let k = self.gyro_rps_q16_per_lsb_q16 as f32 * (1.0 / 4_294_967_296.0);
+        let g = self.last_gyro_body.map(|c| c as f32 * k);
+        control::controllers::BodyRates {
+            roll_rps: g[0],
+            pitch_rps: g[1],
+            yaw_rps: g[2],
+        }
+    }
+
+    /// Height (m, up, above the take-off reference) and vertical speed
+    /// (m/s, up), once the barometer has initialised the estimator; `None`
+    /// without a barometer.
+    pub fn altitude_estimate(&self) -> Option<(f32, f32)> {
+        if self.cfg.altitude && self.vertical.is_initialized() {
+            Some((self.vertical.height_m(), self.vertical.velocity_mps()))
+        } else {
+            None
+        }
+    }
 }
 
 /// A [`Mounting`] as the source MPU axis (0..=2) and sign of each body

@@ -1,0 +1,430 @@
+//! Arming, disarming, failsafe and motor-test vocabulary: the safety
+//! limits ([`SafetyConfig`]), every reason the controller refuses to arm
+//! ([`ArmRefusal`]), every cause of a disarm ([`DisarmCause`]), and the
+//! events the [`FlightController`](crate::flightctl::FlightController)
+//! reports ([`Event`], [`Events`]). All are `defmt::Format` with the
+//! `defmt` feature, so the firmware logs them as they are.
+//!
+//! The rules themselves are in [`crate::flightctl`]; this module holds the
+//! numbers and names.
+
+use core::f32::consts::PI;
+
+const RAD_PER_DEG: f32 = PI / 180.0;
+
+/// Why an arm request (arm switch off → on) was refused. Checked in this
+/// order; [`ArmBlockers`] holds all that apply.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ArmRefusal {
+    /// The pilot link is down (no valid frames). Only in [`ArmBlockers`]:
+    /// without a link there is no trusted switch edge to refuse.
+    LinkLost,
+    /// A calibration mode (magnetometer/accelerometer) is running.
+    CalibrationRunning,
+    /// A required sensor is not healthy.
+    SensorsUnhealthy,
+    /// The start-up gyro bias has not been measured yet.
+    GyroBiasPending,
+    /// The attitude or gyro input is not usable (non-finite, zero quaternion).
+    AttitudeInvalid,
+    /// Tilted more than [`SafetyConfig::arm_max_tilt_deg`].
+    NotLevel,
+    /// Throttle stick above [`SafetyConfig::arm_throttle_max`].
+    ThrottleNotLow,
+    /// The props-off motor test is running. Only in [`ArmBlockers`]: the
+    /// arm switch ends the motor test instead.
+    MotorTestActive,
+}
+
+impl ArmRefusal {
+    /// Every refusal, in checking order.
+    pub const ALL: [Self; 8] = [
+        Self::LinkLost,
+        Self::CalibrationRunning,
+        Self::SensorsUnhealthy,
+        Self::GyroBiasPending,
+        Self::AttitudeInvalid,
+        Self::NotLevel,
+        Self::ThrottleNotLow,
+        Self::MotorTestActive,
+    ];
+
+    const fn bit(self) -> u16 {
+        1 << (self as u16)
+    }
+}
+
+/// The set of reasons that currently block arming (empty = ready).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ArmBlockers(u16);
+
+impl ArmBlockers {
+    /// No blocker.
+    pub const NONE: Self = Self(0);
+
+    /// Adds a reason.
+    pub fn insert(&mut self, r: ArmRefusal) {
+        self.0 |= r.bit();
+    }
+
+    /// Whether `r` is among the blockers.
+    pub fn contains(&self, r: ArmRefusal) -> bool {
+        self.0 & r.bit() != 0
+    }
+
+    /// True when nothing blocks arming.
+    pub fn is_empty(&self) -> bool {
+        self.0 == 0
+    }
+
+    /// The first blocker in [`ArmRefusal::ALL`] order.
+    pub fn first(&self) -> Option<ArmRefusal> {
+        ArmRefusal::ALL.into_iter().find(|r| self.contains(*r))
+    }
+
+    /// The raw bit set (bit `n` = `ArmRefusal::ALL[n]`), for compact logs.
+    pub fn bits(&self) -> u16 {
+        self.0
+    }
+}
+
+/// Why the controller disarmed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DisarmCause {
+    /// The pilot turned the arm switch off.
+    Switch,
+    /// Tilt beyond [`SafetyConfig::crash_tilt_deg`] for
+    /// [`SafetyConfig::crash_tilt_time_s`] in a self-levelling mode.
+    CrashTilt,
+    /// A body rate at or beyond [`SafetyConfig::crash_rate_dps`] for
+    /// [`SafetyConfig::crash_rate_time_s`] (gyro saturated: tumbling).
+    CrashRate,
+    /// Landing detected: collective low, no rotation, no vertical speed for
+    /// [`SafetyConfig::land_time_s`] after having taken off.
+    Landed,
+    /// Armed but never took off within [`SafetyConfig::idle_disarm_s`].
+    NoTakeOff,
+    /// Pilot link lost without an altitude estimate: disarmed after the
+    /// level hold of [`SafetyConfig::failsafe_hold_s`].
+    FailsafeNoAltitude,
+    /// Pilot link lost: the failsafe descent ended in a detected landing.
+    FailsafeLanded,
+    /// The attitude or gyro input stayed unusable for
+    /// [`SafetyConfig::bad_input_disarm_s`].
+    SensorFault,
+}
+
+/// Why a motor-test request was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MotorTestRefusal {
+    /// Only while disarmed.
+    Armed,
+    /// Only with the pilot link up.
+    LinkLost,
+    /// Only with the arm switch off.
+    ArmSwitchOn,
+    /// Motor index not 0..=3.
+    InvalidMotor,
+}
+
+impl core::fmt::Display for MotorTestRefusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Armed => "motor test refused: armed",
+            Self::LinkLost => "motor test refused: pilot link lost",
+            Self::ArmSwitchOn => "motor test refused: arm switch on",
+            Self::InvalidMotor => "motor test refused: motor index not 0..=3",
+        })
+    }
+}
+
+impl core::error::Error for MotorTestRefusal {}
+
+impl core::fmt::Display for ArmRefusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::LinkLost => "pilot link lost",
+            Self::CalibrationRunning => "calibration running",
+            Self::SensorsUnhealthy => "sensor not healthy",
+            Self::GyroBiasPending => "gyro bias not measured yet",
+            Self::AttitudeInvalid => "attitude or gyro unusable",
+            Self::NotLevel => "not level",
+            Self::ThrottleNotLow => "throttle not low",
+            Self::MotorTestActive => "motor test running",
+        })
+    }
+}
+
+/// Why the motor test stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MotorTestEnd {
+    /// A stick moved more than [`SafetyConfig::motor_test_stick_tolerance`].
+    StickMoved,
+    /// The pilot link was lost.
+    LinkLost,
+    /// The arm switch was turned on.
+    ArmSwitch,
+    /// [`SafetyConfig::motor_test_max_s`] elapsed.
+    Timeout,
+    /// The firmware stopped it.
+    Stopped,
+}
+
+/// Something the flight controller wants logged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Event {
+    /// Armed: motors at idle.
+    Armed,
+    /// An arm request was refused; the switch must go off and on again.
+    ArmRefused(ArmRefusal),
+    /// Disarmed: motors off.
+    Disarmed(DisarmCause),
+    /// Pilot link lost while armed: holding level. `altitude`: a descent
+    /// will follow (else a disarm).
+    FailsafeHold {
+        /// Altitude estimate available.
+        altitude: bool,
+    },
+    /// The failsafe hold ended: descending at
+    /// [`SafetyConfig::failsafe_descent_mps`].
+    FailsafeDescent,
+    /// The link came back during failsafe: the pilot has control again.
+    FailsafeCleared,
+    /// Motor test started on motor index `0..=3`.
+    MotorTestStarted(u8),
+    /// Motor test ended.
+    MotorTestEnded(MotorTestEnd),
+    /// Altitude hold requested without an altitude estimate: flying
+    /// self-level with manual throttle.
+    AltitudeUnavailable,
+    /// One step's attitude/gyro input was unusable: the previous motor
+    /// commands were kept.
+    InputRejected,
+}
+
+/// The events of one step (at most [`Events::CAPACITY`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Events {
+    list: [Option<Event>; Events::CAPACITY],
+}
+
+impl Default for Events {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Events {
+    /// Most events one step can produce.
+    pub const CAPACITY: usize = 4;
+
+    /// Empty.
+    pub const fn new() -> Self {
+        Self {
+            list: [None; Self::CAPACITY],
+        }
+    }
+
+    /// Appends (drops the event if full; one step never makes more than
+    /// `CAPACITY`).
+    pub fn push(&mut self, e: Event) {
+        if let Some(slot) = self.list.iter_mut().find(|s| s.is_none()) {
+            *slot = Some(e);
+        }
+    }
+
+    /// The events in order.
+    pub fn iter(&self) -> impl Iterator<Item = Event> + '_ {
+        self.list.iter().filter_map(|e| *e)
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.list[0].is_none()
+    }
+
+    /// Whether `e` is among them.
+    pub fn contains(&self, e: Event) -> bool {
+        self.iter().any(|x| x == e)
+    }
+}
+
+/// Safety limits and timings. Angles in degrees, times in seconds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SafetyConfig {
+    /// Highest throttle stick that allows arming, 0..0.2.
+    pub arm_throttle_max: f32,
+    /// Largest tilt that allows arming, °, 1..=45.
+    pub arm_max_tilt_deg: f32,
+    /// Crash tilt, °, 30..=180.
+    pub crash_tilt_deg: f32,
+    /// Time beyond the crash tilt before disarming, s.
+    pub crash_tilt_time_s: f32,
+    /// Body rate counted as saturated, °/s (set just below the gyro's full
+    /// scale), > 0.
+    pub crash_rate_dps: f32,
+    /// Time at the crash rate before disarming, s.
+    pub crash_rate_time_s: f32,
+    /// Collective below which the vehicle may be landed, 0..0.5.
+    pub land_collective_max: f32,
+    /// Largest body rate on every axis counted as "no motion", °/s.
+    pub land_rate_max_dps: f32,
+    /// Largest vertical speed counted as "not moving", m/s.
+    pub land_vertical_speed_max_mps: f32,
+    /// Time the landed conditions must hold, s.
+    pub land_time_s: f32,
+    /// Armed without taking off for this long: disarm, s.
+    pub idle_disarm_s: f32,
+    /// Level hold after the pilot link is lost, s.
+    pub failsafe_hold_s: f32,
+    /// Failsafe descent speed, m/s, > 0.
+    pub failsafe_descent_mps: f32,
+    /// Motor-test command, 0..=0.2.
+    pub motor_test_command: f32,
+    /// Longest motor test, s.
+    pub motor_test_max_s: f32,
+    /// Stick movement (any axis, from the position at the start) that ends
+    /// the motor test, 0.02..0.5.
+    pub motor_test_stick_tolerance: f32,
+    /// Altitude hold: climb/descent rate at full stick deflection from the
+    /// centre, m/s.
+    pub althold_max_climb_mps: f32,
+    /// Altitude hold: throttle-stick deadband around 0.5 (hold height).
+    pub althold_deadband: f32,
+    /// Unusable attitude/gyro input for this long while armed: disarm, s.
+    pub bad_input_disarm_s: f32,
+}
+
+impl Default for SafetyConfig {
+    /// Arm below 5 % throttle and 25° tilt; crash beyond 70° for 0.5 s or
+    /// 950 °/s (±1000 °/s gyro) for 0.3 s; landed after 2 s of collective
+    /// < 0.15, rates < 20 °/s, |v| < 0.3 m/s; no-take-off disarm after 5 s;
+    /// failsafe hold 1 s then descend at 0.5 m/s; motor test at 8 % for at
+    /// most 5 s, ended by a 0.1 stick movement.
+    fn default() -> Self {
+        Self {
+            arm_throttle_max: 0.05,
+            arm_max_tilt_deg: 25.0,
+            crash_tilt_deg: 70.0,
+            crash_tilt_time_s: 0.5,
+            crash_rate_dps: 950.0,
+            crash_rate_time_s: 0.3,
+            land_collective_max: 0.15,
+            land_rate_max_dps: 20.0,
+            land_vertical_speed_max_mps: 0.3,
+            land_time_s: 2.0,
+            idle_disarm_s: 5.0,
+            failsafe_hold_s: 1.0,
+            failsafe_descent_mps: 0.5,
+            motor_test_command: 0.08,
+            motor_test_max_s: 5.0,
+            motor_test_stick_tolerance: 0.1,
+            althold_max_climb_mps: 1.0,
+            althold_deadband: 0.1,
+            bad_input_disarm_s: 0.1,
+        }
+    }
+}
+
+/// Which [`SafetyConfig`] field is out of range.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SafetyField {
+    /// `arm_throttle_max`.
+    ArmThrottleMax,
+    /// `arm_max_tilt_deg`.
+    ArmMaxTilt,
+    /// `crash_tilt_deg` (must also exceed `arm_max_tilt_deg`).
+    CrashTilt,
+    /// `crash_rate_dps`.
+    CrashRate,
+    /// `land_collective_max`, `land_rate_max_dps` or `land_vertical_speed_max_mps`.
+    LandLimits,
+    /// A time (`*_time_s`, `*_s`) not in (0, 60].
+    Time,
+    /// `failsafe_descent_mps` not in (0, 3].
+    FailsafeDescent,
+    /// `motor_test_command` or `motor_test_stick_tolerance`.
+    MotorTest,
+    /// `althold_max_climb_mps` or `althold_deadband`.
+    AltitudeHold,
+}
+
+fn within(x: f32, lo: f32, hi: f32) -> bool {
+    x.is_finite() && x >= lo && x <= hi
+}
+
+impl SafetyConfig {
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), SafetyField> {
+        let check = |ok: bool, f: SafetyField| if ok { Ok(()) } else { Err(f) };
+        check(
+            within(self.arm_throttle_max, 0.0, 0.2),
+            SafetyField::ArmThrottleMax,
+        )?;
+        check(
+            within(self.arm_max_tilt_deg, 1.0, 45.0),
+            SafetyField::ArmMaxTilt,
+        )?;
+        check(
+            within(self.crash_tilt_deg, 30.0, 180.0) && self.crash_tilt_deg > self.arm_max_tilt_deg,
+            SafetyField::CrashTilt,
+        )?;
+        check(
+            within(self.crash_rate_dps, 1.0, 5000.0),
+            SafetyField::CrashRate,
+        )?;
+        check(
+            within(self.land_collective_max, 0.0, 0.5)
+                && within(self.land_rate_max_dps, 0.0, 200.0)
+                && within(self.land_vertical_speed_max_mps, 0.0, 2.0),
+            SafetyField::LandLimits,
+        )?;
+        let times = [
+            self.crash_tilt_time_s,
+            self.crash_rate_time_s,
+            self.land_time_s,
+            self.idle_disarm_s,
+            self.failsafe_hold_s,
+            self.motor_test_max_s,
+            self.bad_input_disarm_s,
+        ];
+        check(
+            times.iter().all(|t| within(*t, 0.0, 60.0) && *t > 0.0),
+            SafetyField::Time,
+        )?;
+        check(
+            within(self.failsafe_descent_mps, 0.0, 3.0) && self.failsafe_descent_mps > 0.0,
+            SafetyField::FailsafeDescent,
+        )?;
+        check(
+            within(self.motor_test_command, 0.0, 0.2)
+                && within(self.motor_test_stick_tolerance, 0.02, 0.5),
+            SafetyField::MotorTest,
+        )?;
+        check(
+            within(self.althold_max_climb_mps, 0.0, 5.0)
+                && self.althold_max_climb_mps > 0.0
+                && within(self.althold_deadband, 0.0, 0.3),
+            SafetyField::AltitudeHold,
+        )
+    }
+
+    /// `cos(arm_max_tilt)`: the body-down · earth-down threshold.
+    pub(crate) fn arm_cos_tilt(&self) -> f32 {
+        libm::cosf(self.arm_max_tilt_deg * RAD_PER_DEG)
+    }
+
+    /// `cos(crash_tilt)`.
+    pub(crate) fn crash_cos_tilt(&self) -> f32 {
+        libm::cosf(self.crash_tilt_deg * RAD_PER_DEG)
+    }
+}

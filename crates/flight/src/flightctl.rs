@@ -1,0 +1,996 @@
+//! The flight controller: pilot input + attitude + gyro + time → four motor
+//! commands, the flight state and events. The firmware calls
+//! [`FlightController::step`] once per IMU sample (1 kHz) and writes
+//! [`Motors`] to the ESC timer; nothing else decides anything.
+//!
+//! ```
+//! use control::esc::{EscProtocol, EscTimer};
+//! use flight::flightctl::*;
+//! use flight::pipeline::{Pipeline, PipelineConfig};
+//!
+//! let pipeline = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
+//! let esc = EscTimer::for_clock(EscProtocol::Pwm, 400, 72_000_000).unwrap();
+//! let mut fc = FlightController::new(FlightConfig::default()).unwrap();
+//! let status = SystemStatus { sensors_healthy: true, gyro_bias_done: true, calibration_running: false };
+//! let mut pilot = PilotInput { link_ok: true, ..Default::default() };
+//! let vehicle = VehicleState::from_pipeline(&pipeline);
+//! let out = fc.step(1_000, &pilot, &status, &vehicle);       // switch off
+//! assert_eq!(out.motors.compares(&esc), [esc.off_compare(); 4]);
+//! pilot.arm_switch = true;                                    // off → on: arm
+//! let out = fc.step(2_000, &pilot, &status, &vehicle);
+//! assert!(out.events.contains(Event::Armed));
+//! let out = fc.step(3_000, &pilot, &status, &vehicle);       // from the next step: idle
+//! assert!(out.motors.compares(&esc)[0] > esc.off_compare());
+//! ```
+//!
+//! # Rules
+//!
+//! **Arming** happens on the arm switch going off → on (a switch already on
+//! at boot, or when the link comes up, never arms) when none of the
+//! [`ArmRefusal`]s applies: link up, no calibration running, sensors
+//! healthy, gyro bias measured, attitude usable, tilt ≤
+//! [`SafetyConfig::arm_max_tilt_deg`] (25°), throttle stick ≤
+//! [`SafetyConfig::arm_throttle_max`], no motor test. A refusal is reported
+//! once as [`Event::ArmRefused`] with its first reason; the switch must go
+//! off and on again. Armed, the motors run at least at the mixer's idle.
+//!
+//! **Modes** ([`FlightMode`]): acro (sticks → body rates), angle
+//! (self-level: sticks → tilt, P on the quaternion error → rates) and
+//! altitude hold (angle + [`AltitudeHold`] on the estimator's height; the
+//! throttle stick centred ± [`SafetyConfig::althold_deadband`] holds
+//! height, beyond it climbs or descends up to
+//! [`SafetyConfig::althold_max_climb_mps`]). Without an altitude estimate
+//! altitude hold falls back to angle with manual throttle. Until take-off
+//! (the collective first above [`SafetyConfig::land_collective_max`]) the
+//! rate loop is reset every step, so nothing winds up on the ground; in
+//! the air it runs at any throttle (the mixer raises the collective to keep
+//! authority at idle).
+//!
+//! **Disarm** ([`DisarmCause`]): arm switch off; crash (tilt > 70° for
+//! 0.5 s in a self-levelling mode or failsafe — acro may fly inverted — or
+//! any body rate ≥ 950 °/s for 0.3 s in any mode); landing (collective
+//! < 0.15, every rate < 20 °/s and, when known, |vertical speed| < 0.3 m/s
+//! for 2 s, after having taken off); no take-off within 5 s of arming;
+//! unusable attitude/gyro for 0.1 s (single bad samples keep the last motor
+//! commands). The motors are [`Motors::Off`] whenever disarmed.
+//!
+//! **Pilot signal loss** while armed: level hold (tilt 0, yaw rate 0) for
+//! [`SafetyConfig::failsafe_hold_s`] (1 s) at the current height with
+//! altitude hold if an altitude estimate exists, else at the last
+//! collective; then, with altitude, a descent at
+//! [`SafetyConfig::failsafe_descent_mps`] (0.5 m/s) until the landing
+//! detector disarms ([`DisarmCause::FailsafeLanded`]); without altitude a
+//! disarm ([`DisarmCause::FailsafeNoAltitude`]). Should the altitude
+//! estimate fail during the descent, the collective ramps down at
+//! [`FAILSAFE_BLIND_RAMP_PER_S`] until the landing detector disarms. If the link returns during
+//! the failsafe, the pilot has control again (and the arm switch decides).
+//!
+//! **Motor test** (props off!): [`FlightController::start_motor_test`]
+//! while disarmed, link up and arm switch off spins one motor at
+//! [`SafetyConfig::motor_test_command`] (8 %), the others off, for at most
+//! [`SafetyConfig::motor_test_max_s`]; any stick movement beyond
+//! [`SafetyConfig::motor_test_stick_tolerance`], the arm switch or link loss
+//! end it.
+//!
+//! # Time
+//!
+//! `now_us` is a free-running, wrapping microsecond clock (e.g.
+//! [`crate::schedule::MicrosClock`]). The step's `dt` is the wrapped
+//! difference, limited to [`MAX_DT_US`] (a stalled loop does not integrate
+//! a huge step); two calls with the same time do not run the loops again.
+
+use control::controllers::{AltitudeHold, AltitudeHoldConfig, BodyRates, TorqueCommand};
+use control::esc::EscTimer;
+use control::loops::{LevelConfig, LevelController, Quat, RateConfig, RateController, TiltQuat};
+use control::mixer::{MixOutput, Mixer, MixerConfig, MOTORS};
+use control::shaping::{StickShaping, Sticks, SticksConfig};
+
+use crate::pipeline::Pipeline;
+
+pub use crate::arming::{
+    ArmBlockers, ArmRefusal, DisarmCause, Event, Events, MotorTestEnd, MotorTestRefusal,
+    SafetyConfig, SafetyField,
+};
+
+const RAD_PER_DEG: f32 = core::f32::consts::PI / 180.0;
+
+/// Longest step the loops integrate, µs.
+pub const MAX_DT_US: u32 = 20_000;
+/// Collective ramp-down per second in a failsafe descent that lost its
+/// altitude estimate (hover at ~0.5 reaches the landing threshold in ~7 s).
+pub const FAILSAFE_BLIND_RAMP_PER_S: f32 = 0.05;
+/// Step assumed for the first call, µs (the 1 kHz IMU period).
+pub const FIRST_DT_US: u32 = 1_000;
+
+/// How the pilot flies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FlightMode {
+    /// Sticks command body rates.
+    Acro,
+    /// Self-level: sticks command tilt, yaw stick a rate.
+    #[default]
+    Angle,
+    /// Self-level with altitude hold on the throttle stick.
+    AltitudeHold,
+}
+
+/// The pilot's input as the receiver code delivers it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PilotInput {
+    /// Normalised sticks (roll/pitch/yaw −1..1, throttle 0..1).
+    pub sticks: Sticks,
+    /// Arm switch position (true = arm).
+    pub arm_switch: bool,
+    /// Requested flight mode.
+    pub mode: FlightMode,
+    /// Valid frames are arriving (false = signal lost; the other fields are
+    /// then ignored).
+    pub link_ok: bool,
+}
+
+impl PilotInput {
+    /// From the receiver crate's mapped sticks (same conventions: roll and
+    /// yaw +1 = right, pitch +1 = forward = nose down, throttle 0..1), the
+    /// arm switch, the selected mode and the link state.
+    pub fn from_rc(
+        sticks: &rc_input::Sticks,
+        arm_switch: bool,
+        mode: FlightMode,
+        link_ok: bool,
+    ) -> Self {
+        Self {
+            sticks: Sticks {
+                roll: sticks.roll,
+                pitch: sticks.pitch,
+                yaw: sticks.yaw,
+                throttle: sticks.throttle,
+            },
+            arm_switch,
+            mode,
+            link_ok,
+        }
+    }
+}
+
+/// Readiness of the rest of the firmware, for the arming checks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SystemStatus {
+    /// Every sensor the flight needs (IMU at least) is healthy.
+    pub sensors_healthy: bool,
+    /// The start-up gyro bias has been measured.
+    pub gyro_bias_done: bool,
+    /// A calibration mode is running.
+    pub calibration_running: bool,
+}
+
+/// Vertical state from the estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AltitudeEstimate {
+    /// Height above the take-off reference, m, up.
+    pub height_m: f32,
+    /// Vertical speed, m/s, up.
+    pub vertical_speed_mps: f32,
+}
+
+/// What the pipeline knows about the vehicle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct VehicleState {
+    /// Attitude `q_ned_from_body`.
+    pub attitude: Quat,
+    /// Gyro body rates (bias removed), rad/s, FRD.
+    pub gyro: BodyRates,
+    /// Height and vertical speed, when a barometer is running.
+    pub altitude: Option<AltitudeEstimate>,
+}
+
+/// What goes to the ESCs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Motors {
+    /// Every ESC at its "off" pulse.
+    Off,
+    /// Commands 0..1 per motor (mixer order: index 0 = Betaflight motor 1,
+    /// rear right; see [`control::mixer`]).
+    Run([f32; MOTORS]),
+}
+
+impl Motors {
+    /// Commands per motor, 0 for off.
+    pub fn commands(&self) -> [f32; MOTORS] {
+        match self {
+            Self::Off => [0.0; MOTORS],
+            Self::Run(m) => *m,
+        }
+    }
+
+    /// Timer compare values per motor (`CCRn`), the "off" pulse for
+    /// [`Motors::Off`]: what the firmware writes and the emulator expects.
+    pub fn compares(&self, esc: &EscTimer) -> [u16; MOTORS] {
+        match self {
+            Self::Off => [esc.off_compare(); MOTORS],
+            Self::Run(m) => m.map(|c| esc.compare(c)),
+        }
+    }
+}
+
+impl VehicleState {
+    /// The pipeline's latest attitude, gyro and (when the barometer runs)
+    /// altitude.
+    pub fn from_pipeline(p: &Pipeline) -> Self {
+        Self {
+            attitude: quat_from_ahrs(&p.quaternion()),
+            gyro: p.body_rates(),
+            altitude: p.altitude_estimate().map(|(height_m, vertical_speed_mps)| {
+                AltitudeEstimate {
+                    height_m,
+                    vertical_speed_mps,
+                }
+            }),
+        }
+    }
+}
+
+/// Failsafe phase.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FailsafePhase {
+    /// Holding level (and height, if known).
+    Hold,
+    /// Descending at the failsafe rate.
+    Descend,
+}
+
+/// The controller's state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FlightState {
+    /// Motors off.
+    Disarmed,
+    /// Flying under pilot control.
+    Armed,
+    /// Pilot link lost while armed.
+    Failsafe(FailsafePhase),
+    /// Props-off motor test on motor index `0..=3`.
+    MotorTest(u8),
+}
+
+/// One step's result.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FlightOutput {
+    /// ESC commands.
+    pub motors: Motors,
+    /// State after this step.
+    pub state: FlightState,
+    /// What happened in this step.
+    pub events: Events,
+    /// Mode actually flown (altitude hold falls back to angle without altitude).
+    pub mode: FlightMode,
+    /// Body-rate setpoint, rad/s (zero when not flying).
+    pub rate_setpoint: BodyRates,
+    /// Rate-loop torque command, −1..1.
+    pub torque: TorqueCommand,
+    /// Collective throttle asked of the mixer, 0..1.
+    pub collective: f32,
+    /// The mixer's saturation report (`None` when not flying).
+    pub mix: Option<MixOutput>,
+}
+
+/// Every tuning of the flight controller.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FlightConfig {
+    /// Stick shaping.
+    pub sticks: SticksConfig,
+    /// Rate loop.
+    pub rate: RateConfig,
+    /// Self-level loop.
+    pub level: LevelConfig,
+    /// Altitude hold (its output limits are the collective limits).
+    pub altitude_hold: AltitudeHoldConfig,
+    /// Mixer (idle).
+    pub mixer: MixerConfig,
+    /// Arming, crash, landing, failsafe, motor test.
+    pub safety: SafetyConfig,
+}
+
+/// Why [`FlightController::new`] refused its configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FlightConfigError {
+    /// A control-crate configuration (sticks, loops, mixer, altitude hold).
+    Control(control::Error),
+    /// A safety limit.
+    Safety(SafetyField),
+}
+
+impl From<control::Error> for FlightConfigError {
+    fn from(e: control::Error) -> Self {
+        Self::Control(e)
+    }
+}
+
+impl core::fmt::Display for FlightConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Control(e) => write!(f, "flight configuration: {e}"),
+            Self::Safety(field) => write!(f, "safety configuration: {field:?} out of range"),
+        }
+    }
+}
+
+impl core::error::Error for FlightConfigError {}
+
+/// Seconds → µs, saturating (config times are validated ≤ 60 s).
+fn us(s: f32) -> u32 {
+    (s * 1.0e6) as u32
+}
+
+/// Converts the AHRS quaternion.
+pub fn quat_from_ahrs(q: &fc_ahrs::Quaternion) -> Quat {
+    Quat {
+        w: q.w,
+        x: q.x,
+        y: q.y,
+        z: q.z,
+    }
+}
+
+/// A timer that counts while its condition holds and resets when it does not.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+struct Hold {
+    us: u32,
+}
+
+impl Hold {
+    /// Accumulates `dt_us` while `cond`; true once `limit_us` is reached.
+    fn update(&mut self, cond: bool, dt_us: u32, limit_us: u32) -> bool {
+        self.us = if cond {
+            self.us.saturating_add(dt_us)
+        } else {
+            0
+        };
+        self.us >= limit_us
+    }
+}
+
+/// Everything derived from one stick position (recomputed only when the
+/// sticks change, at the receiver's frame rate rather than 1 kHz).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Shaped {
+    sticks: Sticks,
+    acro_rates: BodyRates,
+    tilt: TiltQuat,
+    yaw_rps: f32,
+    throttle: f32,
+}
+
+impl Shaped {
+    fn new(shaping: &StickShaping, s: &Sticks) -> Self {
+        let acro_rates = shaping.rate_setpoint(s).unwrap_or_default();
+        let (tilt, yaw_rps) = match shaping.level_setpoint(s) {
+            Ok((t, y)) => (TiltQuat::new(&t).unwrap_or(TiltQuat::LEVEL), y),
+            Err(_) => (TiltQuat::LEVEL, 0.0),
+        };
+        Self {
+            sticks: *s,
+            acro_rates,
+            tilt,
+            yaw_rps,
+            throttle: shaping.throttle(s.throttle).unwrap_or(0.0),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct MotorTestRun {
+    motor: u8,
+    sticks: Sticks,
+    elapsed_us: u32,
+}
+
+/// Limits in the units the hot path compares against.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Limits {
+    arm_cos_tilt: f32,
+    crash_cos_tilt: f32,
+    crash_rate_rps: f32,
+    land_rate_rps: f32,
+    crash_tilt_us: u32,
+    crash_rate_us: u32,
+    land_us: u32,
+    idle_disarm_us: u32,
+    failsafe_hold_us: u32,
+    motor_test_us: u32,
+    bad_input_us: u32,
+}
+
+/// The flight controller. See the [module docs](self).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FlightController {
+    cfg: FlightConfig,
+    lim: Limits,
+    shaping: StickShaping,
+    rate: RateController,
+    level: LevelController,
+    alt: AltitudeHold,
+    mixer: Mixer,
+    state: FlightState,
+    last_us: Option<u32>,
+    /// Last arm-switch position seen with the link up (`None` at boot and
+    /// after a link loss, so a switch found on never arms).
+    prev_switch: Option<bool>,
+    took_off: bool,
+    /// Altitude hold engaged (its target is valid).
+    alt_engaged: bool,
+    /// Altitude hold requested but unavailable (reported once per episode).
+    alt_fallback: bool,
+    alt_target_m: f32,
+    last_collective: f32,
+    last_motors: Motors,
+    armed_us: u32,
+    failsafe_us: u32,
+    crash_tilt: Hold,
+    crash_rate: Hold,
+    landed: Hold,
+    bad_input: Hold,
+    motor_test: Option<MotorTestRun>,
+    shaped: Shaped,
+}
+
+impl FlightController {
+    /// Validates the configuration and starts disarmed.
+    pub fn new(cfg: FlightConfig) -> Result<Self, FlightConfigError> {
+        cfg.safety.validate().map_err(FlightConfigError::Safety)?;
+        let s = &cfg.safety;
+        let lim = Limits {
+            arm_cos_tilt: s.arm_cos_tilt(),
+            crash_cos_tilt: s.crash_cos_tilt(),
+            crash_rate_rps: s.crash_rate_dps * RAD_PER_DEG,
+            land_rate_rps: s.land_rate_max_dps * RAD_PER_DEG,
+            crash_tilt_us: us(s.crash_tilt_time_s),
+            crash_rate_us: us(s.crash_rate_time_s),
+            land_us: us(s.land_time_s),
+            idle_disarm_us: us(s.idle_disarm_s),
+            failsafe_hold_us: us(s.failsafe_hold_s),
+            motor_test_us: us(s.motor_test_max_s),
+            bad_input_us: us(s.bad_input_disarm_s),
+        };
+        Ok(Self {
+            cfg,
+            lim,
+            shaping: StickShaping::new(cfg.sticks)?,
+            rate: RateController::new(cfg.rate)?,
+            level: LevelController::new(cfg.level)?,
+            alt: AltitudeHold::new(cfg.altitude_hold)?,
+            mixer: Mixer::new(cfg.mixer)?,
+            state: FlightState::Disarmed,
+            last_us: None,
+            prev_switch: None,
+            took_off: false,
+            alt_engaged: false,
+            alt_fallback: false,
+            alt_target_m: 0.0,
+            last_collective: 0.0,
+            last_motors: Motors::Off,
+            armed_us: 0,
+            failsafe_us: 0,
+            crash_tilt: Hold::default(),
+            crash_rate: Hold::default(),
+            landed: Hold::default(),
+            bad_input: Hold::default(),
+            motor_test: None,
+            shaped: Shaped::new(&StickShaping::new(cfg.sticks)?, &Sticks::default()),
+        })
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &FlightConfig {
+        &self.cfg
+    }
+
+    /// The current state.
+    pub fn state(&self) -> FlightState {
+        self.state
+    }
+
+    /// True while the motors may spin under flight control.
+    pub fn is_armed(&self) -> bool {
+        matches!(self.state, FlightState::Armed | FlightState::Failsafe(_))
+    }
+
+    /// Everything that would refuse an arm request now (for a status LED
+    /// or log; arming itself still needs the switch edge).
+    pub fn arm_blockers(
+        &self,
+        pilot: &PilotInput,
+        status: &SystemStatus,
+        vehicle: &VehicleState,
+    ) -> ArmBlockers {
+        let mut b = ArmBlockers::NONE;
+        if !pilot.link_ok {
+            b.insert(ArmRefusal::LinkLost);
+        }
+        if status.calibration_running {
+            b.insert(ArmRefusal::CalibrationRunning);
+        }
+        if !status.sensors_healthy {
+            b.insert(ArmRefusal::SensorsUnhealthy);
+        }
+        if !status.gyro_bias_done {
+            b.insert(ArmRefusal::GyroBiasPending);
+        }
+        match cos_tilt(vehicle) {
+            None => b.insert(ArmRefusal::AttitudeInvalid),
+            Some(c) if c < self.lim.arm_cos_tilt => b.insert(ArmRefusal::NotLevel),
+            Some(_) => {}
+        }
+        let t = pilot.sticks.throttle;
+        if !(t.is_finite() && t <= self.cfg.safety.arm_throttle_max) {
+            b.insert(ArmRefusal::ThrottleNotLow);
+        }
+        if self.motor_test.is_some() {
+            b.insert(ArmRefusal::MotorTestActive);
+        }
+        b
+    }
+
+    /// Starts the props-off motor test on motor index `motor` (0..=3, mixer
+    /// order) with the sticks where they are now. Takes effect from the next
+    /// [`step`](Self::step).
+    pub fn start_motor_test(
+        &mut self,
+        motor: u8,
+        pilot: &PilotInput,
+    ) -> Result<(), MotorTestRefusal> {
+        if self.state != FlightState::Disarmed && self.motor_test.is_none() {
+            return Err(MotorTestRefusal::Armed);
+        }
+        if !pilot.link_ok {
+            return Err(MotorTestRefusal::LinkLost);
+        }
+        if pilot.arm_switch {
+            return Err(MotorTestRefusal::ArmSwitchOn);
+        }
+        if usize::from(motor) >= MOTORS {
+            return Err(MotorTestRefusal::InvalidMotor);
+        }
+        let sticks = pilot
+            .sticks
+            .clamped()
+            .map_err(|_| MotorTestRefusal::LinkLost)?;
+        self.motor_test = Some(MotorTestRun {
+            motor,
+            sticks,
+            elapsed_us: 0,
+        });
+        self.state = FlightState::MotorTest(motor);
+        Ok(())
+    }
+
+    /// Stops the motor test (no effect otherwise); the next step reports
+    /// [`MotorTestEnd::Stopped`].
+    pub fn stop_motor_test(&mut self) {
+        if let Some(t) = self.motor_test.as_mut() {
+            t.elapsed_us = u32::MAX;
+        }
+    }
+
+    /// One step: see the [module docs](self). Never fails; bad inputs are
+    /// handled by the rules (and reported as events).
+    pub fn step(
+        &mut self,
+        now_us: u32,
+        pilot: &PilotInput,
+        status: &SystemStatus,
+        vehicle: &VehicleState,
+    ) -> FlightOutput {
+        let dt_us = match self.last_us {
+            None => FIRST_DT_US,
+            Some(t) => now_us.wrapping_sub(t).min(MAX_DT_US),
+        };
+        self.last_us = Some(now_us);
+        // A pilot frame with a non-finite stick is as good as no frame.
+        let mut pilot = *pilot;
+        if pilot.sticks.clamped().is_err() {
+            pilot.link_ok = false;
+        }
+        let edge = pilot.link_ok && pilot.arm_switch && self.prev_switch == Some(false);
+        self.prev_switch = if pilot.link_ok {
+            Some(pilot.arm_switch)
+        } else {
+            None
+        };
+
+        let mut out = FlightOutput {
+            motors: Motors::Off,
+            state: self.state,
+            events: Events::new(),
+            mode: pilot.mode,
+            rate_setpoint: BodyRates::default(),
+            torque: TorqueCommand::default(),
+            collective: 0.0,
+            mix: None,
+        };
+        match self.state {
+            FlightState::Disarmed => self.step_disarmed(edge, &pilot, status, vehicle, &mut out),
+            FlightState::MotorTest(_) => self.step_motor_test(dt_us, edge, &pilot, &mut out),
+            FlightState::Armed | FlightState::Failsafe(_) => {
+                if dt_us > 0 {
+                    self.step_flying(dt_us, &pilot, vehicle, &mut out);
+                } else {
+                    out.motors = self.last_motors;
+                }
+            }
+        }
+        if !self.is_armed() && !matches!(self.state, FlightState::MotorTest(_)) {
+            out.motors = Motors::Off;
+        }
+        self.last_motors = out.motors;
+        out.state = self.state;
+        out
+    }
+
+    fn step_disarmed(
+        &mut self,
+        edge: bool,
+        pilot: &PilotInput,
+        status: &SystemStatus,
+        vehicle: &VehicleState,
+        out: &mut FlightOutput,
+    ) {
+        if !edge {
+            return;
+        }
+        match self.arm_blockers(pilot, status, vehicle).first() {
+            Some(r) => out.events.push(Event::ArmRefused(r)),
+            None => {
+                self.arm();
+                out.events.push(Event::Armed);
+            }
+        }
+    }
+
+    fn arm(&mut self) {
+        self.rate.clear();
+        self.state = FlightState::Armed;
+        self.took_off = false;
+        self.alt_engaged = false;
+        self.last_collective = 0.0;
+        self.armed_us = 0;
+        self.failsafe_us = 0;
+        self.crash_tilt = Hold::default();
+        self.crash_rate = Hold::default();
+        self.landed = Hold::default();
+        self.bad_input = Hold::default();
+    }
+
+    fn disarm(&mut self, cause: DisarmCause, out: &mut FlightOutput) {
+        self.state = FlightState::Disarmed;
+        self.rate.clear();
+        self.alt_engaged = false;
+        out.events.push(Event::Disarmed(cause));
+        out.motors = Motors::Off;
+    }
+
+    fn step_motor_test(
+        &mut self,
+        dt_us: u32,
+        edge: bool,
+        pilot: &PilotInput,
+        out: &mut FlightOutput,
+    ) {
+        let Some(mut t) = self.motor_test else {
+            self.state = FlightState::Disarmed;
+            return;
+        };
+        let first = t.elapsed_us == 0;
+        t.elapsed_us = t.elapsed_us.saturating_add(dt_us);
+        let moved = |a: f32, b: f32| {
+            let d = a - b;
+            d.abs() > self.cfg.safety.motor_test_stick_tolerance
+        };
+        let s = &pilot.sticks;
+        let end = if !pilot.link_ok {
+            Some(MotorTestEnd::LinkLost)
+        } else if pilot.arm_switch || edge {
+            Some(MotorTestEnd::ArmSwitch)
+        } else if t.elapsed_us == u32::MAX {
+            Some(MotorTestEnd::Stopped)
+        } else if moved(s.roll, t.sticks.roll)
+            || moved(s.pitch, t.sticks.pitch)
+            || moved(s.yaw, t.sticks.yaw)
+            || moved(s.throttle, t.sticks.throttle)
+        {
+            Some(MotorTestEnd::StickMoved)
+        } else if t.elapsed_us >= self.lim.motor_test_us {
+            Some(MotorTestEnd::Timeout)
+        } else {
+            None
+        };
+        if let Some(reason) = end {
+            self.motor_test = None;
+            self.state = FlightState::Disarmed;
+            out.events.push(Event::MotorTestEnded(reason));
+            out.motors = Motors::Off;
+            return;
+        }
+        if first {
+            out.events.push(Event::MotorTestStarted(t.motor));
+        }
+        let mut m = [0.0; MOTORS];
+        if let Some(v) = m.get_mut(usize::from(t.motor)) {
+            *v = self.cfg.safety.motor_test_command;
+        }
+        out.motors = Motors::Run(m);
+        self.motor_test = Some(t);
+    }
+
+    fn step_flying(
+        &mut self,
+        dt_us: u32,
+        pilot: &PilotInput,
+        vehicle: &VehicleState,
+        out: &mut FlightOutput,
+    ) {
+        let dt_s = dt_us as f32 * 1.0e-6;
+        self.armed_us = self.armed_us.saturating_add(dt_us);
+
+        // Link and switch.
+        match (self.state, pilot.link_ok) {
+            (FlightState::Armed, false) => {
+                self.state = FlightState::Failsafe(FailsafePhase::Hold);
+                self.failsafe_us = 0;
+                self.alt_engaged = false;
+                out.events.push(Event::FailsafeHold {
+                    altitude: usable_altitude(vehicle).is_some(),
+                });
+            }
+            (FlightState::Failsafe(_), true) => {
+                self.state = FlightState::Armed;
+                self.alt_engaged = false;
+                out.events.push(Event::FailsafeCleared);
+            }
+            _ => {}
+        }
+        if self.state == FlightState::Armed && !pilot.arm_switch {
+            self.disarm(DisarmCause::Switch, out);
+            return;
+        }
+
+        // Vehicle input.
+        let Some(cos_t) = cos_tilt(vehicle) else {
+            if self.bad_input.update(true, dt_us, self.lim.bad_input_us) {
+                self.disarm(DisarmCause::SensorFault, out);
+            } else {
+                out.events.push(Event::InputRejected);
+                out.motors = self.last_motors;
+            }
+            return;
+        };
+        self.bad_input = Hold::default();
+
+        let alt = usable_altitude(vehicle);
+        let (rate_sp, collective, self_level) =
+            match self.setpoints(dt_us, pilot, vehicle, alt, out) {
+                Some(x) => x,
+                None => return, // disarmed inside (failsafe without altitude)
+            };
+
+        let g = &vehicle.gyro;
+        // On the ground nothing can follow the setpoint: integrating
+        // would only wind up and tip the vehicle at take-off.
+        if !self.took_off {
+            self.rate.clear();
+        }
+        let torque = self.rate.update(&rate_sp, g, dt_s).unwrap_or_default();
+        let mix = self.mixer.mix(collective, &torque).ok();
+        let motors = match mix {
+            Some(m) => Motors::Run(m.motors),
+            None => self.last_motors,
+        };
+        self.last_collective = collective;
+        out.rate_setpoint = rate_sp;
+        out.torque = torque;
+        out.collective = collective;
+        out.mix = mix;
+        out.motors = motors;
+
+        self.safety_checks(dt_us, cos_t, self_level, collective, vehicle, alt, out);
+    }
+
+    /// Rate setpoint, collective and whether the mode self-levels; `None`
+    /// after a failsafe disarm.
+    fn setpoints(
+        &mut self,
+        dt_us: u32,
+        pilot: &PilotInput,
+        vehicle: &VehicleState,
+        alt: Option<AltitudeEstimate>,
+        out: &mut FlightOutput,
+    ) -> Option<(BodyRates, f32, bool)> {
+        let dt_s = dt_us as f32 * 1.0e-6;
+        let q = &vehicle.attitude;
+        if let FlightState::Failsafe(phase) = self.state {
+            out.mode = FlightMode::Angle;
+            self.failsafe_us = self.failsafe_us.saturating_add(dt_us);
+            let mut phase = phase;
+            if phase == FailsafePhase::Hold && self.failsafe_us >= self.lim.failsafe_hold_us {
+                if alt.is_none() {
+                    self.disarm(DisarmCause::FailsafeNoAltitude, out);
+                    return None;
+                }
+                phase = FailsafePhase::Descend;
+                self.state = FlightState::Failsafe(phase);
+                out.events.push(Event::FailsafeDescent);
+            }
+            let rate_sp = self
+                .level
+                .rate_setpoint_q(q, &TiltQuat::LEVEL, 0.0)
+                .unwrap_or_default();
+            let collective = match alt {
+                Some(a) => {
+                    out.mode = FlightMode::AltitudeHold;
+                    let climb = if phase == FailsafePhase::Descend {
+                        -self.cfg.safety.failsafe_descent_mps
+                    } else {
+                        0.0
+                    };
+                    self.altitude_collective(a, climb, dt_s)
+                }
+                // Altitude lost during the descent: keep going down by
+                // ramping the collective off, so the landing detector ends it.
+                None if phase == FailsafePhase::Descend => {
+                    (self.last_collective - FAILSAFE_BLIND_RAMP_PER_S * dt_s).max(0.0)
+                }
+                None => self.last_collective,
+            };
+            return Some((rate_sp, collective, true));
+        }
+
+        let mut mode = pilot.mode;
+        let fallback = mode == FlightMode::AltitudeHold && alt.is_none();
+        if fallback {
+            if !self.alt_fallback {
+                out.events.push(Event::AltitudeUnavailable);
+            }
+            mode = FlightMode::Angle;
+        }
+        self.alt_fallback = fallback;
+        out.mode = mode;
+        let s = &pilot.sticks;
+        if self.shaped.sticks != *s {
+            self.shaped = Shaped::new(&self.shaping, s);
+        }
+        let sh = self.shaped;
+        let rate_sp = match mode {
+            FlightMode::Acro => sh.acro_rates,
+            FlightMode::Angle | FlightMode::AltitudeHold => self
+                .level
+                .rate_setpoint_q(q, &sh.tilt, sh.yaw_rps)
+                .unwrap_or_default(),
+        };
+        let collective = match (mode, alt) {
+            (FlightMode::AltitudeHold, Some(a)) => {
+                let climb = self.stick_climb_mps(s.throttle);
+                self.altitude_collective(a, climb, dt_s)
+            }
+            _ => {
+                self.alt_engaged = false;
+                sh.throttle
+            }
+        };
+        Some((rate_sp, collective, mode != FlightMode::Acro))
+    }
+
+    /// Climb-rate demand of the throttle stick in altitude hold, m/s.
+    fn stick_climb_mps(&self, throttle: f32) -> f32 {
+        let s = &self.cfg.safety;
+        let d = throttle - 0.5;
+        let band = s.althold_deadband;
+        let span = 0.5 - band;
+        if d > band {
+            s.althold_max_climb_mps * (d - band) / span
+        } else if d < -band {
+            s.althold_max_climb_mps * (d + band) / span
+        } else {
+            0.0
+        }
+    }
+
+    /// Altitude-hold collective; engages bumplessly at the current height
+    /// and moves the target at `climb_mps`, kept within 2 m of the estimate
+    /// so it cannot run away from a vehicle that cannot follow.
+    fn altitude_collective(&mut self, a: AltitudeEstimate, climb_mps: f32, dt_s: f32) -> f32 {
+        const LEASH_M: f32 = 2.0;
+        if !self.alt_engaged {
+            self.alt_target_m = a.height_m;
+            let _ = self.alt.reset(a.vertical_speed_mps, self.last_collective);
+            self.alt_engaged = true;
+        }
+        let t = self.alt_target_m + climb_mps * dt_s;
+        // max/min, not f32::clamp: clamp's bounds assertion links core::fmt's
+        // float formatting (~8 KiB of flash) for a panic that cannot happen.
+        self.alt_target_m = t.max(a.height_m - LEASH_M).min(a.height_m + LEASH_M);
+        self.alt
+            .update(self.alt_target_m, a.height_m, a.vertical_speed_mps, dt_s)
+            .unwrap_or(self.last_collective)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn safety_checks(
+        &mut self,
+        dt_us: u32,
+        cos_tilt: f32,
+        self_level: bool,
+        collective: f32,
+        vehicle: &VehicleState,
+        alt: Option<AltitudeEstimate>,
+        out: &mut FlightOutput,
+    ) {
+        let s = self.cfg.safety;
+        let g = &vehicle.gyro;
+        let max_rate = g.roll_rps.abs().max(g.pitch_rps.abs()).max(g.yaw_rps.abs());
+        if self.crash_tilt.update(
+            self_level && cos_tilt < self.lim.crash_cos_tilt,
+            dt_us,
+            self.lim.crash_tilt_us,
+        ) {
+            return self.disarm(DisarmCause::CrashTilt, out);
+        }
+        if self.crash_rate.update(
+            max_rate >= self.lim.crash_rate_rps,
+            dt_us,
+            self.lim.crash_rate_us,
+        ) {
+            return self.disarm(DisarmCause::CrashRate, out);
+        }
+        let low = collective < s.land_collective_max;
+        if !low {
+            self.took_off = true;
+        }
+        let still = max_rate < self.lim.land_rate_rps
+            && alt.is_none_or(|a| a.vertical_speed_mps.abs() < s.land_vertical_speed_max_mps);
+        if self
+            .landed
+            .update(self.took_off && low && still, dt_us, self.lim.land_us)
+        {
+            let cause = if matches!(self.state, FlightState::Failsafe(_)) {
+                DisarmCause::FailsafeLanded
+            } else {
+                DisarmCause::Landed
+            };
+            return self.disarm(cause, out);
+        }
+        if !self.took_off && self.armed_us >= self.lim.idle_disarm_us {
+            self.disarm(DisarmCause::NoTakeOff, out);
+        }
+    }
+}
+
+/// Altitude estimate if finite.
+fn usable_altitude(v: &VehicleState) -> Option<AltitudeEstimate> {
+    v.altitude
+        .filter(|a| a.height_m.is_finite() && a.vertical_speed_mps.is_finite())
+}
+
+/// Cosine of the tilt (body down · earth down), or `None` if the attitude
+/// or gyro is unusable.
+fn cos_tilt(v: &VehicleState) -> Option<f32> {
+    let q = &v.attitude;
+    let g = &v.gyro;
+    let all = [q.w, q.x, q.y, q.z, g.roll_rps, g.pitch_rps, g.yaw_rps];
+    if !all.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    let n2 = q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z;
+    if n2 < 0.25 {
+        return None;
+    }
+    Some(1.0 - 2.0 * (q.x * q.x + q.y * q.y) / n2)
+}

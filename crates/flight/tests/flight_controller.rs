@@ -1,0 +1,779 @@
+//! Every arming, disarm, failsafe and motor-test rule of the flight
+//! controller, driven step by step at 1 kHz.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use control::controllers::BodyRates;
+use control::loops::Quat;
+use control::shaping::Sticks;
+use flight::flightctl::*;
+
+const STEP_US: u32 = 1_000;
+
+/// A change made to the rig before a step.
+type Setup = fn(&mut Rig);
+
+struct Rig {
+    fc: FlightController,
+    now_us: u32,
+    pilot: PilotInput,
+    status: SystemStatus,
+    vehicle: VehicleState,
+    last: Option<FlightOutput>,
+}
+
+fn ready_status() -> SystemStatus {
+    SystemStatus {
+        sensors_healthy: true,
+        gyro_bias_done: true,
+        calibration_running: false,
+    }
+}
+
+fn level() -> VehicleState {
+    VehicleState {
+        attitude: Quat::IDENTITY,
+        gyro: BodyRates::default(),
+        altitude: None,
+    }
+}
+
+impl Rig {
+    fn new() -> Self {
+        Self {
+            fc: FlightController::new(FlightConfig::default()).unwrap(),
+            // Start near the wrap of the µs clock: nothing may depend on it.
+            now_us: u32::MAX - 500_000,
+            pilot: PilotInput {
+                sticks: Sticks::default(),
+                arm_switch: false,
+                mode: FlightMode::Angle,
+                link_ok: true,
+            },
+            status: ready_status(),
+            vehicle: level(),
+            last: None,
+        }
+    }
+
+    fn step(&mut self) -> FlightOutput {
+        self.now_us = self.now_us.wrapping_add(STEP_US);
+        let out = self
+            .fc
+            .step(self.now_us, &self.pilot, &self.status, &self.vehicle);
+        if out.state == FlightState::Disarmed {
+            assert_eq!(out.motors, Motors::Off, "motors must be off when disarmed");
+        }
+        self.last = Some(out);
+        out
+    }
+
+    /// Runs `ms` steps; returns every event in order.
+    fn run_ms(&mut self, ms: u32) -> Vec<Event> {
+        let mut ev = Vec::new();
+        for _ in 0..ms {
+            ev.extend(self.step().events.iter());
+        }
+        ev
+    }
+
+    /// Runs until an event matching `f` or `max_ms`; returns the ms taken.
+    fn run_until(&mut self, max_ms: u32, f: impl Fn(&Event) -> bool) -> Option<u32> {
+        (1..=max_ms).find(|_| self.step().events.iter().any(|e| f(&e)))
+    }
+
+    /// Switch off for a while, then on: one arm request.
+    fn flip_arm_switch(&mut self) -> Vec<Event> {
+        self.pilot.arm_switch = false;
+        self.run_ms(20);
+        self.pilot.arm_switch = true;
+        self.run_ms(1)
+    }
+
+    fn arm(&mut self) {
+        let ev = self.flip_arm_switch();
+        assert_eq!(ev, vec![Event::Armed], "arming failed");
+        assert_eq!(self.fc.state(), FlightState::Armed);
+    }
+
+    /// Armed and flying at hover throttle for a while.
+    fn take_off(&mut self) {
+        self.arm();
+        self.pilot.sticks.throttle = 0.5;
+        let ev = self.run_ms(200);
+        assert!(ev.is_empty(), "{ev:?}");
+    }
+}
+
+fn tilted_deg(deg: f32) -> Quat {
+    Quat::from_euler(deg.to_radians(), 0.0, 0.3)
+}
+
+// ---- arming ----------------------------------------------------------------
+
+#[test]
+fn arms_on_switch_edge_with_everything_ready() {
+    let mut r = Rig::new();
+    r.arm();
+    let out = r.step();
+    match out.motors {
+        Motors::Run(m) => {
+            for v in m {
+                assert!((0.05..=0.1).contains(&v), "idle expected, got {m:?}");
+            }
+        }
+        Motors::Off => panic!("armed but motors off"),
+    }
+}
+
+#[test]
+fn switch_on_at_boot_never_arms() {
+    let mut r = Rig::new();
+    r.pilot.arm_switch = true;
+    let ev = r.run_ms(2_000);
+    assert!(ev.is_empty(), "{ev:?}");
+    assert_eq!(r.fc.state(), FlightState::Disarmed);
+    // Cycling it arms.
+    r.arm();
+}
+
+#[test]
+fn switch_on_when_link_comes_up_never_arms() {
+    let mut r = Rig::new();
+    r.pilot.link_ok = false;
+    r.pilot.arm_switch = false;
+    r.run_ms(100);
+    r.pilot.arm_switch = true;
+    r.run_ms(100);
+    r.pilot.link_ok = true;
+    let ev = r.run_ms(100);
+    assert!(ev.is_empty(), "{ev:?}");
+    assert_eq!(r.fc.state(), FlightState::Disarmed);
+}
+
+fn refusal_after(setup: impl FnOnce(&mut Rig)) -> (Rig, Vec<Event>) {
+    let mut r = Rig::new();
+    r.pilot.arm_switch = false;
+    r.run_ms(20);
+    setup(&mut r);
+    r.pilot.arm_switch = true;
+    let ev = r.run_ms(1);
+    (r, ev)
+}
+
+#[test]
+fn each_refusal_is_named() {
+    let cases: [(ArmRefusal, Setup); 6] = [
+        (ArmRefusal::CalibrationRunning, |r| {
+            r.status.calibration_running = true
+        }),
+        (ArmRefusal::SensorsUnhealthy, |r| {
+            r.status.sensors_healthy = false
+        }),
+        (ArmRefusal::GyroBiasPending, |r| {
+            r.status.gyro_bias_done = false
+        }),
+        (ArmRefusal::AttitudeInvalid, |r| {
+            r.vehicle.gyro.roll_rps = f32::NAN
+        }),
+        (ArmRefusal::NotLevel, |r| {
+            r.vehicle.attitude = tilted_deg(26.0)
+        }),
+        (ArmRefusal::ThrottleNotLow, |r| {
+            r.pilot.sticks.throttle = 0.1
+        }),
+    ];
+    for (reason, setup) in cases {
+        let (r, ev) = refusal_after(setup);
+        assert_eq!(ev, vec![Event::ArmRefused(reason)], "{reason:?}");
+        assert_eq!(r.fc.state(), FlightState::Disarmed);
+    }
+}
+
+#[test]
+fn level_within_25_degrees_arms() {
+    let (r, ev) = refusal_after(|r| r.vehicle.attitude = tilted_deg(24.0));
+    assert_eq!(ev, vec![Event::Armed]);
+    assert!(r.fc.is_armed());
+}
+
+#[test]
+fn zero_quaternion_is_invalid_attitude() {
+    let (_, ev) = refusal_after(|r| {
+        r.vehicle.attitude = Quat {
+            w: 0.0,
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+        }
+    });
+    assert_eq!(ev, vec![Event::ArmRefused(ArmRefusal::AttitudeInvalid)]);
+}
+
+#[test]
+fn refusal_needs_the_switch_cycled_again() {
+    let (mut r, ev) = refusal_after(|r| r.pilot.sticks.throttle = 0.3);
+    assert_eq!(ev, vec![Event::ArmRefused(ArmRefusal::ThrottleNotLow)]);
+    r.pilot.sticks.throttle = 0.0;
+    assert!(r.run_ms(500).is_empty());
+    assert_eq!(r.fc.state(), FlightState::Disarmed);
+    r.arm();
+}
+
+#[test]
+fn blockers_list_link_loss_and_motor_test() {
+    let mut r = Rig::new();
+    r.run_ms(10);
+    r.fc.start_motor_test(1, &r.pilot).unwrap();
+    r.pilot.link_ok = false;
+    r.status.sensors_healthy = false;
+    let b = r.fc.arm_blockers(&r.pilot, &r.status, &r.vehicle);
+    assert!(b.contains(ArmRefusal::LinkLost));
+    assert!(b.contains(ArmRefusal::SensorsUnhealthy));
+    assert!(b.contains(ArmRefusal::MotorTestActive));
+    assert!(!b.contains(ArmRefusal::NotLevel));
+    assert_eq!(b.first(), Some(ArmRefusal::LinkLost));
+    let ok = Rig::new();
+    assert!(ok
+        .fc
+        .arm_blockers(&ok.pilot, &ok.status, &ok.vehicle)
+        .is_empty());
+}
+
+// ---- disarming -------------------------------------------------------------
+
+#[test]
+fn disarms_on_switch() {
+    let mut r = Rig::new();
+    r.take_off();
+    r.pilot.arm_switch = false;
+    assert_eq!(r.run_ms(1), vec![Event::Disarmed(DisarmCause::Switch)]);
+}
+
+#[test]
+fn crash_tilt_disarms_after_half_a_second_in_angle_mode() {
+    let mut r = Rig::new();
+    r.take_off();
+    r.vehicle.attitude = tilted_deg(75.0);
+    let ms = r
+        .run_until(2_000, |e| *e == Event::Disarmed(DisarmCause::CrashTilt))
+        .expect("no crash disarm");
+    assert!((499..=501).contains(&ms), "{ms} ms");
+}
+
+#[test]
+fn brief_tilt_and_acro_inverted_do_not_disarm() {
+    let mut r = Rig::new();
+    r.take_off();
+    r.vehicle.attitude = tilted_deg(80.0);
+    r.run_ms(400);
+    r.vehicle.attitude = Quat::IDENTITY;
+    r.run_ms(100);
+    r.vehicle.attitude = tilted_deg(80.0);
+    r.run_ms(400);
+    assert!(r.fc.is_armed());
+    r.pilot.mode = FlightMode::Acro;
+    r.vehicle.attitude = tilted_deg(180.0);
+    r.run_ms(3_000);
+    assert!(r.fc.is_armed(), "acro may fly inverted");
+}
+
+#[test]
+fn saturated_rates_disarm_in_any_mode() {
+    let mut r = Rig::new();
+    r.pilot.mode = FlightMode::Acro;
+    r.take_off();
+    r.vehicle.gyro.yaw_rps = 990f32.to_radians();
+    let ms = r
+        .run_until(2_000, |e| *e == Event::Disarmed(DisarmCause::CrashRate))
+        .expect("no crash disarm");
+    assert!((299..=301).contains(&ms), "{ms} ms");
+}
+
+#[test]
+fn landing_detected_after_two_seconds() {
+    let mut r = Rig::new();
+    r.take_off();
+    r.pilot.sticks.throttle = 0.0;
+    let ms = r
+        .run_until(5_000, |e| *e == Event::Disarmed(DisarmCause::Landed))
+        .expect("no landing disarm");
+    assert!((1_999..=2_001).contains(&ms), "{ms} ms");
+}
+
+#[test]
+fn no_landing_while_rotating_or_sinking() {
+    let mut r = Rig::new();
+    r.take_off();
+    r.pilot.sticks.throttle = 0.0;
+    r.vehicle.gyro.roll_rps = 30f32.to_radians();
+    r.run_ms(3_000);
+    assert!(r.fc.is_armed());
+    r.vehicle.gyro.roll_rps = 0.0;
+    r.vehicle.altitude = Some(AltitudeEstimate {
+        height_m: 10.0,
+        vertical_speed_mps: -2.0,
+    });
+    r.run_ms(3_000);
+    assert!(r.fc.is_armed(), "falling is not landed");
+    r.vehicle.altitude = Some(AltitudeEstimate {
+        height_m: 0.0,
+        vertical_speed_mps: 0.05,
+    });
+    assert!(r
+        .run_until(2_100, |e| *e == Event::Disarmed(DisarmCause::Landed))
+        .is_some());
+}
+
+#[test]
+fn no_take_off_disarms_after_five_seconds() {
+    let mut r = Rig::new();
+    r.arm();
+    let ms = r
+        .run_until(10_000, |e| *e == Event::Disarmed(DisarmCause::NoTakeOff))
+        .expect("no idle disarm");
+    assert!((4_990..=5_000).contains(&ms), "{ms} ms");
+}
+
+#[test]
+fn single_bad_sample_keeps_motors_and_persistent_fault_disarms() {
+    let mut r = Rig::new();
+    r.take_off();
+    let before = r.step().motors;
+    r.vehicle.gyro.pitch_rps = f32::NAN;
+    let out = r.step();
+    assert!(out.events.contains(Event::InputRejected));
+    assert_eq!(out.motors, before);
+    r.vehicle.gyro.pitch_rps = 0.0;
+    r.run_ms(10);
+    assert!(r.fc.is_armed());
+    r.vehicle.attitude.w = f32::INFINITY;
+    let ms = r
+        .run_until(1_000, |e| *e == Event::Disarmed(DisarmCause::SensorFault))
+        .unwrap();
+    assert!((100..=101).contains(&ms), "{ms} ms");
+}
+
+// ---- failsafe --------------------------------------------------------------
+
+#[test]
+fn link_loss_without_altitude_holds_level_then_disarms() {
+    let mut r = Rig::new();
+    r.take_off();
+    // The pilot was rolling hard when the link went.
+    r.pilot.sticks.roll = 1.0;
+    r.run_ms(10);
+    r.pilot.link_ok = false;
+    let out = r.step();
+    assert!(out.events.contains(Event::FailsafeHold { altitude: false }));
+    assert_eq!(out.state, FlightState::Failsafe(FailsafePhase::Hold));
+    // Level hold: no roll demand from the stale stick, the last collective.
+    assert!(out.rate_setpoint.roll_rps.abs() < 1e-6);
+    assert!((out.collective - 0.5).abs() < 1e-6);
+    assert!(matches!(out.motors, Motors::Run(_)));
+    let ms = r
+        .run_until(2_000, |e| {
+            *e == Event::Disarmed(DisarmCause::FailsafeNoAltitude)
+        })
+        .unwrap();
+    assert!((998..=1_000).contains(&ms), "{ms} ms");
+}
+
+#[test]
+fn link_loss_with_altitude_holds_descends_and_lands() {
+    let mut r = Rig::new();
+    r.vehicle.altitude = Some(AltitudeEstimate {
+        height_m: 5.0,
+        vertical_speed_mps: 0.0,
+    });
+    r.take_off();
+    r.pilot.link_ok = false;
+    // The arm switch reads "off" while the link is down: it is not trusted.
+    r.pilot.arm_switch = false;
+    let out = r.step();
+    assert!(out.events.contains(Event::FailsafeHold { altitude: true }));
+    assert_eq!(out.mode, FlightMode::AltitudeHold);
+    // Holding at 5 m: the collective stays at the bumpless value.
+    assert!((out.collective - 0.5).abs() < 0.02, "{}", out.collective);
+    let ms = r
+        .run_until(2_000, |e| *e == Event::FailsafeDescent)
+        .unwrap();
+    assert!((998..=1_000).contains(&ms), "{ms} ms");
+    // Descending: the collective drops below hover.
+    r.run_ms(200);
+    let c = r.last.unwrap().collective;
+    assert!(c < 0.45, "collective {c}");
+    // The model sits still on the ground: the landing detector ends it.
+    r.vehicle.altitude = Some(AltitudeEstimate {
+        height_m: 0.0,
+        vertical_speed_mps: 0.0,
+    });
+    assert!(r
+        .run_until(10_000, |e| *e
+            == Event::Disarmed(DisarmCause::FailsafeLanded))
+        .is_some());
+}
+
+#[test]
+fn link_return_gives_control_back() {
+    let mut r = Rig::new();
+    r.take_off();
+    r.pilot.link_ok = false;
+    r.run_ms(300);
+    r.pilot.link_ok = true;
+    assert_eq!(r.run_ms(1), vec![Event::FailsafeCleared]);
+    assert_eq!(r.fc.state(), FlightState::Armed);
+    r.pilot.sticks.roll = 1.0;
+    let out = r.step();
+    assert!(out.rate_setpoint.roll_rps > 0.5);
+}
+
+#[test]
+fn non_finite_stick_counts_as_link_loss() {
+    let mut r = Rig::new();
+    r.take_off();
+    r.pilot.sticks.yaw = f32::NAN;
+    let out = r.step();
+    assert!(out.events.contains(Event::FailsafeHold { altitude: false }));
+}
+
+// ---- motor test ------------------------------------------------------------
+
+#[test]
+fn motor_test_spins_one_motor_and_ends_on_stick_movement() {
+    let mut r = Rig::new();
+    r.run_ms(10);
+    r.fc.start_motor_test(2, &r.pilot).unwrap();
+    let out = r.step();
+    assert!(out.events.contains(Event::MotorTestStarted(2)));
+    assert_eq!(out.state, FlightState::MotorTest(2));
+    assert_eq!(out.motors, Motors::Run([0.0, 0.0, 0.08, 0.0]));
+    r.run_ms(500);
+    r.pilot.sticks.pitch = 0.05; // inside the tolerance
+    r.run_ms(10);
+    assert_eq!(r.fc.state(), FlightState::MotorTest(2));
+    r.pilot.sticks.pitch = 0.2;
+    assert_eq!(
+        r.run_ms(1),
+        vec![Event::MotorTestEnded(MotorTestEnd::StickMoved)]
+    );
+    assert_eq!(r.last.unwrap().motors, Motors::Off);
+}
+
+#[test]
+fn motor_test_ends_on_link_loss_arm_switch_timeout_and_stop() {
+    let ends: [(MotorTestEnd, Setup); 3] = [
+        (MotorTestEnd::LinkLost, |r| r.pilot.link_ok = false),
+        (MotorTestEnd::ArmSwitch, |r| r.pilot.arm_switch = true),
+        (MotorTestEnd::Stopped, |r| r.fc.stop_motor_test()),
+    ];
+    for (end, act) in ends {
+        let mut r = Rig::new();
+        r.run_ms(10);
+        r.fc.start_motor_test(0, &r.pilot).unwrap();
+        r.run_ms(100);
+        act(&mut r);
+        assert_eq!(r.run_ms(1), vec![Event::MotorTestEnded(end)], "{end:?}");
+        assert_eq!(r.fc.state(), FlightState::Disarmed);
+        // The arm switch that ended the test does not arm.
+        assert!(r.run_ms(100).is_empty());
+    }
+    let mut r = Rig::new();
+    r.run_ms(10);
+    r.fc.start_motor_test(3, &r.pilot).unwrap();
+    let ms = r
+        .run_until(10_000, |e| {
+            *e == Event::MotorTestEnded(MotorTestEnd::Timeout)
+        })
+        .unwrap();
+    assert!((4_999..=5_001).contains(&ms), "{ms} ms");
+}
+
+#[test]
+fn motor_test_refusals() {
+    let mut r = Rig::new();
+    r.run_ms(10);
+    assert_eq!(
+        r.fc.start_motor_test(4, &r.pilot),
+        Err(MotorTestRefusal::InvalidMotor)
+    );
+    let mut lost = r.pilot;
+    lost.link_ok = false;
+    assert_eq!(
+        r.fc.start_motor_test(0, &lost),
+        Err(MotorTestRefusal::LinkLost)
+    );
+    let mut sw = r.pilot;
+    sw.arm_switch = true;
+    assert_eq!(
+        r.fc.start_motor_test(0, &sw),
+        Err(MotorTestRefusal::ArmSwitchOn)
+    );
+    r.take_off();
+    let mut off = r.pilot;
+    off.arm_switch = false;
+    assert_eq!(r.fc.start_motor_test(0, &off), Err(MotorTestRefusal::Armed));
+}
+
+// ---- modes -----------------------------------------------------------------
+
+#[test]
+fn altitude_hold_without_altitude_falls_back_to_angle_once() {
+    let mut r = Rig::new();
+    r.pilot.mode = FlightMode::AltitudeHold;
+    r.arm();
+    r.pilot.sticks.throttle = 0.6;
+    let ev = r.run_ms(100);
+    assert_eq!(ev, vec![Event::AltitudeUnavailable]);
+    assert_eq!(r.last.unwrap().mode, FlightMode::Angle);
+    assert!((r.last.unwrap().collective - 0.6).abs() < 1e-6);
+}
+
+#[test]
+fn altitude_hold_holds_at_mid_stick_and_climbs_above() {
+    let mut r = Rig::new();
+    r.vehicle.altitude = Some(AltitudeEstimate {
+        height_m: 3.0,
+        vertical_speed_mps: 0.0,
+    });
+    r.take_off();
+    r.pilot.mode = FlightMode::AltitudeHold;
+    r.run_ms(500);
+    let hold = r.last.unwrap();
+    assert_eq!(hold.mode, FlightMode::AltitudeHold);
+    assert!((hold.collective - 0.5).abs() < 0.02, "{}", hold.collective);
+    r.pilot.sticks.throttle = 1.0;
+    r.run_ms(300);
+    assert!(r.last.unwrap().collective > 0.55);
+}
+
+#[test]
+fn time_standing_still_does_not_rerun_the_loops() {
+    let mut r = Rig::new();
+    r.take_off();
+    let a = r.step();
+    let b = r.fc.step(r.now_us, &r.pilot, &r.status, &r.vehicle);
+    assert_eq!(a.motors, b.motors);
+}
+
+#[test]
+fn motors_off_whenever_disarmed_under_random_inputs() {
+    // Deterministic pseudo-random walk through every input; `Rig::step`
+    // asserts Off in every disarmed step.
+    let mut r = Rig::new();
+    let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut rnd = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 11) as f32 / (1u64 << 53) as f32
+    };
+    let (mut armed_steps, mut disarmed_steps) = (0, 0);
+    for _ in 0..20_000 {
+        if rnd() < 0.01 {
+            r.pilot.arm_switch = rnd() < 0.6;
+        }
+        if rnd() < 0.002 {
+            r.pilot.link_ok = rnd() < 0.8;
+        }
+        if rnd() < 0.01 {
+            r.pilot.sticks.throttle = if rnd() < 0.5 { 0.0 } else { rnd() };
+            r.pilot.sticks.roll = 2.0 * rnd() - 1.0;
+        }
+        if rnd() < 0.005 {
+            r.vehicle.attitude = tilted_deg(90.0 * rnd());
+        }
+        if rnd() < 0.001 {
+            let _ = r.fc.start_motor_test((rnd() * 5.0) as u8, &r.pilot);
+        }
+        let out = r.step();
+        if let Motors::Run(m) = out.motors {
+            for v in m {
+                assert!((0.0..=1.0).contains(&v));
+            }
+        }
+        if r.fc.is_armed() {
+            armed_steps += 1;
+        } else {
+            disarmed_steps += 1;
+        }
+    }
+    // The walk visits both sides.
+    assert!(
+        armed_steps > 1_000 && disarmed_steps > 1_000,
+        "{armed_steps} {disarmed_steps}"
+    );
+}
+
+#[test]
+fn no_integrator_windup_before_take_off() {
+    let mut r = Rig::new();
+    r.arm();
+    // Sitting 10° tilted on uneven ground, throttle low: a constant
+    // self-level demand that the vehicle cannot follow.
+    r.vehicle.attitude = tilted_deg(10.0);
+    r.run_ms(100);
+    let early = r.last.unwrap().torque.roll;
+    r.run_ms(3_000);
+    let late = r.last.unwrap().torque.roll;
+    assert!(early < 0.0, "levelling demand expected");
+    assert!((early - late).abs() < 1e-6, "wound up: {early} → {late}");
+    // In the air the integrator acts.
+    r.pilot.sticks.throttle = 0.5;
+    r.run_ms(500);
+    assert!(r.last.unwrap().torque.roll < late - 0.05);
+}
+
+/// Rotational rigid body around the controller's motor outputs (the
+/// mixer's inverse, 25 ms motor lag, 120 rad/s² per unit torque).
+fn fly_roll_stick(mode: FlightMode, stick: f32, ms: u32) -> (Rig, Vec<f32>) {
+    let mut r = Rig::new();
+    r.pilot.mode = mode;
+    r.take_off();
+    let mut motors = [0.5f32; 4];
+    let mut w = [0.0f32; 3];
+    let mut q = Quat::IDENTITY;
+    let mut roll_trace = Vec::new();
+    r.pilot.sticks.roll = stick;
+    for _ in 0..ms {
+        r.vehicle.attitude = q;
+        r.vehicle.gyro = BodyRates {
+            roll_rps: w[0],
+            pitch_rps: w[1],
+            yaw_rps: w[2],
+        };
+        let cmd = r.step().motors.commands();
+        for (m, c) in motors.iter_mut().zip(cmd) {
+            *m += (1.0 / 26.0) * (c - *m);
+        }
+        let (_, t) = control::mixer::unmix(&motors);
+        w[0] += 120.0 * t.roll * 1e-3;
+        w[1] += 120.0 * t.pitch * 1e-3;
+        w[2] += 25.0 * t.yaw * 1e-3;
+        let dq = q.mul(&Quat {
+            w: 0.0,
+            x: w[0],
+            y: w[1],
+            z: w[2],
+        });
+        let v = Quat {
+            w: q.w + 0.5e-3 * dq.w,
+            x: q.x + 0.5e-3 * dq.x,
+            y: q.y + 0.5e-3 * dq.y,
+            z: q.z + 0.5e-3 * dq.z,
+        };
+        let k = 1.0 / (v.w * v.w + v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
+        q = Quat {
+            w: v.w * k,
+            x: v.x * k,
+            y: v.y * k,
+            z: v.z * k,
+        };
+        roll_trace.push((2.0 * (q.w * q.x + q.y * q.z)).atan2(1.0 - 2.0 * (q.x * q.x + q.y * q.y)));
+    }
+    (r, roll_trace)
+}
+
+#[test]
+fn closed_loop_angle_mode_stick_holds_the_commanded_tilt() {
+    // Half stick, no expo on angles: 15° of the 30° maximum.
+    let (r, roll) = fly_roll_stick(FlightMode::Angle, 0.5, 1_500);
+    let target = (0.5f32 - 0.02) / 0.98 * 30.0;
+    let last = roll.last().unwrap().to_degrees();
+    let peak = roll.iter().cloned().fold(f32::MIN, f32::max).to_degrees();
+    assert!((last - target).abs() < 0.5, "{last}° for {target}°");
+    assert!(peak < target * 1.1, "overshoot: {peak}°");
+    assert!(r.fc.is_armed());
+}
+
+#[test]
+fn closed_loop_acro_stick_gives_the_shaped_rate() {
+    let (r, roll) = fly_roll_stick(FlightMode::Acro, 1.0, 600);
+    // Full stick: 500 °/s; rolling continuously (acro may flip).
+    let out = r.last.unwrap();
+    assert!((out.rate_setpoint.roll_rps - 500f32.to_radians()).abs() < 1e-3);
+    let n = roll.len();
+    // Unwrapped roll over the last 100 ms ≈ 50°.
+    let mut d = roll[n - 1] - roll[n - 101];
+    if d < 0.0 {
+        d += 2.0 * core::f32::consts::PI;
+    }
+    assert!(
+        (d.to_degrees() - 50.0).abs() < 5.0,
+        "{}°/100 ms",
+        d.to_degrees()
+    );
+}
+
+#[test]
+fn altitude_lost_during_failsafe_descent_still_lands() {
+    let mut r = Rig::new();
+    r.vehicle.altitude = Some(AltitudeEstimate {
+        height_m: 5.0,
+        vertical_speed_mps: 0.0,
+    });
+    r.take_off();
+    r.pilot.link_ok = false;
+    assert!(r
+        .run_until(1_100, |e| *e == Event::FailsafeDescent)
+        .is_some());
+    r.vehicle.altitude = None; // the barometer fails
+    let c0 = r.step().collective;
+    r.run_ms(1_000);
+    let c1 = r.last.unwrap().collective;
+    assert!(c1 < c0 - 0.04, "collective {c0} → {c1}");
+    assert!(r
+        .run_until(30_000, |e| *e
+            == Event::Disarmed(DisarmCause::FailsafeLanded))
+        .is_some());
+}
+
+#[test]
+fn vehicle_state_from_the_pipeline_is_body_frd_in_rad_per_s() {
+    use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
+    let mut p = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
+    p.set_gyro_bias_counts([0; 3]);
+    // 328 counts at 32.8 counts/(°/s) = 10 °/s about each MPU axis.
+    p.imu_step(&ImuInput {
+        accel: [0, 0, 8192],
+        gyro: [328, 328, 328],
+        dt_cycles: 72_000,
+    });
+    let v = VehicleState::from_pipeline(&p);
+    let ten = 10f32.to_radians();
+    // Default mounting: body = (x, −y, −z) of the MPU.
+    assert!((v.gyro.roll_rps - ten).abs() < 1e-3, "{:?}", v.gyro);
+    assert!((v.gyro.pitch_rps + ten).abs() < 1e-3);
+    assert!((v.gyro.yaw_rps + ten).abs() < 1e-3);
+    assert!(v.altitude.is_none(), "no barometer reading yet");
+    let n = v.attitude.w * v.attitude.w + v.attitude.x * v.attitude.x;
+    assert!(n > 0.99);
+    let esc =
+        control::esc::EscTimer::for_clock(control::esc::EscProtocol::OneShot125, 2_000, 72_000_000)
+            .unwrap();
+    assert_eq!(Motors::Off.compares(&esc), [9_000; 4]);
+    assert_eq!(
+        Motors::Run([0.0, 1.0, 0.5, 0.0]).compares(&esc),
+        [9_000, 18_000, 13_500, 9_000]
+    );
+}
+
+#[test]
+fn receiver_sticks_map_with_the_same_signs() {
+    use rc_input::{ChannelMap, ChannelOrder, RcFrame};
+    let map = ChannelMap::new(ChannelOrder::AETR);
+    let mut ch = [1500u16; 16];
+    ch[0] = 2000; // roll full right
+    ch[1] = 2000; // pitch full forward
+    ch[2] = 1000; // throttle low
+    let sticks = map.sticks(&RcFrame::new(ch, 8)).unwrap();
+    let pilot = PilotInput::from_rc(&sticks, false, FlightMode::Acro, true);
+    let mut r = Rig::new();
+    r.pilot = pilot;
+    r.pilot.mode = FlightMode::Acro;
+    r.arm();
+    r.pilot = PilotInput::from_rc(&sticks, true, FlightMode::Acro, true);
+    let out = r.step();
+    // Right roll stick → right wing down (+p); forward → nose down (−q).
+    assert!(out.rate_setpoint.roll_rps > 8.0);
+    assert!(out.rate_setpoint.pitch_rps < -8.0);
+}

@@ -1,0 +1,317 @@
+//! USART receiver (RM0008 §27): BRR, CR1 UE/RE/RXNEIE/IDLEIE, SR with
+//! RXNE, ORE, IDLE and FE and the manual's clear sequences, for bytes the
+//! host puts on the RX line (8N1 frames at the line's own baud rate).
+//!
+//! Timing: a byte whose start bit begins at `t` is in DR (RXNE) at the
+//! middle of its stop bit, `t + 9.5` bit times; the line idle for one whole
+//! frame after a stop bit sets IDLE (only once after each RXNE, §27.6.1).
+//! A byte that completes while RXNE is still set is lost and sets ORE; DR
+//! keeps the unread byte (§27.3.3 "Overrun error"). The receiver's own
+//! baud rate (f_PCLK / BRR, 16× oversampling) must be within the manual's
+//! receiver tolerance of the line's (§27.3.5: 3.75 % with DIV_Fraction = 0
+//! and M = 0; the model takes it for every BRR) or each byte is received
+//! with FE set.
+//!
+//! Not modelled (stop the board with an error if switched on): the
+//! transmitter, parity, 9-bit words, LIN, IrDA, smartcard, half-duplex,
+//! hardware flow control, DMA, multiprocessor wake-up.
+
+use std::collections::VecDeque;
+
+/// Register offsets (RM0008 §27.6.8, table 190).
+pub mod reg {
+    /// Status register.
+    pub const SR: u32 = 0x00;
+    /// Data register.
+    pub const DR: u32 = 0x04;
+    /// Baud rate register.
+    pub const BRR: u32 = 0x08;
+    /// Control register 1.
+    pub const CR1: u32 = 0x0C;
+    /// Control register 2.
+    pub const CR2: u32 = 0x10;
+    /// Control register 3.
+    pub const CR3: u32 = 0x14;
+    /// Guard time and prescaler register.
+    pub const GTPR: u32 = 0x18;
+}
+
+/// SR bits.
+pub mod sr {
+    /// Parity error.
+    pub const PE: u32 = 1 << 0;
+    /// Framing error.
+    pub const FE: u32 = 1 << 1;
+    /// Noise error.
+    pub const NE: u32 = 1 << 2;
+    /// Overrun error.
+    pub const ORE: u32 = 1 << 3;
+    /// Idle line detected.
+    pub const IDLE: u32 = 1 << 4;
+    /// Read data register not empty.
+    pub const RXNE: u32 = 1 << 5;
+    /// Transmission complete (set at reset).
+    pub const TC: u32 = 1 << 6;
+    /// Transmit data register empty (set at reset).
+    pub const TXE: u32 = 1 << 7;
+}
+
+/// CR1 bits.
+pub mod cr1 {
+    /// Receiver enable.
+    pub const RE: u32 = 1 << 2;
+    /// Transmitter enable.
+    pub const TE: u32 = 1 << 3;
+    /// IDLE interrupt enable.
+    pub const IDLEIE: u32 = 1 << 4;
+    /// RXNE (and ORE) interrupt enable.
+    pub const RXNEIE: u32 = 1 << 5;
+    /// USART enable.
+    pub const UE: u32 = 1 << 13;
+}
+
+/// Receiver tolerance to the line's baud rate (RM0008 §27.3.5, table 180).
+pub const RX_TOLERANCE: f64 = 0.0375;
+
+/// The USART's state.
+#[derive(Clone, Debug)]
+pub struct Usart {
+    name: &'static str,
+    pclk_hz: u32,
+    sr: u32,
+    dr: u8,
+    brr: u32,
+    cr1: u32,
+    /// Error and IDLE flags seen by the last SR read (the first half of
+    /// their clear sequence).
+    sr_read: u32,
+    /// Bytes on the line: (start-bit time in ns, byte, line baud).
+    line: VecDeque<(u64, u8, u32)>,
+    /// When the line went idle after the last byte's stop bit.
+    idle_from_ns: Option<u64>,
+    /// Bytes received into DR, and lost to overrun.
+    received: u64,
+    overruns: u64,
+}
+
+fn bit_ns(baud: u32) -> f64 {
+    1e9 / f64::from(baud.max(1))
+}
+
+impl Usart {
+    /// Reset state (SR = 0x00C0, every other register 0) on a bus clock of
+    /// `pclk_hz`.
+    pub fn new(name: &'static str, pclk_hz: u32) -> Self {
+        Self {
+            name,
+            pclk_hz,
+            sr: sr::TC | sr::TXE,
+            dr: 0,
+            brr: 0,
+            cr1: 0,
+            sr_read: 0,
+            line: VecDeque::new(),
+            idle_from_ns: None,
+            received: 0,
+            overruns: 0,
+        }
+    }
+
+    /// Peripheral or MCU reset: registers to reset values; what is on the
+    /// line stays on the line.
+    pub fn reset(&mut self) {
+        let line = std::mem::take(&mut self.line);
+        *self = Self {
+            line,
+            ..Self::new(self.name, self.pclk_hz)
+        };
+    }
+
+    /// Sets the bus clock (RCC prescalers).
+    pub fn set_pclk_hz(&mut self, hz: u32) {
+        self.pclk_hz = hz;
+    }
+
+    /// The receiver's baud rate from BRR (16× oversampling: f_PCLK / BRR).
+    pub fn baud(&self) -> Option<f64> {
+        (self.brr >= 16).then(|| f64::from(self.pclk_hz) / f64::from(self.brr))
+    }
+
+    fn receiving(&self) -> bool {
+        self.cr1 & (cr1::UE | cr1::RE) == cr1::UE | cr1::RE
+    }
+
+    /// Puts `bytes` on the RX line back to back at `baud`, the first start
+    /// bit at `start_ns` (or when the line is free, if later).
+    pub fn inject(&mut self, bytes: &[u8], baud: u32, start_ns: u64) {
+        let frame = 10.0 * bit_ns(baud);
+        let mut t = self.line.back().map_or(start_ns, |&(s, _, b)| {
+            start_ns.max(s + (10.0 * bit_ns(b)).ceil() as u64)
+        });
+        for &b in bytes {
+            self.line.push_back((t, b, baud));
+            t += frame.round() as u64;
+        }
+    }
+
+    /// When the line has nothing queued any more (ns).
+    pub fn line_free_ns(&self) -> Option<u64> {
+        self.line
+            .back()
+            .map(|&(s, _, b)| s + (10.0 * bit_ns(b)).ceil() as u64)
+    }
+
+    /// Bytes received into DR and bytes lost to overrun since reset.
+    pub fn counts(&self) -> (u64, u64) {
+        (self.received, self.overruns)
+    }
+
+    /// Brings the receiver to `now_ns`: every byte whose stop bit has been
+    /// sampled lands in DR (or overruns); a quiet line sets IDLE.
+    pub fn advance(&mut self, now_ns: u64) {
+        while let Some(&(start, byte, baud)) = self.line.front() {
+            let bit = bit_ns(baud);
+            let done = start + (9.5 * bit).round() as u64;
+            if let Some(idle) = self.idle_from_ns {
+                let idle_at = idle + (10.0 * bit).round() as u64;
+                if start >= idle_at && idle_at <= now_ns {
+                    self.set_idle();
+                }
+            }
+            if done > now_ns {
+                return;
+            }
+            self.line.pop_front();
+            if !self.receiving() {
+                continue;
+            }
+            self.receive(byte, baud);
+            self.idle_from_ns = Some(start + (10.0 * bit).round() as u64);
+        }
+        if let Some(idle) = self.idle_from_ns {
+            // Idle detection is at the receiver's own rate.
+            let bit = self.baud().map_or(0.0, |b| 1e9 / b);
+            if idle + (10.0 * bit).round() as u64 <= now_ns {
+                self.set_idle();
+            }
+        }
+    }
+
+    fn set_idle(&mut self) {
+        if self.receiving() {
+            self.sr |= sr::IDLE;
+        }
+        self.idle_from_ns = None;
+    }
+
+    fn receive(&mut self, byte: u8, line_baud: u32) {
+        let framing_ok = self
+            .baud()
+            .is_some_and(|b| (b / f64::from(line_baud) - 1.0).abs() <= RX_TOLERANCE);
+        if self.sr & sr::RXNE != 0 {
+            self.sr |= sr::ORE;
+            self.overruns += 1;
+            return;
+        }
+        self.dr = byte;
+        self.sr |= sr::RXNE;
+        if !framing_ok {
+            self.sr |= sr::FE;
+        }
+        self.received += 1;
+    }
+
+    /// When the next byte lands in DR or IDLE sets (for the scheduler).
+    pub fn next_event_ns(&self) -> Option<u64> {
+        let byte = self
+            .line
+            .front()
+            .map(|&(s, _, b)| s + (9.5 * bit_ns(b)).round() as u64);
+        let idle = self.idle_from_ns.and_then(|t| {
+            self.baud()
+                .map(|b| t + (10.0 * 1e9 / b).round() as u64)
+                .filter(|_| self.receiving())
+        });
+        match (byte, idle) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// The interrupt line (RM0008 §27.4, figure 296): RXNE or ORE with
+    /// RXNEIE, IDLE with IDLEIE.
+    pub fn irq(&self) -> bool {
+        let rx = self.cr1 & cr1::RXNEIE != 0 && self.sr & (sr::RXNE | sr::ORE) != 0;
+        let idle = self.cr1 & cr1::IDLEIE != 0 && self.sr & sr::IDLE != 0;
+        rx || idle
+    }
+
+    /// Register read at `offset`; `None`: not modelled.
+    pub fn read(&mut self, offset: u32, now_ns: u64) -> Option<u32> {
+        self.advance(now_ns);
+        Some(match offset {
+            reg::SR => {
+                self.sr_read = self.sr & (sr::PE | sr::FE | sr::NE | sr::ORE | sr::IDLE);
+                self.sr
+            }
+            reg::DR => {
+                // A DR read clears RXNE, and the flags the SR read before it
+                // saw (the clear sequences of §27.6.1).
+                self.sr &= !(sr::RXNE | self.sr_read);
+                self.sr_read = 0;
+                u32::from(self.dr)
+            }
+            reg::BRR => self.brr,
+            reg::CR1 => self.cr1,
+            reg::CR2 | reg::CR3 | reg::GTPR => 0,
+            _ => return None,
+        })
+    }
+
+    /// Register write at `offset`. `None`: not modelled; `Some(Err)`: a
+    /// feature the model does not have.
+    pub fn write(&mut self, offset: u32, v: u32, now_ns: u64) -> Option<Result<(), String>> {
+        self.advance(now_ns);
+        let unsupported = |what: &str| Some(Err(format!("{}: {what} not modelled", self.name)));
+        match offset {
+            // RXNE may be cleared by writing 0; the error flags are read-only.
+            reg::SR => {
+                if v & sr::RXNE == 0 {
+                    self.sr &= !sr::RXNE;
+                }
+                if v & sr::TC == 0 {
+                    self.sr &= !sr::TC;
+                }
+            }
+            reg::DR => return unsupported("transmitter (DR write)"),
+            reg::BRR => self.brr = v & 0xFFFF,
+            reg::CR1 => {
+                let allowed = cr1::UE | cr1::RE | cr1::RXNEIE | cr1::IDLEIE;
+                if v & !allowed != 0 {
+                    return unsupported(
+                        "CR1 bits other than UE, RE, RXNEIE, IDLEIE (transmitter, parity, 9-bit, wake-up)",
+                    );
+                }
+                if v & cr1::UE != 0 && self.brr < 16 {
+                    return Some(Err(format!(
+                        "{}: enabled with BRR = {:#x} (below 16: no valid baud rate)",
+                        self.name, self.brr
+                    )));
+                }
+                self.cr1 = v & 0x3FFF;
+            }
+            reg::CR2 => {
+                if v & (3 << 12) != 0 || v & (1 << 14) != 0 {
+                    return unsupported("stop bits other than 1, LIN");
+                }
+            }
+            reg::CR3 | reg::GTPR => {
+                if v != 0 {
+                    return unsupported("CR3 (DMA, flow control, IrDA, smartcard) / GTPR");
+                }
+            }
+            _ => return None,
+        }
+        Some(Ok(()))
+    }
+}

@@ -1,0 +1,134 @@
+//! ESC outputs: TIM3 CH1–CH4 on PA6, PA7, PB0, PB1 (RM0008 §9.3.7, no
+//! remap; clear of I2C1 on PB6/PB7), edge-aligned PWM mode 1 with the
+//! compare registers preloaded so a new command starts with the next frame
+//! and never cuts a pulse short. The pulse widths and the timer set-up come
+//! from `control::esc::EscTimer`; this module only writes registers.
+//!
+//! The "off" pulse is on the pins from the first boot step after the clock
+//! switch, before anything that can take time (sensor probing), and the
+//! panic and HardFault paths write it again (`force_off`).
+
+use control::esc::EscTimer;
+use core::sync::atomic::{AtomicU16, Ordering};
+use flight::flightctl::Motors;
+use stm32f1xx_hal::pac;
+
+/// Compare value of the off pulse, published for the fault paths (0: the
+/// outputs were never started).
+static OFF_COMPARE: AtomicU16 = AtomicU16::new(0);
+
+/// The four ESC channels, in motor order 1–4.
+pub struct EscOutputs {
+    tim: pac::TIM3,
+    timer: EscTimer,
+}
+
+impl EscOutputs {
+    /// Clocks TIM3, puts the off pulse on all four channels, starts the
+    /// counter and hands the pins to the timer (pins switch last, so the
+    /// first edge on them is the start of an off pulse).
+    pub fn start(tim: pac::TIM3, timer: EscTimer) -> Self {
+        // SAFETY: RCC APB1ENR/APB2ENR read-modify-writes in init, before
+        // any task runs; the HAL's `Rcc` is not used for these bits.
+        #[allow(unsafe_code)]
+        let rcc = unsafe { &*pac::RCC::ptr() };
+        rcc.apb1enr().modify(|_, w| w.tim3en().set_bit());
+        rcc.apb2enr()
+            .modify(|_, w| w.iopaen().set_bit().iopben().set_bit());
+        let off = timer.off_compare();
+        tim.psc().write(|w| w.psc().set(timer.prescaler()));
+        tim.arr().write(|w| w.arr().set(timer.auto_reload()));
+        for ch in 0..4 {
+            tim.ccr(ch).write(|w| w.ccr().set(off));
+        }
+        // OCxM = 110 (PWM mode 1), OCxPE = 1, CCxS = 00 (output).
+        const PWM1_PRELOAD: u32 = 0x68;
+        let ccmr = PWM1_PRELOAD | (PWM1_PRELOAD << 8);
+        // SAFETY: CCMR1/2 output-compare layout, value from RM0008 §15.4.7.
+        #[allow(unsafe_code)]
+        unsafe {
+            tim.ccmr1_output().write(|w| w.bits(ccmr));
+            tim.ccmr2_output().write(|w| w.bits(ccmr));
+            // CC1E..CC4E, active high.
+            tim.ccer().write(|w| w.bits(0x1111));
+        }
+        // UG loads PSC, ARR and CCRx into their shadows before counting.
+        tim.egr().write(|w| w.ug().set_bit());
+        tim.cr1().write(|w| w.arpe().set_bit().cen().set_bit());
+        OFF_COMPARE.store(off, Ordering::Relaxed);
+        pins_to_timer();
+        Self { tim, timer }
+    }
+
+    /// The timer set-up in use.
+    pub fn timer(&self) -> &EscTimer {
+        &self.timer
+    }
+
+    /// Writes four compare values (from the next frame on).
+    pub fn write(&mut self, compare: [u16; 4]) {
+        for (ch, c) in compare.into_iter().enumerate() {
+            self.tim.ccr(ch).write(|w| w.ccr().set(c));
+        }
+    }
+
+    /// The off pulse on all four channels.
+    pub fn off(&mut self) {
+        self.write([self.timer.off_compare(); 4]);
+    }
+
+    /// The flight controller's motors: mixer motor index `i` on channel
+    /// `i + 1` (`Motors::Off`: the off pulse).
+    pub fn set(&mut self, motors: &Motors) {
+        match motors {
+            Motors::Off => self.off(),
+            Motors::Run(m) => {
+                let c = m.map(|m| self.timer.compare(m));
+                self.write(c);
+            }
+        }
+    }
+}
+
+/// PA6/PA7 (CRL nibbles 6, 7) and PB0/PB1 (CRL nibbles 0, 1): alternate
+/// function push-pull, 2 MHz (an ESC signal edge needs no more; slower
+/// edges radiate less into the receiver).
+fn pins_to_timer() {
+    const AF_PP_2MHZ: u32 = 0b1010;
+    // SAFETY: read-modify-write of the four pins' nibbles in init, before
+    // any task runs; no other code owns these pins.
+    #[allow(unsafe_code)]
+    unsafe {
+        let gpioa = &*pac::GPIOA::ptr();
+        gpioa.crl().modify(|r, w| {
+            w.bits((r.bits() & 0x00FF_FFFF) | (AF_PP_2MHZ << 24) | (AF_PP_2MHZ << 28))
+        });
+        let gpiob = &*pac::GPIOB::ptr();
+        gpiob
+            .crl()
+            .modify(|r, w| w.bits((r.bits() & 0xFFFF_FF00) | AF_PP_2MHZ | (AF_PP_2MHZ << 4)));
+    }
+}
+
+/// Fault paths (panic, HardFault): the off pulse on all four channels.
+///
+/// Writes the off compare value rather than stopping the timer: an ESC
+/// that stops seeing pulses reacts after its own signal-loss timeout, and
+/// some hold the last throttle until then; the off pulse is the one input
+/// every ESC obeys within a frame, and the pins stay driven instead of
+/// floating. (The preload means the pulse in flight finishes first: at
+/// most one more frame, 2.5 ms at 400 Hz.) Nothing is written if the
+/// outputs were never started: then the pins are still inputs.
+pub fn force_off() {
+    let off = OFF_COMPARE.load(Ordering::Relaxed);
+    if off == 0 {
+        return;
+    }
+    // SAFETY: only the CCR registers of a timer `start` configured; on a
+    // fault path nothing else runs any more.
+    #[allow(unsafe_code)]
+    let tim = unsafe { &*pac::TIM3::ptr() };
+    for ch in 0..4 {
+        tim.ccr(ch).write(|w| w.ccr().set(off));
+    }
+}
