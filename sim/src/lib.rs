@@ -53,7 +53,9 @@ pub mod spi;
 pub mod wire;
 pub mod world;
 
-pub use bus::{magnet_pass, Chip, Fault, SimBus, SimBusError, SimConfig, AK8963_ADDRESS};
+pub use bus::{
+    magnet_pass, magnet_ride, Chip, Fault, SimBus, SimBusError, SimConfig, AK8963_ADDRESS,
+};
 pub use clock::{SimClock, SimDelay};
 pub use errors::SensorErrors;
 pub use math::{Quat, Vec3};

@@ -33,7 +33,7 @@
 // an out-of-line call at the firmware's opt-level "z".
 #![allow(clippy::manual_clamp)]
 
-use crate::config::{Algorithm, Config, UpdatePath, UpdateStatus};
+use crate::config::{Algorithm, Config, MagState, UpdatePath, UpdateStatus};
 use crate::Quaternion;
 
 const ONE_Q30: i64 = 1 << 30;
@@ -241,6 +241,31 @@ fn half_angles(w: [i32; 3], dt_q31: i32, clamped: &mut bool) -> [i32; 3] {
         }
     };
     [h(w[0]), h(w[1]), h(w[2])]
+}
+
+/// |ω·dt| (Q51) beyond which the full filter's gyro step is split: 2·(1/32) rad.
+const SUBSTEP_WDT_Q51: u64 = 1 << 47;
+
+/// The full filter's gyro step split into n = 1 + ⌊|ω·dt|max / (1/16)⌋ (at most
+/// `MAX_SUBSTEPS`) equal sub-steps, renormalised between them, the last one left for the
+/// caller's renormalisation (as the f32 filter). At ≤ 1/32 rad of half angle per
+/// sub-step the first-order step's error (2(h − atan h) ≈ ⅔h³ rad) is 0.001° each, ~0.5°
+/// over the 559 sub-steps of 2000 °/s for 1 s; at 1 kHz the MPU-9250's 2000 °/s is one
+/// step and never comes here (out of line: the common path stays short).
+#[inline(never)]
+fn substep(q: [i32; 4], w: [i32; 3], dt_q31: i32, clamped: &mut bool) -> [i64; 4] {
+    let m = w
+        .iter()
+        .map(|&x| m64(x, dt_q31).unsigned_abs())
+        .max()
+        .unwrap_or(0);
+    let n = ((m / SUBSTEP_WDT_Q51) as u32).min(crate::madgwick::MAX_SUBSTEPS - 1) + 1;
+    let dt_sub = dt_q31 / n as i32;
+    let mut q0 = q;
+    for _ in 1..n {
+        q0 = renormalise(propagate(q0, half_angles(w, dt_sub, clamped))).unwrap_or(q0);
+    }
+    propagate(q0, half_angles(w, dt_sub, clamped))
 }
 
 /// |ω|² in Q40 for ω in Q20: three squares ≤ 2^62 each sum exactly in u64 (< 3·2^62),
@@ -460,7 +485,7 @@ pub struct FixedConfig {
     /// The physical configuration this was built from.
     pub cfg: Config,
     beta_q24: i32,
-    beta_mag_q24: i32,
+    inv_heading_tau_q24: i32,
     startup_beta_q24: i32,
     half_scale_tol_q30: i64,
     inv_scale_tau_q20: i64,
@@ -482,6 +507,8 @@ pub struct FixedConfig {
     mag_recovery_q20: i64,
     mag_min_rate_sq_q40: i64,
     mag_fallback_q20: i64,
+    /// 1/`ref_tau_s` in Q30 (≤ 1/s; 0 = frozen).
+    inv_mag_ref_tau_q30: i64,
     inv_tilt_tau_q20: i64,
     inv_tilt_tau0_q20: i64,
     inv_g_q32: i32,
@@ -555,7 +582,10 @@ impl FixedConfig {
         Self {
             cfg: *cfg,
             beta_q24: float_to_q(cfg.beta, 24),
-            beta_mag_q24: float_to_q(cfg.beta_mag, 24),
+            inv_heading_tau_q24: float_to_q(
+                crate::madgwick::inv_heading_tau(cfg.heading_tau_s),
+                24,
+            ),
             startup_beta_q24: float_to_q(cfg.startup_beta, 24),
             // ½·tol in Q30, tol clamped to [0, 1] (NaN → 0).
             half_scale_tol_q30: f30(0.5 * cfg.gyro_scale_tol.clamp(0.0, 1.0)),
@@ -579,6 +609,11 @@ impl FixedConfig {
             mag_recovery_q20: s_to_q20(mr.recovery_s),
             mag_min_rate_sq_q40: sq_q40(mr.recovery_min_rate_rps),
             mag_fallback_q20: s_to_q20(mr.fallback_s),
+            inv_mag_ref_tau_q30: if mr.ref_tau_s > 0.0 {
+                f30((1.0 / mr.ref_tau_s).min(1.0))
+            } else {
+                0
+            },
             inv_tilt_tau_q20: inv_q20(cfg.tilt_tau_s),
             inv_tilt_tau0_q20: inv_q20(cfg.tilt_tau_s.min(crate::madgwick::STARTUP_TILT_TAU_S)),
             inv_g_q32,
@@ -828,7 +863,14 @@ impl MadgwickFixed {
         // Gyro step, not yet renormalised: ‖q‖² ≤ 1 + 3/16 (half angles ≤ ¼ per axis),
         // so the rows of R below stay < 2^31 (they carry ‖q‖², a common scale the
         // corrections do not see), and one renormalisation after the corrections does.
-        let nq = propagate(self.q, half_angles(w, dt_q31, &mut st.gyro_step_clamped));
+        // A step whose rotation is too large for one first-order step is split into
+        // equal sub-steps (as the f32 filter), renormalised between them.
+        let big = |x: i32| m64(x, dt_q31).unsigned_abs() >= SUBSTEP_WDT_Q51;
+        let nq = if big(w[0]) || big(w[1]) || big(w[2]) {
+            substep(self.q, w, dt_q31, &mut st.gyro_step_clamped)
+        } else {
+            propagate(self.q, half_angles(w, dt_q31, &mut st.gyro_step_clamped))
+        };
         let q = nq.map(|a| ((a + (1 << 29)) >> 30) as i32);
         let r = rows(q);
         self.track_vertical_rate(r[2], w, dt_q31);
@@ -1032,6 +1074,7 @@ impl MadgwickFixed {
     ) -> Option<i32> {
         let Some((m, n2)) = unit3(mag) else {
             st.mag_invalid = true;
+            st.mag_state = MagState::Invalid;
             return None;
         };
         // h = R m (eq. 45), NED, Q30.
@@ -1041,41 +1084,52 @@ impl MadgwickFixed {
             return None;
         }
         // Heading error, as the f32 filter: the east component over the north one (tan of
-        // the error) in units of the linear zone, ±1 beyond it or with the field pointing
-        // south. One 32-bit division in Q12: h_N is first scaled to [2^17, 2^18) (h_E with
-        // it), so |20·h_E| < h_N keeps the numerator < 2^30 and h_E keeps 17 bits.
+        // the error), in units of the linear zone (`e`) and in radians (`e_mag`), each ±1
+        // beyond its zone or with the field pointing south. 32-bit divisions in Q12: h_N
+        // is first scaled to [2^17, 2^18) (h_E with it), so a numerator below h_N·2^12
+        // stays < 2^30 and h_E keeps 17 bits.
         let (hn, he) = (h[0] as i32, h[1] as i32); // |hᵢ| ≤ 2^30
         let g = crate::madgwick::HEADING_LINEAR_GAIN;
-        let e_q12 = if hn >= 1 << 17 {
+        let (e_q12, e_mag_q12) = if hn >= 1 << 17 {
             let r = 14 - hn.leading_zeros().min(14); // hn >> r ∈ [2^17, 2^18)
             let (hn, he) = (hn >> r, he >> r);
-            if (i64::from(he) * i64::from(g)).abs() >= i64::from(hn) {
-                he.signum() << 12
+            let sat = he.signum() << 12;
+            if he.abs() >= hn {
+                (sat, sat)
             } else {
-                ((he * g) << 12).checked_div(hn).unwrap_or(0)
+                let e_mag = (he << 12).checked_div(hn).unwrap_or(0);
+                if (i64::from(he) * i64::from(g)).abs() >= i64::from(hn) {
+                    (sat, e_mag)
+                } else {
+                    (((he * g) << 12).checked_div(hn).unwrap_or(0), e_mag)
+                }
             }
         } else {
-            he.signum() << 12
+            (he.signum() << 12, he.signum() << 12)
         };
         let c = &self.c;
-        let beta_mag = if initialising && c.startup_q20 > 0 {
+        // Start-up: a constant rate 2β ramping from `startup_beta` to 0.
+        let beta_start = if initialising && c.startup_q20 > 0 {
             let frac = ((self.time_q20 * c.inv_startup_q30) >> 20)
                 .max(0)
                 .min(ONE_Q30);
-            let b = i64::from(c.beta_mag_q24);
             let sb = i64::from(c.startup_beta_q24);
-            sb + (((b - sb) * frac) >> 30)
+            sb - ((sb * frac) >> 30)
         } else {
-            i64::from(c.beta_mag_q24)
+            0
         };
         // β_head = ½·tol·|ω̄_D|: Q20 (< 2^27) · Q30 → >> 26 gives Q24.
         let beta_head = (((self.rate_lp_down_q40 >> 20).abs()) * c.half_scale_tol_q30) >> 26;
-        // 2β·dt: Q24·Q31 >> 24 is β·dt in Q31, i.e. 2β·dt in Q30. β_mag at a constant
-        // rate towards the field, β_head proportionally (as the f32 filter).
+        // 2β·dt: Q24·Q31 >> 24 is β·dt in Q31, i.e. 2β·dt in Q30. The start-up rate is
+        // constant towards the field, β_head proportional within the linear zone, the
+        // first-order term tan(error)/τ (as the f32 filter).
         let two_dt = |b: i64| (b.max(0).min(i64::from(i32::MAX)) * i64::from(dt_q31)) >> 24;
-        let mag_dt = two_dt(beta_mag).min(ONE_Q30);
+        let start_dt = two_dt(beta_start).min(ONE_Q30);
         let head = (two_dt(beta_head).min(ONE_Q30) * i64::from(e_q12)) >> 12;
-        let step = head + mag_dt * h[1].signum();
+        // (1/τ)·dt: Q24·Q31 >> 25 is Q30.
+        let tau_dt = (i64::from(c.inv_heading_tau_q24) * i64::from(dt_q31)) >> 25;
+        let first = (tau_dt * i64::from(e_mag_q12)) >> 12;
+        let step = head + first + start_dt * h[1].signum();
         // A step never passes the field's heading (|h_E| ≤ the error's sine; as the f32
         // filter).
         let lim = h[1].abs().min(ONE_Q30 / 2);
@@ -1196,6 +1250,7 @@ impl MadgwickFixed {
         st: &mut UpdateStatus,
     ) -> bool {
         let c = &self.c;
+        st.mag_state = MagState::Undisturbed;
         // By reference: copying the reference or the rejection configuration out of
         // `self` costs a `memcpy` per update.
         let Some(re) = self.mag_ref.as_ref() else {
@@ -1219,9 +1274,30 @@ impl MadgwickFixed {
             self.cand = None;
             self.cand_q20 = 0;
             self.mag_reject_q20 = 0;
+            if c.inv_mag_ref_tau_q30 > 0 && w2_q40 > c.mag_min_rate_sq_q40 {
+                // Moving and undisturbed: the reference follows the field (as the f32
+                // filter; the dip tolerance is kept). k = dt/τ in Q31; ‖m‖² moves in
+                // steps of 2^12 so the product stays in 64 bits.
+                let k = (i64::from(dt_q31) * c.inv_mag_ref_tau_q30) >> 30;
+                let d = (n2 as i64).wrapping_sub(re.n2 as i64) >> 12;
+                let n2r = (re.n2 as i64)
+                    .saturating_add(d.saturating_mul(k) >> 19)
+                    .max(0) as u64;
+                let scaled = |q: u64| (n2r >> 16).saturating_mul(q);
+                let r = MagRef {
+                    n2: n2r,
+                    lo: scaled(c.mag_lo_q16),
+                    hi: scaled(c.mag_hi_q16),
+                    hz_q30: re.hz_q30 + ((k * (hz - re.hz_q30)) >> 31),
+                    hz_tol_q30: re.hz_tol_q30,
+                };
+                self.mag_ref = Some(r);
+                st.mag_state = MagState::Learning;
+            }
             return true;
         }
         st.mag_rejected = true;
+        st.mag_state = MagState::Rejected;
         self.mag_reject_q20 = (self.mag_reject_q20 + i64::from(dt_q31 >> 11)).min(1 << 50);
         if self.mag_reject_q20 >= c.mag_fallback_q20 {
             // Fallback: the disturbance persisted; adopt the field as it is now.
@@ -1231,6 +1307,7 @@ impl MadgwickFixed {
             self.mag_reject_q20 = 0;
             st.mag_rejected = false;
             st.mag_reference_relearned = true;
+            st.mag_state = MagState::Fallback;
             return true;
         }
         let cand_ok = self.cand.is_some_and(|(cn2, chz)| {
@@ -1253,6 +1330,7 @@ impl MadgwickFixed {
                 self.mag_reject_q20 = 0;
                 st.mag_rejected = false;
                 st.mag_reference_relearned = true;
+                st.mag_state = MagState::Recovered;
                 return true;
             }
         } else {

@@ -2,7 +2,7 @@
 //!
 //! A level yaw spin at 90 °/s with the gyro reading 3 % too much (the MPU-9250's
 //! datasheet sensitivity tolerance) drifts the heading by 2.7 °/s, more than the
-//! constant magnetometer gain corrects (2·β_mag ≈ 0.8 °/s). With the scale-factor heading
+//! slow first-order magnetometer correction follows (τ = 40 s). With the scale-factor heading
 //! correction on, the error stays bounded; without it, it grows (documenting assertion).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
@@ -107,7 +107,7 @@ fn spin_with_scale_error_stays_bounded() {
                 "{name} scale {scale}: max heading error {worst}° after 10 s"
             );
             // A scale error at exactly the tolerance is balanced by the schedule's full rate,
-            // reached at the edge of its proportional zone (2.9°); β_mag adds little.
+            // reached at the edge of its proportional zone (2.9°); the first-order term adds little.
             assert!(
                 last < 4.0,
                 "{name} scale {scale}: final heading error {last}°"

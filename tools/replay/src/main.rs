@@ -7,7 +7,9 @@
 
 use clap::Parser;
 use host_console::{canonical_path, note, say};
-use replay::{read, run, score, FilterKind, Mode, ReadOptions, Recording, Score};
+use replay::{
+    read, run_counted, score, FilterKind, MagCounts, Mode, ReadOptions, Recording, Score,
+};
 use std::fs::File;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -45,9 +47,9 @@ struct Cli {
     /// Madgwick gain β, rad/s, >= 0 [default: fc_ahrs::Config::DEFAULT].
     #[arg(long, value_name = "RAD_S", value_parser = at_least(0.0))]
     beta: Option<f32>,
-    /// Magnetometer (heading) gain, rad/s, >= 0.
-    #[arg(long, value_name = "RAD_S", value_parser = at_least(0.0))]
-    beta_mag: Option<f32>,
+    /// Time constant of the magnetometer's heading correction, s, > 0.
+    #[arg(long, value_name = "S", value_parser = above(0.0))]
+    heading_tau: Option<f32>,
     /// Start-up gain, rad/s, >= 0.
     #[arg(long, value_name = "RAD_S", value_parser = at_least(0.0))]
     startup_beta: Option<f32>,
@@ -97,6 +99,13 @@ struct Cli {
     /// Time a new stable field needs (while rotating) to be adopted, s, >= 0.
     #[arg(long, value_name = "S", value_parser = at_least(0.0))]
     mag_recovery: Option<f32>,
+    /// Time rejected without a break after which the current field is adopted, s, >= 0.
+    #[arg(long, value_name = "S", value_parser = at_least(0.0))]
+    mag_fallback: Option<f32>,
+    /// Time constant with which the field reference follows an accepted field
+    /// while moving, s, >= 0 (0 = frozen after start-up).
+    #[arg(long, value_name = "S", value_parser = at_least(0.0))]
+    mag_ref_tau: Option<f32>,
     /// Gyro scale-factor tolerance behind the heading gain schedule, fraction
     /// in [0, 1] (0 = constant gains).
     #[arg(long, value_name = "FRAC", value_parser = at_least(0.0))]
@@ -104,6 +113,11 @@ struct Cli {
     /// Time constant of the mean vertical rate for that schedule, s, > 0.
     #[arg(long, value_name = "S", value_parser = above(0.0))]
     gyro_scale_tau: Option<f32>,
+    /// After each file's scores, print how many updates ended in each state of the
+    /// magnetic disturbance handling (undisturbed, learning, rejected, recovered,
+    /// fallback, ...), and their total after the mean.
+    #[arg(long)]
+    stats: bool,
     /// Skip rows with a non-finite or out-of-range sample (counted) instead of failing.
     #[arg(long)]
     skip_invalid: bool,
@@ -166,7 +180,7 @@ fn config(cli: &Cli) -> fc_ahrs::Config {
         }
     };
     set(&mut c.beta, cli.beta);
-    set(&mut c.beta_mag, cli.beta_mag);
+    set(&mut c.heading_tau_s, cli.heading_tau);
     set(&mut c.startup_beta, cli.startup_beta);
     set(&mut c.startup_s, cli.startup_s);
     set(&mut c.bias.rest_gyro_rps, cli.rest_gyro);
@@ -178,6 +192,8 @@ fn config(cli: &Cli) -> fc_ahrs::Config {
     set(&mut c.mag_rejection.norm_tol, cli.mag_norm_tol);
     set(&mut c.mag_rejection.dip_tol_deg, cli.mag_dip_tol);
     set(&mut c.mag_rejection.recovery_s, cli.mag_recovery);
+    set(&mut c.mag_rejection.fallback_s, cli.mag_fallback);
+    set(&mut c.mag_rejection.ref_tau_s, cli.mag_ref_tau);
     set(&mut c.gyro_scale_tol, cli.gyro_scale_tol);
     set(&mut c.gyro_scale_tau_s, cli.gyro_scale_tau);
     set(&mut c.tilt_tau_s, cli.tilt_tau);
@@ -212,6 +228,7 @@ struct Plan {
     mode: Mode,
     cfg: fc_ahrs::Config,
     read: ReadOptions,
+    stats: bool,
 }
 
 fn is_stdio(p: &Path) -> bool {
@@ -285,6 +302,7 @@ fn plan(cli: &Cli) -> Result<Plan, String> {
         read: ReadOptions {
             skip_invalid: cli.skip_invalid,
         },
+        stats: cli.stats,
     })
 }
 
@@ -397,10 +415,15 @@ fn replay_all(plan: Plan) -> usize {
     );
     let mut scores: Vec<Score> = Vec::new();
     let mut failed = Vec::new();
+    let mut all = MagCounts::default();
     for job in plan.jobs {
         let name = job.input.display().to_string();
-        match replay_one(job, plan.kind, plan.mode, &plan.cfg, plan.read) {
-            Ok((rows, Some(s))) => {
+        let res = replay_one(job, plan.kind, plan.mode, &plan.cfg, plan.read);
+        if let (true, Ok((_, _, n))) = (plan.stats, &res) {
+            all = all.merged(n);
+        }
+        match res {
+            Ok((rows, Some(s), n)) => {
                 say!(
                     "{:<40} {:>8} {:>9.3} {:>9.3} {:>9.3}",
                     name,
@@ -410,8 +433,16 @@ fn replay_all(plan: Plan) -> usize {
                     s.inclination_deg
                 );
                 scores.push(s);
+                if plan.stats {
+                    print_counts("  mag states", &n);
+                }
             }
-            Ok((rows, None)) => say!("{:<40} {:>8} (no reference to score against)", name, rows),
+            Ok((rows, None, n)) => {
+                say!("{:<40} {:>8} (no reference to score against)", name, rows);
+                if plan.stats {
+                    print_counts("  mag states", &n);
+                }
+            }
             Err(e) => {
                 note!("replay: {name}: {e}");
                 failed.push(name);
@@ -419,6 +450,9 @@ fn replay_all(plan: Plan) -> usize {
         }
     }
     print_mean(&scores);
+    if plan.stats {
+        print_counts("mag states, all files", &all);
+    }
     if !failed.is_empty() {
         note!(
             "replay: {} file(s) failed, not in the mean: {}",
@@ -427,6 +461,25 @@ fn replay_all(plan: Plan) -> usize {
         );
     }
     failed.len()
+}
+
+/// One line: each state's count and share of the updates (states that never
+/// occurred included, so a reader sees that e.g. the fallback did not fire).
+fn print_counts(label: &str, n: &MagCounts) {
+    let total: usize = n.counts.iter().sum();
+    let parts: Vec<String> = MagCounts::NAMES
+        .iter()
+        .zip(n.counts)
+        .map(|(name, c)| {
+            let pct = if total > 0 {
+                100.0 * c as f64 / total as f64
+            } else {
+                0.0
+            };
+            format!("{name} {c} ({pct:.1} %)")
+        })
+        .collect();
+    say!("{label}: {}", parts.join(", "));
 }
 
 fn print_mean(scores: &[Score]) {
@@ -464,9 +517,9 @@ fn replay_one(
     mode: Mode,
     cfg: &fc_ahrs::Config,
     opts: ReadOptions,
-) -> Result<(usize, Option<Score>), String> {
+) -> Result<(usize, Option<Score>, MagCounts), String> {
     let Job { input, out } = job;
-    let (samples, est) = match replay_recording(&input, kind, mode, cfg, opts) {
+    let (samples, est, counts) = match replay_recording(&input, kind, mode, cfg, opts) {
         Ok(v) => v,
         Err(e) => {
             if let Some((p, _)) = &out {
@@ -480,7 +533,7 @@ fn replay_one(
     if let Some((path, w)) = out {
         write_out(w, &samples, &est).map_err(|e| format!("--out {}: {e}", path.display()))?;
     }
-    Ok((samples.len(), score(&samples, &est)))
+    Ok((samples.len(), score(&samples, &est), counts))
 }
 
 /// The rows of every segment and the filter's estimate for each.
@@ -490,21 +543,23 @@ fn replay_recording(
     mode: Mode,
     cfg: &fc_ahrs::Config,
     opts: ReadOptions,
-) -> Result<(Vec<replay::Sample>, Vec<fc_ahrs::Quaternion>), String> {
+) -> Result<(Vec<replay::Sample>, Vec<fc_ahrs::Quaternion>, MagCounts), String> {
     let text = read_input(input)?;
     let rec = read(&text, opts).map_err(|e| e.to_string())?;
     report(input, &rec);
-    let est = rec
-        .segments
-        .iter()
-        .flat_map(|s| run(&s.samples, kind, mode, cfg))
-        .collect();
+    let mut counts = MagCounts::default();
+    let mut est = Vec::new();
+    for s in &rec.segments {
+        let (e, n) = run_counted(&s.samples, kind, mode, cfg);
+        est.extend(e);
+        counts = counts.merged(&n);
+    }
     let samples = rec
         .segments
         .iter()
         .flat_map(|s| s.samples.iter().copied())
         .collect();
-    Ok((samples, est))
+    Ok((samples, est, counts))
 }
 
 fn report(input: &Path, rec: &Recording) {
