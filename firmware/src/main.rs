@@ -936,8 +936,12 @@ mod app {
     ) {
         if let Some(o) = pipeline.lock(|p| p.as_ref().map(|p| p.outputs())) {
             defmt::info!(
-                "att r={=f32} p={=f32} y={=f32} deg | alt={=f32} m vz={=f32} m/s | thr={=f32} tq={}",
-                o.roll_deg, o.pitch_deg, o.yaw_deg, o.altitude_m, o.vertical_speed_mps, o.throttle, o.torque
+                "att r={=f32} p={=f32} y={=f32} deg | alt={=f32} m vz={=f32} m/s",
+                o.roll_deg,
+                o.pitch_deg,
+                o.yaw_deg,
+                o.altitude_m,
+                o.vertical_speed_mps
             );
         }
         if tick.is_multiple_of(20) {
