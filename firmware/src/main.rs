@@ -54,13 +54,16 @@
 //! handler writes the off pulse (`outputs::force_off`), turns the LED off,
 //! logs the location over defmt and traps into HardFault, which writes the
 //! off pulse again and waits for the watchdog reset. The flight controller
-//! runs only with the `flight-controller` feature (it does not fit the
-//! flash yet); without it the outputs stay off.
+//! (`flight::flightctl`) runs in `imu` at 1 kHz on the pipeline's attitude,
+//! gyro and altitude and the receiver's pilot input, and sets the outputs.
 //!
-//! Flash: 57,168 B of the 63 KiB budget (`cargo fw && cargo xtask size`,
-//! release profile at `opt-level = "z"`); static RAM 4.0 KiB. To fit, the
-//! I2C master is our own register-level driver (`bus.rs`) rather than the
-//! HAL's blocking one, and the magnetometer calibration on the board is the
+//! Flash: 64,124 B of the 63 KiB budget with the flight controller
+//! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
+//! static RAM 4.5 KiB. To fit, the I2C master is our own register-level
+//! driver (`bus.rs`) rather than the HAL's blocking one, the trigonometry
+//! is a polynomial rather than libm's (whose `sinf`/`cosf` reduce the
+//! argument in soft f64), no `memmove` is linked, and the magnetometer
+//! calibration on the board is the
 //! per-axis min/max (the `MagCal` type below: one line selects the full
 //! ellipsoid fit, ~6.4 KiB more, which does not fit the budget yet).
 #![no_std]
@@ -136,11 +139,10 @@ mod app {
     use cortex_m::peripheral::DWT;
     use flight::boot::{BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
-    #[cfg(feature = "flight-controller")]
     use flight::flightctl::{
-        quat_from_ahrs, AltitudeEstimate, FlightConfig, SystemStatus, VehicleState,
+        quat_from_ahrs, AltitudeEstimate, Event as FlightEvent, Events, FlightConfig,
+        FlightController, Motors, PilotInput, SystemStatus, VehicleState,
     };
-    use flight::flightctl::{Event as FlightEvent, Events, FlightController, Motors, PilotInput};
     use flight::health::{HealthCounters, SensorState};
     use flight::pipeline::{Pipeline, PipelineConfig};
     use flight::sample::{SampleIn, SampleStep};
@@ -150,7 +152,6 @@ mod app {
     };
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
-    #[cfg(feature = "flight-controller")]
     use rc_input::ChannelMap;
     use rc_input::{CrsfParser, LinkStatus};
     use rtic_monotonics::fugit::ExtU32;
@@ -179,11 +180,9 @@ mod app {
     const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
 
     /// Receiver channels: AETR sticks, arm switch on channel 5 (high = arm).
-    #[cfg(feature = "flight-controller")]
     const CHANNEL_MAP: ChannelMap = ChannelMap::DEFAULT;
     /// Flight-mode switch: channel 6 (low angle, middle altitude hold, high
     /// acro).
-    #[cfg(feature = "flight-controller")]
     const MODE_CHANNEL: u8 = 5;
 
     /// Shortest watchdog timeout while booting (probing with retries and
@@ -323,12 +322,6 @@ mod app {
     /// configuration) the motors stay off.
     #[inline(never)]
     fn start_flight_controller() -> Option<FlightController> {
-        #[cfg(not(feature = "flight-controller"))]
-        {
-            defmt::warn!("flight controller: not built; outputs stay at the off pulse");
-            None
-        }
-        #[cfg(feature = "flight-controller")]
         match FlightController::new(FlightConfig::default()) {
             Ok(fc) => {
                 defmt::info!(
@@ -540,7 +533,6 @@ mod app {
                 }
             }
         }
-        #[cfg(feature = "flight-controller")]
         let motors = {
             let pilot = cx
                 .shared
@@ -568,12 +560,6 @@ mod app {
                 flight_log::spawn(o.events, pilot).ok();
             }
             out.map_or(Motors::Off, |o| o.motors)
-        };
-        // Without the flight controller the outputs stay at the off pulse.
-        #[cfg(not(feature = "flight-controller"))]
-        let motors = {
-            let _ = (&cx.local.fc, mpu_ok, fresh);
-            Motors::Off
         };
         cx.local.esc.set(&motors);
         let t1 = DWT::cycle_count();
@@ -604,7 +590,6 @@ mod app {
     /// The flight controller's view of the vehicle. Without a fresh sample
     /// the gyro is NaN: the controller keeps the last commands for a single
     /// miss and disarms when samples stay away.
-    #[cfg(feature = "flight-controller")]
     fn vehicle_state(p: &Pipeline, fresh: bool) -> VehicleState {
         let mut gyro = p.body_rates();
         if !fresh {
