@@ -309,11 +309,13 @@ mod app {
                 Err(e) => defmt::panic!("ESC timer: {}", e),
             };
         let esc = EscOutputs::start(tim, timer);
+        // In 32-bit integers and f32: `EscTimer::period_ns`/`pulse_ns` divide
+        // in u64, which would link a ~0.9 KiB library routine for this line.
         defmt::info!(
-            "outputs: {} on TIM3 CH1-4 (PA6 PA7 PB0 PB1), {=u32} Hz, off pulse {=u32} ns",
+            "outputs: {} on TIM3 CH1-4 (PA6 PA7 PB0 PB1), {=u32} Hz, off pulse {=f32} us",
             ESC_PROTOCOL,
-            1_000_000_000 / timer.period_ns().max(1),
-            timer.pulse_ns(timer.off_compare())
+            timer.tick_hz() / timer.period_ticks().max(1),
+            f32::from(timer.off_compare()) * 1.0e6 / timer.tick_hz().max(1) as f32
         );
         esc
     }
