@@ -57,15 +57,15 @@
 //! (`flight::flightctl`) runs in `imu` at 1 kHz on the pipeline's attitude,
 //! gyro and altitude and the receiver's pilot input, and sets the outputs.
 //!
-//! Flash: 64,124 B of the 63 KiB budget with the flight controller
+//! Flash: 63,436 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
 //! static RAM 4.5 KiB. To fit, the I2C master is our own register-level
 //! driver (`bus.rs`) rather than the HAL's blocking one, the trigonometry
 //! is a polynomial rather than libm's (whose `sinf`/`cosf` reduce the
-//! argument in soft f64), no `memmove` is linked, and the magnetometer
-//! calibration on the board is the
-//! per-axis min/max (the `MagCal` type below: one line selects the full
-//! ellipsoid fit, ~6.4 KiB more, which does not fit the budget yet).
+//! argument in soft f64), neither `memmove` nor a 64-bit division is
+//! linked, and the magnetometer calibration on the board is the per-axis
+//! min/max (the `MagCal` type below: one line selects the full ellipsoid
+//! fit, ~6.4 KiB more, which does not fit the budget yet).
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
