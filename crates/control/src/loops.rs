@@ -155,6 +155,8 @@ impl Quat {
 /// f64 functions): within 2.5e-7 for `|a| ≤ 2π` -- every tilt setpoint and
 /// heading -- and within 1e-6 for `|a| ≤ 200` rad; beyond that the
 /// reduction's rounding grows with `|a|`. NaN in, NaN out.
+// Out of line: one copy for the quaternion builders and the tilt limits.
+#[inline(never)]
 pub fn half_angle_sin_cos(a_rad: f32) -> (f32, f32) {
     const PI_HI: f32 = 3.140_625; // 8 significant bits: k·PI_HI is exact
     const PI_LO: f32 = 9.676_536e-4; // π − PI_HI
@@ -181,6 +183,7 @@ pub fn half_angle_sin_cos(a_rad: f32) -> (f32, f32) {
     }
 }
 
+#[inline]
 fn half(a_rad: f32) -> (f32, f32) {
     half_angle_sin_cos(a_rad)
 }
