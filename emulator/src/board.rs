@@ -29,6 +29,9 @@ pub const CPU_HZ: u64 = 72_000_000;
 pub const RAM_BASE: u32 = 0x2000_0000;
 /// SRAM size.
 pub const RAM_SIZE: u32 = 20 * 1024;
+/// The flash page the firmware keeps its calibration in: the last 1 KiB
+/// (a medium-density STM32F103 page, RM0008 §3.3.3).
+const CALIBRATION_PAGE_BYTES: u32 = 1024;
 const PERIPH_BASE: u32 = 0x4000_0000;
 const PERIPH_SIZE: u32 = 0x3_0000;
 const PERIPH_BB: u32 = 0x4200_0000;
@@ -772,10 +775,15 @@ impl Board {
                 image.len()
             )));
         }
+        // The image is plain read-only memory; the rest of the flash, from
+        // the next 4 KiB boundary, goes through the flash model (erase and
+        // programming). That rest always includes the last 1 KiB page, the
+        // firmware's calibration page, even when the image reaches into
+        // its 4 KiB block.
         let tail_base = fw
             .image_end
             .next_multiple_of(0x1000)
-            .min(FLASH_BASE + FLASH_SIZE);
+            .min(FLASH_BASE + FLASH_SIZE - CALIBRATION_PAGE_BYTES);
         let mut rcc = Rcc::new(ResetCause::PowerOn, 0);
         rcc.hse_works = config.hse_works;
         let hw = Hw {

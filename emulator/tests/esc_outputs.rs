@@ -271,9 +271,8 @@ fn sticks(throttle_us: i32, arm: bool) -> Vec<u8> {
 
 /// Arming on the real firmware: refused with the throttle high (reason in
 /// the log), armed with the throttle low and the switch, idle pulses while
-/// armed, and on signal loss failsafe, disarm and the off pulse. Skipped
-/// when the firmware was built without the flight controller (the default
-/// while it does not fit the flash).
+/// armed, and on signal loss failsafe, disarm and the off pulse. The
+/// firmware must report a ready flight controller at boot.
 #[test]
 fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
     // Ideal sensors: with the simulator's default noise the start-up gyro
@@ -283,10 +282,11 @@ fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
         return;
     };
     let fc = b.wait_for_line("flight controller:", 2 * S).unwrap();
-    if !fc.is_some_and(|l| l.text.contains("ready")) {
-        println!("skipped: firmware built without the flight-controller feature");
-        return;
-    }
+    assert!(
+        fc.as_ref().is_some_and(|l| l.text.contains("ready")),
+        "flight controller not ready at boot: {:?}",
+        fc.map(|l| l.text)
+    );
     // The start-up gyro bias needs 1 s of stillness after the probe.
     let mut t = b.now_ns();
     let bias_ended = |b: &Board| {

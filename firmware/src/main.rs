@@ -56,17 +56,20 @@
 //! handler writes the off pulse (`outputs::force_off`), turns the LED off,
 //! logs the location over defmt and traps into HardFault, which writes the
 //! off pulse again and waits for the watchdog reset. The flight controller
-//! runs only with the `flight-controller` feature (it does not fit the
-//! flash yet); without it the outputs stay off.
+//! (`flight::flightctl`) runs in `imu` at 1 kHz on the pipeline's attitude,
+//! gyro and altitude and the receiver's pilot input, and sets the outputs.
 //!
-//! Flash: 57,168 B of the 63 KiB budget (`cargo fw && cargo xtask size`,
-//! release profile at `opt-level = "z"`); static RAM 4.0 KiB. To fit, the
-//! I2C master is our own register-level driver (`bus.rs`) rather than the
-//! HAL's blocking one, the fixed-point textbook filter is left out (`fc-ahrs`
-//! without its `textbook` feature: the firmware runs the full filter), and
-//! the magnetometer calibration on the board is the per-axis min/max (the
-//! `MagCal` type below: one line selects the full ellipsoid fit, 5.5 KiB
-//! more, which does not fit the budget yet).
+//! Flash: 63,216 B of the 63 KiB budget with the flight controller
+//! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
+//! static RAM 4.5 KiB. To fit, the I2C master is our own register-level
+//! driver (`bus.rs`) rather than the HAL's blocking one, the fixed-point
+//! textbook filter is left out (`fc-ahrs` without its `textbook` feature:
+//! the firmware runs the full filter), the trigonometry is a polynomial
+//! rather than libm's (whose `sinf`/`cosf` reduce the argument in soft f64),
+//! neither `memmove` nor a 64-bit division is linked, and the magnetometer
+//! calibration on the board is the per-axis min/max (the `MagCal` type
+//! below: one line selects the full ellipsoid fit, ~5.5 KiB more, which
+//! does not fit beside the flight controller).
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
@@ -140,11 +143,10 @@ mod app {
     use cortex_m::peripheral::DWT;
     use flight::boot::{BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
-    #[cfg(feature = "flight-controller")]
     use flight::flightctl::{
-        quat_from_ahrs, AltitudeEstimate, FlightConfig, SystemStatus, VehicleState,
+        quat_from_ahrs, AltitudeEstimate, Event as FlightEvent, Events, FlightConfig,
+        FlightController, Motors, PilotInput, SystemStatus, VehicleState,
     };
-    use flight::flightctl::{Event as FlightEvent, Events, FlightController, Motors, PilotInput};
     use flight::health::{HealthCounters, SensorState};
     use flight::pipeline::{Pipeline, PipelineConfig};
     use flight::sample::{SampleIn, SampleStep};
@@ -154,7 +156,6 @@ mod app {
     };
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
-    #[cfg(feature = "flight-controller")]
     use rc_input::ChannelMap;
     use rc_input::{CrsfParser, LinkStatus};
     use rtic_monotonics::fugit::ExtU32;
@@ -183,11 +184,9 @@ mod app {
     const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
 
     /// Receiver channels: AETR sticks, arm switch on channel 5 (high = arm).
-    #[cfg(feature = "flight-controller")]
     const CHANNEL_MAP: ChannelMap = ChannelMap::DEFAULT;
     /// Flight-mode switch: channel 6 (low angle, middle altitude hold, high
     /// acro).
-    #[cfg(feature = "flight-controller")]
     const MODE_CHANNEL: u8 = 5;
 
     /// Shortest watchdog timeout while booting (probing with retries and
@@ -314,11 +313,13 @@ mod app {
                 Err(e) => defmt::panic!("ESC timer: {}", e),
             };
         let esc = EscOutputs::start(tim, timer);
+        // In 32-bit integers and f32: `EscTimer::period_ns`/`pulse_ns` divide
+        // in u64, which would link a ~0.9 KiB library routine for this line.
         defmt::info!(
-            "outputs: {} on TIM3 CH1-4 (PA6 PA7 PB0 PB1), {=u32} Hz, off pulse {=u32} ns",
+            "outputs: {} on TIM3 CH1-4 (PA6 PA7 PB0 PB1), {=u32} Hz, off pulse {=f32} us",
             ESC_PROTOCOL,
-            1_000_000_000 / timer.period_ns().max(1),
-            timer.pulse_ns(timer.off_compare())
+            timer.tick_hz() / timer.period_ticks().max(1),
+            f32::from(timer.off_compare()) * 1.0e6 / timer.tick_hz().max(1) as f32
         );
         esc
     }
@@ -327,12 +328,6 @@ mod app {
     /// configuration) the motors stay off.
     #[inline(never)]
     fn start_flight_controller() -> Option<FlightController> {
-        #[cfg(not(feature = "flight-controller"))]
-        {
-            defmt::warn!("flight controller: not built; outputs stay at the off pulse");
-            None
-        }
-        #[cfg(feature = "flight-controller")]
         match FlightController::new(FlightConfig::default()) {
             Ok(fc) => {
                 defmt::info!(
@@ -544,7 +539,6 @@ mod app {
                 }
             }
         }
-        #[cfg(feature = "flight-controller")]
         let motors = {
             let pilot = cx
                 .shared
@@ -572,12 +566,6 @@ mod app {
                 flight_log::spawn(o.events, pilot).ok();
             }
             out.map_or(Motors::Off, |o| o.motors)
-        };
-        // Without the flight controller the outputs stay at the off pulse.
-        #[cfg(not(feature = "flight-controller"))]
-        let motors = {
-            let _ = (&cx.local.fc, mpu_ok, fresh);
-            Motors::Off
         };
         cx.local.esc.set(&motors);
         let t1 = DWT::cycle_count();
@@ -608,7 +596,6 @@ mod app {
     /// The flight controller's view of the vehicle. Without a fresh sample
     /// the gyro is NaN: the controller keeps the last commands for a single
     /// miss and disarms when samples stay away.
-    #[cfg(feature = "flight-controller")]
     fn vehicle_state(p: &Pipeline, fresh: bool) -> VehicleState {
         let mut gyro = p.body_rates();
         if !fresh {
@@ -940,8 +927,12 @@ mod app {
     ) {
         if let Some(o) = pipeline.lock(|p| p.as_ref().map(|p| p.outputs())) {
             defmt::info!(
-                "att r={=f32} p={=f32} y={=f32} deg | alt={=f32} m vz={=f32} m/s | thr={=f32} tq={}",
-                o.roll_deg, o.pitch_deg, o.yaw_deg, o.altitude_m, o.vertical_speed_mps, o.throttle, o.torque
+                "att r={=f32} p={=f32} y={=f32} deg | alt={=f32} m vz={=f32} m/s",
+                o.roll_deg,
+                o.pitch_deg,
+                o.yaw_deg,
+                o.altitude_m,
+                o.vertical_speed_mps
             );
         }
         if tick.is_multiple_of(20) {

@@ -3,11 +3,8 @@
 //! pilot state the control loop reads. Frame parsing, channel mapping and
 //! signal-loss timing are `rc_input`'s.
 
-#[cfg(feature = "flight-controller")]
 use control::shaping::Sticks;
-#[cfg(feature = "flight-controller")]
 use flight::flightctl::{FlightMode, PilotInput};
-#[cfg(feature = "flight-controller")]
 use rc_input::{ChannelMap, SwitchPosition};
 use rc_input::{CrsfParser, CrsfStats, Event, LinkMonitor, LinkStatus, RcFrame};
 use stm32f1xx_hal::pac;
@@ -174,7 +171,6 @@ pub fn drain(
     }
 }
 
-#[cfg(feature = "flight-controller")]
 impl Pilot {
     /// The flight controller's view of the pilot at `now_us`: sticks and
     /// the arm switch through `map`, the flight mode from `mode_channel`

@@ -126,25 +126,23 @@ impl EscTimer {
         if timer_clock_hz == 0 {
             return Err(EscError::InvalidClock);
         }
-        let tick_hz = u64::from(timer_clock_hz) / (u64::from(prescaler) + 1);
-        let period_ticks = tick_hz / u64::from(rate_hz);
+        let tick_hz = timer_clock_hz / (u32::from(prescaler) + 1);
+        let period_ticks = tick_hz / rate_hz;
         if period_ticks > 65_536 {
             return Err(EscError::PeriodTooLong);
         }
-        let ticks = |ns: u32| (u64::from(ns) * tick_hz + 500_000_000) / 1_000_000_000;
-        let min_ticks = ticks(protocol.min_pulse_ns());
-        let span_ticks = ticks(protocol.max_pulse_ns()) - min_ticks;
-        if span_ticks < u64::from(MIN_STEPS) {
+        let min_ticks = ticks_for_us(protocol.min_pulse_ns() / 1_000, tick_hz);
+        let span_ticks = ticks_for_us(protocol.max_pulse_ns() / 1_000, tick_hz) - min_ticks;
+        if span_ticks < MIN_STEPS {
             return Err(EscError::ResolutionTooLow);
         }
-        // Fits u32: both are below the 65 536-tick period.
         Ok(Self {
             protocol,
             prescaler,
-            tick_hz: tick_hz as u32,
-            period_ticks: period_ticks as u32,
-            min_ticks: min_ticks as u32,
-            span_ticks: span_ticks as u32,
+            tick_hz,
+            period_ticks,
+            min_ticks,
+            span_ticks,
         })
     }
 
@@ -162,11 +160,11 @@ impl EscTimer {
             return Err(EscError::InvalidClock);
         }
         // ticks per period = clock / ((psc + 1) · rate) <= 65 536.
-        let per = u64::from(timer_clock_hz) / u64::from(rate_hz);
+        let per = timer_clock_hz / rate_hz;
         let psc = per
             .div_ceil(65_536)
             .saturating_sub(1)
-            .min(u64::from(u16::MAX));
+            .min(u32::from(u16::MAX));
         Self::new(protocol, rate_hz, timer_clock_hz, psc as u16)
     }
 
@@ -226,6 +224,17 @@ impl EscTimer {
     }
 }
 
+/// `round(us · tick_hz / 10⁶)`, timer ticks in a pulse of `us` whole
+/// microseconds (every protocol's pulses are), in 32-bit arithmetic: the
+/// 64-bit division it replaces links a ~0.9 KiB library routine on the
+/// Cortex-M3. With `tick_hz = q·10⁶ + r` the result is
+/// `us·q + round(us·r / 10⁶)`, exact while `us·r < 2³²` (`us` ≤ 4,294; the
+/// longest pulse is 2,000 µs).
+fn ticks_for_us(us: u32, tick_hz: u32) -> u32 {
+    let (q, r) = (tick_hz / 1_000_000, tick_hz % 1_000_000);
+    us * q + (us * r + 500_000) / 1_000_000
+}
+
 /// Pulse width for a command, ns, independent of any timer: 0..1 (clamped,
 /// NaN = off) → the protocol's range.
 pub fn pulse_ns(protocol: EscProtocol, command: f32) -> u32 {
@@ -236,4 +245,32 @@ pub fn pulse_ns(protocol: EscProtocol, command: f32) -> u32 {
     };
     let min = protocol.min_pulse_ns();
     min + (c * min as f32 + 0.5) as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The 32-bit tick count equals the 64-bit `round(ns · tick_hz / 10⁹)`
+    /// it replaces, for every protocol pulse at every prescaler of the
+    /// Blue Pill's clocks and on a sweep of other tick rates.
+    #[test]
+    fn ticks_for_us_matches_the_64_bit_rounding() {
+        let reference = |ns: u32, tick_hz: u32| {
+            (u64::from(ns) * u64::from(tick_hz) + 500_000_000) / 1_000_000_000
+        };
+        let board = [8_000_000u32, 64_000_000, 72_000_000]
+            .into_iter()
+            .flat_map(|clk| (0..=u32::from(u16::MAX)).map(move |psc| clk / (psc + 1)));
+        let sweep = (0..100_000u32).map(|i| i.wrapping_mul(2_654_435_761) % 200_000_000);
+        for tick_hz in board.chain(sweep) {
+            for ns in [125_000, 250_000, 1_000_000, 2_000_000] {
+                assert_eq!(
+                    u64::from(ticks_for_us(ns / 1_000, tick_hz)),
+                    reference(ns, tick_hz),
+                    "{ns} ns at {tick_hz} Hz"
+                );
+            }
+        }
+    }
 }

@@ -2,7 +2,8 @@
 //! controllers, and the flight loops from sticks to ESC pulses.
 //!
 //! `#![no_std]`, no heap, no hardware: plain `f32` maths (plus `libm` for
-//! the exact barometric law and stick-rate trigonometry), written for a
+//! the exact barometric law and square roots; the rotation half-angles are
+//! an f32 polynomial, [`loops::half_angle_sin_cos`]), written for a
 //! Cortex-M3 **without FPU** where every float operation is a library call,
 //! so the per-sample paths avoid `powf`, trigonometry and most divisions
 //! (the 1 kHz self-level error takes two square roots; the mixer divides
@@ -32,7 +33,8 @@
 //!   OneShot125 (125–250 µs) pulse → timer compare value, and the off value.
 //! * [`fixed`] — the PID and both controllers in fixed point (Q16 inputs,
 //!   Q30 outputs) for a constant loop period: the same laws, integer
-//!   arithmetic only, for the 100 Hz control step on the M3.
+//!   arithmetic only (the firmware's motors are driven by [`loops`] in the
+//!   flight controller; these remain for fixed-period users).
 //!
 //! Conventions: height and vertical speed are **up** positive, in metres
 //! above the baro reference pressure; attitude is NED/FRD Euler angles in

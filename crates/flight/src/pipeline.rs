@@ -13,20 +13,19 @@
 //! * [`Pipeline::baro_step`] (per MS5611 pressure, ~100 Hz): pressure →
 //!   height (control's cheap table form) → vertical estimator.
 //! * [`Pipeline::control_step`] (100 Hz): vertical prediction with the mean
-//!   earth-frame vertical acceleration of the last samples, then the
-//!   altitude-hold and attitude controllers (outputs only logged; there are
-//!   no motors). The down axis and the Euler angles come from the Q30
-//!   quaternion in integer arithmetic ([`crate::angles`], within 1.2e-4 rad
-//!   of the exact angles), and the controllers are `control::fixed`'s
-//!   (Q16 in, Q30 out) at the nominal period `control_divider /
-//!   imu_rate_hz`; only the vertical estimator runs in f32.
+//!   earth-frame vertical acceleration of the last samples, and the Euler
+//!   angles for the log. The down axis and the Euler angles come from the
+//!   Q30 quaternion in integer arithmetic ([`crate::angles`], within
+//!   1.2e-4 rad of the exact angles); only the vertical estimator runs in
+//!   f32. The attitude, rate and altitude-hold loops that drive the motors
+//!   are [`crate::flightctl`]'s, at the IMU rate, on
+//!   [`Pipeline::quaternion`], [`Pipeline::body_rates`] and
+//!   [`Pipeline::altitude_estimate`].
 //!
 //! The AHRS is `fc_ahrs`'s Madgwick filter; see [`AHRS_KIND`].
 
 use calibration::{MagCalibration, MagCalibrationQ16};
 use control::baro::CheapBaro;
-use control::controllers::{AltitudeHoldConfig, AttitudeConfig};
-use control::fixed::{q16_saturating, AltitudeHoldQ, AttitudeQ, YawTargetQ16, ONE_Q30};
 use control::vertical::{Config as VerticalConfig, VerticalEstimator};
 use fc_ahrs::Quaternion;
 
@@ -40,8 +39,6 @@ use crate::storage::{CalibrationRecord, ValidParts};
 pub const G_MPS2: f32 = 9.806_65;
 const DEG_PER_RAD: f32 = 180.0 / core::f32::consts::PI;
 const RAD_PER_DEG: f32 = core::f32::consts::PI / 180.0;
-/// Output units per unit of a Q30 controller output.
-const PER_Q30: f32 = 1.0 / ONE_Q30 as f32;
 /// Degrees per unit of a Q16 angle.
 const DEG_PER_Q16: f32 = DEG_PER_RAD / 65_536.0;
 
@@ -82,21 +79,14 @@ pub struct PipelineConfig {
     pub ahrs_mode: AhrsMode,
     /// Barometer present.
     pub altitude: bool,
-    /// Altitude-hold target, m above the take-off pressure.
-    pub altitude_target_m: f32,
     /// IMU samples per [`Pipeline::control_step`] (10 → 100 Hz).
     pub control_divider: u16,
-    /// Nominal IMU sample rate, Hz: with `control_divider` it fixes the
-    /// controllers' period (their gains are precomputed for it).
+    /// Nominal IMU sample rate, Hz.
     pub imu_rate_hz: u32,
     /// AHRS tuning.
     pub ahrs: fc_ahrs::Config,
     /// Vertical estimator tuning.
     pub vertical: VerticalConfig,
-    /// Altitude-hold tuning.
-    pub altitude_hold: AltitudeHoldConfig,
-    /// Attitude-controller tuning.
-    pub attitude: AttitudeConfig,
 }
 
 impl PipelineConfig {
@@ -110,13 +100,10 @@ impl PipelineConfig {
             mag_ut_per_lsb: [0.15; 3],
             ahrs_mode: AhrsMode::Marg,
             altitude: true,
-            altitude_target_m: 1.0,
             control_divider: 10,
             imu_rate_hz: 1000,
             ahrs: fc_ahrs::Config::default(),
             vertical: VerticalConfig::default(),
-            altitude_hold: AltitudeHoldConfig::default(),
-            attitude: AttitudeConfig::default(),
         }
     }
 }
@@ -157,10 +144,6 @@ pub struct Outputs {
     pub altitude_m: f32,
     /// Vertical speed, m/s, up positive.
     pub vertical_speed_mps: f32,
-    /// Altitude-hold throttle command, 0..1 (logged only).
-    pub throttle: f32,
-    /// Attitude-controller torque commands (roll, pitch, yaw), −1..1 (logged only).
-    pub torque: [f32; 3],
     /// IMU samples processed.
     pub imu_samples: u32,
     /// Magnetometer samples used.
@@ -199,10 +182,6 @@ pub struct Pipeline {
     /// Pressures summed in `p0_sum_pa`.
     p0_n: u16,
     vertical: VerticalEstimator,
-    alt_hold: AltitudeHoldQ,
-    attitude: AttitudeQ,
-    /// Altitude-hold target, Q16 m.
-    altitude_target_q16: i32,
     /// Gyro counts → rad/s Q16, in Q16 (`rate_q16 = counts · k >> 16`).
     gyro_rps_q16_per_lsb_q16: i64,
     out: Outputs,
@@ -232,15 +211,13 @@ impl Pipeline {
             && cfg.mag_ut_per_lsb.iter().all(|s| positive(*s))
             && cfg.cpu_hz > 0
             && cfg.control_divider > 0
-            && cfg.imu_rate_hz > 0
-            && cfg.altitude_target_m.is_finite();
+            && cfg.imu_rate_hz > 0;
         if !scales_ok {
             return Err(PipelineError::InvalidScale);
         }
         let gyro_rps_per_lsb = cfg.gyro_dps_per_lsb * RAD_PER_DEG;
         let accel_mps2_per_lsb = cfg.accel_g_per_lsb * G_MPS2;
         let mag_q16 = mag_counts_to_body_q16(&cfg, cal)?;
-        let control_dt_s = f32::from(cfg.control_divider) / cfg.imu_rate_hz as f32;
         let gyro_k = gyro_rps_per_lsb * 4_294_967_296.0;
         if gyro_k.is_nan() || gyro_k >= 2.0e9 {
             return Err(PipelineError::InvalidScale);
@@ -269,9 +246,6 @@ impl Pipeline {
             p0_sum_pa: 0,
             p0_n: 0,
             vertical: VerticalEstimator::new(cfg.vertical)?,
-            alt_hold: AltitudeHoldQ::new(&cfg.altitude_hold, control_dt_s)?,
-            attitude: AttitudeQ::new(&cfg.attitude, control_dt_s)?,
-            altitude_target_q16: control::fixed::to_q16(cfg.altitude_target_m)?,
             gyro_rps_q16_per_lsb_q16: gyro_k as i64,
             out: Outputs::default(),
             cfg,
@@ -499,7 +473,7 @@ impl Pipeline {
     }
 
     /// The 100 Hz step: vertical prediction with the mean earth-frame
-    /// vertical acceleration since the last call, then the controllers.
+    /// vertical acceleration since the last call, and the Euler angles.
     pub fn control_step(&mut self) {
         let n = self.accel_n;
         if n == 0 {
@@ -530,23 +504,9 @@ impl Pipeline {
             let _ = self.vertical.predict(accel_up, dt_s);
         }
         let e_q16 = angles::euler_q16(q);
-        let k = self.gyro_rps_q16_per_lsb_q16;
-        let rates_q16 = self
-            .last_gyro_body
-            .map(|c| ((i64::from(c) * k) >> 16) as i32);
-        let torque = self
-            .attitude
-            .update([0, 0], YawTargetQ16::Rate(0), e_q16, rates_q16);
-        self.out.torque = torque.map(|t| t as f32 * PER_Q30);
         if self.cfg.altitude && self.vertical.is_initialized() {
-            let h = self.vertical.height_m();
-            let v = self.vertical.velocity_mps();
-            if let (Ok(h_q16), Ok(v_q16)) = (q16_saturating(h), q16_saturating(v)) {
-                let t = self.alt_hold.update(self.altitude_target_q16, h_q16, v_q16);
-                self.out.throttle = t as f32 * PER_Q30;
-            }
-            self.out.altitude_m = h;
-            self.out.vertical_speed_mps = v;
+            self.out.altitude_m = self.vertical.height_m();
+            self.out.vertical_speed_mps = self.vertical.velocity_mps();
         }
         let e = e_q16.map(|a| a as f32);
         self.out.roll_deg = e[0] * DEG_PER_Q16;
@@ -947,8 +907,6 @@ mod tests {
         let o = p.outputs();
         assert!((o.altitude_m - 10.0).abs() < 0.3, "{o:?}");
         assert!(o.vertical_speed_mps.abs() < 0.3, "{o:?}");
-        // Below target? no: above the 1 m target → throttle below hover.
-        assert!(o.throttle < 0.5, "{o:?}");
     }
 
     #[test]

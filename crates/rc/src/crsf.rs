@@ -439,7 +439,21 @@ impl CrsfParser {
                 self.start = 1;
                 bump(&mut self.stats.skipped_bytes);
             }
-            self.buf.copy_within(self.start..self.end, 0);
+            // Forwards, one byte at a time (the destination is below the
+            // source): `copy_within` would link the general `memmove`,
+            // 1.6 KiB of flash on a Cortex-M3, for at most 63 bytes once
+            // per frame.
+            let mut i = 0;
+            while let Some(&b) = self
+                .buf
+                .get(self.start + i)
+                .filter(|_| self.start + i < self.end)
+            {
+                if let Some(d) = self.buf.get_mut(i) {
+                    *d = b;
+                }
+                i += 1;
+            }
             self.end -= self.start;
             self.barrier = self.barrier.map(|b| b.saturating_sub(self.start));
             self.start = 0;
