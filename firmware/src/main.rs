@@ -158,6 +158,7 @@ mod app {
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
     use rc_input::ChannelMap;
     use rc_input::{CrsfParser, LinkStatus};
+    use rtic::Mutex;
     use rtic_monotonics::fugit::ExtU32;
     use rtic_monotonics::rtic_time::monotonic::TimerQueueBasedInstant;
     use rtic_monotonics::systick::prelude::*;
@@ -517,59 +518,69 @@ mod app {
                 dt_cycles,
                 now_us,
             };
-            let wants = cx.shared.session.lock(|c| c.wants());
-            let step = cx.local.step;
-            let out = cx
-                .shared
-                .pipeline
-                .lock(|p| p.as_mut().map(|p| step.run(p, &input, wants)));
-            if let Some(out) = out {
-                cx.shared.session.lock(|c| {
-                    if let Some(m) = out.mag_ut {
-                        c.push_mag(m);
-                    }
-                    if let Some(a) = out.accel_g {
-                        c.push_accel(a);
-                    }
-                });
-                cx.shared.bias.lock(|b| *b = out.bias);
-                // A row is dropped if the previous one is still being sent.
-                if let Some(r) = out.row {
-                    raw_log::spawn(r).ok();
-                }
-            }
+            estimate(&mut cx, &input);
         }
-        let motors = {
-            let pilot = cx
-                .shared
-                .pilot
-                .lock(|p| p.input(now_us, &CHANNEL_MAP, MODE_CHANNEL));
-            let status = SystemStatus {
-                sensors_healthy: mpu_ok,
-                gyro_bias_done: cx.shared.bias.lock(|b| matches!(b, BiasStatus::Done(_))),
-                calibration_running: cx.shared.session.lock(|c| {
-                    matches!(
-                        c.mode(),
-                        flight::calmode::Mode::MagCal | flight::calmode::Mode::AccelCal
-                    )
-                }),
-            };
-            let vehicle = cx
-                .shared
-                .pipeline
-                .lock(|p| p.as_ref().map(|p| vehicle_state(p, fresh)));
-            let out = match (cx.local.fc.as_mut(), vehicle) {
-                (Some(fc), Some(v)) => Some(fc.step(now_us, &pilot, &status, &v)),
-                _ => None,
-            };
-            if let Some(o) = out.filter(|o| !o.events.is_empty()) {
-                flight_log::spawn(o.events, pilot).ok();
-            }
-            out.map_or(Motors::Off, |o| o.motors)
-        };
+        let motors = fly(&mut cx, now_us, mpu_ok, fresh);
         cx.local.esc.set(&motors);
         let t1 = DWT::cycle_count();
         cx.shared.stats.lock(|s| s.record(t1.wrapping_sub(t0)));
+    }
+
+    /// One sample through the pipeline; feeds the calibration session, the
+    /// gyro-bias status and the raw log.
+    fn estimate(cx: &mut imu::Context, input: &SampleIn) {
+        let wants = cx.shared.session.lock(|c| c.wants());
+        let step = &mut *cx.local.step;
+        let out = cx
+            .shared
+            .pipeline
+            .lock(|p| p.as_mut().map(|p| step.run(p, input, wants)));
+        let Some(out) = out else { return };
+        cx.shared.session.lock(|c| {
+            if let Some(m) = out.mag_ut {
+                c.push_mag(m);
+            }
+            if let Some(a) = out.accel_g {
+                c.push_accel(a);
+            }
+        });
+        cx.shared.bias.lock(|b| *b = out.bias);
+        // A row is dropped if the previous one is still being sent.
+        if let Some(r) = out.row {
+            raw_log::spawn(r).ok();
+        }
+    }
+
+    /// One flight-controller step on the latest pilot input and estimate;
+    /// the motor commands for the ESC timer (off without a controller or an
+    /// estimate).
+    fn fly(cx: &mut imu::Context, now_us: u32, mpu_ok: bool, fresh: bool) -> Motors {
+        let pilot = cx
+            .shared
+            .pilot
+            .lock(|p| p.input(now_us, &CHANNEL_MAP, MODE_CHANNEL));
+        let status = SystemStatus {
+            sensors_healthy: mpu_ok,
+            gyro_bias_done: cx.shared.bias.lock(|b| matches!(b, BiasStatus::Done(_))),
+            calibration_running: cx.shared.session.lock(|c| {
+                matches!(
+                    c.mode(),
+                    flight::calmode::Mode::MagCal | flight::calmode::Mode::AccelCal
+                )
+            }),
+        };
+        let vehicle = cx
+            .shared
+            .pipeline
+            .lock(|p| p.as_ref().map(|p| vehicle_state(p, fresh)));
+        let out = match (cx.local.fc.as_mut(), vehicle) {
+            (Some(fc), Some(v)) => Some(fc.step(now_us, &pilot, &status, &v)),
+            _ => None,
+        };
+        if let Some(o) = out.filter(|o| !o.events.is_empty()) {
+            flight_log::spawn(o.events, pilot).ok();
+        }
+        out.map_or(Motors::Off, |o| o.motors)
     }
 
     /// USART1 receive (priority 4, above the IMU task: at 420 kbaud a byte
