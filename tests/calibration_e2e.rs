@@ -120,15 +120,23 @@ fn ellipsoid_fit_recovers_hard_and_soft_iron_on_the_figure_eight() {
 }
 
 /// The board's fit (integer moments, f32 solve) against the host's f64
-/// fit on the simulator's distortions: several hard/soft-iron draws, the
-/// same samples into both.
+/// fit on the simulator's distortions: several hard/soft-iron draws (soft
+/// iron ±15 %, and ±30 % for the last two; hard iron up to 83 µT), the same
+/// samples into both.
 #[test]
 fn board_ellipsoid_fit_agrees_with_the_host_fit() {
-    for seed in [3u64, 5, 8, 13] {
+    for (seed, soft) in [
+        (3u64, 0.15),
+        (5, 0.15),
+        (8, 0.15),
+        (13, 0.15),
+        (17, 0.3),
+        (21, 0.3),
+    ] {
         let mut rng = Rng::new(seed);
         let mut errors = SensorErrors::noise_only();
         errors.mag.hard_iron_ut = [25.0, -18.0, 32.0].map(|h: f64| h * (0.5 + seed as f64 / 10.0));
-        errors.mag.soft_iron = random_soft_iron(&mut rng, 0.15);
+        errors.mag.soft_iron = random_soft_iron(&mut rng, soft);
         let samples = dance_samples(errors, 40.0);
         let mut host = EllipsoidFit::new(EllipsoidFitConfig::MICROTESLA).unwrap();
         let mut board = EllipsoidFitF32::new(EllipsoidFitConfig::MICROTESLA, 0.125).unwrap();
@@ -171,6 +179,33 @@ fn board_ellipsoid_fit_agrees_with_the_host_fit() {
         );
         assert_eq!(h.bins_hit, b.bins_hit);
     }
+}
+
+/// Half a figure-eight (the samples above the middle of the z range only)
+/// is refused by both fits with the same coverage count.
+#[test]
+fn board_ellipsoid_fit_refuses_a_hemisphere_like_the_host() {
+    let mut rng = Rng::new(7);
+    let mut errors = SensorErrors::noise_only();
+    errors.mag.hard_iron_ut = [12.0, -20.0, 30.0];
+    errors.mag.soft_iron = random_soft_iron(&mut rng, 0.15);
+    let mut host = EllipsoidFit::new(EllipsoidFitConfig::MICROTESLA).unwrap();
+    let mut board = EllipsoidFitF32::new(EllipsoidFitConfig::MICROTESLA, 0.125).unwrap();
+    let samples = dance_samples(errors, 40.0);
+    let (lo, hi) = samples.iter().fold((f32::MAX, f32::MIN), |(lo, hi), m| {
+        (lo.min(m[2]), hi.max(m[2]))
+    });
+    let mid = 0.5 * (lo + hi);
+    for m in samples.iter().filter(|m| m[2] > mid) {
+        host.push(*m).unwrap();
+        board.push(*m).unwrap();
+    }
+    let (h, b) = (host.finish(), board.finish());
+    assert!(
+        matches!(h, Err(calibration::Error::InsufficientCoverage { .. })),
+        "{h:?}"
+    );
+    assert_eq!(format!("{:?}", h.err()), format!("{:?}", b.err()));
 }
 
 /// The board's fit refuses what the host fit refuses: a flat (planar)

@@ -14,7 +14,7 @@
 
 pub mod check;
 
-use fc_ahrs::Config;
+use fc_ahrs::{Config, Quaternion};
 
 /// Accelerometer counts per g (MPU-9250 at ±8 g full scale).
 pub const ACCEL_LSB_PER_G: i32 = 4096;
@@ -206,8 +206,10 @@ impl SampleGen {
         self.q = q.map(|x| x * inv);
 
         // Body-frame vectors: v_body = R(q)ᵀ · v_ned.
-        let g_body = rotate_inverse(self.q, [0.0, 0.0, -G_MPS2]);
-        let m_body = rotate_inverse(self.q, MAG_NED_UT);
+        let [w, x, y, z] = self.q;
+        let q_ned_from_body = Quaternion::new(w, x, y, z);
+        let g_body = q_ned_from_body.rotate_inverse([0.0, 0.0, -G_MPS2]);
+        let m_body = q_ned_from_body.rotate_inverse(MAG_NED_UT);
         let mut accel = g_body.map(|x| round(x / ACCEL_MPS2_PER_LSB) + self.rng.symmetric(40));
         let mut mag = m_body.map(|x| round(x / MAG_UT_PER_LSB) + self.rng.symmetric(4));
         let gyro = self.rate.map(|r| r + self.rng.symmetric(8));
@@ -235,33 +237,6 @@ impl SampleGen {
 fn round(x: f32) -> i32 {
     // `as` saturates; adding ±0.5 then truncating rounds half away from zero.
     (if x >= 0.0 { x + 0.5 } else { x - 0.5 }) as i32
-}
-
-/// `R(q)ᵀ · v` for a unit quaternion q = (w, x, y, z).
-fn rotate_inverse(q: [f32; 4], v: [f32; 3]) -> [f32; 3] {
-    let [w, x, y, z] = q;
-    let r = [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ];
-    [
-        r[0][0] * v[0] + r[1][0] * v[1] + r[2][0] * v[2],
-        r[0][1] * v[0] + r[1][1] * v[1] + r[2][1] * v[2],
-        r[0][2] * v[0] + r[1][2] * v[1] + r[2][2] * v[2],
-    ]
 }
 
 impl Iterator for SampleGen {

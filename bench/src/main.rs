@@ -481,6 +481,9 @@ mod suite {
                     plain_name
                 }
             };
+            // The f32 and fixed-point blocks below repeat each other's shape on
+            // purpose: the filters take different input types, and each block is
+            // one pair of rows of BENCHMARKS.md's table.
             // f32: warm up past the start-up gain ramp, then measure.
             let mut f = Madgwick::from_accel_mag(cfg, w.accel_mps2, w.mag_ut);
             for _ in 0..WARM_CALLS {

@@ -310,7 +310,9 @@ impl Hw {
         }
     }
 
-    fn clock_enabled(&self, addr: u32) -> Option<&'static str> {
+    /// The peripheral at `addr` if its RCC clock is off (an access to it is
+    /// the firmware's bug: on silicon it reads 0 and writes are lost).
+    fn unclocked(&self, addr: u32) -> Option<&'static str> {
         let (name, on) = match addr {
             0x4001_0000..=0x4001_03FF => ("AFIO", self.rcc.apb2enr & 1 != 0),
             0x4001_0800..=0x4001_0BFF => ("GPIOA", self.rcc.apb2enr & (1 << 2) != 0),
@@ -558,19 +560,29 @@ fn lanes(addr: u64, size: usize) -> (u32, u32, u32) {
     (addr as u32 & !3, shift, m << shift)
 }
 
+/// An access at `addr` to a peripheral whose clock is off: the run fails
+/// with [`BoardError::ClockDisabled`] and stops. Whether it did.
+fn stopped_on_unclocked(uc: &mut Unicorn<'_, Hw>, addr: u32, pc: u32) -> bool {
+    let hw = uc.get_data_mut();
+    let Some(p) = hw.unclocked(addr) else {
+        return false;
+    };
+    hw.fail(BoardError::ClockDisabled {
+        peripheral: p,
+        addr,
+        pc,
+    });
+    let _ = uc.emu_stop();
+    true
+}
+
 fn mmio_read(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize) -> u64 {
     let (a, shift, mask) = lanes(u64::from(addr), size);
     let pc = pc_of(uc);
-    let hw = uc.get_data_mut();
-    if let Some(p) = hw.clock_enabled(addr) {
-        hw.fail(BoardError::ClockDisabled {
-            peripheral: p,
-            addr,
-            pc,
-        });
-        let _ = uc.emu_stop();
+    if stopped_on_unclocked(uc, addr, pc) {
         return 0;
     }
+    let hw = uc.get_data_mut();
     match hw.periph_read(a) {
         Some(v) => u64::from((v & mask) >> shift),
         None => {
@@ -589,16 +601,10 @@ fn mmio_read(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize) -> u64 {
 fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
     let (a, shift, mask) = lanes(u64::from(addr), size);
     let pc = pc_of(uc);
-    let hw = uc.get_data_mut();
-    if let Some(p) = hw.clock_enabled(addr) {
-        hw.fail(BoardError::ClockDisabled {
-            peripheral: p,
-            addr,
-            pc,
-        });
-        let _ = uc.emu_stop();
+    if stopped_on_unclocked(uc, addr, pc) {
         return;
     }
+    let hw = uc.get_data_mut();
     let pend_before = hw.nvic.pending;
     let hw = uc.get_data_mut();
     hw.resched = true;
@@ -724,6 +730,24 @@ pub struct Board {
     csr: u32,
 }
 
+/// Maps `size` bytes at `base` to the peripheral register models
+/// ([`mmio_read`], [`mmio_write`]).
+fn map_registers(uc: &mut Unicorn<'static, Hw>, base: u32, size: u32) -> Result<(), BoardError> {
+    uc.mmio_map(
+        u64::from(base),
+        u64::from(size),
+        Some(move |uc: &mut Unicorn<'_, Hw>, off: u64, size: usize| {
+            mmio_read(uc, base + off as u32, size)
+        }),
+        Some(
+            move |uc: &mut Unicorn<'_, Hw>, off: u64, size: usize, v: u64| {
+                mmio_write(uc, base + off as u32, size, v)
+            },
+        ),
+    )
+    .map_err(uc_err)
+}
+
 fn uc_err(e: uc_error) -> BoardError {
     BoardError::Cpu(format!("{e:?}"))
 }
@@ -841,17 +865,7 @@ impl Board {
         }
         uc.mem_map(u64::from(RAM_BASE), u64::from(RAM_SIZE), Prot::ALL)
             .map_err(uc_err)?;
-        uc.mmio_map(
-            u64::from(PERIPH_BASE),
-            u64::from(PERIPH_SIZE),
-            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize| {
-                mmio_read(uc, PERIPH_BASE + off as u32, size)
-            }),
-            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize, v: u64| {
-                mmio_write(uc, PERIPH_BASE + off as u32, size, v)
-            }),
-        )
-        .map_err(uc_err)?;
+        map_registers(uc, PERIPH_BASE, PERIPH_SIZE)?;
         uc.mmio_map(
             u64::from(PERIPH_BB),
             u64::from(PERIPH_SIZE) * 32,
@@ -883,17 +897,7 @@ impl Board {
             }),
         )
         .map_err(uc_err)?;
-        uc.mmio_map(
-            u64::from(PPB_BASE),
-            u64::from(PPB_SIZE),
-            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize| {
-                mmio_read(uc, PPB_BASE + off as u32, size)
-            }),
-            Some(|uc: &mut Unicorn<'_, Hw>, off: u64, size: usize, v: u64| {
-                mmio_write(uc, PPB_BASE + off as u32, size, v)
-            }),
-        )
-        .map_err(uc_err)?;
+        map_registers(uc, PPB_BASE, PPB_SIZE)?;
         uc.add_block_hook(1, 0, |uc: &mut Unicorn<'_, Hw>, addr: u64, size: u32| {
             // Per-halfword cache of flash blocks (a hash map here cost more
             // than the emulation itself).
@@ -1394,6 +1398,27 @@ mod tests {
             ),
             "{e:?}"
         );
+    }
+
+    #[test]
+    fn unclocked_peripheral_stops_the_board_on_read_and_write() {
+        // ldr r0,=I2C1; ldr r1,[r0]; b .   and   ldr r0,=I2C1; str r1,[r0]; b .
+        for code in [[0x4802, 0x6801, 0xE7FE], [0x4802, 0x6001, 0xE7FE]] {
+            let fw = bare(&code, 0x4000_5400);
+            let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+            let e = b.run_until_ns(1_000).err();
+            assert!(
+                matches!(
+                    e,
+                    Some(BoardError::ClockDisabled {
+                        peripheral: "I2C1",
+                        addr: 0x4000_5400,
+                        ..
+                    })
+                ),
+                "{code:x?}: {e:?}"
+            );
+        }
     }
 
     #[test]

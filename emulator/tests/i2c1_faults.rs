@@ -5,6 +5,9 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+// Each test spells out its fault's register and pin sequence as RM0008 and the
+// errata give it, so neighbouring tests share runs of the same steps on purpose.
+
 mod i2c1_support;
 
 use emulator::i2c1::{cr1, reg, sr1, sr2, PeripheralFault, PinMode};

@@ -25,6 +25,8 @@
 //!   stack high-water mark over defmt-RTT; the PA0 button and the
 //!   calibration session; saving a calibration; the watchdog is fed only
 //!   while the IMU loop makes progress (or the MPU is out of the loop).
+//! * `raw_log` (priority 1, spawned by `imu` in raw-log mode, 100 Hz): prints
+//!   one raw-log row in `RAW_LOG_HEADER`'s column order.
 //!
 //! What the board does on a bad bus, and what the log says:
 //! * bus stuck at power-up: recovered before the first probe ("I2C
@@ -60,9 +62,11 @@
 //! Flash: 57,168 B of the 63 KiB budget (`cargo fw && cargo xtask size`,
 //! release profile at `opt-level = "z"`); static RAM 4.0 KiB. To fit, the
 //! I2C master is our own register-level driver (`bus.rs`) rather than the
-//! HAL's blocking one, and the magnetometer calibration on the board is the
-//! per-axis min/max (the `MagCal` type below: one line selects the full
-//! ellipsoid fit, ~6.4 KiB more, which does not fit the budget yet).
+//! HAL's blocking one, the fixed-point textbook filter is left out (`fc-ahrs`
+//! without its `textbook` feature: the firmware runs the full filter), and
+//! the magnetometer calibration on the board is the per-axis min/max (the
+//! `MagCal` type below: one line selects the full ellipsoid fit, 5.5 KiB
+//! more, which does not fit the budget yet).
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
@@ -166,7 +170,7 @@ mod app {
     /// Magnetometer calibration used on the board: per-axis min/max.
     /// `flight::calmode::MagCalMode` (the ellipsoid fit with integer
     /// moments and an f32 solve) is the full alternative: swap this one
-    /// line (6.4 KiB more flash: 56,356 B, over the 50 KiB budget).
+    /// line (5.5 KiB more flash: 53,884 B, over the 48 KiB budget).
     type MagCal = flight::calmode::MagMinMaxMode;
 
     systick_monotonic!(Mono, 1_000);

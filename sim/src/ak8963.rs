@@ -5,6 +5,9 @@
 //!
 //! Not modelled: external-trigger mode (there is no trigger pin), I2CDIS,
 //! the DRDY pin, measurement-time jitter.
+//!
+//! The register map here is written from the datasheet independently of the
+//! `ak8963` driver's on purpose: the model checks the driver.
 
 use crate::bus::SimBusError;
 use crate::device::Device;

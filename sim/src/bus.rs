@@ -450,5 +450,17 @@ pub fn magnet_pass(peak_body_ut: Vec3, peak_time_s: f64, width_s: f64) -> Fault 
         peak_body_ut,
         peak_time_s,
         width_s,
+        stays: false,
+    })
+}
+
+/// Convenience: a magnet that approaches (the rising half of [`magnet_pass`]'s profile)
+/// and from `peak_time_s` on rides along: a body-fixed offset of `peak_body_ut`.
+pub fn magnet_ride(peak_body_ut: Vec3, peak_time_s: f64, width_s: f64) -> Fault {
+    Fault::Magnet(MagnetPass {
+        peak_body_ut,
+        peak_time_s,
+        width_s,
+        stays: true,
     })
 }

@@ -2,14 +2,19 @@
 //!
 //! Register-level models of the MPU-9250, its AK8963 magnetometer and the
 //! MS5611 barometer sit behind one virtual [`SimBus`] implementing
-//! `embedded_hal::i2c::I2c`, so the real no_std drivers run against them
-//! unchanged. The chips sample a rigid-body [`Trajectory`] (truth) through
+//! `embedded_hal::i2c::I2c` (and, for the MPU-9250 and MS5611, behind
+//! `SpiDevice`s in [`spi`]), so the real no_std drivers run against them
+//! unchanged. The models are written from the datasheets, not from the
+//! drivers: their register maps and the MS5611 compensation repeat the
+//! drivers' on purpose, as independent transcriptions that check them. The chips sample a rigid-body [`Trajectory`] (truth) through
 //! seeded datasheet-size sensor errors, on a simulated [`SimClock`] that the
 //! drivers' [`SimDelay`] advances — a 10-minute flight runs in seconds.
 //! Faults (NACKs, bus errors, arbitration loss, stuck SDA/SCL, a chip left
 //! holding SDA mid-byte, wrong ids, corrupted PROM, overflow, frozen data,
 //! magnets, vibration, spontaneous resets) are injected with
-//! [`SimBus::inject`].
+//! [`SimBus::inject`]. A [`Quadcopter`] model (motors, battery, drag,
+//! ground) can be the truth instead, through a [`QuadLink`], for closed-loop
+//! flight.
 //!
 //! The same bus is open at the wire level ([`wire`]): START + address,
 //! bytes with the master's ACK/NACK, STOP, and the SCL/SDA levels with what
@@ -19,8 +24,7 @@
 //!
 //! What it is not: an electrical I2C model (no clock stretching by the
 //! chips, no bit timing inside the chips: time per transfer is an optional
-//! estimate or the master model's), nor a model of the MPU-9250's FIFO, DMP
-//! or I2C master.
+//! estimate or the master model's), nor a model of the MPU-9250's DMP.
 //!
 //! ```
 //! use embedded_hal::i2c::I2c;
@@ -43,15 +47,19 @@ pub mod math;
 pub mod mpu9250;
 pub mod ms5611;
 pub mod physics;
+pub mod quad;
 pub mod rng;
 pub mod spi;
 pub mod wire;
 pub mod world;
 
-pub use bus::{magnet_pass, Chip, Fault, SimBus, SimBusError, SimConfig, AK8963_ADDRESS};
+pub use bus::{
+    magnet_pass, magnet_ride, Chip, Fault, SimBus, SimBusError, SimConfig, AK8963_ADDRESS,
+};
 pub use clock::{SimClock, SimDelay};
 pub use errors::SensorErrors;
 pub use math::{Quat, Vec3};
 pub use physics::{Environment, MagneticField, Trajectory, TruthSample};
+pub use quad::{QuadLink, QuadParams, Quadcopter};
 pub use spi::{SimSpi, SimSpiError, SpiChip};
 pub use world::{MagnetPass, Vibration};

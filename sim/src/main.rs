@@ -10,11 +10,11 @@
 mod demo;
 
 use clap::Parser;
-use demo::console::{note, say};
 use demo::output::CsvWriter;
 use demo::plot::{PlotFormat, PlotSeries};
 use demo::run::{run, RecordSink, RunOptions, RunResult, ScheduledFault};
 use demo::stack::Filter;
+use host_console::{note, say};
 use sim::Trajectory;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -34,7 +34,12 @@ What runs, in order (each a separate session of the same simulated board):
   3. the flight: boot probe, start-up gyro bias while still, then every MPU
      data-ready through flight::pipeline::Pipeline (raw counts -> calibration ->
      mounting -> AHRS -> vertical estimator -> controllers), the code the
-     firmware runs. Errors are scored against the truth after the first second.";
+     firmware runs. Errors are scored against the truth after the first second.
+
+With --scenario the flight is closed-loop instead: a 250-class quadcopter
+model is the truth, the same pipeline estimates it, flight::flightctl's
+FlightController flies it (scripted pilot), and the scenario's figures
+(hover height error, rise time, overshoot, failsafe timing) are printed.";
 
 /// Command-line options (see `--help`).
 #[derive(Parser, Debug)]
@@ -78,6 +83,13 @@ struct Cli {
     /// time); repeatable. Kinds are listed below.
     #[arg(long, value_name = "KIND[@T]", value_parser = demo::faults::parse)]
     fault: Vec<ScheduledFault>,
+    /// Fly the quadcopter model in a closed loop instead of a trajectory:
+    /// the chips read its motion, the firmware's pipeline estimates it, the
+    /// flight controller flies it through a scripted pilot. Prints the
+    /// scenario's figures; --plot draws the responses.
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["trajectory", "csv", "fault", "duration"],
+          value_parser = clap::builder::PossibleValuesParser::new(demo::closed_loop::Scenario::NAMES))]
+    scenario: Option<String>,
     /// No progress line on stderr.
     #[arg(short, long)]
     quiet: bool,
@@ -129,8 +141,12 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match execute(&opts, outputs) {
-        Ok(()) if demo::console::stdout_failed() => {
+    let done = match &cli.scenario {
+        Some(name) => execute_scenario(name, &cli, &outputs),
+        None => execute(&opts, outputs),
+    };
+    match done {
+        Ok(()) if host_console::stdout_failed() => {
             note!("sim: writing to stdout failed");
             ExitCode::FAILURE
         }
@@ -172,7 +188,7 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
     }
     let csv = match &cli.csv {
         Some(p) if is_stdout(p) => {
-            demo::console::use_stderr();
+            host_console::use_stderr();
             Some(CsvWriter::new(Box::new(std::io::stdout()), "stdout")?)
         }
         Some(p) => Some(CsvWriter::new(
@@ -222,19 +238,9 @@ fn check_filter(want: FilterArg) -> Result<(), String> {
     ))
 }
 
-/// Both paths lead to the same file (compared canonically where they exist).
+/// Both paths lead to the same file (compared canonically).
 fn same_file(a: &Path, b: &Path) -> bool {
-    let canon = |p: &Path| {
-        let parent = p
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let dir = parent
-            .canonicalize()
-            .unwrap_or_else(|_| parent.to_path_buf());
-        p.file_name().map(|n| dir.join(n))
-    };
-    a == b || (canon(a).is_some() && canon(a) == canon(b))
+    a == b || host_console::canonical_path(a) == host_console::canonical_path(b)
 }
 
 /// Creates `path` (and its parent folders) for writing.
@@ -293,6 +299,59 @@ fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
             opts.duration_s
         ));
     }
+    Ok(())
+}
+
+/// A closed-loop scenario: fly it, print its figures, plot it.
+fn execute_scenario(name: &str, cli: &Cli, outputs: &Outputs) -> Result<(), String> {
+    use demo::closed_loop::{fly, ClosedLoopOptions, FlightControl, Scenario};
+    let scenario = Scenario::from_name(name).ok_or_else(|| format!("unknown scenario `{name}`"))?;
+    let mut opts = ClosedLoopOptions::new(scenario, cli.seed);
+    opts.board_seed = cli.board_seed.unwrap_or(cli.seed);
+    opts.mag_dance_s = cli.mag_dance;
+    let mut fc = demo::flight_fc::FirmwareFc::new(flight::flightctl::FlightConfig::default())?;
+    say!(
+        "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",
+        scenario.name(),
+        opts.seed,
+        opts.board_seed,
+        scenario.duration_s(),
+        flight::pipeline::AHRS_KIND,
+        fc.name()
+    );
+    let log = match fly(&opts, &mut fc) {
+        Ok(l) => l,
+        Err(e) => {
+            if let Some(p) = &outputs.plot {
+                let _ = std::fs::remove_file(p);
+            }
+            return Err(e);
+        }
+    };
+    if let Some(path) = &outputs.plot {
+        let title = format!("sim closed loop: {} seed {}", scenario.name(), opts.seed);
+        demo::plot_closed::write_plot(path, &title, &log)
+            .map_err(|e| format!("plotting {}: {e}", path.display()))?;
+        say!("wrote {}", path.display());
+    }
+    for (t, e) in &log.events {
+        say!("t {t:7.3} s: {e}");
+    }
+    say!("== figures: {} seed {} ==", scenario.name(), opts.seed);
+    for line in demo::figures::figures(&log).lines() {
+        say!("{line}");
+    }
+    say!(
+        "{} samples, {} CRSF frames through the receiver code, in {:.2} s wall{}",
+        log.samples.len(),
+        log.radio_frames,
+        log.wall_s,
+        if log.missed > 0 {
+            format!(", {} data-ready interrupts without a sample", log.missed)
+        } else {
+            String::new()
+        }
+    );
     Ok(())
 }
 
@@ -372,39 +431,10 @@ fn max_abs_diff(a: [f64; 3], b: [f64; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::Cli;
-    use clap::{CommandFactory, Parser};
-    use proptest::prelude::*;
 
+    /// clap's checks of the definitions; any command line parses or errs, never panics.
     #[test]
-    fn the_argument_definitions_are_consistent() {
-        Cli::command().debug_assert();
-    }
-
-    /// Option-like and value-like words.
-    fn word() -> impl Strategy<Value = String> {
-        prop_oneof![
-            Just("--duration".to_string()),
-            Just("--beta".to_string()),
-            Just("--fault".to_string()),
-            Just("--out".to_string()),
-            Just("--plot".to_string()),
-            Just("--filter".to_string()),
-            Just("-".to_string()),
-            Just("--".to_string()),
-            "-?[0-9.eE+-]{0,8}",
-            "--[a-z-]{1,14}(=[^\\x00]{0,8})?",
-            "[^\\x00]{0,12}",
-        ]
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
-
-        /// Whatever the command line, parsing gives options or an error, never a panic.
-        #[test]
-        fn any_command_line_parses_or_errs(args in proptest::collection::vec(word(), 0..8)) {
-            let argv = std::iter::once("prog".to_string()).chain(args);
-            let _ = Cli::try_parse_from(argv);
-        }
+    fn the_command_line_is_well_defined() {
+        host_console::testing::check_parser::<Cli>();
     }
 }

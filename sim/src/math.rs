@@ -1,4 +1,7 @@
 //! Small f64 vector / quaternion helpers (host only, no allocation).
+//!
+//! In f64 and apart from `fc_ahrs`'s f32 quaternion on purpose: the truth the
+//! filters are scored against does not share their arithmetic.
 
 /// A 3-vector, frame given by the name of the variable holding it.
 pub type Vec3 = [f64; 3];

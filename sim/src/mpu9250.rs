@@ -1,6 +1,8 @@
 //! Register-level model of the InvenSense MPU-9250 (register map rev 1.6,
 //! product specification rev 1.1): accelerometer, gyroscope, temperature,
-//! sample-rate divider and DLPF configuration, data-ready interrupt, bypass.
+//! sample-rate divider and DLPF configuration, data-ready interrupt, bypass,
+//! the FIFO, and the internal I2C master's registers (run by
+//! [`aux_master`](crate::aux_master)).
 //!
 //! Burst reads are coherent: the sensor registers (ACCEL_XOUT_H ..
 //! GYRO_ZOUT_L) a master reads come from a user-facing copy that follows the
@@ -14,9 +16,12 @@
 //! byte of the next: a ±256-count step whenever a value crosses a multiple
 //! of 256, such as a gyro axis at rest crossing zero.
 //!
-//! Not modelled: FIFO, DMP, the I2C master (SLV0..4 / EXT_SENS_DATA),
-//! self-test responses, wake-on-motion, the DLPF's signal delay (only its
-//! noise bandwidth), start-up transients.
+//! Not modelled: DMP, self-test responses, wake-on-motion, the DLPF's signal
+//! delay (only its noise bandwidth), start-up transients.
+//!
+//! The register map here is written from the datasheet independently of the
+//! `mpu9250` driver's on purpose: the model checks the driver, so it must not
+//! share the driver's reading of the datasheet.
 
 use crate::bus::SimBusError;
 use crate::device::Device;

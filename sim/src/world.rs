@@ -27,11 +27,17 @@ pub struct MagnetPass {
     pub peak_time_s: f64,
     /// Width (s): the disturbance is above 1/e of its peak for ±width/2.
     pub width_s: f64,
+    /// The magnet stays after its peak (attached to the body, riding along): a
+    /// body-fixed hard-iron offset from then on, which the calibration does not know.
+    pub stays: bool,
 }
 
 impl MagnetPass {
     /// Disturbance (µT, body) at `t_s`.
     pub fn field_body_ut(&self, t_s: f64) -> Vec3 {
+        if self.stays && t_s >= self.peak_time_s {
+            return self.peak_body_ut;
+        }
         let x = (t_s - self.peak_time_s) / (0.5 * self.width_s.max(1e-9));
         math::scale(self.peak_body_ut, (-x * x).exp())
     }

@@ -118,3 +118,48 @@ fn csv_to_stdout_keeps_status_lines_off_it() {
     assert!(lines.all(|l| l.split(',').count() == 15));
     assert!(stderr(&o).contains("== summary"));
 }
+
+#[test]
+fn a_closed_loop_scenario_prints_its_figures_and_plots() {
+    let d = dir("scenario");
+    let plot = d.join("out/linkloss.svg");
+    let o = sim(&[
+        "--scenario",
+        "linkloss",
+        "--mag-dance",
+        "10",
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for want in [
+        "Armed",
+        "FailsafeHold",
+        "FailsafeDescent",
+        "Disarmed(FailsafeLanded)",
+        "hover height error RMS",
+        "link lost at",
+    ] {
+        assert!(out.contains(want), "wanted `{want}` in {out}");
+    }
+    assert!(std::fs::metadata(&plot).unwrap().len() > 10_000);
+    let _ = std::fs::remove_dir_all(d);
+}
+
+#[test]
+fn a_scenario_refuses_the_open_loop_options() {
+    refused(&["--scenario", "hover"], "invalid value");
+    refused(
+        &["--scenario", "steps", "--csv", "x.csv"],
+        "cannot be used with",
+    );
+    refused(
+        &["--scenario", "steps", "--trajectory", "slow"],
+        "cannot be used with",
+    );
+    refused(
+        &["--scenario", "steps", "--fault", "magnet@2"],
+        "cannot be used with",
+    );
+}

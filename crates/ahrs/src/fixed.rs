@@ -26,11 +26,14 @@
 //! heading error and 1/|y_z| of the tilt correction. Conversions from the f32 [`crate::Config`] happen once, in
 //! [`FixedConfig::from_config`].
 
+// The steps and checks repeat madgwick.rs's, under the same names, on purpose: the two
+// files read side by side, and the fixed-point filter is tested against the f32 one.
+
 // `max(lo).min(hi)` instead of `clamp`: `clamp` asserts lo ≤ hi (a panic path) and stays
 // an out-of-line call at the firmware's opt-level "z".
 #![allow(clippy::manual_clamp)]
 
-use crate::config::{Algorithm, Config, UpdatePath, UpdateStatus};
+use crate::config::{Algorithm, Config, MagState, UpdatePath, UpdateStatus};
 use crate::Quaternion;
 
 const ONE_Q30: i64 = 1 << 30;
@@ -138,6 +141,47 @@ fn unit4(v: [i32; 4]) -> Option<([i32; 4], u64)> {
     Some((u, s))
 }
 
+/// The textbook filter's normalisation: `v/‖v‖` in Q30 (`None` if zero) with one
+/// Newton step from the table (relative error of the scale ≤ 1.5·0.016² < 4e-4, and
+/// the same for every component, so the direction is exact to rounding). Enough
+/// there: a common scale error of the accelerometer or magnetometer vector moves the
+/// gradient only to second order near the minimum (J ᵀ·down = 0 for a unit q), and of
+/// the gradient only the step length. No i32::MIN clamp: the callers pass 3-vectors
+/// (4th component 0: Σ < 3·2^62) or the gradient (components < 2^30).
+#[cfg(feature = "textbook")]
+#[inline(never)]
+fn unit_fast(v: [i32; 4]) -> Option<[i32; 4]> {
+    let sq = |x: i32| m64(x, x) as u64;
+    let [a, b, c, d] = v;
+    let s = sq(a) + sq(b) + sq(c) + sq(d);
+    if s == 0 {
+        return None;
+    }
+    // Rare (components ≥ 2^30): v/4 has Σ < 2^60 (and ≥ 2^58: non-zero).
+    let (v, s) = if s < 1 << 62 {
+        (v, s)
+    } else {
+        let v4 = [a >> 2, b >> 2, c >> 2, d >> 2];
+        let [a, b, c, d] = v4;
+        (v4, sq(a) + sq(b) + sq(c) + sq(d))
+    };
+    let (m_q32, k) = norm_parts(s);
+    let idx = ((m_q32 >> 26) as usize).wrapping_sub(16);
+    let y0 = RSQRT_TABLE.get(idx).copied().unwrap_or(1 << 29) << 1;
+    let y = (newton_rsqrt(y0, m_q32) >> 1) as i32;
+    let f = |x: i32| ((m64(x << k, y) + (1 << 29)) >> 30) as i32;
+    let [a, b, c, d] = v;
+    Some([f(a), f(b), f(c), f(d)])
+}
+
+/// [`unit_fast`] of a 3-vector.
+#[cfg(feature = "textbook")]
+#[inline(always)]
+fn unit3_fast(v: [i32; 3]) -> Option<[i32; 3]> {
+    let [a, b, c] = v;
+    unit_fast([a, b, c, 0]).map(|[x, y, z, _]| [x, y, z])
+}
+
 /// Normalise an i32 3-vector to Q30; `None` if zero. Also returns ‖v‖².
 fn unit3(v: [i32; 3]) -> Option<([i32; 3], u64)> {
     let [a, b, c] = v;
@@ -199,6 +243,31 @@ fn half_angles(w: [i32; 3], dt_q31: i32, clamped: &mut bool) -> [i32; 3] {
     [h(w[0]), h(w[1]), h(w[2])]
 }
 
+/// |ω·dt| (Q51) beyond which the full filter's gyro step is split: 2·(1/32) rad.
+const SUBSTEP_WDT_Q51: u64 = 1 << 47;
+
+/// The full filter's gyro step split into n = 1 + ⌊|ω·dt|max / (1/16)⌋ (at most
+/// `MAX_SUBSTEPS`) equal sub-steps, renormalised between them, the last one left for the
+/// caller's renormalisation (as the f32 filter). At ≤ 1/32 rad of half angle per
+/// sub-step the first-order step's error (2(h − atan h) ≈ ⅔h³ rad) is 0.001° each, ~0.5°
+/// over the 559 sub-steps of 2000 °/s for 1 s; at 1 kHz the MPU-9250's 2000 °/s is one
+/// step and never comes here (out of line: the common path stays short).
+#[inline(never)]
+fn substep(q: [i32; 4], w: [i32; 3], dt_q31: i32, clamped: &mut bool) -> [i64; 4] {
+    let m = w
+        .iter()
+        .map(|&x| m64(x, dt_q31).unsigned_abs())
+        .max()
+        .unwrap_or(0);
+    let n = ((m / SUBSTEP_WDT_Q51) as u32).min(crate::madgwick::MAX_SUBSTEPS - 1) + 1;
+    let dt_sub = dt_q31 / n as i32;
+    let mut q0 = q;
+    for _ in 1..n {
+        q0 = renormalise(propagate(q0, half_angles(w, dt_sub, clamped))).unwrap_or(q0);
+    }
+    propagate(q0, half_angles(w, dt_sub, clamped))
+}
+
 /// |ω|² in Q40 for ω in Q20: three squares ≤ 2^62 each sum exactly in u64 (< 3·2^62),
 /// then saturate once to i64.
 fn w_sq(w: [i32; 3]) -> i64 {
@@ -240,6 +309,12 @@ fn m64(a: i32, b: i32) -> i64 {
 /// Dot product of two Q30 vectors with |aᵢ|, |bᵢ| ≤ 2^30 + 2^20 (unit vectors, rows of
 /// R(q)): each product < 2^61, the sum < 2^63. Result Q30.
 fn dot30u(a: [i32; 3], b: [i32; 3]) -> i32 {
+    dot30u_inline(a, b)
+}
+
+/// [`dot30u`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn dot30u_inline(a: [i32; 3], b: [i32; 3]) -> i32 {
     ((m64(a[0], b[0]) + m64(a[1], b[1]) + m64(a[2], b[2]) + (1 << 29)) >> 30) as i32
 }
 
@@ -261,6 +336,8 @@ fn down_row(q: [i32; 4]) -> [i32; 3] {
 /// doubled ones 2q in Q29 (= q's raw Q30 value): products Q58, at most 2^59 + 2^59 + 2^60
 /// = 2^61 (×(1+1e-6)²) per component, so the sums fit and the high word (>> 32) is
 /// ∇f/2 in Q26 with |gᵢ| < 2^30.
+// Used by the textbook filter only.
+#[cfg_attr(not(feature = "textbook"), allow(dead_code))]
 fn accel_grad(q: [i32; 4], down: [i32; 3], d: [i32; 3]) -> [i32; 4] {
     let [d2q1, d2q2, d2q3, d2q4] = q;
     let (q1, q2, q3, q4) = (d2q1 >> 1, d2q2 >> 1, d2q3 >> 1, d2q4 >> 1);
@@ -282,6 +359,8 @@ fn accel_grad(q: [i32; 4], down: [i32; 3], d: [i32; 3]) -> [i32; 4] {
 /// so |f_bᵢ| ≤ 2^29); bx·qᵢ, bz·qᵢ in Q28 (high words, ≤ 2^28), coefficient sums
 /// ≤ 3·2^28; products ≤ 3·2^57, three of them < 2^61; the high word is ∇f/2 in Q24
 /// (|gᵢ| < 2^29).
+// Used by the textbook filter only.
+#[cfg_attr(not(feature = "textbook"), allow(dead_code))]
 fn mag_grad(q: [i32; 4], r0: [i32; 3], r2: [i32; 3], m: [i32; 3], bx: i32, bz: i32) -> [i32; 4] {
     let hi = |x: i64| (x >> 32) as i32;
     let [r00, r01, r02] = r0;
@@ -305,6 +384,12 @@ fn mag_grad(q: [i32; 4], r0: [i32; 3], r2: [i32; 3], m: [i32; 3], bx: i32, bz: i
 /// q + ½ q ⊗ (0, ω)·dt in Q60 (`hw` = ½ω·dt in Q30, each |hwᵢ| ≤ 2^29).
 /// Bound: ‖q‖·(1 + ‖hw‖)·2^60 ≤ (1 + √3/2)·2^60·(1 + 1e-6) < 1.87·2^60.
 fn propagate(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
+    propagate_inline(q, hw)
+}
+
+/// [`propagate`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn propagate_inline(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
     let [q1, q2, q3, q4] = q;
     let [h0, h1, h2] = hw;
     let b = |x: i32| i64::from(x) << 30;
@@ -316,35 +401,6 @@ fn propagate(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
     ]
 }
 
-/// Normalised gradient step on the Q60 accumulator: acc −= s·∇/‖∇‖ with
-/// s = min(β·dt, ‖∇‖/4, ½) in Q30. `g` is ∇/2 in Q(29 − log₂ `cap_mul`) (< 2^30 per
-/// component), so ‖∇‖/4 in Q30 is ‖g‖·`cap_mul` (8 for the accelerometer's Q26, 32 for
-/// the magnetometer's Q24).
-///
-/// Why ‖∇‖/4: for a small error θ about an axis perpendicular to the sensor's reference,
-/// ∇ = 4·δq (δq ≈ θ/2 is the quaternion step that removes it), so a large β·dt (start-up
-/// gain with a long dt) reaches but cannot pass the minimum instead of spinning the
-/// estimate away. Same limit as the f32 filter. The step adds at most ½·2^60 to the
-/// accumulator's norm.
-fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: Option<i32>) {
-    if let Some((u, _)) = unit4(g) {
-        let [g0, g1, g2, g3] = g;
-        let [u0, u1, u2, u3] = u;
-        // ‖g‖ = g·u/2^30 (|g|·|u| < 2^61).
-        let norm = (m64(g0, u0) + m64(g1, u1) + m64(g2, u2) + m64(g3, u3)) >> 30;
-        // ‖g‖ < 2^30 fits in i32. A product, not a shift: a variable 64-bit shift is a
-        // library call (`__aeabi_llsl`) on the M3.
-        let cap = cap_mul.map_or(i64::MAX, |k| m64(norm as i32, k));
-        let s = beta_dt_q30.min(cap).max(0).min(1 << 29) as i32;
-        // In place, per component (returning the array by value costs a `memcpy`).
-        let [a0, a1, a2, a3] = acc;
-        *a0 -= m64(s, u0);
-        *a1 -= m64(s, u1);
-        *a2 -= m64(s, u2);
-        *a3 -= m64(s, u3);
-    }
-}
-
 /// Renormalise the Q60 accumulator to a unit Q30 quaternion; `None` if (near) zero
 /// (‖acc‖ < 2^-10). Bound: ‖acc‖ < (1.87 + 3·½)·2^60 = 3.37·2^60 (propagation, two
 /// gradient steps and the heading term, each ≤ ½), so the Q29 components are < 2^31 and
@@ -352,6 +408,12 @@ fn grad_step(acc: &mut [i64; 4], g: [i32; 4], beta_dt_q30: i64, cap_mul: Option<
 /// Fast path (‖nq‖² = 1 + δ, |δ| < 2^-10, every normal step): nq·(3 − ‖nq‖²)/2, error
 /// 3δ²/8 < 4e-7 (corrected again by the next step); otherwise a full reciprocal square root.
 fn renormalise(acc: [i64; 4]) -> Option<[i32; 4]> {
+    renormalise_inline(acc)
+}
+
+/// [`renormalise`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn renormalise_inline(acc: [i64; 4]) -> Option<[i32; 4]> {
     let q29 = |a: i64| ((a + (1 << 30)) >> 31) as i32;
     let [a0, a1, a2, a3] = acc;
     let (n0, n1, n2, n3) = (q29(a0), q29(a1), q29(a2), q29(a3));
@@ -423,7 +485,7 @@ pub struct FixedConfig {
     /// The physical configuration this was built from.
     pub cfg: Config,
     beta_q24: i32,
-    beta_mag_q24: i32,
+    inv_heading_tau_q24: i32,
     startup_beta_q24: i32,
     half_scale_tol_q30: i64,
     inv_scale_tau_q20: i64,
@@ -445,6 +507,8 @@ pub struct FixedConfig {
     mag_recovery_q20: i64,
     mag_min_rate_sq_q40: i64,
     mag_fallback_q20: i64,
+    /// 1/`ref_tau_s` in Q30 (≤ 1/s; 0 = frozen).
+    inv_mag_ref_tau_q30: i64,
     inv_tilt_tau_q20: i64,
     inv_tilt_tau0_q20: i64,
     inv_g_q32: i32,
@@ -518,7 +582,10 @@ impl FixedConfig {
         Self {
             cfg: *cfg,
             beta_q24: float_to_q(cfg.beta, 24),
-            beta_mag_q24: float_to_q(cfg.beta_mag, 24),
+            inv_heading_tau_q24: float_to_q(
+                crate::madgwick::inv_heading_tau(cfg.heading_tau_s),
+                24,
+            ),
             startup_beta_q24: float_to_q(cfg.startup_beta, 24),
             // ½·tol in Q30, tol clamped to [0, 1] (NaN → 0).
             half_scale_tol_q30: f30(0.5 * cfg.gyro_scale_tol.clamp(0.0, 1.0)),
@@ -542,6 +609,11 @@ impl FixedConfig {
             mag_recovery_q20: s_to_q20(mr.recovery_s),
             mag_min_rate_sq_q40: sq_q40(mr.recovery_min_rate_rps),
             mag_fallback_q20: s_to_q20(mr.fallback_s),
+            inv_mag_ref_tau_q30: if mr.ref_tau_s > 0.0 {
+                f30((1.0 / mr.ref_tau_s).min(1.0))
+            } else {
+                0
+            },
             inv_tilt_tau_q20: inv_q20(cfg.tilt_tau_s),
             inv_tilt_tau0_q20: inv_q20(cfg.tilt_tau_s.min(crate::madgwick::STARTUP_TILT_TAU_S)),
             inv_g_q32,
@@ -772,7 +844,15 @@ impl MadgwickFixed {
             return st;
         }
         if self.c.cfg.algorithm == Algorithm::Textbook {
+            #[cfg(feature = "textbook")]
             return self.update_textbook(gyro, accel, mag, dt_q31);
+            // Built without it (the firmware, which runs the full filter): refuse to
+            // update rather than run another algorithm than the one configured.
+            #[cfg(not(feature = "textbook"))]
+            {
+                st.path = UpdatePath::Skipped;
+                return st;
+            }
         }
         let initialising = self.time_q20 < self.c.startup_q20;
         st.initialising = initialising;
@@ -783,7 +863,14 @@ impl MadgwickFixed {
         // Gyro step, not yet renormalised: ‖q‖² ≤ 1 + 3/16 (half angles ≤ ¼ per axis),
         // so the rows of R below stay < 2^31 (they carry ‖q‖², a common scale the
         // corrections do not see), and one renormalisation after the corrections does.
-        let nq = propagate(self.q, half_angles(w, dt_q31, &mut st.gyro_step_clamped));
+        // A step whose rotation is too large for one first-order step is split into
+        // equal sub-steps (as the f32 filter), renormalised between them.
+        let big = |x: i32| m64(x, dt_q31).unsigned_abs() >= SUBSTEP_WDT_Q51;
+        let nq = if big(w[0]) || big(w[1]) || big(w[2]) {
+            substep(self.q, w, dt_q31, &mut st.gyro_step_clamped)
+        } else {
+            propagate(self.q, half_angles(w, dt_q31, &mut st.gyro_step_clamped))
+        };
         let q = nq.map(|a| ((a + (1 << 29)) >> 30) as i32);
         let r = rows(q);
         self.track_vertical_rate(r[2], w, dt_q31);
@@ -987,6 +1074,7 @@ impl MadgwickFixed {
     ) -> Option<i32> {
         let Some((m, n2)) = unit3(mag) else {
             st.mag_invalid = true;
+            st.mag_state = MagState::Invalid;
             return None;
         };
         // h = R m (eq. 45), NED, Q30.
@@ -996,41 +1084,52 @@ impl MadgwickFixed {
             return None;
         }
         // Heading error, as the f32 filter: the east component over the north one (tan of
-        // the error) in units of the linear zone, ±1 beyond it or with the field pointing
-        // south. One 32-bit division in Q12: h_N is first scaled to [2^17, 2^18) (h_E with
-        // it), so |20·h_E| < h_N keeps the numerator < 2^30 and h_E keeps 17 bits.
+        // the error), in units of the linear zone (`e`) and in radians (`e_mag`), each ±1
+        // beyond its zone or with the field pointing south. 32-bit divisions in Q12: h_N
+        // is first scaled to [2^17, 2^18) (h_E with it), so a numerator below h_N·2^12
+        // stays < 2^30 and h_E keeps 17 bits.
         let (hn, he) = (h[0] as i32, h[1] as i32); // |hᵢ| ≤ 2^30
         let g = crate::madgwick::HEADING_LINEAR_GAIN;
-        let e_q12 = if hn >= 1 << 17 {
+        let (e_q12, e_mag_q12) = if hn >= 1 << 17 {
             let r = 14 - hn.leading_zeros().min(14); // hn >> r ∈ [2^17, 2^18)
             let (hn, he) = (hn >> r, he >> r);
-            if (i64::from(he) * i64::from(g)).abs() >= i64::from(hn) {
-                he.signum() << 12
+            let sat = he.signum() << 12;
+            if he.abs() >= hn {
+                (sat, sat)
             } else {
-                ((he * g) << 12).checked_div(hn).unwrap_or(0)
+                let e_mag = (he << 12).checked_div(hn).unwrap_or(0);
+                if (i64::from(he) * i64::from(g)).abs() >= i64::from(hn) {
+                    (sat, e_mag)
+                } else {
+                    (((he * g) << 12).checked_div(hn).unwrap_or(0), e_mag)
+                }
             }
         } else {
-            he.signum() << 12
+            (he.signum() << 12, he.signum() << 12)
         };
         let c = &self.c;
-        let beta_mag = if initialising && c.startup_q20 > 0 {
+        // Start-up: a constant rate 2β ramping from `startup_beta` to 0.
+        let beta_start = if initialising && c.startup_q20 > 0 {
             let frac = ((self.time_q20 * c.inv_startup_q30) >> 20)
                 .max(0)
                 .min(ONE_Q30);
-            let b = i64::from(c.beta_mag_q24);
             let sb = i64::from(c.startup_beta_q24);
-            sb + (((b - sb) * frac) >> 30)
+            sb - ((sb * frac) >> 30)
         } else {
-            i64::from(c.beta_mag_q24)
+            0
         };
         // β_head = ½·tol·|ω̄_D|: Q20 (< 2^27) · Q30 → >> 26 gives Q24.
         let beta_head = (((self.rate_lp_down_q40 >> 20).abs()) * c.half_scale_tol_q30) >> 26;
-        // 2β·dt: Q24·Q31 >> 24 is β·dt in Q31, i.e. 2β·dt in Q30. β_mag at a constant
-        // rate towards the field, β_head proportionally (as the f32 filter).
+        // 2β·dt: Q24·Q31 >> 24 is β·dt in Q31, i.e. 2β·dt in Q30. The start-up rate is
+        // constant towards the field, β_head proportional within the linear zone, the
+        // first-order term tan(error)/τ (as the f32 filter).
         let two_dt = |b: i64| (b.max(0).min(i64::from(i32::MAX)) * i64::from(dt_q31)) >> 24;
-        let mag_dt = two_dt(beta_mag).min(ONE_Q30);
+        let start_dt = two_dt(beta_start).min(ONE_Q30);
         let head = (two_dt(beta_head).min(ONE_Q30) * i64::from(e_q12)) >> 12;
-        let step = head + mag_dt * h[1].signum();
+        // (1/τ)·dt: Q24·Q31 >> 25 is Q30.
+        let tau_dt = (i64::from(c.inv_heading_tau_q24) * i64::from(dt_q31)) >> 25;
+        let first = (tau_dt * i64::from(e_mag_q12)) >> 12;
+        let step = head + first + start_dt * h[1].signum();
         // A step never passes the field's heading (|h_E| ≤ the error's sine; as the f32
         // filter).
         let lim = h[1].abs().min(ONE_Q30 / 2);
@@ -1073,6 +1172,7 @@ impl MadgwickFixed {
 
     /// Madgwick's 2010 filter exactly ([`Algorithm::Textbook`], as the f32 filter's):
     /// J_gᵀf_g + J_bᵀf_b normalised jointly, one fixed β, the raw gyro.
+    #[cfg(feature = "textbook")]
     fn update_textbook(
         &mut self,
         gyro: [i32; 3],
@@ -1082,28 +1182,38 @@ impl MadgwickFixed {
     ) -> UpdateStatus {
         let mut st = UpdateStatus::new();
         let q = self.q;
-        let mut nq = propagate(q, half_angles(gyro, dt_q31, &mut st.gyro_step_clamped));
-        let acc = unit3(accel);
+        let mut nq = propagate_inline(q, half_angles(gyro, dt_q31, &mut st.gyro_step_clamped));
+        let acc = unit3_fast(accel);
         st.accel_invalid = acc.is_none();
         st.path = UpdatePath::GyroOnly;
-        if let Some((a, _)) = acc {
-            let r = rows(q);
+        if let Some(a) = acc {
+            let r = rows_inline(q);
             // ∇/2 in Q26 → Q24 to add the magnetometer's.
-            let [g0, g1, g2, g3] = accel_grad(q, r[2], a.map(|x| x.saturating_neg()));
+            // |aᵢ| ≤ 2^30·(1 + 4e-4): the negation cannot overflow.
+            let [g0, g1, g2, g3] = accel_grad(q, r[2], a.map(|x| -x));
             let mut grad = [g0 >> 2, g1 >> 2, g2 >> 2, g3 >> 2];
             st.path = UpdatePath::Imu;
             if let Some(mag) = mag {
-                match unit3(mag) {
+                match unit3_fast(mag) {
                     None => st.mag_invalid = true,
-                    Some((m, _)) => {
-                        let h = [dot30u(r[0], m), dot30u(r[1], m), dot30u(r[2], m)]
-                            .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
-                        let bx = isqrt((h[0] * h[0] + h[1] * h[1]) as u64);
-                        let gb = mag_grad(q, r[0], r[2], m, bx as i32, h[2] as i32);
+                    Some(m) => {
+                        let h = [
+                            dot30u_inline(r[0], m),
+                            dot30u_inline(r[1], m),
+                            dot30u_inline(r[2], m),
+                        ]
+                        .map(|x| i64::from(x).max(-ONE_Q30).min(ONE_Q30));
+                        // bx = √(h₀² + h₁²) ≤ √2·2^30: s < 2^62, `isqrt`'s range without
+                        // its large-argument branch.
+                        let (sm, k) = norm_parts((h[0] * h[0] + h[1] * h[1]) as u64);
+                        let bx = sqrt_parts(sm, rsqrt_q29(sm), k) as i32;
+                        let [b0, b1, b2, b3] = mag_grad(q, r[0], r[2], m, bx, h[2] as i32);
                         // |∇_g/2| < 2^28 and |∇_b/2| < 2^29 in Q24: the sum fits.
-                        for (g, b) in grad.iter_mut().zip(gb) {
-                            *g += b;
-                        }
+                        let [g0, g1, g2, g3] = &mut grad;
+                        *g0 += b0;
+                        *g1 += b1;
+                        *g2 += b2;
+                        *g3 += b3;
                         st.path = UpdatePath::Marg;
                     }
                 }
@@ -1112,9 +1222,17 @@ impl MadgwickFixed {
             let beta_dt = ((i64::from(self.c.beta_q24.max(0)) * i64::from(dt_q31)) >> 25)
                 .max(0)
                 .min(ONE_Q30);
-            grad_step(&mut nq, grad, beta_dt, None);
+            // Normalised gradient step: nq −= min(β·dt, ½)·∇/‖∇‖ (Q30·Q30 = Q60).
+            if let Some([u0, u1, u2, u3]) = unit_fast(grad) {
+                let s = beta_dt.min(1 << 29) as i32;
+                let [a0, a1, a2, a3] = &mut nq;
+                *a0 -= m64(s, u0);
+                *a1 -= m64(s, u1);
+                *a2 -= m64(s, u2);
+                *a3 -= m64(s, u3);
+            }
         }
-        match renormalise(nq) {
+        match renormalise_inline(nq) {
             Some(n) => self.q = n,
             None => st.path = UpdatePath::Skipped,
         }
@@ -1132,6 +1250,7 @@ impl MadgwickFixed {
         st: &mut UpdateStatus,
     ) -> bool {
         let c = &self.c;
+        st.mag_state = MagState::Undisturbed;
         // By reference: copying the reference or the rejection configuration out of
         // `self` costs a `memcpy` per update.
         let Some(re) = self.mag_ref.as_ref() else {
@@ -1155,9 +1274,30 @@ impl MadgwickFixed {
             self.cand = None;
             self.cand_q20 = 0;
             self.mag_reject_q20 = 0;
+            if c.inv_mag_ref_tau_q30 > 0 && w2_q40 > c.mag_min_rate_sq_q40 {
+                // Moving and undisturbed: the reference follows the field (as the f32
+                // filter; the dip tolerance is kept). k = dt/τ in Q31; ‖m‖² moves in
+                // steps of 2^12 so the product stays in 64 bits.
+                let k = (i64::from(dt_q31) * c.inv_mag_ref_tau_q30) >> 30;
+                let d = (n2 as i64).wrapping_sub(re.n2 as i64) >> 12;
+                let n2r = (re.n2 as i64)
+                    .saturating_add(d.saturating_mul(k) >> 19)
+                    .max(0) as u64;
+                let scaled = |q: u64| (n2r >> 16).saturating_mul(q);
+                let r = MagRef {
+                    n2: n2r,
+                    lo: scaled(c.mag_lo_q16),
+                    hi: scaled(c.mag_hi_q16),
+                    hz_q30: re.hz_q30 + ((k * (hz - re.hz_q30)) >> 31),
+                    hz_tol_q30: re.hz_tol_q30,
+                };
+                self.mag_ref = Some(r);
+                st.mag_state = MagState::Learning;
+            }
             return true;
         }
         st.mag_rejected = true;
+        st.mag_state = MagState::Rejected;
         self.mag_reject_q20 = (self.mag_reject_q20 + i64::from(dt_q31 >> 11)).min(1 << 50);
         if self.mag_reject_q20 >= c.mag_fallback_q20 {
             // Fallback: the disturbance persisted; adopt the field as it is now.
@@ -1167,6 +1307,7 @@ impl MadgwickFixed {
             self.mag_reject_q20 = 0;
             st.mag_rejected = false;
             st.mag_reference_relearned = true;
+            st.mag_state = MagState::Fallback;
             return true;
         }
         let cand_ok = self.cand.is_some_and(|(cn2, chz)| {
@@ -1189,6 +1330,7 @@ impl MadgwickFixed {
                 self.mag_reject_q20 = 0;
                 st.mag_rejected = false;
                 st.mag_reference_relearned = true;
+                st.mag_state = MagState::Recovered;
                 return true;
             }
         } else {
@@ -1203,6 +1345,12 @@ impl MadgwickFixed {
 /// Every entry is ≤ 2·‖q‖² − 1 in magnitude: < 2 for the propagated ‖q‖² ≤ 1 + 3/16, so
 /// it fits (see [`down_row`]).
 fn rows(q: [i32; 4]) -> [[i32; 3]; 3] {
+    rows_inline(q)
+}
+
+/// [`rows`], inlined where every instruction counts (the textbook update).
+#[inline(always)]
+fn rows_inline(q: [i32; 4]) -> [[i32; 3]; 3] {
     let [w, x, y, z] = q;
     let r = |v: i64| ((v + (1 << 28)) >> 29) as i32;
     [

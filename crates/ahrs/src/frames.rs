@@ -108,6 +108,7 @@ impl Alignment {
     }
 
     /// Map an i32 vector (e.g. raw counts), saturating `-i32::MIN`.
+    // `apply`'s selection again: `Neg` on i32 would overflow at `i32::MIN`.
     #[must_use]
     pub fn apply_i32(&self, v: [i32; 3]) -> [i32; 3] {
         let pick = |i: usize| {

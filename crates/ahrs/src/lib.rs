@@ -34,7 +34,7 @@ mod madgwick;
 mod quat;
 
 pub use config::{
-    AccelRejectionConfig, Algorithm, BiasConfig, Config, MagRejectionConfig, UpdatePath,
+    AccelRejectionConfig, Algorithm, BiasConfig, Config, MagRejectionConfig, MagState, UpdatePath,
     UpdateStatus,
 };
 pub use madgwick::{Madgwick, MAX_DT_S, STANDARD_GRAVITY_MPS2};

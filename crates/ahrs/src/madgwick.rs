@@ -14,7 +14,7 @@
 //! it the direction of −a (gravity "down" as seen in the body frame). The magnetic
 //! reference is b = (bx, 0, bz) with bz > 0 in the northern hemisphere.
 
-use crate::config::{Algorithm, Config, UpdatePath, UpdateStatus};
+use crate::config::{Algorithm, Config, MagState, UpdatePath, UpdateStatus};
 use crate::quat::mat_vec;
 use crate::Quaternion;
 
@@ -340,9 +340,18 @@ impl Madgwick {
         let w = self.estimate_bias(gyro_rps, acc.map(|(_, n2)| n2), dt_s, &mut st);
         // Gyro step, renormalised only after the corrections (as the fixed filter): the
         // rows of R carry ‖q‖² ≤ 1 + 3/16 as a common scale the corrections do not see.
-        let (step, clamped) = half_angle_step(w, dt_s);
-        st.gyro_step_clamped = clamped;
-        let q = self.q.mul(&step);
+        // A step whose rotation is too large for one first-order step is split into
+        // equal sub-steps (as the fixed filter), renormalised between them.
+        let (n, dt_sub) = substeps(w, dt_s);
+        let mut q0 = self.q;
+        for _ in 1..n {
+            let (step, clamped) = half_angle_step(w, dt_sub);
+            st.gyro_step_clamped |= clamped;
+            q0 = q0.mul(&step).normalized().unwrap_or(q0);
+        }
+        let (step, clamped) = half_angle_step(w, dt_sub);
+        st.gyro_step_clamped |= clamped;
+        let q = q0.mul(&step);
         let rot = q.to_matrix(); // rows: NED axes in body coordinates (× ‖q‖²)
         self.track_vertical_rate(rot[2], w, dt_s);
         let tilt = self.correct_tilt(&rot, accel, acc, dt_s, initialising, &mut st);
@@ -507,6 +516,7 @@ impl Madgwick {
     ) -> Option<f32> {
         let Some((m, n2)) = unit3(mag) else {
             st.mag_invalid = true;
+            st.mag_state = MagState::Invalid;
             return None;
         };
         // The field in NED (eq. 45); hz = m·down.
@@ -514,29 +524,36 @@ impl Madgwick {
         if !self.check_mag(n2, h[2], w2, dt_s, initialising, st) {
             return None;
         }
-        // Heading error (sin, from the field's east component), saturated to ±1 beyond
-        // HEADING_LINEAR_ZONE; > 0 when the estimate is east of the field.
-        // tan of the error in the linear zone (±1 beyond it or with the field south).
-        let e = if h[0] > 0.0 {
-            (h[1] / (h[0] * HEADING_LINEAR_ZONE)).clamp(-1.0, 1.0)
+        // Heading error (> 0 when the estimate is east of the field) as tan = h_E/h_N:
+        // `e` in units of HEADING_LINEAR_ZONE, `e_mag` in radians, each saturated to ±1
+        // beyond its zone or with the field pointing south.
+        let (e, e_mag) = if h[0] > 0.0 {
+            let t = h[1] / h[0];
+            (
+                (t / HEADING_LINEAR_ZONE).clamp(-1.0, 1.0),
+                t.clamp(-1.0, 1.0),
+            )
         } else {
-            sign(h[1])
+            (sign(h[1]), sign(h[1]))
         };
         let cfg = self.cfg;
-        let beta_mag = if initialising && cfg.startup_s > 0.0 {
-            cfg.startup_beta + (cfg.beta_mag - cfg.startup_beta) * (self.time_s / cfg.startup_s)
+        // Start-up: a constant rate 2β ramping from `startup_beta` to 0.
+        let beta_start = if initialising && cfg.startup_s > 0.0 {
+            cfg.startup_beta * (1.0 - self.time_s / cfg.startup_s).max(0.0)
         } else {
-            cfg.beta_mag
+            0.0
         };
+        let inv_tau = inv_heading_tau(cfg.heading_tau_s);
         // Scale-factor heading gain β_head = ½·tol·|ω̄_D| (`Config::gyro_scale_tol`).
         let beta_head = 0.5 * cfg.gyro_scale_tol.max(0.0) * self.rate_lp_down_rps.abs();
         // Earth rate 2β about the vertical (β is a quaternion rate), towards the field;
         // a step never passes the field's heading (a large gain·dt reaches it instead).
         // (|h_E| ≤ the sine of the error.)
         let lim = h[1].abs().min(0.5);
-        // β_mag at a constant rate (it covers the residual gyro bias), β_head
+        // First order with τ = `heading_tau_s` (it holds the residual gyro bias), β_head
         // proportionally within HEADING_LINEAR_ZONE (it follows the turn rate).
-        Some((-2.0 * (beta_mag * sign(h[1]) + beta_head * e) * dt_s).clamp(-lim, lim))
+        let rate = 2.0 * (beta_start * sign(h[1]) + beta_head * e) + inv_tau * e_mag;
+        Some((-rate * dt_s).clamp(-lim, lim))
     }
 
     /// Apply the earth-frame correction θ (rad) to the propagated orientation,
@@ -645,6 +662,7 @@ impl Madgwick {
         st: &mut UpdateStatus,
     ) -> bool {
         let mr = self.cfg.mag_rejection;
+        st.mag_state = MagState::Undisturbed;
         let Some(re) = self.mag_ref else {
             self.set_mag_reference(n2, hz);
             return true;
@@ -670,9 +688,21 @@ impl Madgwick {
             self.mag_cand = None;
             self.mag_cand_s = 0.0;
             self.mag_reject_s = 0.0;
+            if mr.ref_tau_s > 0.0 && w2 > mr.recovery_min_rate_rps * mr.recovery_min_rate_rps {
+                // Moving and undisturbed: the reference follows the field (the dip
+                // tolerance, set from the dip, is kept).
+                let k = (dt_s / mr.ref_tau_s).clamp(0.0, 1.0);
+                self.mag_ref = Some(MagReference {
+                    norm_sq: re.norm_sq + k * (n2 - re.norm_sq),
+                    hz: re.hz + k * (hz - re.hz),
+                    hz_tol: re.hz_tol,
+                });
+                st.mag_state = MagState::Learning;
+            }
             return true;
         }
         st.mag_rejected = true;
+        st.mag_state = MagState::Rejected;
         self.mag_reject_s = (self.mag_reject_s + dt_s).min(1e6);
         if self.mag_reject_s >= mr.fallback_s {
             // Fallback: the disturbance persisted; adopt the field as it is now.
@@ -682,6 +712,7 @@ impl Madgwick {
             self.mag_reject_s = 0.0;
             st.mag_rejected = false;
             st.mag_reference_relearned = true;
+            st.mag_state = MagState::Fallback;
             return true;
         }
         // Recovery: a new field that stays consistent while rotating becomes the reference.
@@ -697,6 +728,7 @@ impl Madgwick {
                     self.mag_reject_s = 0.0;
                     st.mag_rejected = false;
                     st.mag_reference_relearned = true;
+                    st.mag_state = MagState::Recovered;
                     return true;
                 }
             }
@@ -717,6 +749,24 @@ pub(crate) fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     ]
 }
 
+/// Most sub-steps of one gyro step: 2000 °/s (the MPU-9250's full scale) on every axis
+/// for [`MAX_DT_S`] takes 559. Beyond 1024 (64 rad/s for 1 s) the sub-steps grow
+/// instead, and past ¼ rad (512 rad in one step) their half angles are clamped
+/// (`UpdateStatus::gyro_step_clamped`).
+pub(crate) const MAX_SUBSTEPS: u32 = 1024;
+
+/// Sub-steps of the full filter's gyro step and their dt (s): 1 + ⌊|ω·dt|max / (1/16)⌋
+/// (half angles ≤ 1/32 rad each, the first-order step's error 0.001° each), at most
+/// [`MAX_SUBSTEPS`], as the fixed filter computes it.
+fn substeps(w: [f32; 3], dt_s: f32) -> (u32, f32) {
+    let m = w.iter().fold(0.0f32, |m, x| m.max((x * dt_s).abs()));
+    if m < 0.0625 {
+        return (1, dt_s);
+    }
+    let n = ((m * 16.0) as u32).min(MAX_SUBSTEPS - 1) + 1;
+    (n, dt_s / n as f32)
+}
+
 /// Quaternion of a gyro step, (1, ½ω·dt) (first order, eq. 12 integrated over dt), each
 /// half angle clamped to ±¼ rad (as the fixed filter).
 /// True if a clamp acted.
@@ -724,6 +774,15 @@ fn half_angle_step(w: [f32; 3], dt_s: f32) -> (Quaternion, bool) {
     let h = w.map(|x| 0.5 * x * dt_s);
     let c = h.map(|x| x.clamp(-0.25, 0.25));
     (Quaternion::new(1.0, c[0], c[1], c[2]), c != h)
+}
+
+/// 1/τ of the heading correction (1/s, ≤ 100; 0 for τ ≤ 0 or NaN: no correction).
+pub(crate) fn inv_heading_tau(tau_s: f32) -> f32 {
+    if tau_s > 0.0 {
+        (1.0 / tau_s).min(100.0)
+    } else {
+        0.0
+    }
 }
 
 /// 1/τ of the tilt low-pass stages (1/s, ≤ 2000): ramps linearly from

@@ -92,7 +92,8 @@ fn static_tilts_give_roll_pitch_and_known_fields_give_yaw() {
         if yaw.abs() > 170.0 {
             continue; // 180° from the start: a saddle of the cost function
         }
-        // Convergence from the identity (start-up gain, then β_mag ≈ 0.4°/s for the rest).
+        // Convergence from the identity (start-up gain, then the first-order heading
+        // correction, τ 40 s).
         let mut f = Madgwick::new(Config::DEFAULT);
         for _ in 0..40_000 {
             f.update_marg([0.0; 3], a, m, 0.001);
@@ -266,7 +267,7 @@ fn magnetic_disturbance_is_rejected_and_recovers() {
     for _ in 0..4000 {
         g.update_marg([0.0; 3], a, m, 0.001);
     }
-    // (30 s: the heading gain is small, 2·β_mag = 0.17 °/s.)
+    // (30 s: the heading correction is slow, τ 40 s.)
     for _ in 0..30_000 {
         g.update_marg([0.0; 3], a, dist, 0.001);
     }
@@ -365,9 +366,9 @@ fn f32_and_fixed_agree_on_a_synthetic_sequence() {
 }
 
 #[test]
-fn large_gyro_steps_are_clamped_reported_and_agree() {
-    // 2000 °/s about a tilted axis with steps of 10–60 ms: beyond 14 ms the half angle
-    // exceeds ¼ rad; both filters clamp the same way and say so.
+fn large_gyro_steps_are_sub_stepped_and_agree() {
+    // 2000 °/s about a tilted axis with steps of 10–60 ms (a half angle of up to 0.67 rad
+    // per axis): both filters split the step, lose no rotation and agree.
     let rate = 2000f32.to_radians();
     let w = [rate * 0.6, -rate * 0.48, rate * 0.64];
     let (a, m) = sense(&Quaternion::IDENTITY);
@@ -380,15 +381,30 @@ fn large_gyro_steps_are_clamped_reported_and_agree() {
         let mut f = Madgwick::from_accel_mag(Config::DEFAULT, a, m);
         let mut fx = MadgwickFixed::from_accel_mag(fc, q16(a), q16(m));
         for _ in 0..200 {
-            let s = f.update_marg(w, a, m, dt);
-            let sx = fx.update_marg(w.map(rps_to_q20), q16(a), q16(m), dt_s_to_q31(dt));
-            let expect_clamp = 0.5 * rate * 0.64 * dt > 0.25;
-            assert_eq!(s.gyro_step_clamped, expect_clamp, "f32 dt {dt}");
-            assert_eq!(sx.gyro_step_clamped, expect_clamp, "fixed dt {dt}");
+            let s = f.update_imu(w, [0.0; 3], dt);
+            let sx = fx.update_imu(w.map(rps_to_q20), [0; 3], dt_s_to_q31(dt));
+            assert!(!s.gyro_step_clamped && !sx.gyro_step_clamped, "dt {dt}");
             let d = f.quaternion().angle_to(&fx.quaternion_f32()).to_degrees();
             assert!(d < 0.01, "dt {dt}: f32 vs fixed {d}°");
         }
+        // Gyro only (no accelerometer): the estimate is the integrated rotation, short by
+        // the first-order steps' 2(h − atan h) ≈ ⅔h³ each (h ≤ 0.044 rad: < 0.1 %).
+        let turned = rate * dt * 200.0;
+        let truth = Quaternion::from_axis_angle([0.6, -0.48, 0.64], turned);
+        let e = f.quaternion().angle_to(&truth);
+        assert!(e < 1e-3 * turned, "dt {dt}: {e} rad from the true rotation");
     }
+    // With the sub-steps at their maximum (1024) a half angle passes ¼ rad beyond
+    // 512 rad in one step (1000 rad/s for 1 s, past any gyro's full scale): it is
+    // clamped, and that is reported, in both number types.
+    let w = [1000.0f32, 0.0, 0.0];
+    let mut f = Madgwick::from_accel_mag(Config::DEFAULT, a, m);
+    let mut fx = MadgwickFixed::from_accel_mag(fc, q16(a), q16(m));
+    assert!(f.update_imu(w, a, 1.0).gyro_step_clamped);
+    assert!(
+        fx.update_imu(w.map(rps_to_q20), q16(a), dt_s_to_q31(1.0))
+            .gyro_step_clamped
+    );
 }
 
 #[test]
@@ -436,4 +452,85 @@ fn persisting_inconsistent_disturbance_is_adopted_after_the_fallback_time() {
         first_x.abs_diff(first) <= 1,
         "fixed {first_x} vs f32 {first}"
     );
+}
+
+/// Spins the body about the vertical at 60 °/s for `secs`, the field seen with a
+/// body-fixed offset added (µT, a magnet riding along); returns the count of each
+/// `MagState` for the f32 and the fixed filter.
+fn spin_with_offset(cfg: Config, offset: [f32; 3], secs: f32) -> [[usize; 7]; 2] {
+    use fc_ahrs::MagState;
+    let idx = |s: MagState| match s {
+        MagState::Absent => 0,
+        MagState::Invalid => 1,
+        MagState::Undisturbed => 2,
+        MagState::Learning => 3,
+        MagState::Rejected => 4,
+        MagState::Recovered => 5,
+        MagState::Fallback => 6,
+    };
+    let q16 = |v: [f32; 3]| v.map(|x| fc_ahrs::fixed::float_to_q(x, 16));
+    let fc = FixedConfig::from_config(&Config {
+        gravity_norm: G * 65536.0,
+        ..cfg
+    });
+    let (a, m) = sense(&Quaternion::IDENTITY);
+    let mut f = Madgwick::from_accel_mag(cfg, a, m);
+    let mut fx = MadgwickFixed::from_accel_mag(fc, q16(a), q16(m));
+    let dt = 0.01f32;
+    for _ in 0..500 {
+        f.update_marg([0.0; 3], a, m, dt);
+        fx.update_marg([0; 3], q16(a), q16(m), dt_s_to_q31(dt));
+    }
+    let rate = 60f32.to_radians();
+    let mut counts = [[0usize; 7]; 2];
+    for i in 0..(secs / dt) as usize {
+        let q = Quaternion::from_axis_angle([0.0, 0.0, 1.0], rate * (i + 1) as f32 * dt);
+        let (a, m) = sense(&q);
+        let d = [m[0] + offset[0], m[1] + offset[1], m[2] + offset[2]];
+        let s = f.update_marg([0.0, 0.0, rate], a, d, dt);
+        let sx = fx.update_marg([0, 0, rps_to_q20(rate)], q16(a), q16(d), dt_s_to_q31(dt));
+        counts[0][idx(s.mag_state)] += 1;
+        counts[1][idx(sx.mag_state)] += 1;
+    }
+    counts
+}
+
+#[test]
+fn a_magnet_riding_along_is_caught_as_the_body_turns() {
+    // 30 µT body-fixed along x: as the body turns, the sum's norm swings 46–67 µT
+    // against the earth's 49 µT and its dip with it; it is not an earth field, so most
+    // of each turn is rejected (where norm and dip happen to pass, it is accepted).
+    let c = spin_with_offset(Config::DEFAULT, [30.0, 0.0, 0.0], 12.0);
+    for (name, n) in ["f32", "fixed"].iter().zip(c) {
+        let total: usize = n.iter().sum();
+        assert!(n[4] * 2 > total, "{name}: rejected {n:?}");
+        assert_eq!(
+            n[5], 0,
+            "{name}: an inconsistent field must not be recovered"
+        );
+    }
+    assert!(
+        c[0][4].abs_diff(c[1][4]) <= 12,
+        "f32 {:?} vs fixed {:?}",
+        c[0],
+        c[1]
+    );
+    // Without the magnet every sample is accepted.
+    let c = spin_with_offset(Config::DEFAULT, [0.0; 3], 12.0);
+    assert_eq!(c[0][2], 1200, "{:?}", c[0]);
+    assert_eq!(c[1][2], 1200, "{:?}", c[1]);
+}
+
+#[test]
+fn the_reference_is_learnt_only_while_moving_and_undisturbed() {
+    let mut cfg = Config::DEFAULT;
+    cfg.mag_rejection.ref_tau_s = 20.0;
+    let c = spin_with_offset(cfg, [0.0; 3], 5.0);
+    // 60 °/s is above `recovery_min_rate_rps`: every update refines the reference.
+    assert_eq!(c[0][3], 500, "{:?}", c[0]);
+    assert_eq!(c[1][3], 500, "{:?}", c[1]);
+    // A disturbed field is rejected, never learnt.
+    let c = spin_with_offset(cfg, [0.0, 0.0, 30.0], 5.0);
+    assert_eq!(c[0][3] + c[0][2], 0, "{:?}", c[0]);
+    assert_eq!(c[1][3] + c[1][2], 0, "{:?}", c[1]);
 }

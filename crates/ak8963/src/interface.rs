@@ -7,6 +7,9 @@
 //! AK8963); another transport, such as the MPU-9250's internal I2C master
 //! when the MPU-9250 is on SPI, implements the trait.
 
+// Same shape as the other drivers' interface.rs on purpose: each driver is an
+// independently publishable crate with no helper crate in common.
+
 #[cfg(feature = "async")]
 use embedded_hal_async::i2c::I2c as AsyncI2c;
 

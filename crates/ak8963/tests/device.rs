@@ -16,15 +16,6 @@ fn close(a: [f32; 3], b: [f32; 3]) {
     }
 }
 
-fn inited(asa: [u8; 3], extra: Vec<T>) -> (Mock, Ak8963<Mock>) {
-    let mut t = init_seq(asa, 0x16);
-    t.extend(extra);
-    let i2c = Mock::new(&t);
-    let mut mag = Ak8963::new(i2c.clone());
-    mag.init(&mut NoopDelay::new(), &Config::default()).unwrap();
-    (i2c, mag)
-}
-
 // ---------------------------------------------------------------- init
 
 #[test]

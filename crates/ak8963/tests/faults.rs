@@ -8,36 +8,12 @@ use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
 
-const A: u8 = 0x0C;
+mod common;
+
+use common::{data, init_seq, inited, st1, A};
+
+/// A data NACK (the chip went away mid-transfer).
 const NACK: ErrorKind = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Data);
-
-/// Init sequence, written out from the datasheet.
-fn init_seq(asa: [u8; 3], cntl1: u8) -> Vec<T> {
-    vec![
-        T::write_read(A, vec![0x00], vec![0x48]),   // WIA
-        T::write(A, vec![0x0B, 0x01]),              // CNTL2 SRST
-        T::write_read(A, vec![0x0B], vec![0x00]),   // SRST cleared
-        T::write(A, vec![0x0A, 0x00]),              // power-down
-        T::write(A, vec![0x0A, 0x0F]),              // fuse ROM access
-        T::write_read(A, vec![0x10], asa.to_vec()), // ASAX..ASAZ
-        T::write(A, vec![0x0A, 0x00]),              // power-down
-        T::write(A, vec![0x0A, cntl1]),             // mode
-        T::write_read(A, vec![0x0A], vec![cntl1]),  // readback
-    ]
-}
-
-fn st1(v: u8) -> T {
-    T::write_read(A, vec![0x02], vec![v])
-}
-
-fn data(v: [i16; 3], st2: u8) -> T {
-    let mut b = Vec::new();
-    for x in v {
-        b.extend_from_slice(&x.to_le_bytes());
-    }
-    b.push(st2);
-    T::write_read(A, vec![0x03], b)
-}
 
 fn st2_alone(v: u8) -> T {
     T::write_read(A, vec![0x09], vec![v])
@@ -51,12 +27,7 @@ fn close(a: [f32; 3], b: [f32; 3], tol: f32) {
 }
 
 fn driver(t: &[T], asa: [u8; 3]) -> (Mock, Ak8963<Mock>) {
-    let mut all = init_seq(asa, 0x16);
-    all.extend(t.iter().cloned());
-    let i2c = Mock::new(&all);
-    let mut mag = Ak8963::new(i2c.clone());
-    mag.init(&mut NoopDelay::new(), &Config::default()).unwrap();
-    (i2c, mag)
+    inited(asa, t.iter().cloned())
 }
 
 /// ASA 0x01 and 0xFE (the extremes that are accepted): factors

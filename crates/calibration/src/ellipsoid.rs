@@ -283,7 +283,17 @@ impl EllipsoidFit {
     /// A fresh fit; [`Error::InvalidConfig`] if `config` is unusable.
     pub fn new(config: EllipsoidFitConfig) -> Result<Self, Error> {
         config.validate()?;
-        Ok(Self {
+        Ok(Self::empty(config))
+    }
+
+    /// Forget all samples (keeps the configuration).
+    pub fn reset(&mut self) {
+        *self = Self::empty(self.config);
+    }
+
+    /// No samples yet, with an already validated `config`.
+    const fn empty(config: EllipsoidFitConfig) -> Self {
+        Self {
             config,
             origin: [0.0; 3],
             block: [0.0; N_MOMENTS],
@@ -292,21 +302,7 @@ impl EllipsoidFit {
             count: 0,
             rejected: 0,
             cov: Coverage::new(),
-        })
-    }
-
-    /// Forget all samples (keeps the configuration).
-    pub fn reset(&mut self) {
-        *self = Self {
-            config: self.config,
-            origin: [0.0; 3],
-            block: [0.0; N_MOMENTS],
-            block_n: 0,
-            total: [0.0; N_MOMENTS],
-            count: 0,
-            rejected: 0,
-            cov: Coverage::new(),
-        };
+        }
     }
 
     /// Accepted samples.

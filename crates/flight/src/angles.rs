@@ -66,6 +66,8 @@ pub fn atan2_q16(y: i32, x: i32) -> i32 {
 }
 
 /// Integer square root, `floor(√v)`.
+// The digit-by-digit loop of calibration's private `sqrtf`, on 32 bits instead
+// of that one's 48-bit radicand: too small to share across the crates.
 pub fn isqrt_u32(v: u32) -> u32 {
     let (mut rem, mut root) = (v, 0u32);
     let mut bit = 1u32 << 30;

@@ -504,6 +504,11 @@ impl FlightController {
         matches!(self.state, FlightState::Armed | FlightState::Failsafe(_))
     }
 
+    /// The height altitude hold is holding (m, up), while it is engaged.
+    pub fn altitude_target_m(&self) -> Option<f32> {
+        (self.is_armed() && self.alt_engaged).then_some(self.alt_target_m)
+    }
+
     /// Everything that would refuse an arm request now (for a status LED
     /// or log; arming itself still needs the switch edge).
     pub fn arm_blockers(

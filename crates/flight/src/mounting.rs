@@ -110,6 +110,8 @@ impl Mounting {
     }
 
     /// Applies the permutation to an `f32` vector in the MPU frame.
+    // The same selection as `apply_i32`; kept apart because integer negation
+    // must saturate and a generic version would hide that.
     #[inline]
     pub fn apply_f32(&self, v: [f32; 3]) -> [f32; 3] {
         self.axes.map(|a| {

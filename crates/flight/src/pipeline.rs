@@ -672,6 +672,8 @@ fn mag_counts_to_body_q16(
     MagCalibrationQ16::from_affine(m, offset_counts).map_err(|_| PipelineError::InvalidScale)
 }
 
+// The two backends have the same shape on purpose: the `f32-ahrs` feature
+// swaps one for the other behind the same calls.
 #[cfg(feature = "f32-ahrs")]
 mod backend {
     //! f32 Madgwick (`fc_ahrs::Madgwick`), inputs converted from counts

@@ -12,6 +12,9 @@
 //! register and up to 20 MHz for the sensor and interrupt registers: the bus
 //! speed belongs to the `SpiDevice` the caller builds.
 
+// Same shape as the other drivers' interface.rs on purpose: each driver is an
+// independently publishable crate with no helper crate in common.
+
 #[cfg(feature = "async")]
 use embedded_hal_async::{i2c::I2c as AsyncI2c, spi::SpiDevice as AsyncSpiDevice};
 

@@ -79,6 +79,12 @@
 //! assert_eq!(sample.accel_g, [0.0, 0.0, 1.0]);
 //! i2c.done();
 //! ```
+
+// The three drivers (mpu9250, ak8963, ms5611) are independently publishable
+// crates with no helper crate in common, so the transport seam (interface.rs),
+// the private register helpers, the `maybe_async_cfg` attribute blocks, the
+// error and config boilerplate, the examples, and the tests' helpers and
+// datasheet tables repeat across them on purpose.
 #![no_std]
 #![deny(unsafe_code)]
 

@@ -1,70 +1,18 @@
 //! Transaction-level tests of the MPU-9250 driver against embedded-hal-mock.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
+use embedded_hal::i2c::ErrorKind;
 use embedded_hal_mock::eh1::delay::{CheckedDelay, NoopDelay, Transaction as D};
 use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
 use mpu9250::*;
 
-const A: u8 = 0x68;
-const NACK: ErrorKind = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Data);
+mod common;
+
+use common::{init_by_hand, init_for, readback_by_hand, sample_bytes, A, NACK};
 
 /// The default-config init sequence, bytes written out by hand from the register map.
 fn default_init(a: u8) -> Vec<T> {
-    vec![
-        T::write_read(a, vec![0x75], vec![0x71]),
-        T::write(a, vec![0x6B, 0x80]),
-        T::write_read(a, vec![0x6B], vec![0x01]),
-        T::write(a, vec![0x6B, 0x01]),
-        T::write(a, vec![0x6C, 0x00]),
-        T::write(a, vec![0x6A, 0x00]),
-        T::write(a, vec![0x19, 0x00]),
-        T::write(a, vec![0x1A, 0x03]),
-        T::write(a, vec![0x1B, 0x10]),
-        T::write(a, vec![0x1C, 0x08]),
-        T::write(a, vec![0x1D, 0x03]),
-        T::write(a, vec![0x37, 0x00]),
-        T::write(a, vec![0x38, 0x01]),
-        T::write_read(a, vec![0x19], vec![0x00, 0x03, 0x10, 0x08, 0x03]),
-        T::write_read(a, vec![0x37], vec![0x00, 0x01]),
-        T::write_read(a, vec![0x6A], vec![0x00, 0x01, 0x00]),
-    ]
-}
-
-/// Readback transactions for the given config / bypass.
-fn readback(a: u8, c: &Config, bypass: bool) -> Vec<T> {
-    let v = c.register_values(bypass);
-    let get = |r: u8| v.iter().find(|(x, _)| *x == r).unwrap().1;
-    vec![
-        T::write_read(a, vec![0x19], (0x19..=0x1D).map(get).collect()),
-        T::write_read(a, vec![0x37], vec![get(0x37), get(0x38)]),
-        T::write_read(a, vec![0x6A], vec![get(0x6A), get(0x6B), get(0x6C)]),
-    ]
-}
-
-fn init_seq(a: u8, c: &Config, bypass: bool) -> Vec<T> {
-    let mut t = vec![
-        T::write_read(a, vec![0x75], vec![0x71]),
-        T::write(a, vec![0x6B, 0x80]),
-        T::write_read(a, vec![0x6B], vec![0x01]),
-    ];
-    for (r, v) in c.register_values(bypass) {
-        t.push(T::write(a, vec![r, v]));
-    }
-    t.extend(readback(a, c, bypass));
-    t
-}
-
-fn sample_bytes(accel: [i16; 3], temp: i16, gyro: [i16; 3]) -> Vec<u8> {
-    let mut v = Vec::new();
-    for x in accel
-        .iter()
-        .chain(std::iter::once(&temp))
-        .chain(gyro.iter())
-    {
-        v.extend_from_slice(&x.to_be_bytes());
-    }
-    v
+    init_by_hand(a, [0x00, 0x03, 0x10, 0x08, 0x03], [0x00, 0x01])
 }
 
 fn read_t(accel: [i16; 3], temp: i16, gyro: [i16; 3]) -> T {
@@ -112,7 +60,7 @@ fn default_config_matches_brief() {
 
 #[test]
 fn init_ad0_high_mpu9255() {
-    let mut t = init_seq(0x69, &Config::default(), false);
+    let mut t = init_for(0x69, &Config::default(), false);
     t[0] = T::write_read(0x69, vec![0x75], vec![0x73]);
     let mut i2c = Mock::new(&t);
     let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0High);
@@ -139,24 +87,7 @@ fn init_non_default_config_exact_bytes() {
                 .clear(IntClear::OnAnyRead)
                 .data_ready(false),
         );
-    let t = vec![
-        T::write_read(A, vec![0x75], vec![0x71]),
-        T::write(A, vec![0x6B, 0x80]),
-        T::write_read(A, vec![0x6B], vec![0x01]),
-        T::write(A, vec![0x6B, 0x01]),
-        T::write(A, vec![0x6C, 0x00]),
-        T::write(A, vec![0x6A, 0x00]),
-        T::write(A, vec![0x19, 0x09]),
-        T::write(A, vec![0x1A, 0x06]),
-        T::write(A, vec![0x1B, 0x18]),
-        T::write(A, vec![0x1C, 0x18]),
-        T::write(A, vec![0x1D, 0x08]),
-        T::write(A, vec![0x37, 0xF0]),
-        T::write(A, vec![0x38, 0x00]),
-        T::write_read(A, vec![0x19], vec![0x09, 0x06, 0x18, 0x18, 0x08]),
-        T::write_read(A, vec![0x37], vec![0xF0, 0x00]),
-        T::write_read(A, vec![0x6A], vec![0x00, 0x01, 0x00]),
-    ];
+    let t = init_by_hand(A, [0x09, 0x06, 0x18, 0x18, 0x08], [0xF0, 0x00]);
     let mut i2c = Mock::new(&t);
     let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
     imu.init(&mut NoopDelay::new(), &c).unwrap();
@@ -368,7 +299,7 @@ fn config_mismatch_on_every_readback_byte() {
 
 #[test]
 fn verify_config_detects_chip_reset_in_flight() {
-    let mut extra = readback(A, &Config::default(), false);
+    let mut extra = readback_by_hand(A, [0x00, 0x03, 0x10, 0x08, 0x03], [0x00, 0x01]);
     // Power-on defaults after a spontaneous reset: everything 0 except PWR_MGMT_1 = 0x01.
     extra.push(T::write_read(A, vec![0x19], vec![0, 0, 0, 0, 0]));
     let (mut i2c, mut imu) = inited(extra);
@@ -541,7 +472,7 @@ fn bypass_keeps_interrupt_bits_and_survives_init() {
         .level(IntLevel::ActiveLow)
         .latch(IntLatch::Latched);
     let c = Config::new().interrupt(int);
-    let mut t = init_seq(A, &c, false);
+    let mut t = init_for(A, &c, false);
     t.extend([
         T::write(A, vec![0x6A, 0x00]),
         T::write(A, vec![0x37, 0xA2]),
@@ -550,7 +481,7 @@ fn bypass_keeps_interrupt_bits_and_survives_init() {
         T::write(A, vec![0x38, 0x00]),
     ]);
     // re-init with the interrupt config restored: INT_PIN_CFG = 0xA2 again
-    t.extend(init_seq(A, &c, true));
+    t.extend(init_for(A, &c, true));
     t.push(T::write(A, vec![0x37, 0xA0]));
     let mut i2c = Mock::new(&t);
     let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
@@ -668,7 +599,7 @@ fn reinit_keeps_bias_and_rescales_on_range_change() {
     let c2000 = Config::new().gyro_range(GyroRange::Dps2000);
     let mut t = default_init(A);
     t.extend(default_init(A));
-    t.extend(init_seq(A, &c2000, false));
+    t.extend(init_for(A, &c2000, false));
     t.push(read_t([0, 0, 8192], 0, [50, -50, 0]));
     let mut i2c = Mock::new(&t);
     let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);

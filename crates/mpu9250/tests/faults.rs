@@ -2,50 +2,21 @@
 //! scale factors checked through `read`.
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
+use embedded_hal::i2c::ErrorKind;
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
 use mpu9250::*;
 
-const A: u8 = 0x68;
-const NACK: ErrorKind = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Data);
+mod common;
 
-/// Init sequence written out from the register map (not from `register_values`
-/// where it can be avoided): WHO_AM_I, H_RESET, poll, the ten writes, readback.
+use common::{init_for, sample_bytes, A, NACK};
+
 fn init_seq(c: &Config, bypass: bool) -> Vec<T> {
-    let int_pin = c.interrupt.int_pin_cfg_bits() | if bypass { 0x02 } else { 0x00 };
-    let int_en = u8::from(c.interrupt.data_ready);
-    let smplrt = c.sample_rate_divider;
-    let dlpf = c.gyro_bandwidth.dlpf_cfg();
-    let gyro = c.gyro_range.fs_sel() << 3;
-    let accel = c.accel_range.fs_sel() << 3;
-    let accel2 = c.accel_bandwidth.accel_config2_bits();
-    vec![
-        T::write_read(A, vec![0x75], vec![0x71]),
-        T::write(A, vec![0x6B, 0x80]),
-        T::write_read(A, vec![0x6B], vec![0x01]),
-        T::write(A, vec![0x6B, 0x01]),
-        T::write(A, vec![0x6C, 0x00]),
-        T::write(A, vec![0x6A, 0x00]),
-        T::write(A, vec![0x19, smplrt]),
-        T::write(A, vec![0x1A, dlpf]),
-        T::write(A, vec![0x1B, gyro]),
-        T::write(A, vec![0x1C, accel]),
-        T::write(A, vec![0x1D, accel2]),
-        T::write(A, vec![0x37, int_pin]),
-        T::write(A, vec![0x38, int_en]),
-        T::write_read(A, vec![0x19], vec![smplrt, dlpf, gyro, accel, accel2]),
-        T::write_read(A, vec![0x37], vec![int_pin, int_en]),
-        T::write_read(A, vec![0x6A], vec![0x00, 0x01, 0x00]),
-    ]
+    init_for(A, c, bypass)
 }
 
 fn burst(accel: [i16; 3], temp: i16, gyro: [i16; 3]) -> T {
-    let mut v = Vec::new();
-    for x in accel.into_iter().chain([temp]).chain(gyro) {
-        v.extend_from_slice(&x.to_be_bytes());
-    }
-    T::write_read(A, vec![0x3B], v)
+    T::write_read(A, vec![0x3B], sample_bytes(accel, temp, gyro))
 }
 
 #[test]

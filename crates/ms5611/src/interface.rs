@@ -12,6 +12,9 @@
 //! up to 20 MHz) the answer is clocked out under the same chip select as the
 //! command; a reset or a conversion start is the command byte alone.
 
+// Same shape as the other drivers' interface.rs on purpose: each driver is an
+// independently publishable crate with no helper crate in common.
+
 #[cfg(feature = "async")]
 use embedded_hal_async::{i2c::I2c as AsyncI2c, spi::SpiDevice as AsyncSpiDevice};
 

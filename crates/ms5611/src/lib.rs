@@ -63,6 +63,12 @@
 //! # baro.release().done();
 //! # Ok::<(), ms5611::Error<embedded_hal::i2c::ErrorKind>>(())
 //! ```
+
+// The three drivers (mpu9250, ak8963, ms5611) are independently publishable
+// crates with no helper crate in common, so the transport seam (interface.rs),
+// the private register helpers, the `maybe_async_cfg` attribute blocks, the
+// error and config boilerplate, the examples, and the tests' helpers and
+// datasheet tables repeat across them on purpose.
 #![no_std]
 #![deny(unsafe_code)]
 

@@ -210,7 +210,13 @@ impl Rig {
             self.wait(BIT_NS / 2);
             pulses += 1;
         }
-        // STOP by hand.
+        self.stop_by_hand();
+        Some(pulses)
+    }
+
+    /// A STOP driven on the pins (GPIO open drain): SCL low, SDA low, SCL
+    /// high, then SDA rising while SCL is high, half a bit time each.
+    pub fn stop_by_hand(&mut self) {
         self.gpio(false, true);
         self.wait(BIT_NS / 2);
         self.gpio(false, false);
@@ -219,7 +225,6 @@ impl Rig {
         self.wait(BIT_NS / 2);
         self.gpio(true, true);
         self.wait(BIT_NS / 2);
-        Some(pulses)
     }
 
     /// Recovery that always gives nine SCL pulses with SDA released (so a
@@ -234,14 +239,7 @@ impl Rig {
             self.gpio(true, true);
             self.wait(BIT_NS / 2);
         }
-        self.gpio(false, true);
-        self.wait(BIT_NS / 2);
-        self.gpio(false, false);
-        self.wait(BIT_NS / 2);
-        self.gpio(true, false);
-        self.wait(BIT_NS / 2);
-        self.gpio(true, true);
-        self.wait(BIT_NS / 2);
+        self.stop_by_hand();
         self.i2c.sda_high(self.t)
     }
 

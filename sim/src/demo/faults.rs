@@ -5,10 +5,15 @@ use super::run::ScheduledFault;
 use sim::{Chip, Fault, Vibration, AK8963_ADDRESS};
 
 /// A fault kind by name: (name, what it does).
-pub const KINDS: [(&str, &str); 18] = [
+pub const KINDS: [(&str, &str); 19] = [
     (
         "magnet",
         "a magnet passes the board: 60 µT peak on body x, 4 s wide, peaking 2 s after T",
+    ),
+    (
+        "magnet-ride",
+        "a magnet is attached ~5 cm from the board and rides along: 30 µT body-fixed \
+         (20, -15, 15 on body x, y, z), reached 2 s after T",
     ),
     (
         "vibration",
@@ -77,6 +82,7 @@ fn fault(kind: &str, at_s: f64) -> Option<Fault> {
     };
     Some(match kind {
         "magnet" => sim::magnet_pass([60.0, 0.0, 0.0], at_s + 2.0, 4.0),
+        "magnet-ride" => sim::magnet_ride([20.0, -15.0, 15.0], at_s + 2.0, 4.0),
         "vibration" => Fault::Vibration(Vibration {
             accel_amplitude_mps2: 3.0,
             gyro_amplitude_dps: 4.0,

@@ -7,14 +7,25 @@
 //!   and collects the records.
 //! * [`output`] streams the CSV; [`plot`] keeps a bounded copy of the run
 //!   and draws it (PNG or SVG).
-//! * [`faults`] names the simulator's fault kinds for `--fault`;
-//!   [`console`] prints without panicking on a closed pipe.
+//! * [`closed_loop`] flies the quadcopter model in a closed loop: its
+//!   motion drives the chips, the same per-sample path estimates it, a
+//!   [`closed_loop::FlightControl`] ([`flight_fc`]: the firmware's flight
+//!   controller) flies it through the
+//!   scripted pilot of a [`closed_loop::Scenario`]; [`figures`] scores it,
+//!   [`plot_closed`] draws it.
+//! * [`faults`] names the simulator's fault kinds for `--fault`.
+//!
+//! Printing that survives a closed pipe is `host_console`, shared with `replay`.
 
-pub mod console;
+pub mod closed_loop;
 pub mod faults;
+pub mod figures;
+pub mod flight_fc;
 pub mod mag;
 pub mod output;
 pub mod plot;
+pub mod plot_closed;
+pub mod radio;
 pub mod run;
 pub mod stack;
 

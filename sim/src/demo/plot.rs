@@ -116,21 +116,21 @@ impl RecordSink for PlotSeries {
     }
 }
 
-type Res = Result<(), Box<dyn std::error::Error>>;
+pub(super) type Res = Result<(), Box<dyn std::error::Error>>;
 
-const COLORS: [RGBColor; 3] = [
+pub(super) const COLORS: [RGBColor; 3] = [
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
     RGBColor(31, 119, 180),
 ];
-const FONT: &str = "sans-serif";
+pub(super) const FONT: &str = "sans-serif";
 const WIDTH: u32 = 1500;
 const HEIGHT: u32 = 1560;
 /// Width of the legend strip right of each time-series panel (px).
 const LEGEND_W: u32 = 210;
 
 /// Registers the embedded DejaVu Sans as plotters' sans-serif face.
-fn load_font() -> Result<(), String> {
+pub(super) fn load_font() -> Result<(), String> {
     plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular())
         .map_err(|_| "the embedded font could not be loaded".to_string())
 }
@@ -222,7 +222,10 @@ fn unwrapped(p: &[Point], axis: usize) -> (Line, Line) {
 }
 
 /// `lo..hi` around the values with a 10 % margin and at least `min_span`.
-fn autoscale<'a>(values: impl Iterator<Item = &'a f64>, min_span: f64) -> std::ops::Range<f64> {
+pub(super) fn autoscale<'a>(
+    values: impl Iterator<Item = &'a f64>,
+    min_span: f64,
+) -> std::ops::Range<f64> {
     let (lo, hi) = values
         .filter(|v| v.is_finite())
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
@@ -237,7 +240,7 @@ fn autoscale<'a>(values: impl Iterator<Item = &'a f64>, min_span: f64) -> std::o
 }
 
 /// A time-series chart with its legend strip; returns the chart.
-fn time_chart<'a, DB: DrawingBackend>(
+pub(super) fn time_chart<'a, DB: DrawingBackend>(
     area: &'a DrawingArea<DB, Shift>,
     caption: &str,
     t_max: f64,

@@ -1,8 +1,8 @@
 //! Drives a simulated flight through the [`Stack`](super::stack::Stack) and
 //! scores it against the truth.
 
-use super::console::{note, say};
 use super::stack::{self, AccelCalRun, MagCalRun, Stack};
+use host_console::{note, say};
 use sim::{Environment, Fault, Quat, SensorErrors, SimBus, SimClock, SimConfig, Trajectory};
 use std::io::Write;
 

@@ -13,7 +13,6 @@
 //!   → calibration → mounting → AHRS → vertical estimator → controllers),
 //!   called in the same order as the firmware's `imu` and `baro` tasks.
 
-use super::console::note;
 use super::mag::Mag;
 use calibration::{
     AccelCalibration, AccelSixPosition, AccelSixPositionConfig, EllipsoidFit, EllipsoidFitConfig,
@@ -21,10 +20,13 @@ use calibration::{
 };
 use embedded_hal::delay::DelayNs;
 use flight::boot::{BiasStatus, BootReport, StartupGyroBias};
-use flight::pipeline::{ImuInput, Pipeline, PipelineConfig, G_MPS2};
+use flight::calmode::CalWants;
+use flight::pipeline::{Pipeline, PipelineConfig, G_MPS2};
+use flight::sample::{SampleIn, SampleStep};
 use flight::schedule::{DtClock, SampleScheduler, IMU_RATE_HZ, MAG_DIVIDER};
 use flight::sensors::{MagRead, Sensors as FlightSensors, SensorsConfig};
 use flight::storage::{CalibrationRecord, ValidParts};
+use host_console::note;
 use mpu9250::{Address, Config as MpuConfig, Mpu9250};
 use sim::{SimBus, SimConfig, SimDelay, Trajectory};
 
@@ -238,7 +240,7 @@ pub struct Stack {
     sensors: FlightSensors<SimBus>,
     pipeline: Pipeline,
     boot: BootReport,
-    bias: Option<StartupGyroBias>,
+    step: SampleStep,
     bias_done: Option<[i16; 3]>,
     sched: SampleScheduler,
     dt: DtClock,
@@ -290,12 +292,17 @@ impl Stack {
             sensors,
             pipeline,
             boot,
-            bias: Some(bias),
+            step: SampleStep::new(Some(bias)),
             bias_done: None,
             sched: SampleScheduler::new(MAG_DIVIDER),
             dt: DtClock::new(CPU_HZ, IMU_RATE_HZ),
             last_mag: None,
         })
+    }
+
+    /// The pipeline (for the flight controller's inputs).
+    pub fn pipeline(&self) -> &Pipeline {
+        &self.pipeline
     }
 
     /// The boot probe's verdicts.
@@ -326,24 +333,22 @@ impl Stack {
             self.pipeline.baro_step(m.pressure_pa);
         }
         let raw = raw?;
-        if let Some(BiasStatus::Done(b)) = self.bias.as_mut().map(|e| e.push(raw.gyro, raw.accel)) {
-            if self.bias_done.is_none() {
-                self.pipeline.set_gyro_bias_counts(b);
-                self.bias_done = Some(b);
-            }
-        }
-        let p = &mut self.pipeline;
-        if let MagRead::Sample(m) = mag {
-            p.mag_step(m.counts);
-            self.last_mag = Some(p.mag_counts_to_mpu_ut(m.counts));
-        }
-        let input = ImuInput {
-            accel: raw.accel,
-            gyro: raw.gyro,
+        let sample = SampleIn {
+            raw,
+            mag,
+            read_mag: tick.read_mag,
             dt_cycles,
+            now_us: now_us as u32,
         };
-        if p.imu_step(&input) {
-            p.control_step();
+        let out = self
+            .step
+            .run(&mut self.pipeline, &sample, CalWants::default());
+        if let BiasStatus::Done(b) = out.bias {
+            self.bias_done.get_or_insert(b);
+        }
+        let p = &self.pipeline;
+        if let MagRead::Sample(m) = mag {
+            self.last_mag = Some(p.mag_counts_to_mpu_ut(m.counts));
         }
         // The calibrated values, MPU frame, as the firmware's raw log.
         let cfg = p.config();

@@ -9,7 +9,50 @@ pub mod csv;
 
 pub use csv::{read, ParseError, ReadOptions, Recording, Sample, Segment};
 use fc_ahrs::fixed::{self, FixedConfig, MadgwickFixed};
-use fc_ahrs::{frames, Algorithm, Config, Madgwick, Quaternion};
+use fc_ahrs::{frames, Algorithm, Config, Madgwick, MagState, Quaternion, UpdateStatus};
+
+/// How many updates ended in each [`MagState`] (the magnetic disturbance handling).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MagCounts {
+    /// Counts in the order of [`MagCounts::NAMES`].
+    pub counts: [usize; 7],
+}
+
+impl MagCounts {
+    /// Column names, one per [`MagState`].
+    pub const NAMES: [&'static str; 7] = [
+        "absent",
+        "invalid",
+        "undisturbed",
+        "learning",
+        "rejected",
+        "recovered",
+        "fallback",
+    ];
+
+    /// Counts one update.
+    pub fn add(&mut self, st: &UpdateStatus) {
+        let i = match st.mag_state {
+            MagState::Absent => 0,
+            MagState::Invalid => 1,
+            MagState::Undisturbed => 2,
+            MagState::Learning => 3,
+            MagState::Rejected => 4,
+            MagState::Recovered => 5,
+            MagState::Fallback => 6,
+        };
+        self.counts[i] += 1;
+    }
+
+    /// The sum of two counts.
+    #[must_use]
+    pub fn merged(mut self, other: &MagCounts) -> MagCounts {
+        for (a, b) in self.counts.iter_mut().zip(other.counts) {
+            *a += b;
+        }
+        self
+    }
+}
 
 /// Which implementation to run. Every filter the tool offers is one variant
 /// here, with its name in [`FilterKind::NAMES`] and its loop in [`run`].
@@ -24,18 +67,22 @@ pub enum FilterKind {
     Textbook,
     /// `fc_ahrs::fixed::MadgwickFixed` with `Algorithm::Textbook`.
     TextbookFixed,
+    /// `vqf-rs` (VQF, Laidig & Seel 2023) with its default parameters, as the
+    /// published reference: none of the `Config` options apply to it.
+    Vqf,
 }
 
 impl FilterKind {
     /// Every kind, in the order of [`FilterKind::NAMES`].
-    pub const ALL: [FilterKind; 4] = [
+    pub const ALL: [FilterKind; 5] = [
         FilterKind::F32,
         FilterKind::Fixed,
         FilterKind::Textbook,
         FilterKind::TextbookFixed,
+        FilterKind::Vqf,
     ];
     /// Command-line names.
-    pub const NAMES: [&'static str; 4] = ["f32", "fixed", "textbook", "textbook-fixed"];
+    pub const NAMES: [&'static str; 5] = ["f32", "fixed", "textbook", "textbook-fixed", "vqf"];
 
     /// The kind with command-line name `name`.
     pub fn from_name(name: &str) -> Option<Self> {
@@ -61,8 +108,19 @@ pub enum Mode {
 /// from consecutive `t_s` (the first row uses the second row's step); the
 /// reader has checked that every step is positive and bounded.
 pub fn run(samples: &[Sample], kind: FilterKind, mode: Mode, cfg: &Config) -> Vec<Quaternion> {
+    run_counted(samples, kind, mode, cfg).0
+}
+
+/// [`run`], with the count of each magnetic disturbance state over the updates (all
+/// zero for VQF, which does not report one).
+pub fn run_counted(
+    samples: &[Sample],
+    kind: FilterKind,
+    mode: Mode,
+    cfg: &Config,
+) -> (Vec<Quaternion>, MagCounts) {
     let Some(first) = samples.first() else {
-        return Vec::new();
+        return (Vec::new(), MagCounts::default());
     };
     let dt0 = samples.get(1).map_or(0.0035, |s| s.t_s - first.t_s);
     let steps = samples.iter().scan(first.t_s - dt0, |prev, s| {
@@ -79,7 +137,37 @@ pub fn run(samples: &[Sample], kind: FilterKind, mode: Mode, cfg: &Config) -> Ve
         FilterKind::Fixed => run_fixed(first, steps, mode, cfg),
         FilterKind::Textbook => run_f32(first, steps, mode, &textbook),
         FilterKind::TextbookFixed => run_fixed(first, steps, mode, &textbook),
+        FilterKind::Vqf => (
+            run_vqf(steps, mode, f64::from(dt0 as f32)),
+            MagCounts::default(),
+        ),
     }
+}
+
+/// VQF with its defaults at the recording's first step as its fixed sample time (it
+/// has no per-sample dt); it starts from its own first sample, in ENU already.
+fn run_vqf<'a>(
+    steps: impl Iterator<Item = (&'a Sample, f32)>,
+    mode: Mode,
+    dt_s: f64,
+) -> Vec<Quaternion> {
+    let mut f = vqf_rs::VQF::new(dt_s, None, None, None);
+    let d = |v: [f32; 3]| v.map(f64::from);
+    steps
+        .map(|(s, _)| {
+            let q = match mode {
+                Mode::Imu => {
+                    f.update(d(s.gyr_rps), d(s.acc_mps2), None);
+                    f.quat_6d()
+                }
+                Mode::Marg => {
+                    f.update(d(s.gyr_rps), d(s.acc_mps2), Some(d(s.mag_ut)));
+                    f.quat_9d()
+                }
+            };
+            Quaternion::new(q.0 as f32, q.1 as f32, q.2 as f32, q.3 as f32)
+        })
+        .collect()
 }
 
 fn run_f32<'a>(
@@ -87,17 +175,20 @@ fn run_f32<'a>(
     steps: impl Iterator<Item = (&'a Sample, f32)>,
     mode: Mode,
     cfg: &Config,
-) -> Vec<Quaternion> {
+) -> (Vec<Quaternion>, MagCounts) {
     let mut f = Madgwick::from_accel_mag(*cfg, first.acc_mps2, first.mag_ut);
-    steps
+    let mut n = MagCounts::default();
+    let est = steps
         .map(|(s, dt)| {
-            match mode {
+            let st = match mode {
                 Mode::Imu => f.update_imu(s.gyr_rps, s.acc_mps2, dt),
                 Mode::Marg => f.update_marg(s.gyr_rps, s.acc_mps2, s.mag_ut, dt),
             };
+            n.add(&st);
             frames::enu_from_ned(f.quaternion())
         })
-        .collect()
+        .collect();
+    (est, n)
 }
 
 fn run_fixed<'a>(
@@ -105,7 +196,7 @@ fn run_fixed<'a>(
     steps: impl Iterator<Item = (&'a Sample, f32)>,
     mode: Mode,
     cfg: &Config,
-) -> Vec<Quaternion> {
+) -> (Vec<Quaternion>, MagCounts) {
     // Accelerometer and magnetometer fed as Q16 (m/s², µT): gravity_norm follows.
     let fcfg = FixedConfig::from_config(&Config {
         gravity_norm: cfg.gravity_norm * 65536.0,
@@ -113,17 +204,20 @@ fn run_fixed<'a>(
     });
     let q16 = |v: [f32; 3]| v.map(|x| fixed::float_to_q(x, 16));
     let mut f = MadgwickFixed::from_accel_mag(fcfg, q16(first.acc_mps2), q16(first.mag_ut));
-    steps
+    let mut n = MagCounts::default();
+    let est = steps
         .map(|(s, dt)| {
             let dt = fixed::dt_s_to_q31(dt);
             let g = s.gyr_rps.map(fixed::rps_to_q20);
-            match mode {
+            let st = match mode {
                 Mode::Imu => f.update_imu(g, q16(s.acc_mps2), dt),
                 Mode::Marg => f.update_marg(g, q16(s.acc_mps2), q16(s.mag_ut), dt),
             };
+            n.add(&st);
             frames::enu_from_ned(f.quaternion_f32())
         })
-        .collect()
+        .collect();
+    (est, n)
 }
 
 /// BROAD-style error figures (degrees RMS).

@@ -2,15 +2,19 @@
 //! minimal executor for the async API.
 #![allow(dead_code, clippy::unwrap_used, missing_docs)]
 
+use ak8963::{Ak8963, Config};
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
-use embedded_hal_mock::eh1::i2c::Transaction as T;
+use embedded_hal_mock::eh1::delay::NoopDelay;
+use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
 
 /// The AK8963's address inside the MPU-9250.
 pub const A: u8 = 0x0C;
 /// An address NACK (bypass off).
 pub const NACK: ErrorKind = ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address);
 
-/// Init with fuse ROM `asa` and CNTL1 `cntl1`, bytes from the datasheet.
+/// Init with fuse ROM `asa` and CNTL1 `cntl1`, bytes from the datasheet: WIA,
+/// CNTL2 SRST and its poll, power-down, fuse-ROM access, ASAX..ASAZ,
+/// power-down, the mode, its read-back.
 pub fn init_seq(asa: [u8; 3], cntl1: u8) -> Vec<T> {
     vec![
         T::write_read(A, vec![0x00], vec![0x48]),
@@ -23,6 +27,16 @@ pub fn init_seq(asa: [u8; 3], cntl1: u8) -> Vec<T> {
         T::write(A, vec![0x0A, cntl1]),
         T::write_read(A, vec![0x0A], vec![cntl1]),
     ]
+}
+
+/// A driver after the default init with fuse ROM `asa`, then `extra` on the bus.
+pub fn inited(asa: [u8; 3], extra: impl IntoIterator<Item = T>) -> (Mock, Ak8963<Mock>) {
+    let mut t = init_seq(asa, 0x16);
+    t.extend(extra);
+    let i2c = Mock::new(&t);
+    let mut mag = Ak8963::new(i2c.clone());
+    mag.init(&mut NoopDelay::new(), &Config::default()).unwrap();
+    (i2c, mag)
 }
 
 /// HXL..HZH little-endian, then ST2.

@@ -48,6 +48,69 @@ pub fn init_ops(config: &Config, bypass: bool, user_ctrl: u8) -> Vec<Op> {
     ops
 }
 
+/// The configuration bytes of `config` worked out from the register map, not
+/// from the driver's `register_values`: SMPLRT_DIV, CONFIG, GYRO_CONFIG,
+/// ACCEL_CONFIG, ACCEL_CONFIG2, and INT_PIN_CFG (BYPASS_EN with `bypass`),
+/// INT_ENABLE.
+pub fn config_bytes(config: &Config, bypass: bool) -> ([u8; 5], [u8; 2]) {
+    let int_pin = config.interrupt.int_pin_cfg_bits() | if bypass { 0x02 } else { 0x00 };
+    let int_en = u8::from(config.interrupt.data_ready);
+    (
+        [
+            config.sample_rate_divider,
+            config.gyro_bandwidth.dlpf_cfg(),
+            config.gyro_range.fs_sel() << 3,
+            config.accel_range.fs_sel() << 3,
+            config.accel_bandwidth.accel_config2_bits(),
+        ],
+        [int_pin, int_en],
+    )
+}
+
+/// The init sequence at address `a` written out from the register map:
+/// WHO_AM_I, H_RESET, one reset poll, PWR_MGMT_1/2 and USER_CTRL, the
+/// configuration bytes `config` (SMPLRT_DIV..ACCEL_CONFIG2) and `int`
+/// (INT_PIN_CFG, INT_ENABLE), then [`readback_by_hand`].
+pub fn init_by_hand(a: u8, config: [u8; 5], int: [u8; 2]) -> Vec<I2cT> {
+    let mut t = vec![
+        I2cT::write_read(a, vec![0x75], vec![0x71]),
+        I2cT::write(a, vec![0x6B, 0x80]),
+        I2cT::write_read(a, vec![0x6B], vec![0x01]),
+        I2cT::write(a, vec![0x6B, 0x01]),
+        I2cT::write(a, vec![0x6C, 0x00]),
+        I2cT::write(a, vec![0x6A, 0x00]),
+    ];
+    t.extend(
+        (0x19..=0x1D)
+            .zip(config)
+            .map(|(r, v)| I2cT::write(a, vec![r, v])),
+    );
+    t.extend(
+        (0x37..=0x38)
+            .zip(int)
+            .map(|(r, v)| I2cT::write(a, vec![r, v])),
+    );
+    t.extend(readback_by_hand(a, config, int));
+    t
+}
+
+/// The three configuration read-backs that end init and make up
+/// `verify_config`: SMPLRT_DIV..ACCEL_CONFIG2, INT_PIN_CFG..INT_ENABLE,
+/// USER_CTRL..PWR_MGMT_2 (0x00, 0x01, 0x00).
+pub fn readback_by_hand(a: u8, config: [u8; 5], int: [u8; 2]) -> Vec<I2cT> {
+    vec![
+        I2cT::write_read(a, vec![0x19], config.to_vec()),
+        I2cT::write_read(a, vec![0x37], int.to_vec()),
+        I2cT::write_read(a, vec![0x6A], vec![0x00, 0x01, 0x00]),
+    ]
+}
+
+/// [`init_by_hand`] for `config`, through [`config_bytes`].
+pub fn init_for(a: u8, config: &Config, bypass: bool) -> Vec<I2cT> {
+    let (c, i) = config_bytes(config, bypass);
+    init_by_hand(a, c, i)
+}
+
 /// The 14 bytes of ACCEL_XOUT_H..GYRO_ZOUT_L (big-endian).
 pub fn sample_bytes(accel: [i16; 3], temp: i16, gyro: [i16; 3]) -> Vec<u8> {
     accel

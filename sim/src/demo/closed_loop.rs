@@ -1,0 +1,568 @@
+//! Closed-loop flight: the quadcopter model ([`sim::Quadcopter`]) is the
+//! truth the simulated chips read; the firmware's per-sample path
+//! ([`Stack`]: drivers, calibration, fixed-point AHRS, vertical estimator)
+//! turns their registers into an estimate; a flight controller
+//! ([`FlightControl`]) turns the estimate and the pilot's radio into four
+//! motor commands; those drive the model's motors through an ESC that
+//! updates at its frame rate.
+//!
+//! Each [`Scenario`] is a scripted pilot (sticks, arm switch, mode, radio
+//! link) with the figures that judge it ([`figures`]).
+
+use super::radio::Radio;
+use super::stack::{self, Stack};
+use control::shaping::Sticks;
+pub use flight::flightctl::FlightMode as Mode;
+use flight::flightctl::{PilotInput, VehicleState};
+use sim::quad::QuadState;
+use sim::{
+    Environment, QuadLink, QuadParams, Quadcopter, Quat, SensorErrors, SimBus, SimClock, SimConfig,
+    TruthSample,
+};
+
+/// What the pilot's radio delivers in one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pilot {
+    /// Sticks, normalised.
+    pub sticks: Sticks,
+    /// Arm switch.
+    pub arm: bool,
+    /// Mode switch.
+    pub mode: Mode,
+}
+
+/// What the flight controller is given at each IMU sample.
+#[derive(Clone, Copy, Debug)]
+pub struct ControlInput {
+    /// The board's free-running microsecond clock (wraps).
+    pub now_us: u32,
+    /// The IMU read of this sample succeeded (the sensors the flight needs are healthy).
+    pub sensors_healthy: bool,
+    /// Attitude, gyro and altitude from the pipeline, as the firmware
+    /// hands them over (`VehicleState::from_pipeline`).
+    pub vehicle: VehicleState,
+    /// The start-up gyro bias is measured.
+    pub gyro_bias_done: bool,
+    /// The pilot input as the firmware's receiver code delivers it.
+    pub pilot: PilotInput,
+}
+
+/// What the controller asks of the motors, and what it aimed at.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ControlOutput {
+    /// Motor commands, 0 (stopped) .. 1 (full), in the mixer's motor order.
+    pub motors: [f32; 4],
+    /// Armed.
+    pub armed: bool,
+    /// Tilt setpoint (roll, pitch, rad) in the self-levelling modes.
+    pub tilt_setpoint_rad: Option<[f32; 2]>,
+    /// Body-rate setpoint (rad/s).
+    pub rate_setpoint_rps: Option<[f32; 3]>,
+    /// Height target in altitude hold (m).
+    pub height_target_m: Option<f32>,
+    /// The controller flies a failsafe (link lost).
+    pub failsafe: bool,
+}
+
+/// A flight controller as the closed loop sees it.
+pub trait FlightControl {
+    /// Name for the reports.
+    fn name(&self) -> &'static str;
+    /// One IMU sample.
+    fn step(&mut self, input: &ControlInput) -> Result<ControlOutput, String>;
+    /// What happened since the last call (arming, refusals with their
+    /// reason, failsafe phases, disarm causes), as log lines.
+    fn drain_events(&mut self) -> Vec<String> {
+        Vec::new()
+    }
+}
+
+/// The scripted flights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scenario {
+    /// Arm, climb in altitude hold to about 2 m, hover.
+    Takeoff,
+    /// After the take-off: roll, pitch and yaw stick steps in angle mode.
+    Steps,
+    /// After the take-off: a 2 m/s climb, then forward flight at 20°, in altitude hold.
+    AltHold,
+    /// After the take-off: the radio link is lost and stays lost.
+    LinkLoss,
+    /// After the take-off: motor 1 (rear right) stops for good, as a
+    /// burnt ESC or a lost propeller would.
+    MotorFailure,
+}
+
+/// Time the arm switch is flipped (s): after boot and the start-up gyro bias.
+pub const ARM_AT_S: f64 = 2.5;
+/// Take-off: climb stick from here...
+pub const CLIMB_FROM_S: f64 = 3.0;
+/// ...to here (then centred: hold).
+pub const CLIMB_TO_S: f64 = 6.0;
+/// Throttle stick during the take-off climb (altitude hold: 3/4 of the
+/// largest climb rate above the centre band).
+pub const CLIMB_STICK: f32 = 0.9;
+/// Stick steps: roll stick at 0.5 from here for [`STEP_HOLD_S`].
+pub const ROLL_STEP_S: f64 = 10.0;
+/// Pitch stick step start (s).
+pub const PITCH_STEP_S: f64 = 14.0;
+/// Yaw stick step start (s).
+pub const YAW_STEP_S: f64 = 18.0;
+/// How long each stick step is held (s).
+pub const STEP_HOLD_S: f64 = 2.0;
+/// Stick deflection of the steps.
+pub const STEP_STICK: f32 = 0.5;
+/// Altitude hold: full-up throttle from here for [`CLIMB2_HOLD_S`].
+pub const CLIMB2_S: f64 = 10.0;
+/// Length of the second climb (s).
+pub const CLIMB2_HOLD_S: f64 = 2.0;
+/// Altitude hold: forward stick from here for [`FORWARD_HOLD_S`].
+pub const FORWARD_S: f64 = 18.0;
+/// Length of the forward flight (s).
+pub const FORWARD_HOLD_S: f64 = 3.0;
+/// Forward stick (pitch) during the forward flight: 2/3 of 30° = 20°.
+pub const FORWARD_STICK: f32 = 0.667;
+/// The radio link is lost from here on (s).
+pub const LINK_LOSS_S: f64 = 10.0;
+/// Motor 1 (index 0) stops from here on (s).
+pub const MOTOR_FAILURE_S: f64 = 10.0;
+
+impl Scenario {
+    /// Names for the command line.
+    pub const NAMES: [&'static str; 5] = ["takeoff", "steps", "althold", "linkloss", "motorfail"];
+
+    /// By name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Some(match name {
+            "takeoff" => Self::Takeoff,
+            "steps" => Self::Steps,
+            "althold" => Self::AltHold,
+            "linkloss" => Self::LinkLoss,
+            "motorfail" => Self::MotorFailure,
+            _ => return None,
+        })
+    }
+
+    /// Short name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Takeoff => "takeoff",
+            Self::Steps => "steps",
+            Self::AltHold => "althold",
+            Self::LinkLoss => "linkloss",
+            Self::MotorFailure => "motorfail",
+        }
+    }
+
+    /// Length of the scenario (s).
+    pub fn duration_s(&self) -> f64 {
+        match self {
+            Self::Takeoff => 20.0,
+            Self::Steps => 22.0,
+            Self::AltHold => 26.0,
+            Self::LinkLoss => 30.0,
+            Self::MotorFailure => 16.0,
+        }
+    }
+
+    /// Whether motor index `i` has failed at `t_s` (it then gets no power
+    /// whatever it is commanded).
+    pub fn motor_failed(&self, i: usize, t_s: f64) -> bool {
+        *self == Self::MotorFailure && i == 0 && t_s >= MOTOR_FAILURE_S
+    }
+
+    /// The radio frame at `t_s` (`None`: link lost).
+    pub fn pilot(&self, t_s: f64) -> Option<Pilot> {
+        if *self == Self::LinkLoss && t_s >= LINK_LOSS_S {
+            return None;
+        }
+        let mut sticks = Sticks {
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: 0.0,
+            throttle: 0.5,
+        };
+        if t_s < CLIMB_FROM_S {
+            // Arming wants the throttle low; it is centred (hold) only once airborne is asked for.
+            sticks.throttle = 0.0;
+        } else if t_s < CLIMB_TO_S {
+            sticks.throttle = CLIMB_STICK;
+        }
+        let within = |t0: f64, len: f64| t_s >= t0 && t_s < t0 + len;
+        let mut mode = Mode::AltitudeHold;
+        match self {
+            Self::Steps => {
+                if within(ROLL_STEP_S, STEP_HOLD_S) {
+                    sticks.roll = STEP_STICK;
+                }
+                if within(PITCH_STEP_S, STEP_HOLD_S) {
+                    sticks.pitch = STEP_STICK;
+                }
+                if within(YAW_STEP_S, STEP_HOLD_S) {
+                    sticks.yaw = STEP_STICK;
+                }
+            }
+            Self::AltHold => {
+                if within(CLIMB2_S, CLIMB2_HOLD_S) {
+                    sticks.throttle = 1.0;
+                }
+                if within(FORWARD_S, FORWARD_HOLD_S) {
+                    sticks.pitch = FORWARD_STICK;
+                }
+            }
+            Self::Takeoff | Self::LinkLoss | Self::MotorFailure => {}
+        }
+        if t_s < ARM_AT_S {
+            mode = Mode::Angle;
+        }
+        Some(Pilot {
+            sticks,
+            arm: t_s >= ARM_AT_S,
+            mode,
+        })
+    }
+}
+
+/// What to fly.
+#[derive(Clone, Debug)]
+pub struct ClosedLoopOptions {
+    /// The scripted flight.
+    pub scenario: Scenario,
+    /// Seed of all noise.
+    pub seed: u64,
+    /// Seed of the board's fixed errors.
+    pub board_seed: u64,
+    /// Simulated time (s); the scenario's own length when `None`.
+    pub duration_s: Option<f64>,
+    /// The airframe.
+    pub airframe: QuadParams,
+    /// ESC update rate (Hz): standard PWM at 400 Hz.
+    pub esc_rate_hz: f64,
+    /// Length of the magnetometer calibration dance before the flight (s).
+    pub mag_dance_s: f64,
+}
+
+impl ClosedLoopOptions {
+    /// A scenario with the 250-class airframe, 400 Hz ESCs and seeds `seed`.
+    pub fn new(scenario: Scenario, seed: u64) -> Self {
+        Self {
+            scenario,
+            seed,
+            board_seed: seed,
+            duration_s: None,
+            airframe: QuadParams::class_250(),
+            esc_rate_hz: 400.0,
+            mag_dance_s: 30.0,
+        }
+    }
+}
+
+/// One IMU sample of the closed loop.
+#[derive(Clone, Copy, Debug)]
+pub struct Sample {
+    /// Simulated time (s).
+    pub t_s: f64,
+    /// The body's true motion.
+    pub truth: TruthSample,
+    /// The AHRS estimate.
+    pub est_q: Quat,
+    /// The estimated height (m).
+    pub est_height_m: Option<f64>,
+    /// The controller's output.
+    pub out: ControlOutput,
+    /// The radio frame (`None`: lost).
+    pub pilot: Option<Pilot>,
+    /// Model state (rotor speeds, battery).
+    pub quad: QuadState,
+}
+
+/// A whole closed-loop flight.
+pub struct FlightLog {
+    /// The scenario flown.
+    pub scenario: Scenario,
+    /// Every IMU sample, in order.
+    pub samples: Vec<Sample>,
+    /// Data-ready interrupts whose IMU read failed.
+    pub missed: usize,
+    /// Wall-clock time of the flight (s).
+    pub wall_s: f64,
+    /// The controller's events with their time (s).
+    pub events: Vec<(f64, String)>,
+    /// CRSF frames the receiver code accepted.
+    pub radio_frames: u32,
+}
+
+/// Flies `opts.scenario` with `fc`: ground calibrations (as a user does
+/// once), boot, then every MPU data-ready through the firmware's pipeline
+/// and `fc`, the motors latched into the model at the ESC rate.
+pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<FlightLog, String> {
+    let wall = std::time::Instant::now();
+    let link = QuadLink::new();
+    let base = SimConfig {
+        trajectory: link.trajectory(),
+        env: Environment::default(),
+        errors: SensorErrors::datasheet(opts.board_seed),
+        seed: opts.seed,
+        ..SimConfig::default()
+    };
+    let accel = stack::calibrate_accel_six_position(&base)?;
+    let mag = stack::calibrate_mag_on_dance(&base, opts.mag_dance_s)?;
+    let record = stack::calibration_record(&accel.calibration, &mag.calibration)?;
+
+    let mut quad = Quadcopter::new(opts.airframe).map_err(|e| e.to_string())?;
+    link.publish(&quad);
+    let clock = SimClock::new();
+    let bus = SimBus::new(&clock, base);
+    let mut delay = clock.delay();
+    let mut stack = Stack::boot(&bus, &mut delay, &record)?;
+    let duration_s = opts.duration_s.unwrap_or(opts.scenario.duration_s());
+    let esc_period_s = 1.0 / opts.esc_rate_hz;
+    let mut esc = [0.0f64; 4];
+    let mut next_esc_s = 0.0;
+    let mut out = ControlOutput::default();
+    let mut samples = Vec::with_capacity((duration_s * 1000.0) as usize + 16);
+    let mut missed = 0;
+    let mut events = Vec::new();
+    let mut radio = Radio::default();
+    while clock.now_s() < duration_s {
+        let t_next = bus.next_mpu_sample_ns() as f64 * 1e-9;
+        // The ESCs take a new command at each of their frames.
+        let latch = |t_s: f64| {
+            let mut m = out.motors.map(f64::from);
+            for (i, c) in m.iter_mut().enumerate() {
+                if opts.scenario.motor_failed(i, t_s) {
+                    *c = 0.0;
+                }
+            }
+            m
+        };
+        while next_esc_s <= quad.state().t_s {
+            esc = latch(next_esc_s);
+            next_esc_s += esc_period_s;
+        }
+        while next_esc_s < t_next {
+            quad.advance_to(next_esc_s, esc);
+            esc = latch(next_esc_s);
+            next_esc_s += esc_period_s;
+        }
+        quad.advance_to(t_next, esc);
+        link.publish(&quad);
+        bus.advance_to_next_mpu_sample();
+        if !bus.data_ready() {
+            continue;
+        }
+        let now_s = clock.now_s();
+        let Some(est) = stack.on_data_ready(clock.now_us()) else {
+            // The firmware skips a sample whose read failed: the motors keep
+            // their commands until the next one.
+            missed += 1;
+            continue;
+        };
+        let pilot = opts.scenario.pilot(now_s);
+        let now_us = clock.now_us() as u32;
+        let input = ControlInput {
+            now_us,
+            sensors_healthy: true,
+            vehicle: VehicleState::from_pipeline(stack.pipeline()),
+            gyro_bias_done: stack.gyro_bias_rps().is_some(),
+            pilot: radio.poll(now_s, now_us, pilot),
+        };
+        out = fc.step(&input)?;
+        events.extend(fc.drain_events().into_iter().map(|e| (now_s, e)));
+        let q = est.q_ned_from_body.map(f64::from);
+        samples.push(Sample {
+            t_s: now_s,
+            truth: quad.truth(),
+            est_q: Quat::new(q[0], q[1], q[2], q[3]),
+            est_height_m: est.height_m.map(f64::from),
+            out,
+            pilot,
+            quad: *quad.state(),
+        });
+    }
+    Ok(FlightLog {
+        scenario: opts.scenario,
+        samples,
+        missed,
+        wall_s: wall.elapsed().as_secs_f64(),
+        events,
+        radio_frames: radio.frames(),
+    })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+mod tests {
+    //! The scenarios' figures against what a pilot of a 250-class quad
+    //! expects of a well-behaved flight controller.
+
+    use super::*;
+    use crate::demo::figures::{figures, Figures};
+    use crate::demo::flight_fc::FirmwareFc;
+    use flight::flightctl::FlightConfig;
+
+    fn flown(scenario: Scenario, seed: u64) -> (FlightLog, Figures) {
+        let mut fc = FirmwareFc::new(FlightConfig::default()).unwrap();
+        let mut o = ClosedLoopOptions::new(scenario, seed);
+        o.mag_dance_s = 20.0;
+        let log = fly(&o, &mut fc).unwrap();
+        for (t, e) in &log.events {
+            println!("{} seed {seed}: t {t:.3} s {e}", scenario.name());
+        }
+        let f = figures(&log);
+        for l in f.lines() {
+            println!("{} seed {seed}: {l}", scenario.name());
+        }
+        (log, f)
+    }
+
+    #[test]
+    fn takes_off_and_hovers_at_the_held_height() {
+        for seed in [1, 2] {
+            let (log, f) = flown(Scenario::Takeoff, seed);
+            assert_eq!(log.missed, 0);
+            // Every 4 ms CRSF frame of the flight went through the parser.
+            let frames = f64::from(log.radio_frames);
+            let expected = Scenario::Takeoff.duration_s() / super::super::radio::FRAME_PERIOD_S;
+            assert!((frames - expected).abs() < 0.02 * expected, "{frames}");
+            // On the ground, disarmed, until the arm switch.
+            let before = log.samples.iter().filter(|s| s.t_s < ARM_AT_S);
+            assert!(before
+                .clone()
+                .all(|s| !s.out.armed && s.out.motors == [0.0; 4]));
+            assert!(before.clone().all(|s| s.truth.height_m == 0.0));
+            let h = f.hover.unwrap();
+            assert!(h.rms_m < 0.1 && h.max_m < 0.25, "{h:?}");
+            let end = log.samples.last().unwrap();
+            assert!(end.out.armed && end.truth.height_m > 1.5, "{end:?}");
+            assert!(f.max_attitude_error_deg < 3.0, "{f:?}");
+        }
+    }
+
+    #[test]
+    fn stick_steps_are_followed_quickly_and_without_much_overshoot() {
+        // The self-level loop is a P on the angle error: with an ideal rate
+        // loop a first-order lag whose 10-90 % rise is ln 9 / kp. The real
+        // rate loop and motors may add a fifth to it.
+        let kp = f64::from(FlightConfig::default().level.kp_per_s);
+        let rise_max_s = 1.2 * 9f64.ln() / kp;
+        for seed in [1, 3] {
+            let (_, f) = flown(Scenario::Steps, seed);
+            for s in [f.roll.unwrap(), f.pitch.unwrap()] {
+                // Half stick in angle mode: 15° of tilt, roll right / nose down.
+                assert!((s.to.abs() - 15.0).abs() < 1.0, "{s:?}");
+                assert!(
+                    s.rise_s < rise_max_s && s.overshoot_pct < 30.0,
+                    "{s:?} {rise_max_s}"
+                );
+                // What is left is the AHRS's tilt error under sustained acceleration.
+                assert!(s.final_error.abs() < 4.0, "{s:?}");
+            }
+            assert!(f.roll.unwrap().to > 0.0 && f.pitch.unwrap().to < 0.0);
+            let y = f.yaw_rate.unwrap();
+            assert!(y.to > 60.0, "{y:?}");
+            assert!(y.rise_s < 0.5 && y.overshoot_pct < 30.0, "{y:?}");
+            assert!(y.final_error.abs() < 0.1 * y.to, "{y:?}");
+        }
+    }
+
+    #[test]
+    fn altitude_hold_stops_a_climb_and_holds_through_forward_flight() {
+        let (log, f) = flown(Scenario::AltHold, 1);
+        let o = f.climb_overshoot_m.unwrap();
+        assert!(o < 0.3, "{o}");
+        // The climb happened: 2 s of full stick gains well over a metre.
+        let h = |t: f64| {
+            log.samples
+                .iter()
+                .find(|s| s.t_s >= t)
+                .unwrap()
+                .truth
+                .height_m
+        };
+        assert!(h(CLIMB2_S + CLIMB2_HOLD_S + 1.0) - h(CLIMB2_S) > 1.5);
+        let fwd = f.forward_hold.unwrap();
+        assert!(fwd.max_m < 0.5, "{fwd:?}");
+        // ...and it did fly forward (north), some metres.
+        assert!(fwd.drift_m > 3.0, "{fwd:?}");
+    }
+
+    #[test]
+    fn link_loss_holds_then_descends_lands_and_disarms() {
+        let (log, f) = flown(Scenario::LinkLoss, 1);
+        let l = f.link_loss.unwrap();
+        assert!(l.height_at_loss_m > 1.5, "{l:?}");
+        assert!(l.hold_deviation_m < 0.2, "{l:?}");
+        // The receiver code's link monitor declares the loss after its
+        // timeout (the script's loss falls between two 4 ms frames).
+        let timeout_s = f64::from(rc_input::CRSF_TIMEOUT_US) * 1e-6;
+        let detected = l.detected_s.unwrap();
+        assert!(
+            detected >= timeout_s - super::super::radio::FRAME_PERIOD_S
+                && detected < timeout_s + 0.01,
+            "{l:?}"
+        );
+        let safety = FlightConfig::default().safety;
+        let hold_s = f64::from(safety.failsafe_hold_s);
+        let descent_mps = f64::from(safety.failsafe_descent_mps);
+        let start = l.descent_starts_s.unwrap();
+        assert!(start > hold_s && start < hold_s + 1.5, "{l:?}");
+        let v = l.descent_mps.unwrap();
+        assert!((v - descent_mps).abs() < 0.3 * descent_mps, "{l:?}");
+        let (landed, disarmed) = (l.landed_s.unwrap(), l.disarmed_s.unwrap());
+        // The landing detector wants 2 s of low collective after touch-down,
+        // and the altitude hold needs a while to wind the collective down.
+        let land_s = f64::from(safety.land_time_s);
+        assert!(
+            disarmed >= landed + land_s && disarmed < landed + land_s + 3.0,
+            "{l:?}"
+        );
+        assert!(l.max_tilt_deg < 5.0, "{l:?}");
+        // Disarmed for good: motors off to the end.
+        let end = log.samples.last().unwrap();
+        assert!(!end.out.armed && end.out.motors == [0.0; 4] && end.quad.on_ground);
+    }
+
+    #[test]
+    fn a_dead_motor_is_a_crash_and_disarms() {
+        let (log, f) = flown(Scenario::MotorFailure, 1);
+        let m = f.motor_failure.unwrap();
+        // Three motors cannot hold a quad-X: it rolls over, and the crash
+        // detector (beyond 70° for 0.5 s) cuts the others.
+        let safety = FlightConfig::default().safety;
+        let d = m.disarmed_s.unwrap();
+        assert!(d > f64::from(safety.crash_tilt_time_s) && d < 2.0, "{m:?}");
+        assert!(
+            m.tilt_at_disarm_deg > f64::from(safety.crash_tilt_deg),
+            "{m:?}"
+        );
+        assert!(
+            log.events
+                .iter()
+                .any(|(_, e)| e == "Disarmed(CrashTilt)" || e == "Disarmed(CrashRate)"),
+            "{:?}",
+            log.events
+        );
+        let after: Vec<&Sample> = log
+            .samples
+            .iter()
+            .filter(|s| s.t_s >= MOTOR_FAILURE_S + d)
+            .collect();
+        assert!(after
+            .iter()
+            .all(|s| !s.out.armed && s.out.motors == [0.0; 4]));
+        assert!(after.last().unwrap().quad.on_ground);
+    }
+
+    #[test]
+    fn the_plot_is_written() {
+        let (log, _) = flown(Scenario::Steps, 1);
+        for ext in ["png", "svg"] {
+            let path =
+                std::env::temp_dir().join(format!("sim-closed-{}.{ext}", std::process::id()));
+            crate::demo::plot_closed::write_plot(&path, "test", &log).unwrap();
+            assert!(std::fs::metadata(&path).unwrap().len() > 10_000);
+            let _ = std::fs::remove_file(path);
+        }
+    }
+}

@@ -1,0 +1,315 @@
+//! Physical truths of the quadcopter model, and the chips reading its motion.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use sim::physics::G0_MPS2;
+use sim::quad::{QuadState, Spin, STEP_S};
+use sim::*;
+
+fn quad() -> Quadcopter {
+    Quadcopter::new(QuadParams::class_250()).unwrap()
+}
+
+/// The quad hovering 10 m up, level, rotors at the hover speed.
+fn airborne() -> Quadcopter {
+    let mut q = quad();
+    let c = q.command_for_thrust(q.params().weight_n() / 4.0);
+    let w = q.steady_rotor_rps(c, q.state().battery_voltage_v);
+    let s = QuadState {
+        position_ned_m: [0.0, 0.0, -10.0],
+        rotor_rps: [w; 4],
+        on_ground: false,
+        ..*q.state()
+    };
+    q.set_state(s);
+    q
+}
+
+#[test]
+fn starts_at_rest_on_the_ground_and_stays_there_with_motors_off() {
+    let mut q = quad();
+    q.advance_to(2.0, [0.0; 4]);
+    let t = q.truth();
+    assert!(q.state().on_ground);
+    assert_eq!(t.height_m, 0.0);
+    // At rest the accelerometer's truth is 1 g up (−z body).
+    assert!(
+        (t.specific_force_body_mps2[2] + G0_MPS2).abs() < 1e-9,
+        "{t:?}"
+    );
+    assert!(!t.moving);
+}
+
+#[test]
+fn hover_command_gives_thrust_equal_to_weight_and_holds_height() {
+    let mut q = airborne();
+    let c = q.command_for_thrust(q.params().weight_n() / 4.0);
+    // A 250-class quad hovers at 55-65 % of full rotor speed (37 % of full thrust).
+    assert!((0.5..0.7).contains(&c), "{c}");
+    // The hover current sags the battery by about 0.5 V: a throttle that
+    // follows the present voltage, as the altitude loop does.
+    for k in 1..=100 {
+        let c = q.command_for_thrust(q.params().weight_n() / 4.0);
+        q.advance_to(0.01 * f64::from(k), [c; 4]);
+    }
+    let w = q.params().weight_n();
+    assert!(
+        (q.total_thrust_n() - w).abs() < 0.005 * w,
+        "{} vs {w}",
+        q.total_thrust_n()
+    );
+    assert!(q.state().accel_ned_mps2[2].abs() < 0.05, "{:?}", q.state());
+    let t = q.truth();
+    assert!((t.height_m - 10.0).abs() < 0.05, "{}", t.height_m);
+    assert!(t.specific_force_body_mps2[2] < -0.98 * G0_MPS2);
+    // Hover current of a 250-class quad on 3S: about 8-14 A.
+    assert!(
+        (6.0..16.0).contains(&q.state().battery_current_a),
+        "{}",
+        q.state().battery_current_a
+    );
+}
+
+#[test]
+fn motors_respond_with_the_first_order_time_constant() {
+    let mut q = quad();
+    let tau = q.params().propulsion.tau_s;
+    let v0 = q.state().battery_voltage_v;
+    q.advance_to(tau, [0.5; 4]);
+    let target = q.steady_rotor_rps(0.5, v0);
+    let frac = q.state().rotor_rps[0] / target;
+    // 1 − 1/e after one time constant (the sagging voltage lowers the target slightly).
+    assert!((frac - (1.0 - (-1.0f64).exp())).abs() < 0.02, "{frac}");
+    q.advance_to(tau + 5.0 * tau, [0.5; 4]);
+    let target = q.steady_rotor_rps(0.5, q.state().battery_voltage_v);
+    let frac = q.state().rotor_rps[0] / target;
+    assert!(frac > 0.97, "{frac}");
+}
+
+#[test]
+fn free_fall_with_motors_off() {
+    let mut q = airborne();
+    q.advance_to(0.3, [0.0; 4]);
+    // The rotors have spun down (τ = 30 ms): gravity less drag only.
+    assert!(q.total_thrust_n() < 1e-3);
+    let p = *q.params();
+    let v = q.state().velocity_ned_mps[2];
+    let drag = p.drag.linear_n_per_mps[2] * v + p.drag.quadratic_n_per_mps2[2] * v * v;
+    let a = q.state().accel_ned_mps2[2];
+    assert!((a - (G0_MPS2 - drag / p.mass_kg)).abs() < 1e-3, "{a} {v}");
+    // The accelerometer reads only the drag (well under 1 g at 3 m/s).
+    let t = q.truth();
+    let f = sim::math::norm(t.specific_force_body_mps2);
+    assert!((f - drag / p.mass_kg).abs() < 1e-3 && f < 1.5, "{t:?}");
+    q.advance_to(1.0, [0.0; 4]);
+    // After 1 s: ½ g t² less the spin-down and the drag (terminal speed 15 m/s).
+    let fall = q.truth().height_m - 10.0;
+    let free = -0.5 * G0_MPS2;
+    assert!(fall < 0.85 * free && fall > free, "{fall}");
+    // ...until the ground: it stops there and does not go through.
+    q.advance_to(4.0, [0.0; 4]);
+    assert!(q.state().on_ground);
+    assert_eq!(q.truth().height_m, 0.0);
+}
+
+#[test]
+fn more_thrust_on_the_left_rolls_right_positive_p() {
+    let mut q = airborne();
+    let c = q.command_for_thrust(q.params().weight_n() / 4.0);
+    let mut cmd = [c; 4];
+    for (i, m) in q.params().motors.iter().enumerate() {
+        // Left motors (y < 0 in FRD) up, right ones down.
+        cmd[i] += if m.position_body_m[1] < 0.0 {
+            0.05
+        } else {
+            -0.05
+        };
+    }
+    q.advance_to(0.2, cmd);
+    let w = q.truth().omega_body_rps;
+    assert!(w[0] > 0.5, "{w:?}");
+    assert!(
+        w[1].abs() < 0.05 * w[0] && w[2].abs() < 0.05 * w[0],
+        "{w:?}"
+    );
+    // Roll right: the right side goes down, roll angle positive.
+    assert!(q.truth().q_ned_from_body.to_euler()[0] > 0.0);
+}
+
+#[test]
+fn more_thrust_at_the_front_pitches_up_positive_q() {
+    let mut q = airborne();
+    let c = q.command_for_thrust(q.params().weight_n() / 4.0);
+    let mut cmd = [c; 4];
+    for (i, m) in q.params().motors.iter().enumerate() {
+        cmd[i] += if m.position_body_m[0] > 0.0 {
+            0.05
+        } else {
+            -0.05
+        };
+    }
+    q.advance_to(0.2, cmd);
+    let w = q.truth().omega_body_rps;
+    assert!(w[1] > 0.5 && w[0].abs() < 0.05 * w[1], "{w:?}");
+}
+
+#[test]
+fn speeding_up_the_counter_clockwise_props_yaws_the_nose_right() {
+    let mut q = airborne();
+    let c = q.command_for_thrust(q.params().weight_n() / 4.0);
+    let mut cmd = [c; 4];
+    for (i, m) in q.params().motors.iter().enumerate() {
+        cmd[i] += match m.spin {
+            Spin::CounterClockwise => 0.05,
+            Spin::Clockwise => -0.05,
+        };
+    }
+    q.advance_to(0.3, cmd);
+    let w = q.truth().omega_body_rps;
+    // Reaction torque: positive r (nose right, clockwise from above).
+    assert!(w[2] > 0.1, "{w:?}");
+    assert!(
+        w[0].abs() < 0.05 * w[2] && w[1].abs() < 0.05 * w[2],
+        "{w:?}"
+    );
+    // The diagonal pairs keep the thrust balanced: no roll or pitch.
+    assert!(q.truth().q_ned_from_body.to_euler()[0].abs() < 1e-3);
+}
+
+#[test]
+fn battery_sag_lowers_thrust_at_the_same_command() {
+    let fresh = QuadParams::class_250();
+    let mut tired = fresh;
+    tired.battery.used_at_start_ah = 0.85 * fresh.battery.capacity_ah;
+    let mut a = Quadcopter::new(fresh).unwrap();
+    let mut b = Quadcopter::new(tired).unwrap();
+    a.advance_to(1.0, [0.8; 4]);
+    b.advance_to(1.0, [0.8; 4]);
+    let (va, vb) = (a.state().battery_voltage_v, b.state().battery_voltage_v);
+    assert!(vb < va - 0.5, "{va} {vb}");
+    // Under load the terminal voltage is below the open-circuit one by I·R.
+    let ocv = fresh.battery.open_circuit_v(a.state().battery_used_ah);
+    let r = fresh.battery.r_internal_ohm;
+    assert!((ocv - va - a.state().battery_current_a * r).abs() < 0.05);
+    // Thrust scales with V² at a given command.
+    let ratio = b.total_thrust_n() / a.total_thrust_n();
+    assert!(
+        (ratio - (vb / va).powi(2)).abs() < 0.01,
+        "{ratio} {va} {vb}"
+    );
+    // Draining the pack during a hover lowers the voltage.
+    let mut c = airborne();
+    let v0 = c.state().battery_voltage_v;
+    let cmd = c.command_for_thrust(c.params().weight_n() / 4.0);
+    c.advance_to(60.0, [cmd; 4]);
+    assert!(c.state().battery_voltage_v < v0 - 0.1);
+    assert!(c.state().battery_used_ah > 0.1);
+}
+
+#[test]
+fn drag_limits_the_speed_of_a_fall() {
+    let mut q = airborne();
+    let mut s = *q.state();
+    s.position_ned_m[2] = -10_000.0;
+    s.rotor_rps = [0.0; 4];
+    q.set_state(s);
+    q.advance_to(60.0, [0.0; 4]);
+    let v = q.state().velocity_ned_mps[2];
+    // Terminal speed: m g = c1 v + c2 v².
+    let p = q.params();
+    let (c1, c2) = (p.drag.linear_n_per_mps[2], p.drag.quadratic_n_per_mps2[2]);
+    let vt = (-c1 + (c1 * c1 + 4.0 * c2 * p.weight_n()).sqrt()) / (2.0 * c2);
+    assert!((v - vt).abs() < 0.01 * vt, "{v} {vt}");
+    assert!(STEP_S < p.propulsion.tau_s / 10.0);
+}
+
+#[test]
+fn the_chips_read_the_body_through_the_link() {
+    use embedded_hal::i2c::I2c;
+    let link = QuadLink::new();
+    let mut q = airborne();
+    // A steady roll rate: the MPU-9250 gyro must see it.
+    let mut s = *q.state();
+    s.omega_body_rps = [1.0, 0.0, 0.0];
+    q.set_state(s);
+    link.publish(&q);
+    let clock = SimClock::new();
+    let cfg = SimConfig {
+        trajectory: link.trajectory(),
+        errors: SensorErrors::ideal(),
+        ..SimConfig::default()
+    };
+    let mut bus = SimBus::new(&clock, cfg);
+    // Wake the MPU-9250 (PWR_MGMT_1 = 0), ±250 °/s.
+    bus.write(0x68, &[0x6B, 0x00]).unwrap();
+    let c = q.command_for_thrust(q.params().weight_n() / 4.0);
+    for _ in 0..20 {
+        let t = bus.next_mpu_sample_ns() as f64 * 1e-9;
+        q.advance_to(t, [c; 4]);
+        link.publish(&q);
+        bus.advance_to_next_mpu_sample();
+    }
+    let truth = bus.truth_at_last_mpu_sample().unwrap();
+    assert!((truth.omega_body_rps[0] - q.truth().omega_body_rps[0]).abs() < 1e-6);
+    assert!((truth.height_m - q.truth().height_m).abs() < 1e-6);
+    let mut raw = [0u8; 14];
+    bus.write_read(0x68, &[0x3B], &mut raw).unwrap();
+    let gx = i16::from_be_bytes([raw[8], raw[9]]);
+    // Body x = MPU x; 131 LSB per °/s at ±250 °/s.
+    let expect = q.truth().omega_body_rps[0].to_degrees() * 131.0;
+    assert!(
+        (f64::from(gx) - expect).abs() < 0.02 * expect,
+        "{gx} {expect}"
+    );
+    // Specific force: hovering, about −1 g on body z = +1 g on MPU z.
+    let az = i16::from_be_bytes([raw[4], raw[5]]);
+    assert!((f64::from(az) / 16384.0 - 1.0).abs() < 0.05, "{az}");
+}
+
+#[test]
+fn a_gentle_touch_down_settles_level_and_a_crash_stays_on_its_side() {
+    for (roll_deg, stays_tilted) in [(20.0f64, false), (80.0, true)] {
+        let mut q = airborne();
+        let mut s = *q.state();
+        s.position_ned_m[2] = -0.5;
+        s.rotor_rps = [0.0; 4];
+        s.q_ned_from_body = Quat::from_euler(roll_deg.to_radians(), 0.0, 0.3);
+        q.set_state(s);
+        q.advance_to(2.0, [0.0; 4]);
+        assert!(q.state().on_ground);
+        let e = q.truth().q_ned_from_body.to_euler();
+        if stays_tilted {
+            assert!((e[0].to_degrees() - roll_deg).abs() < 1.0, "{e:?}");
+        } else {
+            assert!(e[0].abs() < 1e-9 && e[1].abs() < 1e-9, "{e:?}");
+        }
+        // The heading is kept either way, and nothing moves.
+        assert!((e[2] - 0.3).abs() < 1e-6, "{e:?}");
+        assert!(!q.truth().moving);
+    }
+}
+
+#[test]
+fn unphysical_parameters_are_refused_by_name() {
+    use sim::quad::QuadParamsError as E;
+    let ok = QuadParams::class_250();
+    assert_eq!(ok.validate(), Ok(()));
+    type Break = fn(&mut QuadParams);
+    let cases: [(Break, E); 7] = [
+        (|p| p.mass_kg = 0.0, E::Mass),
+        (|p| p.inertia_kgm2[2] = f64::NAN, E::Inertia),
+        (
+            |p| p.motors[1].position_body_m[0] = f64::INFINITY,
+            E::MotorPosition,
+        ),
+        (|p| p.propulsion.tau_s = 0.0, E::Propulsion),
+        (|p| p.propulsion.efficiency = 1.5, E::Propulsion),
+        (|p| p.battery.used_at_start_ah = 2.0, E::Battery),
+        (|p| p.drag.quadratic_n_per_mps2[0] = -0.1, E::Drag),
+    ];
+    for (break_it, want) in cases {
+        let mut p = ok;
+        break_it(&mut p);
+        assert_eq!(Quadcopter::new(p).err(), Some(want));
+    }
+}
