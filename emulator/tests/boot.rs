@@ -1,5 +1,6 @@
 //! Boot on the emulated board with all chips or one missing, the 1 kHz
-//! IMU task, and the logged attitude against the simulator's truth.
+//! IMU task, the start-up gyro bias, and the logged attitude against the
+//! simulator's truth.
 
 #![allow(clippy::panic, clippy::expect_used, clippy::unwrap_used)]
 
@@ -21,6 +22,23 @@ fn boots_with_all_chips_and_full_capabilities() {
     assert_logged(&b, "altitude true");
     run_until(&mut b, 2 * S);
     assert!(health(&b, "mpu", "ok").unwrap_or(0) > 0, "{}", tail(&b, 30));
+    assert_no_reset(&b);
+}
+
+/// At rest with the simulator's default (datasheet) sensor noise, the
+/// start-up gyro bias completes in its first 1 s window: the health line
+/// at ~2.4 s reports it done, none reports giving up.
+#[test]
+fn startup_gyro_bias_completes_at_datasheet_noise() {
+    let Some(mut b) = board() else { return };
+    run_until(&mut b, 3 * S);
+    let lines = lines_with(&b, "gyro bias:");
+    assert!(
+        lines.iter().any(|l| l.contains("gyro bias: Done(")),
+        "{}",
+        tail(&b, 30)
+    );
+    assert!(!lines.iter().any(|l| l.contains("GaveUp")), "{lines:?}");
     assert_no_reset(&b);
 }
 

@@ -4,6 +4,18 @@
 //! the FIFO, and the internal I2C master's registers (run by
 //! [`aux_master`](crate::aux_master)).
 //!
+//! Burst reads are coherent: the sensor registers (ACCEL_XOUT_H ..
+//! GYRO_ZOUT_L) a master reads come from a user-facing copy that follows the
+//! internal registers only while the serial interface is idle, so a sample
+//! that lands during a read never mixes into it (InvenSense's register map
+//! for the MPU-6000/6050, rev 4.2, sections 4.17-4.19: "This guarantees that
+//! a burst read of sensor registers will read measurements from the same
+//! sampling instant"; the MPU-9250's map, rev 1.6, keeps those registers and
+//! their addresses but not the prose). Without it a read late enough to
+//! straddle a sample would mix the high byte of one sample with the low
+//! byte of the next: a ±256-count step whenever a value crosses a multiple
+//! of 256, such as a gyro axis at rest crossing zero.
+//!
 //! Not modelled: DMP, self-test responses, wake-on-motion, the DLPF's signal
 //! delay (only its noise bandwidth), start-up transients.
 //!
@@ -73,6 +85,12 @@ fn reset_registers() -> [u8; 128] {
     r
 }
 
+/// The sensor registers with a user-facing read copy: ACCEL_XOUT_H ..=
+/// GYRO_ZOUT_L (accelerometer, temperature, gyroscope; 14 bytes).
+const SENSOR_REGS: core::ops::RangeInclusive<u8> = reg::ACCEL_XOUT_H..=(reg::GYRO_XOUT_H + 5);
+/// Size of [`SENSOR_REGS`].
+const SENSOR_BYTES: usize = 14;
+
 /// Saturating conversion to a 16-bit two's-complement register value.
 pub fn to_i16_sat(x: f64) -> i16 {
     x.round().clamp(-32768.0, 32767.0) as i16
@@ -95,6 +113,10 @@ pub struct Mpu9250Model {
     samples: u64,
     last_physical: Option<crate::world::ImuPhysical>,
     fifo: std::collections::VecDeque<u8>,
+    /// The user-facing copy of [`SENSOR_REGS`] a transaction reads, taken
+    /// at its (repeated) START; `None` while the serial interface is idle
+    /// (reads then see the internal registers).
+    read_set: Option<[u8; SENSOR_BYTES]>,
     /// Sample count the internal I2C master last ran at (see `aux_master`).
     pub(crate) master_samples_seen: u64,
 }
@@ -127,6 +149,7 @@ impl Mpu9250Model {
             samples: 0,
             last_physical: None,
             fifo: std::collections::VecDeque::with_capacity(FIFO_SIZE),
+            read_set: None,
             master_samples_seen: 0,
         }
     }
@@ -399,6 +422,17 @@ impl Device for Mpu9250Model {
 
     fn start(&mut self, read: bool) {
         self.expect_reg_addr = !read;
+        if self.read_set.is_none() {
+            let mut copy = [0u8; SENSOR_BYTES];
+            for (c, r) in copy.iter_mut().zip(SENSOR_REGS) {
+                *c = self.regs[usize::from(r)];
+            }
+            self.read_set = Some(copy);
+        }
+    }
+
+    fn stop(&mut self, _now_ns: u64, _world: &mut World) {
+        self.read_set = None;
     }
 
     fn write_byte(&mut self, byte: u8, now_ns: u64, _world: &mut World) -> Result<(), SimBusError> {
@@ -415,6 +449,9 @@ impl Device for Mpu9250Model {
     fn read_byte(&mut self, _now_ns: u64, _world: &mut World) -> u8 {
         let r = self.ptr;
         let mut v = self.regs[usize::from(r)];
+        if let Some(copy) = self.read_set.filter(|_| SENSOR_REGS.contains(&r)) {
+            v = copy[usize::from(r - reg::ACCEL_XOUT_H)];
+        }
         if r == reg::WHO_AM_I {
             v = self.who_am_i_override.unwrap_or(v);
         }
@@ -444,6 +481,7 @@ impl Device for Mpu9250Model {
 
     fn power_on_reset(&mut self, now_ns: u64) {
         self.regs = reset_registers();
+        self.read_set = None;
         self.fifo.clear();
         self.sleeping = false;
         self.reset_done_ns = None;

@@ -169,3 +169,36 @@ fn stuck_lines() {
     assert_eq!(b.wire_lines(true, true), (true, true));
     assert!(b.write(MPU, &[0x75]).is_ok());
 }
+
+/// The MPU-9250's 14 sensor bytes (ACCEL_XOUT_H ..= GYRO_ZOUT_L) as the
+/// chip holds them internally now.
+fn mpu_sensor_registers(b: &SimBus) -> Vec<u8> {
+    let s = b.state();
+    (0x3Bu8..=0x48).map(|r| s.mpu.register(r)).collect()
+}
+
+#[test]
+fn a_burst_read_straddling_a_sample_reads_one_sampling_instant() {
+    let b = bus();
+    b.advance_to_next_mpu_sample();
+    let before = mpu_sensor_registers(&b);
+    b.wire_start(MPU << 1).unwrap();
+    b.wire_write(0x3B).unwrap();
+    b.wire_start((MPU << 1) | 1).unwrap();
+    let mut got = Vec::new();
+    for k in 0..14 {
+        if k == 9 {
+            // The next sample lands mid-burst, among the gyro bytes.
+            b.advance_to_next_mpu_sample();
+        }
+        got.push(b.wire_read(k < 13).unwrap());
+    }
+    b.wire_stop();
+    let after = mpu_sensor_registers(&b);
+    assert_ne!(after, before, "datasheet noise: a new sample differs");
+    assert_eq!(got, before, "the whole burst is the sample it started on");
+    // The bus idle again, the next read sees the new sample.
+    let mut next = [0u8; 14];
+    b.clone().write_read(MPU, &[0x3B], &mut next).unwrap();
+    assert_eq!(next.to_vec(), after);
+}

@@ -1,0 +1,198 @@
+//! The firmware's start-up gyro bias (`flight::boot::StartupGyroBias`, set
+//! up as `start_gyro_bias` does: one window of `IMU_RATE_HZ` samples = 1 s,
+//! up to 5 windows) on the simulated board: the simulator's noise is the
+//! MPU-9250 datasheet's at the configured filters, the measurement
+//! completes in its first window at that noise, and it refuses a board
+//! that is being moved by a few °/s.
+//!
+//! Datasheet noise at the default configuration (DLPF 41 Hz gyro,
+//! 44.8 Hz accelerometer, 1 kHz): per-sample σ = density · √(ENBW),
+//! ENBW = π/2 · 3 dB bandwidth: gyro 0.01 °/s/√Hz · √64.4 Hz = 0.080 °/s
+//! (2.6 counts at ±1000 °/s), accelerometer 300 µg/√Hz · √70.4 Hz =
+//! 2.5 mg (21 counts at ±4 g). The stillness limits (gyro σ ≤ 0.3 °/s,
+//! peak-to-peak ≤ 3 °/s; accelerometer σ ≤ 20 mg, peak-to-peak ≤ 100 mg)
+//! are ≥ 3.7 σ on the standard deviations (whose estimate over 1000
+//! samples scatters by ~2 %) and ≥ 37 σ on the peak-to-peak (1000
+//! Gaussian samples span ~6.5 σ): a false refusal at datasheet noise does
+//! not happen, while a rate step of more than 0.6 °/s halfway through a
+//! window already exceeds the gyro σ limit.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use std::f64::consts::PI;
+use std::rc::Rc;
+
+use e2e::Rig;
+use flight::boot::{BiasStatus, StartupGyroBias};
+use flight::schedule::IMU_RATE_HZ;
+use sim::{Quat, SensorErrors, SimConfig, Trajectory};
+
+/// Windows the firmware allows (`start_gyro_bias`).
+const MAX_ATTEMPTS: u8 = 5;
+
+struct Run {
+    status: BiasStatus,
+    /// Samples pushed until `status` was final (or the limit).
+    samples: u32,
+    /// Restarts seen (`Moved`).
+    restarts: u32,
+    /// The sim's gyro bias at the end, counts, MPU frame.
+    true_bias_counts: [f64; 3],
+    /// Per-axis standard deviation of the gyro and accelerometer samples
+    /// of the first window (counts).
+    gyro_sd: [f64; 3],
+    accel_sd: [f64; 3],
+    /// Simulated time when the measurement started (s).
+    start_s: f64,
+}
+
+fn run(config: SimConfig, limit: u32) -> Run {
+    let mut rig = Rig::new(config);
+    let (mut s, report) = e2e::boot_sensors(&mut rig);
+    assert!(report.failures().next().is_none(), "{report:?}");
+    let scale = s.mpu_scale();
+    let mut bias = StartupGyroBias::new(
+        IMU_RATE_HZ,
+        1.0 / scale.dps_per_lsb,
+        1.0 / scale.g_per_lsb,
+        MAX_ATTEMPTS,
+    )
+    .unwrap();
+    let start_s = rig.clock.now_s();
+    let (mut gyro, mut accel) = (Vec::new(), Vec::new());
+    let mut status = BiasStatus::GaveUp;
+    let mut restarts = 0;
+    let mut samples = 0;
+    while samples < limit {
+        rig.bus.advance_to_next_mpu_sample();
+        let raw = s.read_imu().unwrap();
+        samples += 1;
+        if gyro.len() < IMU_RATE_HZ as usize {
+            gyro.push(raw.gyro.map(f64::from));
+            accel.push(raw.accel.map(f64::from));
+        }
+        status = bias.push(raw.gyro, raw.accel);
+        match status {
+            BiasStatus::Moved { .. } => restarts += 1,
+            BiasStatus::Done(_) | BiasStatus::GaveUp => break,
+            BiasStatus::Collecting { .. } => {}
+        }
+    }
+    let sd = |xs: &[[f64; 3]]| {
+        [0, 1, 2].map(|i| e2e::mean_sd(&xs.iter().map(|x| x[i]).collect::<Vec<_>>()).1)
+    };
+    let st = rig.bus.state();
+    let lsb_per_dps = st.mpu.gyro_lsb_per_dps();
+    Run {
+        status,
+        samples,
+        restarts,
+        true_bias_counts: st.world.gyro_bias_dps().map(|b| b * lsb_per_dps),
+        gyro_sd: sd(&gyro),
+        accel_sd: sd(&accel),
+        start_s,
+    }
+}
+
+#[test]
+fn sim_noise_is_the_datasheet_noise_at_the_configured_filters() {
+    let r = run(SimConfig::default(), IMU_RATE_HZ);
+    // ENBW = π/2 · 3 dB bandwidth (DLPF_CFG 3: 41 Hz; A_DLPF_CFG 3: 44.8 Hz).
+    let gyro_counts = 0.01 * (41.0 * PI / 2.0).sqrt() * 32.8;
+    let accel_counts = 300e-6 * (44.8 * PI / 2.0).sqrt() * 8192.0;
+    for i in 0..3 {
+        let (g, a) = (r.gyro_sd[i], r.accel_sd[i]);
+        // Quantisation adds 1/12 count² (negligible here); 1000 samples
+        // estimate σ within ~2 % (1 σ).
+        assert!(
+            (g / gyro_counts - 1.0).abs() < 0.1,
+            "gyro σ {g} vs {gyro_counts}"
+        );
+        assert!(
+            (a / accel_counts - 1.0).abs() < 0.1,
+            "accel σ {a} vs {accel_counts}"
+        );
+    }
+}
+
+#[test]
+fn completes_in_its_first_window_at_datasheet_noise() {
+    for seed in 1..=12 {
+        // Datasheet noise plus a board's datasheet-sized bias (±3 °/s),
+        // bias walk and scale errors.
+        let config = SimConfig {
+            seed,
+            errors: SensorErrors::datasheet(seed),
+            ..SimConfig::default()
+        };
+        let r = run(config, u32::from(MAX_ATTEMPTS) * IMU_RATE_HZ);
+        let BiasStatus::Done(b) = r.status else {
+            panic!("seed {seed}: {:?} after {} samples", r.status, r.samples)
+        };
+        assert_eq!(r.restarts, 0, "seed {seed}");
+        assert_eq!(r.samples, IMU_RATE_HZ, "seed {seed}: done in 1 s");
+        for i in 0..3 {
+            // Mean of 1000 samples: σ ≈ 0.1 count; rounding 0.5; bias
+            // walk over 1 s ≈ 0.2 count.
+            let err = f64::from(b[i]) - r.true_bias_counts[i];
+            assert!(
+                err.abs() < 1.5,
+                "seed {seed} axis {i}: {b:?} vs {:?}",
+                r.true_bias_counts
+            );
+        }
+    }
+}
+
+/// Level and still, then yawing back and forth with `peak_dps` at 0.5 Hz
+/// from `from_s` on (yaw: the accelerometer cannot see it, so the gyro
+/// checks alone must).
+fn yawing(peak_dps: f64, from_s: f64) -> Trajectory {
+    let w = 2.0 * PI * 0.5;
+    let peak_rps = peak_dps.to_radians();
+    Trajectory::Custom(Rc::new(move |t: f64| {
+        let tau = (t - from_s).max(0.0);
+        // Rate peak·sin(w·τ): the angle is its integral.
+        let yaw = peak_rps / w * (1.0 - (w * tau).cos());
+        ([0.0; 3], Quat::from_axis_angle([0.0, 0.0, 1.0], yaw))
+    }))
+}
+
+#[test]
+fn refuses_a_board_moved_by_a_few_degrees_per_second() {
+    let config = SimConfig {
+        trajectory: yawing(2.0, 0.0),
+        ..SimConfig::default()
+    };
+    let r = run(config, (u32::from(MAX_ATTEMPTS) + 1) * IMU_RATE_HZ);
+    assert_eq!(r.status, BiasStatus::GaveUp, "after {} samples", r.samples);
+    assert_eq!(r.restarts, u32::from(MAX_ATTEMPTS) - 1);
+}
+
+#[test]
+fn a_nudge_restarts_the_window_and_the_next_one_completes() {
+    // Moved for one 2 s period (0.5 s into the first window), still after.
+    let probe = run(SimConfig::default(), 1);
+    let from_s = probe.start_s + 0.5;
+    let w = 2.0 * PI * 0.5;
+    let peak_rps = 3.0f64.to_radians();
+    let config = SimConfig {
+        trajectory: Trajectory::Custom(Rc::new(move |t: f64| {
+            let tau = (t - from_s).clamp(0.0, 2.0);
+            let yaw = peak_rps / w * (1.0 - (w * tau).cos());
+            ([0.0; 3], Quat::from_axis_angle([0.0, 0.0, 1.0], yaw))
+        })),
+        ..SimConfig::default()
+    };
+    let r = run(config, u32::from(MAX_ATTEMPTS) * IMU_RATE_HZ);
+    assert!(r.restarts >= 1, "{:?}", r.status);
+    let BiasStatus::Done(b) = r.status else {
+        panic!("{:?} after {} samples", r.status, r.samples)
+    };
+    // Noise only, no bias: within 1 count (0.03 °/s) of zero.
+    assert!(b.iter().all(|c| c.abs() <= 1), "{b:?}");
+    // The window that completed ended after the motion did: the windows
+    // taken while the board turned were all refused.
+    let end_s = r.start_s + f64::from(r.samples) / f64::from(IMU_RATE_HZ);
+    assert!(end_s > from_s + 2.0, "ended at {end_s} s");
+}
