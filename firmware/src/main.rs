@@ -59,7 +59,7 @@
 //! (`flight::flightctl`) runs in `imu` at 1 kHz on the pipeline's attitude,
 //! gyro and altitude and the receiver's pilot input, and sets the outputs.
 //!
-//! Flash: 63,216 B of the 63 KiB budget with the flight controller
+//! Flash: 62,652 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
 //! static RAM 4.5 KiB. To fit, the I2C master is our own register-level
 //! driver (`bus.rs`) rather than the HAL's blocking one, the fixed-point
