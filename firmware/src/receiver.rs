@@ -118,16 +118,7 @@ impl Pilot {
             frame: None,
             link: LinkMonitor::crsf(),
             link_quality_pct: None,
-            stats: CrsfStats {
-                rc_frames: 0,
-                link_statistics_frames: 0,
-                unknown_type: 0,
-                crc_errors: 0,
-                bad_length: 0,
-                bad_payload_length: 0,
-                idle_resyncs: 0,
-                skipped_bytes: 0,
-            },
+            stats: CrsfStats::ZERO,
             uart: UartErrors {
                 overruns: 0,
                 framing: 0,

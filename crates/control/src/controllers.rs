@@ -36,6 +36,7 @@
 //! leaves the controller untouched.
 
 use crate::error::{check_dt, check_gain, check_limits, check_positive, finite, Error};
+use crate::loops::{RateConfig, RateController};
 use crate::pid::{clamp, Pid, PidConfig};
 use core::f32::consts::PI;
 
@@ -311,9 +312,8 @@ pub struct TorqueCommand {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AttitudeController {
     cfg: AttitudeConfig,
-    roll: Pid,
-    pitch: Pid,
-    yaw: Pid,
+    /// The inner loop: the same rate PIDs the 1 kHz flight loop runs.
+    rates: RateController,
     rate_setpoint: BodyRates,
 }
 
@@ -336,9 +336,11 @@ impl AttitudeController {
         cfg.validate()?;
         Ok(Self {
             cfg,
-            roll: Pid::new(cfg.roll.rate_pid)?,
-            pitch: Pid::new(cfg.pitch.rate_pid)?,
-            yaw: Pid::new(cfg.yaw.rate_pid)?,
+            rates: RateController::new(RateConfig {
+                roll: cfg.roll.rate_pid,
+                pitch: cfg.pitch.rate_pid,
+                yaw: cfg.yaw.rate_pid,
+            })?,
             rate_setpoint: BodyRates::default(),
         })
     }
@@ -389,27 +391,7 @@ impl AttitudeController {
         rates: &BodyRates,
         dt_s: f32,
     ) -> Result<TorqueCommand, Error> {
-        for x in [
-            setpoint.roll_rps,
-            setpoint.pitch_rps,
-            setpoint.yaw_rps,
-            rates.roll_rps,
-            rates.pitch_rps,
-            rates.yaw_rps,
-        ] {
-            finite(x)?;
-        }
-        check_dt(dt_s)?;
-        // Update copies and commit together, so no axis changes on error.
-        let (mut r, mut p, mut y) = (self.roll, self.pitch, self.yaw);
-        let out = TorqueCommand {
-            roll: r.update(setpoint.roll_rps, rates.roll_rps, dt_s)?,
-            pitch: p.update(setpoint.pitch_rps, rates.pitch_rps, dt_s)?,
-            yaw: y.update(setpoint.yaw_rps, rates.yaw_rps, dt_s)?,
-        };
-        self.roll = r;
-        self.pitch = p;
-        self.yaw = y;
+        let out = self.rates.update(setpoint, rates, dt_s)?;
         self.rate_setpoint = *setpoint;
         Ok(out)
     }
@@ -418,12 +400,7 @@ impl AttitudeController {
     /// set to the measured `rates` (no D kick), so the first output is just
     /// the P response. Errors: [`Error::NonFinite`]; nothing changes on error.
     pub fn reset(&mut self, rates: &BodyRates) -> Result<(), Error> {
-        finite(rates.roll_rps)?;
-        finite(rates.pitch_rps)?;
-        finite(rates.yaw_rps)?;
-        self.roll.reset(rates.roll_rps, 0.0)?;
-        self.pitch.reset(rates.pitch_rps, 0.0)?;
-        self.yaw.reset(rates.yaw_rps, 0.0)?;
+        self.rates.reset(rates)?;
         self.rate_setpoint = *rates;
         Ok(())
     }
@@ -435,11 +412,7 @@ impl AttitudeController {
 
     /// The rate PIDs' integrals (roll, pitch, yaw), torque units.
     pub fn integrals(&self) -> TorqueCommand {
-        TorqueCommand {
-            roll: self.roll.integral(),
-            pitch: self.pitch.integral(),
-            yaw: self.yaw.integral(),
-        }
+        self.rates.integrals()
     }
 }
 

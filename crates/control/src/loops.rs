@@ -275,6 +275,19 @@ impl RateController {
         Ok(out)
     }
 
+    /// Bumpless engage: integrals zero, derivative history set to the
+    /// measured `rates` (no D kick). Errors: [`Error::NonFinite`]; nothing
+    /// changes on error.
+    pub fn reset(&mut self, rates: &BodyRates) -> Result<(), Error> {
+        finite(rates.roll_rps)?;
+        finite(rates.pitch_rps)?;
+        finite(rates.yaw_rps)?;
+        self.roll.reset(rates.roll_rps, 0.0)?;
+        self.pitch.reset(rates.pitch_rps, 0.0)?;
+        self.yaw.reset(rates.yaw_rps, 0.0)?;
+        Ok(())
+    }
+
     /// Forgets the integrals and derivative history (at arming, and while
     /// the vehicle sits on the ground at low throttle so nothing winds up).
     pub fn clear(&mut self) {

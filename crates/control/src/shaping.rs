@@ -37,7 +37,9 @@ use crate::pid::clamp;
 
 const RAD_PER_DEG: f32 = core::f32::consts::PI / 180.0;
 
-/// Normalised pilot sticks as the receiver delivers them.
+/// Normalised pilot sticks as the receiver delivers them. `rc_input::Sticks`
+/// has the same fields on purpose: control does not depend on a receiver
+/// crate, and `flight::flightctl::PilotInput::from_rc` converts between them.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Sticks {

@@ -281,6 +281,18 @@ pub struct CrsfStats {
 }
 
 impl CrsfStats {
+    /// All counters at zero (what `Default` gives, usable in `const fn`s).
+    pub const ZERO: Self = Self {
+        rc_frames: 0,
+        link_statistics_frames: 0,
+        unknown_type: 0,
+        crc_errors: 0,
+        bad_length: 0,
+        bad_payload_length: 0,
+        idle_resyncs: 0,
+        skipped_bytes: 0,
+    };
+
     /// Frames dropped for any reason (CRC, length, payload size, idle gap).
     pub fn dropped(&self) -> u32 {
         self.crc_errors
@@ -362,16 +374,7 @@ impl CrsfParser {
             barrier: None,
             last_byte_us: None,
             idle_gap_us,
-            stats: CrsfStats {
-                rc_frames: 0,
-                link_statistics_frames: 0,
-                unknown_type: 0,
-                crc_errors: 0,
-                bad_length: 0,
-                bad_payload_length: 0,
-                idle_resyncs: 0,
-                skipped_bytes: 0,
-            },
+            stats: CrsfStats::ZERO,
         }
     }
 
