@@ -144,8 +144,8 @@ mod app {
     use flight::boot::{BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
     use flight::flightctl::{
-        quat_from_ahrs, AltitudeEstimate, Event as FlightEvent, Events, FlightConfig,
-        FlightController, Motors, PilotInput, SystemStatus, VehicleState,
+        quat_from_ahrs, AltitudeEstimate, Event as FlightEvent, Events, FlightController, Motors,
+        PilotInput, SystemStatus, VehicleState,
     };
     use flight::health::{HealthCounters, SensorState};
     use flight::pipeline::{Pipeline, PipelineConfig};
@@ -169,11 +169,17 @@ mod app {
         prelude::*,
     };
 
-    /// Magnetometer calibration used on the board: per-axis min/max.
-    /// `flight::calmode::MagCalMode` (the ellipsoid fit with integer
-    /// moments and an f32 solve) is the full alternative: swap this one
-    /// line (5.5 KiB more flash: 53,884 B, over the 48 KiB budget).
+    /// Magnetometer calibration used on the board: per-axis min/max in the
+    /// flight build. The ellipsoid fit (`flight::calmode::MagCalMode`:
+    /// integer moments, an f32 solve, 5.5 KiB) does not fit beside the
+    /// flight controller, so it has its own build (feature `mag-ellipsoid`),
+    /// which leaves the flight controller out; both store the same record
+    /// (offset + full soft-iron matrix), which the flight build applies.
+    #[cfg(not(feature = "mag-ellipsoid"))]
     type MagCal = flight::calmode::MagMinMaxMode;
+    /// The calibration build's magnetometer calibration: the ellipsoid fit.
+    #[cfg(feature = "mag-ellipsoid")]
+    type MagCal = flight::calmode::MagCalMode;
 
     systick_monotonic!(Mono, 1_000);
 
@@ -327,9 +333,10 @@ mod app {
 
     /// Boot step: the flight controller (disarmed). Without one (an invalid
     /// configuration) the motors stay off.
+    #[cfg(not(feature = "mag-ellipsoid"))]
     #[inline(never)]
     fn start_flight_controller() -> Option<FlightController> {
-        match FlightController::new(FlightConfig::default()) {
+        match FlightController::new(flight::flightctl::FlightConfig::default()) {
             Ok(fc) => {
                 defmt::info!(
                     "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}",
@@ -343,6 +350,15 @@ mod app {
                 None
             }
         }
+    }
+
+    /// The calibration build has no flight controller: the motors stay off.
+    #[cfg(feature = "mag-ellipsoid")]
+    fn start_flight_controller() -> Option<FlightController> {
+        defmt::warn!(
+            "flight controller: not built (mag-ellipsoid calibration build); motors stay off"
+        );
+        None
     }
 
     /// Boot step: the CRSF receiver on USART1 RX (PA10); APB2 runs at SYSCLK.
@@ -573,9 +589,16 @@ mod app {
             .shared
             .pipeline
             .lock(|p| p.as_ref().map(|p| vehicle_state(p, fresh)));
+        #[cfg(not(feature = "mag-ellipsoid"))]
         let out = match (cx.local.fc.as_mut(), vehicle) {
             (Some(fc), Some(v)) => Some(fc.step(now_us, &pilot, &status, &v)),
             _ => None,
+        };
+        // Nothing calls the controller's step, so none of it is linked.
+        #[cfg(feature = "mag-ellipsoid")]
+        let out = {
+            let _ = (cx.local.fc.as_mut(), vehicle, status);
+            None::<flight::flightctl::FlightOutput>
         };
         if let Some(o) = out.filter(|o| !o.events.is_empty()) {
             flight_log::spawn(o.events, pilot).ok();
