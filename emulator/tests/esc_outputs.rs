@@ -106,7 +106,9 @@ fn outputs_return_to_the_off_pulse_after_a_watchdog_reset() {
     assert_off(&mut b, "50 ms after the watchdog reset");
 }
 
-/// CRC-8/DVB-S2 (polynomial 0xD5), the CRSF frame check.
+/// CRC-8/DVB-S2 (polynomial 0xD5), the CRSF frame check. Written again on
+/// purpose (not `rc_input::crc8_dvb_s2`): the frames the board receives must
+/// not come from the crate whose parser they test.
 fn crc8_dvb_s2(bytes: &[u8]) -> u8 {
     bytes.iter().fold(0u8, |mut crc, &b| {
         crc ^= b;
