@@ -59,7 +59,7 @@
 //! (`flight::flightctl`) runs in `imu` at 1 kHz on the pipeline's attitude,
 //! gyro and altitude and the receiver's pilot input, and sets the outputs.
 //!
-//! Flash: 62,652 B of the 63 KiB budget with the flight controller
+//! Flash: 62,684 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
 //! static RAM 4.5 KiB. To fit, the I2C master is our own register-level
 //! driver (`bus.rs`) rather than the HAL's blocking one, the fixed-point
@@ -141,7 +141,7 @@ mod app {
     use crate::watchdog::Watchdog;
     use control::esc::{EscProtocol, EscTimer};
     use cortex_m::peripheral::DWT;
-    use flight::boot::{BiasStatus, Capabilities, StartupGyroBias};
+    use flight::boot::{AhrsMode, BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
     use flight::flightctl::{
         quat_from_ahrs, AltitudeEstimate, Event as FlightEvent, Events, FlightController, Motors,
@@ -431,10 +431,13 @@ mod app {
 
     fn log_capabilities(caps: &Capabilities) {
         defmt::info!(
-            "capabilities: AHRS {} (ImuOnly: heading drifts), altitude {=bool}",
+            "capabilities: AHRS {}, altitude {=bool}",
             caps.ahrs,
             caps.altitude
         );
+        if caps.ahrs == AhrsMode::ImuOnly {
+            defmt::warn!("no magnetometer: heading drifts with the gyro");
+        }
     }
 
     /// Boot step: the calibration record from flash (defaults and the
