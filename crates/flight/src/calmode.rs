@@ -370,7 +370,7 @@ impl Mode {
 }
 
 /// Column header of a raw-log recording: the BROAD CSV column order
-/// (see `/work/shared/data/broad/README.md`); reference columns are `nan`.
+/// (see `../shared/data/broad/README.md` beside the project); reference columns are `nan`.
 pub const RAW_LOG_HEADER: &str =
     "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,\
 mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving";
