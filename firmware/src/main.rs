@@ -135,7 +135,7 @@ mod app {
     use crate::clocks::{self, Source};
     use crate::delay::{cpu_hz, AsmDelay};
     use crate::outputs::EscOutputs;
-    use crate::receiver::{self, CrsfUart, Pilot};
+    use crate::receiver::{self, CrsfRx, Pilot, RING_BYTES};
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
@@ -157,7 +157,7 @@ mod app {
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
     use rc_input::ChannelMap;
-    use rc_input::{CrsfParser, LinkStatus};
+    use rc_input::LinkStatus;
     use rtic::Mutex;
     use rtic_monotonics::fugit::ExtU32;
     use rtic_monotonics::rtic_time::monotonic::TimerQueueBasedInstant;
@@ -229,11 +229,10 @@ mod app {
         dt: DtClock,
         esc: EscOutputs,
         fc: Option<FlightController>,
-        uart: CrsfUart,
-        parser: CrsfParser,
+        rx: CrsfRx,
     }
 
-    #[init]
+    #[init(local = [ring: [u8; RING_BYTES] = [0; RING_BYTES]])]
     fn init(cx: init::Context) -> (Shared, Local) {
         stack::paint();
         let mut core = cx.core;
@@ -268,7 +267,7 @@ mod app {
         let pipeline = build_pipeline(&sensors, &sensors.capabilities(), &record);
         let bias = start_gyro_bias(&sensors);
         let session = start_session(&button_pin);
-        let uart = start_receiver(dp.USART1);
+        let rx = start_receiver(dp.USART1, dp.DMA1, cx.local.ring);
 
         let mut exti = dp.EXTI;
         let mut mpu_int = gpiob.pb5.into_pull_up_input(&mut gpiob.crl);
@@ -302,8 +301,7 @@ mod app {
                 dt: DtClock::new(cpu_hz(), IMU_RATE_HZ),
                 esc,
                 fc: start_flight_controller(),
-                uart,
-                parser: CrsfParser::new(),
+                rx,
             },
         )
     }
@@ -363,13 +361,18 @@ mod app {
 
     /// Boot step: the CRSF receiver on USART1 RX (PA10); APB2 runs at SYSCLK.
     #[inline(never)]
-    fn start_receiver(usart: pac::USART1) -> CrsfUart {
-        let uart = CrsfUart::start(usart, cpu_hz());
+    fn start_receiver(
+        usart: pac::USART1,
+        dma: pac::DMA1,
+        ring: &'static mut [u8; RING_BYTES],
+    ) -> CrsfRx {
+        let rx = CrsfRx::start(usart, dma, ring, cpu_hz());
         defmt::info!(
-            "receiver: CRSF on USART1 RX (PA10), {=u32} baud",
-            receiver::CRSF_BAUD
+            "receiver: CRSF on USART1 RX (PA10), {=u32} baud, DMA1 channel 5 into a {=u16} B ring",
+            receiver::CRSF_BAUD,
+            RING_BYTES as u16
         );
-        uart
+        rx
     }
 
     /// Boot step: the boot line, with the clock source.
@@ -609,25 +612,25 @@ mod app {
         out.map_or(Motors::Off, |o| o.motors)
     }
 
-    /// USART1 receive (priority 4, above the IMU task: at 420 kbaud a byte
-    /// arrives every 24 µs and an I2C burst in `imu` takes longer): bytes
-    /// into the CRSF parser, frames into the pilot state.
-    #[task(binds = USART1, priority = 4, local = [uart, parser], shared = [clock, pilot])]
+    /// DMA1 channel 5: half or all of the receive ring written (priority
+    /// 4). Pends `crsf_rx`, which hands the bytes over.
+    #[task(binds = DMA1_CHANNEL5, priority = 4)]
+    fn crsf_dma(_cx: crsf_dma::Context) {
+        receiver::on_dma_half_or_complete();
+    }
+
+    /// USART1 IDLE, or pended by `crsf_dma` (priority 4, above the IMU
+    /// task so that a long I2C burst in `imu` never holds up emptying the
+    /// ring: half the ring, 1.5 ms, is the latency it tolerates): the bytes
+    /// the DMA wrote since the last run into the CRSF parser, frames into
+    /// the pilot state; an IDLE marks a frame boundary.
+    #[task(binds = USART1, priority = 4, local = [rx], shared = [clock, pilot])]
     fn crsf_rx(mut cx: crsf_rx::Context) {
-        let clock = &mut cx.shared.clock;
+        let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
+        let rx = cx.local.rx;
         let pilot = &mut cx.shared.pilot;
-        receiver::drain(
-            cx.local.uart,
-            cx.local.parser,
-            || clock.lock(|c| c.now_us(DWT::cycle_count())),
-            |ev, now_us, stats, uart| {
-                pilot.lock(|p| {
-                    p.on_event(ev, now_us);
-                    p.stats = *stats;
-                    p.uart = uart;
-                })
-            },
-        );
+        rx.on_interrupt(|ev| pilot.lock(|p| p.on_event(ev, now_us)));
+        pilot.lock(|p| p.update_counters(rx.stats(), rx.errors()));
     }
 
     /// The flight controller's view of the vehicle. Without a fresh sample
