@@ -47,8 +47,13 @@
 //! figure-eight; short press → raw-log mode on/off (CSV order of the BROAD
 //! recordings, 100 Hz), or abort a calibration.
 //!
-//! * `crsf_rx` (USART1, priority 4): CRSF bytes from PA10 at 420 kbaud into
-//!   `rc_input`'s parser and link monitor.
+//! * `crsf_rx` (USART1, priority 4): CRSF bytes from PA10 at 420 kbaud,
+//!   which DMA1 channel 5 moves into a 128 B ring as they arrive, into
+//!   `rc_input`'s parser and link monitor; it runs at the end of every
+//!   burst (IDLE, the parser's frame boundary) and, pended by `crsf_dma`
+//!   (DMA1_CHANNEL5, priority 4), at every half ring. Interrupts held off
+//!   for up to 1.5 ms (defmt-rtt encodes each line with interrupts
+//!   disabled) lose no byte.
 //!
 //! Safety: the ESC outputs (TIM3 CH1-4 on PA6, PA7, PB0, PB1) carry the
 //! "off" pulse from the boot step right after the clock switch, whenever
@@ -59,9 +64,9 @@
 //! (`flight::flightctl`) runs in `imu` at 1 kHz on the pipeline's attitude,
 //! gyro and altitude and the receiver's pilot input, and sets the outputs.
 //!
-//! Flash: 62,684 B of the 63 KiB budget with the flight controller
+//! Flash: 62,920 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
-//! static RAM 4.5 KiB. To fit, the I2C master is our own register-level
+//! static RAM 4.6 KiB. To fit, the I2C master is our own register-level
 //! driver (`bus.rs`) rather than the HAL's blocking one, the fixed-point
 //! textbook filter is left out (`fc-ahrs` without its `textbook` feature:
 //! the firmware runs the full filter), the trigonometry is a polynomial
