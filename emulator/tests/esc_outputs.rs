@@ -151,9 +151,11 @@ fn ticks(us: i32) -> u16 {
     ((us - 1500) * 8 / 5 + 992) as u16
 }
 
-/// Sends `frame` every `period_ns` until `until_ns`.
-fn stream(b: &mut Board, frame: &[u8], period_ns: u64, until_ns: u64) {
+/// Sends `frame` every `period_ns` until `until_ns`; when each was sent.
+fn stream(b: &mut Board, frame: &[u8], period_ns: u64, until_ns: u64) -> Vec<u64> {
+    let mut sent_at = Vec::new();
     while b.now_ns() < until_ns {
+        sent_at.push(b.now_ns());
         b.apply(BoardFault::UsartRx {
             bytes: frame.to_vec(),
             baud: CRSF_BAUD,
@@ -161,6 +163,7 @@ fn stream(b: &mut Board, frame: &[u8], period_ns: u64, until_ns: u64) {
         let t = b.now_ns() + period_ns;
         run_until(b, t);
     }
+    sent_at
 }
 
 #[test]
@@ -279,6 +282,9 @@ fn every_crsf_frame_is_parsed_while_the_firmware_logs() {
     let (received, overruns) = b.usart1_counts();
     assert_eq!((received, overruns), (26 * sent, 0), "bytes, overruns");
     assert_eq!(b.dma1_served()[4], received);
+    // Half and complete marks of the 128 B ring: one per 64 bytes.
+    let marks = b.exception_entries(emulator::DMA1_CHANNEL5_IRQ);
+    assert!(marks + 2 >= received / 64, "{marks} DMA interrupts");
     assert!(
         lines_after(&b, start, "rc: link lost").is_empty(),
         "{}",
@@ -333,33 +339,47 @@ fn link_stats_frame(lq: u8) -> Vec<u8> {
 /// off by a receiver glitch is abandoned when the line goes idle (one
 /// frame dropped, counted as such, and no CRC error: without the boundary
 /// its length byte would swallow the next frame's first bytes and fail the
-/// CRC), and two frames back to back in one burst, with no idle between
-/// them, are both parsed.
+/// CRC), and frames back to back in one burst, with no idle between them,
+/// are all parsed, also a burst of 11 frames (300 B) longer than the ring,
+/// handed over at its half and complete marks.
 #[test]
 fn a_torn_frame_ends_at_the_idle_line_and_back_to_back_frames_parse() {
     let Some(mut b) = board() else { return };
     boot_ok(&mut b);
     let good = sticks(1000, false);
     let start = b.now_ns();
-    stream(&mut b, &good, 4 * MS, start + 200 * MS);
+    let mut sent_at = stream(&mut b, &good, 4 * MS, start + 200 * MS);
     b.apply(BoardFault::UsartRx {
         bytes: good[..10].to_vec(),
         baud: CRSF_BAUD,
     });
     let t = b.now_ns() + 3 * MS;
     run_until(&mut b, t);
-    let mut burst = good.clone();
+    let mut burst = good.repeat(10);
     burst.extend(link_stats_frame(87));
+    sent_at.extend([b.now_ns(); 10]);
     b.apply(BoardFault::UsartRx {
         bytes: burst,
         baud: CRSF_BAUD,
     });
-    let t = b.now_ns() + 4 * MS;
+    let t = b.now_ns() + 10 * MS;
     run_until(&mut b, t);
-    stream(&mut b, &good, 4 * MS, t + 1_200 * MS);
+    sent_at.extend(stream(&mut b, &good, 4 * MS, t + 1_200 * MS));
     let rc = lines_after(&b, start, "rc: ch1-8");
     let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
     assert!(last.contains("lq Some(87) %"), "{last}");
+    // Every good frame sent 10 ms before the line was read was parsed
+    // (the burst's take 7 ms), none of the torn one.
+    let line = b
+        .log_lines()
+        .iter()
+        .rev()
+        .find(|l| l.text.contains("rc: ch1-8"))
+        .map_or(0, |l| l.host_time_ns);
+    let done = sent_at.iter().filter(|&&t| t + 10 * MS <= line).count() as u64;
+    let begun = sent_at.iter().filter(|&&t| t <= line).count() as u64;
+    let frames = field(last, "frames ");
+    assert!((done..=begun).contains(&frames), "{done}..={begun}: {last}");
     assert_eq!(field(last, "dropped "), 1, "{last}");
     assert_eq!(field(last, "crc_err "), 0, "{last}");
     assert_eq!(b.usart1_counts().1, 0);
