@@ -1321,6 +1321,20 @@ impl Board {
         self.uc.get_data().usart1.line_free_ns()
     }
 
+    /// Puts `bytes` on USART1's RX line back to back at `baud`, the first
+    /// start bit at `at_ns` (or now, or when the bytes queued before them
+    /// are through, whichever is latest): a sender on its own schedule,
+    /// whatever the board does meanwhile (a flash erase stalls the CPU, not
+    /// the line).
+    pub fn usart1_send_at(&mut self, bytes: &[u8], baud: u32, at_ns: u64) {
+        let now = self.now_ns();
+        catch_up_usart1(&mut self.uc, now);
+        self.uc
+            .get_data_mut()
+            .usart1
+            .inject(bytes, baud, at_ns.max(now));
+    }
+
     /// Applies a board-level fault or stimulus now.
     pub fn apply(&mut self, fault: BoardFault) {
         if let BoardFault::UsartRx { bytes, baud } = &fault {

@@ -947,14 +947,15 @@ mod app {
             if let Some(f) = frame {
                 let c = f.channels();
                 defmt::info!(
-                    "rc: ch1-8 {} us | lq {} % | frames {=u32} crc_err {=u32} dropped {=u32} | uart ore {=u32} fe {=u32}",
+                    "rc: ch1-8 {} us | lq {} % | frames {=u32} crc_err {=u32} dropped {=u32} | uart ore {=u32} fe {=u32} late {=u32}",
                     c.get(..8).unwrap_or(c),
                     lq,
                     stats.rc_frames,
                     stats.crc_errors,
                     stats.dropped(),
                     uart.overruns,
-                    uart.framing
+                    uart.framing,
+                    uart.late
                 );
             }
         }

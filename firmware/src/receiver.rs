@@ -28,7 +28,7 @@
 //! monitor gets wall-clock times.
 
 use control::shaping::Sticks;
-use core::sync::atomic::{compiler_fence, Ordering};
+use core::sync::atomic::{compiler_fence, AtomicU32, Ordering};
 use flight::flightctl::{FlightMode, PilotInput};
 use rc_input::{ChannelMap, SwitchPosition};
 use rc_input::{CrsfParser, CrsfStats, Event, LinkMonitor, LinkStatus, RcFrame};
@@ -72,7 +72,16 @@ pub struct UartErrors {
     pub framing: u32,
     /// Bursts with noise detected in a byte's samples (NE).
     pub noise: u32,
+    /// Times the DMA passed both half-ring marks before the handover ran:
+    /// interrupts held off for half a ring (1.5 ms) or more, for instance
+    /// by a flash page erase (20-40 ms, the CPU stalls while the DMA goes
+    /// on). Bytes may then have been overwritten before they were read; the
+    /// parser resynchronises on the bytes that follow.
+    pub late: u32,
 }
+
+/// [`UartErrors::late`], counted in the DMA interrupt.
+static LATE: AtomicU32 = AtomicU32::new(0);
 
 /// USART1 and DMA1 channel 5 receiving CRSF into the ring, with the parser
 /// the bytes go to.
@@ -139,6 +148,7 @@ impl CrsfRx {
                 overruns: 0,
                 framing: 0,
                 noise: 0,
+                late: 0,
             },
         }
     }
@@ -190,24 +200,32 @@ impl CrsfRx {
         self.parser.stats()
     }
 
-    /// The USART's receive errors.
+    /// The USART's receive errors and late handovers.
     pub fn errors(&self) -> UartErrors {
-        self.errors
+        UartErrors {
+            late: LATE.load(Ordering::Relaxed),
+            ..self.errors
+        }
     }
 }
 
-/// DMA1 channel 5's interrupt (half or all of the ring written): clears
-/// the channel's flags and pends USART1's interrupt, whose handler hands
-/// the bytes over (one routine for both events: one copy of the parser's
-/// inlined code in flash).
+/// DMA1 channel 5's interrupt (half or all of the ring written): counts a
+/// late handover when both marks were passed, clears the channel's flags
+/// and pends USART1's interrupt, whose handler hands the bytes over (one
+/// routine for both events: one copy of the parser's inlined code in
+/// flash).
 pub fn on_dma_half_or_complete() {
-    // SAFETY: IFCR is write-only and a write of 1 to CGIF5 clears channel
-    // 5's GIF, TC, HT and TE and nothing else (RM0008 §13.4.2): no
-    // read-modify-write, so it cannot race `CrsfRx`'s reads of the channel.
+    // SAFETY: ISR is read-only; IFCR is write-only and a write of 1 to
+    // CGIF5 clears channel 5's GIF, TC, HT and TE and nothing else (RM0008
+    // §13.4.2): no read-modify-write, so neither races `CrsfRx`'s reads of
+    // the channel.
     #[allow(unsafe_code)]
-    unsafe {
-        (*pac::DMA1::ptr()).ifcr().write(|w| w.cgif5().set_bit());
+    let dma = unsafe { &*pac::DMA1::ptr() };
+    let isr = dma.isr().read();
+    if isr.htif5().bit_is_set() && isr.tcif5().bit_is_set() {
+        LATE.fetch_add(1, Ordering::Relaxed);
     }
+    dma.ifcr().write(|w| w.cgif5().set_bit());
     cortex_m::peripheral::NVIC::pend(pac::Interrupt::USART1);
 }
 
@@ -238,6 +256,7 @@ impl Pilot {
                 overruns: 0,
                 framing: 0,
                 noise: 0,
+                late: 0,
             },
         }
     }
