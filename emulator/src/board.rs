@@ -1647,6 +1647,24 @@ mod tests {
     }
 
     #[test]
+    fn dma1_needs_its_ahb_clock() {
+        // ldr r0,=DMA1 CNDTR5; ldr r1,[r0]; b .
+        let fw = bare(&[0x4802, 0x6801, 0xE7FE], 0x4002_005C);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        let e = b.run_until_ns(1_000).err();
+        assert!(
+            matches!(
+                e,
+                Some(BoardError::ClockDisabled {
+                    peripheral: "DMA1",
+                    ..
+                })
+            ),
+            "{e:?}"
+        );
+    }
+
+    #[test]
     fn time_base_is_72_mhz() {
         assert_eq!(cycles_to_ns(72_000_000), 1_000_000_000);
         assert_eq!(ns_to_cycles(1_000), 72);
