@@ -687,9 +687,11 @@ fn dma_side(a: u32) -> bool {
 }
 
 /// DMA1's request lines (RM0008 §13.3.7 table 78), bit `n` = channel
-/// `n + 1`. A new requester is one more line here plus the side effects of
-/// the DMA's access to its data register in its own model; I2C1_RX would be
-/// bit 6 (channel 7).
+/// `n + 1`. A new requester is one more line here (I2C1_RX: bit 6, channel
+/// 7, from CR2.DMAEN and RxNE), the side effects of the DMA's access to its
+/// data register in its own model (the same as the CPU's), and a
+/// [`serve_dma`] wherever its model advances to an event that raises the
+/// request, as [`catch_up_usart1`] does for USART1.
 fn dma1_requests(hw: &Hw) -> u8 {
     u8::from(hw.usart1.rx_dma_request()) << 4
 }
