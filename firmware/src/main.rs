@@ -48,7 +48,11 @@
 //! recordings, 100 Hz), or abort a calibration.
 //!
 //! * `crsf_rx` (USART1, priority 4): CRSF bytes from PA10 at 420 kbaud into
-//!   `rc_input`'s parser and link monitor.
+//!   `rc_input`'s parser and link monitor. With the `ppm` feature instead
+//!   `ppm_rx` (TIM4, priority 4): a PPM train on PB8 (TIM4_CH3 input
+//!   capture at 1 MHz, `ppm.rs`) into `rc_input`'s PPM decoder and the same
+//!   link monitor and pilot state, so arming, failsafe and signal-loss
+//!   detection are the same for both receivers.
 //!
 //! Safety: the ESC outputs (TIM3 CH1-4 on PA6, PA7, PB0, PB1) carry the
 //! "off" pulse from the boot step right after the clock switch, whenever
@@ -78,6 +82,12 @@ mod bus;
 mod clocks;
 mod delay;
 mod outputs;
+// Each build uses one receiver (the `ppm` build the pilot state only of
+// `receiver`); both modules stay compiled because RTIC's generated task
+// contexts name the local resources' types outside their cfg.
+#[cfg_attr(not(feature = "ppm"), allow(dead_code))]
+mod ppm;
+#[cfg_attr(feature = "ppm", allow(dead_code))]
 mod receiver;
 mod stack;
 mod store;
@@ -135,7 +145,11 @@ mod app {
     use crate::clocks::{self, Source};
     use crate::delay::{cpu_hz, AsmDelay};
     use crate::outputs::EscOutputs;
-    use crate::receiver::{self, CrsfUart, Pilot};
+    #[cfg(feature = "ppm")]
+    use crate::ppm::PpmInput;
+    use crate::receiver::Pilot;
+    #[cfg(not(feature = "ppm"))]
+    use crate::receiver::{self, CrsfUart};
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
@@ -157,7 +171,9 @@ mod app {
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
     use rc_input::ChannelMap;
-    use rc_input::{CrsfParser, LinkStatus};
+    #[cfg(not(feature = "ppm"))]
+    use rc_input::CrsfParser;
+    use rc_input::LinkStatus;
     use rtic::Mutex;
     use rtic_monotonics::fugit::ExtU32;
     use rtic_monotonics::rtic_time::monotonic::TimerQueueBasedInstant;
@@ -229,8 +245,14 @@ mod app {
         dt: DtClock,
         esc: EscOutputs,
         fc: Option<FlightController>,
-        uart: CrsfUart,
-        parser: CrsfParser,
+        // Full paths: RTIC's generated task contexts name these types
+        // outside the cfg that removes their imports from the other build.
+        #[cfg(not(feature = "ppm"))]
+        uart: crate::receiver::CrsfUart,
+        #[cfg(not(feature = "ppm"))]
+        parser: rc_input::CrsfParser,
+        #[cfg(feature = "ppm")]
+        ppm: crate::ppm::PpmInput,
     }
 
     #[init]
@@ -268,7 +290,10 @@ mod app {
         let pipeline = build_pipeline(&sensors, &sensors.capabilities(), &record);
         let bias = start_gyro_bias(&sensors);
         let session = start_session(&button_pin);
+        #[cfg(not(feature = "ppm"))]
         let uart = start_receiver(dp.USART1);
+        #[cfg(feature = "ppm")]
+        let ppm = start_ppm(dp.TIM4);
 
         let mut exti = dp.EXTI;
         let mut mpu_int = gpiob.pb5.into_pull_up_input(&mut gpiob.crl);
@@ -302,8 +327,12 @@ mod app {
                 dt: DtClock::new(cpu_hz(), IMU_RATE_HZ),
                 esc,
                 fc: start_flight_controller(),
+                #[cfg(not(feature = "ppm"))]
                 uart,
+                #[cfg(not(feature = "ppm"))]
                 parser: CrsfParser::new(),
+                #[cfg(feature = "ppm")]
+                ppm,
             },
         )
     }
@@ -361,7 +390,21 @@ mod app {
         None
     }
 
+    /// Boot step: the PPM receiver on PB8 (TIM4_CH3); TIM4's clock is
+    /// APB1 × 2 = SYSCLK, like TIM3's.
+    #[cfg(feature = "ppm")]
+    #[inline(never)]
+    fn start_ppm(tim: pac::TIM4) -> PpmInput {
+        let ppm = PpmInput::start(tim, cpu_hz());
+        defmt::info!(
+            "receiver: PPM on PB8 (TIM4_CH3 input capture, 5 V tolerant), rising edges, 1 us resolution, signal loss after {=u32} ms",
+            rc_input::PPM_TIMEOUT_US / 1_000
+        );
+        ppm
+    }
+
     /// Boot step: the CRSF receiver on USART1 RX (PA10); APB2 runs at SYSCLK.
+    #[cfg(not(feature = "ppm"))]
     #[inline(never)]
     fn start_receiver(usart: pac::USART1) -> CrsfUart {
         let uart = CrsfUart::start(usart, cpu_hz());
@@ -612,6 +655,7 @@ mod app {
     /// USART1 receive (priority 4, above the IMU task: at 420 kbaud a byte
     /// arrives every 24 µs and an I2C burst in `imu` takes longer): bytes
     /// into the CRSF parser, frames into the pilot state.
+    #[cfg(not(feature = "ppm"))]
     #[task(binds = USART1, priority = 4, local = [uart, parser], shared = [clock, pilot])]
     fn crsf_rx(mut cx: crsf_rx::Context) {
         let clock = &mut cx.shared.clock;
@@ -628,6 +672,23 @@ mod app {
                 })
             },
         );
+    }
+
+    /// TIM4 capture on PB8 (priority 4, where `crsf_rx` is in the CRSF
+    /// build): one edge into the PPM decoder, a completed frame into the
+    /// pilot state exactly as a CRSF channel frame goes.
+    #[cfg(feature = "ppm")]
+    #[task(binds = TIM4, priority = 4, local = [ppm], shared = [clock, pilot])]
+    fn ppm_rx(mut cx: ppm_rx::Context) {
+        let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
+        let frame = cx.local.ppm.on_interrupt(now_us);
+        let counters = cx.local.ppm.counters();
+        cx.shared.pilot.lock(|p| {
+            if let Some(f) = frame {
+                p.on_event(rc_input::Event::Channels(f), now_us);
+            }
+            p.ppm = counters;
+        });
     }
 
     /// The flight controller's view of the vehicle. Without a fresh sample
@@ -935,6 +996,26 @@ mod app {
                 other => defmt::warn!("rc: link lost ({})", other),
             }
         }
+        #[cfg(feature = "ppm")]
+        let _ = (stats, uart, lq);
+        #[cfg(feature = "ppm")]
+        if tick.is_multiple_of(20) && status == LinkStatus::Ok {
+            if let Some(f) = frame {
+                let c = f.channels();
+                let n = pilot.lock(|p| p.ppm);
+                defmt::info!(
+                    "rc: ch1-8 {} us | ppm frames {=u32} dropped {=u32} (bad_pulse {=u32} bad_count {=u32} unconfirmed {=u32}) overcapture {=u32}",
+                    c.get(..8).unwrap_or(c),
+                    n.decoder.frames,
+                    n.decoder.dropped(),
+                    n.decoder.bad_pulse,
+                    n.decoder.bad_count,
+                    n.decoder.unconfirmed,
+                    n.overcaptures
+                );
+            }
+        }
+        #[cfg(not(feature = "ppm"))]
         if tick.is_multiple_of(20) && status == LinkStatus::Ok {
             if let Some(f) = frame {
                 let c = f.channels();

@@ -109,6 +109,9 @@ pub struct Pilot {
     pub stats: CrsfStats,
     /// The USART's receive errors.
     pub uart: UartErrors,
+    /// The PPM input's counters (the `ppm` build's receiver).
+    #[cfg(feature = "ppm")]
+    pub ppm: crate::ppm::PpmCounters,
 }
 
 impl Pilot {
@@ -116,7 +119,11 @@ impl Pilot {
     pub const fn new() -> Self {
         Self {
             frame: None,
-            link: LinkMonitor::crsf(),
+            link: if cfg!(feature = "ppm") {
+                LinkMonitor::ppm()
+            } else {
+                LinkMonitor::crsf()
+            },
             link_quality_pct: None,
             stats: CrsfStats::ZERO,
             uart: UartErrors {
@@ -124,6 +131,8 @@ impl Pilot {
                 framing: 0,
                 noise: 0,
             },
+            #[cfg(feature = "ppm")]
+            ppm: crate::ppm::PpmCounters::ZERO,
         }
     }
 
