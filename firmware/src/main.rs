@@ -63,9 +63,9 @@
 //! (`flight::flightctl`) runs in `imu` at 1 kHz on the pipeline's attitude,
 //! gyro and altitude and the receiver's pilot input, and sets the outputs.
 //!
-//! Flash: 62,684 B of the 63 KiB budget with the flight controller
+//! Flash: 62,692 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
-//! static RAM 4.5 KiB. To fit, the I2C master is our own register-level
+//! static RAM 4.5 KiB. The `ppm` build (PPM instead of CRSF): 61,800 B. To fit, the I2C master is our own register-level
 //! driver (`bus.rs`) rather than the HAL's blocking one, the fixed-point
 //! textbook filter is left out (`fc-ahrs` without its `textbook` feature:
 //! the firmware runs the full filter), the trigonometry is a polynomial
