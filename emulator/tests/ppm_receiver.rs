@@ -137,7 +137,15 @@ fn ppm_frames_reach_the_firmware_and_loss_is_detected() {
     };
     let mut ppm = Ppm::new(&b);
     let start = b.now_ns();
+    let irqs_before = b.exception_entries(emulator::TIM4_IRQ);
     ppm.stream(&mut b, &EIGHT, start + 1_500 * MS);
+    // One TIM4 capture interrupt per rising edge: nine per frame.
+    let sent_frames = (ppm.next_frame_ns - start) / FRAME_NS;
+    let irqs = b.exception_entries(emulator::TIM4_IRQ) - irqs_before;
+    assert!(
+        (9 * (sent_frames - 1)..=9 * sent_frames).contains(&irqs),
+        "{irqs} TIM4 interrupts for {sent_frames} frames"
+    );
     assert!(
         !lines_after(&b, start, "rc: link up").is_empty(),
         "{}",
