@@ -2,9 +2,9 @@
 //! (`cargo build -p firmware --target thumbv7m-none-eabi --release
 //! --features ppm`, its ELF given in `FIL_ELF`; `scripts/check` does both):
 //! an 8-channel PPM train (22.5 ms frames, 0.3 ms separator pulses) driven
-//! on PB8 reaches the log, arming and failsafe behave as with CRSF, and
-//! frames with a wrong channel count or an out-of-range pulse are dropped
-//! and counted.
+//! on PB8 reaches the log (positive and negative PPM), arming and failsafe
+//! behave as with CRSF, and frames with a wrong channel count or an
+//! out-of-range pulse are dropped and counted.
 //!
 //! Without `FIL_ELF` the default release ELF is the CRSF build: the tests
 //! say "skipped". An ELF given in `FIL_ELF` that is not the `ppm` build
@@ -60,15 +60,18 @@ fn ppm_board(ideal: bool) -> Option<Board> {
 
 /// A PPM transmitter on PB8: positive PPM (idle low, each channel opened
 /// by a 0.3 ms high pulse, one more pulse closing the last channel, the
-/// sync gap filling the frame).
+/// sync gap filling the frame), or negative PPM (the same inverted).
 struct Ppm {
     next_frame_ns: u64,
+    /// Idle high, low pulses.
+    negative: bool,
 }
 
 impl Ppm {
     fn new(b: &Board) -> Self {
         Self {
             next_frame_ns: b.now_ns() + 100 * US,
+            negative: false,
         }
     }
 
@@ -76,13 +79,14 @@ impl Ppm {
     fn frame(&mut self, b: &mut Board, channels_us: &[u64]) {
         let mut t = self.next_frame_ns;
         let mut edges = Vec::new();
+        let pulse = !self.negative;
         for &ch in channels_us {
-            edges.push((t, true));
-            edges.push((t + SEPARATOR_NS, false));
+            edges.push((t, pulse));
+            edges.push((t + SEPARATOR_NS, !pulse));
             t += ch * US;
         }
-        edges.push((t, true));
-        edges.push((t + SEPARATOR_NS, false));
+        edges.push((t, pulse));
+        edges.push((t + SEPARATOR_NS, !pulse));
         b.drive_pin(PPM_PORT, PPM_PIN, &edges)
             .unwrap_or_else(|e| panic!("{e}"));
         self.next_frame_ns += FRAME_NS;
@@ -181,6 +185,29 @@ fn ppm_frames_reach_the_firmware_and_loss_is_detected() {
     let up = ppm.stream_until(&mut b, &EIGHT, "rc: link up", 500 * MS);
     assert!(up.is_some(), "{}", tail(&b, 20));
     assert_no_reset(&b);
+}
+
+/// Negative PPM (idle high, low separator pulses): the firmware captures
+/// rising edges, which end the pulses instead of starting them; the
+/// pulses' constant width makes every interval the same.
+#[test]
+fn negative_ppm_decodes_the_same() {
+    let Some(mut b) = ppm_board(false) else {
+        return;
+    };
+    let mut ppm = Ppm::new(&b);
+    ppm.negative = true;
+    b.drive_pin(PPM_PORT, PPM_PIN, &[(ppm.next_frame_ns - 50 * US, true)])
+        .unwrap();
+    let start = b.now_ns();
+    ppm.stream(&mut b, &EIGHT, start + 1_100 * MS);
+    let rc = lines_after(&b, start, "rc: ch1-8");
+    let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
+    assert!(
+        last.contains("[1500, 1500, 1000, 1500, 2000, 1200, 1800, 1500]"),
+        "{last}"
+    );
+    assert_eq!(field(last, "bad_pulse "), 0, "{last}");
 }
 
 #[test]
