@@ -65,12 +65,17 @@
 //! [`FAILSAFE_BLIND_RAMP_PER_S`] until the landing detector disarms. If the link returns during
 //! the failsafe, the pilot has control again (and the arm switch decides).
 //!
-//! **Motor test** (props off!): [`FlightController::start_motor_test`]
-//! while disarmed, link up and arm switch off spins one motor at
+//! **Motor test** (props off!): each off → on flip of the motor-test switch
+//! ([`PilotInput::motor_test_switch`], rules in [`crate::motortest`]) or a
+//! call of [`FlightController::start_motor_test`], while disarmed, link up,
+//! arm switch off and throttle low, spins one motor at
 //! [`SafetyConfig::motor_test_command`] (8 %), the others off, for at most
-//! [`SafetyConfig::motor_test_max_s`]; any stick movement beyond
-//! [`SafetyConfig::motor_test_stick_tolerance`], the arm switch or link loss
-//! end it.
+//! [`SafetyConfig::motor_test_max_s`]; the flips take motors 1, 2, 3, 4,
+//! then 1 again. Any stick movement beyond
+//! [`SafetyConfig::motor_test_stick_tolerance`], the arm switch, link loss
+//! or (when the switch started it) the switch going off end it. A refused
+//! flip is reported as [`Event::MotorTestRefused`] with its reason, and
+//! arming is refused while the switch is on.
 //!
 //! # Time
 //!
@@ -85,6 +90,7 @@ use control::loops::{LevelConfig, LevelController, Quat, RateConfig, RateControl
 use control::mixer::{MixOutput, Mixer, MixerConfig, MOTORS};
 use control::shaping::{StickShaping, Sticks, SticksConfig};
 
+use crate::motortest::{MotorTestSwitch, SwitchRequest};
 use crate::pipeline::Pipeline;
 
 pub use crate::arming::{
@@ -128,12 +134,15 @@ pub struct PilotInput {
     /// Valid frames are arriving (false = signal lost; the other fields are
     /// then ignored).
     pub link_ok: bool,
+    /// Motor-test switch position (true = on; see [`crate::motortest`]).
+    pub motor_test_switch: bool,
 }
 
 impl PilotInput {
     /// From the receiver crate's mapped sticks (same conventions: roll and
     /// yaw +1 = right, pitch +1 = forward = nose down, throttle 0..1), the
-    /// arm switch, the selected mode and the link state.
+    /// arm switch, the selected mode and the link state; the motor-test
+    /// switch off.
     pub fn from_rc(
         sticks: &rc_input::Sticks,
         arm_switch: bool,
@@ -150,6 +159,7 @@ impl PilotInput {
             arm_switch,
             mode,
             link_ok,
+            motor_test_switch: false,
         }
     }
 }
@@ -392,6 +402,8 @@ struct MotorTestRun {
     motor: u8,
     sticks: Sticks,
     elapsed_us: u32,
+    /// Started by the motor-test switch: ends when the switch goes off.
+    by_switch: bool,
 }
 
 /// Limits in the units the hot path compares against.
@@ -440,6 +452,7 @@ pub struct FlightController {
     landed: Hold,
     bad_input: Hold,
     motor_test: Option<MotorTestRun>,
+    test_switch: MotorTestSwitch,
     shaped: Shaped,
 }
 
@@ -485,6 +498,7 @@ impl FlightController {
             landed: Hold::default(),
             bad_input: Hold::default(),
             motor_test: None,
+            test_switch: MotorTestSwitch::new(),
             shaped: Shaped::new(&StickShaping::new(cfg.sticks)?, &Sticks::default()),
         })
     }
@@ -542,16 +556,29 @@ impl FlightController {
         if self.motor_test.is_some() {
             b.insert(ArmRefusal::MotorTestActive);
         }
+        if pilot.motor_test_switch {
+            b.insert(ArmRefusal::MotorTestSwitchOn);
+        }
         b
     }
 
     /// Starts the props-off motor test on motor index `motor` (0..=3, mixer
     /// order) with the sticks where they are now. Takes effect from the next
-    /// [`step`](Self::step).
+    /// [`step`](Self::step). Refused unless disarmed (or already testing),
+    /// link up, arm switch off and throttle low.
     pub fn start_motor_test(
         &mut self,
         motor: u8,
         pilot: &PilotInput,
+    ) -> Result<(), MotorTestRefusal> {
+        self.begin_motor_test(motor, pilot, false)
+    }
+
+    fn begin_motor_test(
+        &mut self,
+        motor: u8,
+        pilot: &PilotInput,
+        by_switch: bool,
     ) -> Result<(), MotorTestRefusal> {
         if self.state != FlightState::Disarmed && self.motor_test.is_none() {
             return Err(MotorTestRefusal::Armed);
@@ -561,6 +588,10 @@ impl FlightController {
         }
         if pilot.arm_switch {
             return Err(MotorTestRefusal::ArmSwitchOn);
+        }
+        let t = pilot.sticks.throttle;
+        if !(t.is_finite() && t <= self.cfg.safety.arm_throttle_max) {
+            return Err(MotorTestRefusal::ThrottleNotLow);
         }
         if usize::from(motor) >= MOTORS {
             return Err(MotorTestRefusal::InvalidMotor);
@@ -573,6 +604,7 @@ impl FlightController {
             motor,
             sticks,
             elapsed_us: 0,
+            by_switch,
         });
         self.state = FlightState::MotorTest(motor);
         Ok(())
@@ -622,6 +654,7 @@ impl FlightController {
             collective: 0.0,
             mix: None,
         };
+        self.on_test_switch(&pilot, &mut out);
         match self.state {
             FlightState::Disarmed => self.step_disarmed(edge, &pilot, status, vehicle, &mut out),
             FlightState::MotorTest(_) => self.step_motor_test(dt_us, edge, &pilot, &mut out),
@@ -639,6 +672,19 @@ impl FlightController {
         self.last_motors = out.motors;
         out.state = self.state;
         out
+    }
+
+    /// Starts the next motor on an off → on flip of the motor-test switch.
+    fn on_test_switch(&mut self, pilot: &PilotInput, out: &mut FlightOutput) {
+        let req = self
+            .test_switch
+            .update(pilot.link_ok, pilot.motor_test_switch);
+        if let SwitchRequest::Start(motor) = req {
+            match self.begin_motor_test(motor, pilot, true) {
+                Ok(()) => self.test_switch.advance(),
+                Err(r) => out.events.push(Event::MotorTestRefused(r)),
+            }
+        }
     }
 
     fn step_disarmed(
@@ -707,6 +753,8 @@ impl FlightController {
             Some(MotorTestEnd::ArmSwitch)
         } else if t.elapsed_us == u32::MAX {
             Some(MotorTestEnd::Stopped)
+        } else if t.by_switch && !pilot.motor_test_switch {
+            Some(MotorTestEnd::SwitchOff)
         } else if moved(s.roll, t.sticks.roll)
             || moved(s.pitch, t.sticks.pitch)
             || moved(s.yaw, t.sticks.yaw)
