@@ -58,6 +58,13 @@
 //! off pulse again and waits for the watchdog reset. The flight controller
 //! (`flight::flightctl`) runs in `imu` at 1 kHz on the pipeline's attitude,
 //! gyro and altitude and the receiver's pilot input, and sets the outputs.
+//! The props-off motor test runs from the transmitter's motor-test switch
+//! (`flight::motortest`): "motor test: motor N (Position) at 8 %" in the
+//! log.
+//!
+//! Settings: the channel map, the mode and motor-test switch channels, the
+//! ESC protocol, the motor-test command and the magnetometer calibration
+//! of the build are in `config.rs`.
 //!
 //! Flash: 62,684 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
@@ -76,6 +83,7 @@
 
 mod bus;
 mod clocks;
+mod config;
 mod delay;
 mod outputs;
 mod receiver;
@@ -133,13 +141,14 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
 mod app {
     use crate::bus::{self, BusHandle};
     use crate::clocks::{self, Source};
+    use crate::config::{self, MagCal, ESC_PROTOCOL};
     use crate::delay::{cpu_hz, AsmDelay};
     use crate::outputs::EscOutputs;
     use crate::receiver::{self, CrsfUart, Pilot};
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
-    use control::esc::{EscProtocol, EscTimer};
+    use control::esc::EscTimer;
     use cortex_m::peripheral::DWT;
     use flight::boot::{AhrsMode, BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
@@ -148,6 +157,7 @@ mod app {
         PilotInput, SystemStatus, VehicleState,
     };
     use flight::health::{HealthCounters, SensorState};
+    use flight::motortest::MotorPosition;
     use flight::pipeline::{Pipeline, PipelineConfig};
     use flight::sample::{SampleIn, SampleStep};
     use flight::schedule::{
@@ -156,7 +166,6 @@ mod app {
     };
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
-    use rc_input::ChannelMap;
     use rc_input::{CrsfParser, LinkStatus};
     use rtic::Mutex;
     use rtic_monotonics::fugit::ExtU32;
@@ -169,32 +178,7 @@ mod app {
         prelude::*,
     };
 
-    /// Magnetometer calibration used on the board: per-axis min/max in the
-    /// flight build. The ellipsoid fit (`flight::calmode::MagCalMode`:
-    /// integer moments, an f32 solve, 5.5 KiB) does not fit beside the
-    /// flight controller, so it has its own build (feature `mag-ellipsoid`),
-    /// which leaves the flight controller out; both store the same record
-    /// (offset + full soft-iron matrix), which the flight build applies.
-    #[cfg(not(feature = "mag-ellipsoid"))]
-    type MagCal = flight::calmode::MagMinMaxMode;
-    /// The calibration build's magnetometer calibration: the ellipsoid fit.
-    #[cfg(feature = "mag-ellipsoid")]
-    type MagCal = flight::calmode::MagCalMode;
-
     systick_monotonic!(Mono, 1_000);
-
-    /// ESC protocol: standard PWM at 400 Hz, or OneShot125 at 2 kHz with
-    /// the `oneshot125` feature.
-    #[cfg(not(feature = "oneshot125"))]
-    const ESC_PROTOCOL: EscProtocol = EscProtocol::Pwm;
-    #[cfg(feature = "oneshot125")]
-    const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
-
-    /// Receiver channels: AETR sticks, arm switch on channel 5 (high = arm).
-    const CHANNEL_MAP: ChannelMap = ChannelMap::DEFAULT;
-    /// Flight-mode switch: channel 6 (low angle, middle altitude hold, high
-    /// acro).
-    const MODE_CHANNEL: u8 = 5;
 
     /// Shortest watchdog timeout while booting (probing with retries and
     /// the MPU's power-up waits take ≤ 1.1 s), at the LSI's fastest 60 kHz.
@@ -336,12 +320,13 @@ mod app {
     #[cfg(not(feature = "mag-ellipsoid"))]
     #[inline(never)]
     fn start_flight_controller() -> Option<FlightController> {
-        match FlightController::new(flight::flightctl::FlightConfig::default()) {
+        match FlightController::new(config::flight_config()) {
             Ok(fc) => {
                 defmt::info!(
-                    "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}",
-                    CHANNEL_MAP.arm_channel() + 1,
-                    MODE_CHANNEL + 1
+                    "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}, motor-test channel {=u8}",
+                    config::channel_map().arm_channel() + 1,
+                    config::MODE_CHANNEL + 1,
+                    config::MOTOR_TEST_CHANNEL + 1
                 );
                 Some(fc)
             }
@@ -574,10 +559,14 @@ mod app {
     /// the motor commands for the ESC timer (off without a controller or an
     /// estimate).
     fn fly(cx: &mut imu::Context, now_us: u32, mpu_ok: bool, fresh: bool) -> Motors {
-        let pilot = cx
-            .shared
-            .pilot
-            .lock(|p| p.input(now_us, &CHANNEL_MAP, MODE_CHANNEL));
+        let pilot = cx.shared.pilot.lock(|p| {
+            p.input(
+                now_us,
+                &config::channel_map(),
+                config::MODE_CHANNEL,
+                config::MOTOR_TEST_CHANNEL,
+            )
+        });
         let status = SystemStatus {
             sensors_healthy: mpu_ok,
             gyro_bias_done: cx.shared.bias.lock(|b| matches!(b, BiasStatus::Done(_))),
@@ -655,15 +644,25 @@ mod app {
     #[task(priority = 1)]
     async fn flight_log(_cx: flight_log::Context, events: Events, pilot: PilotInput) {
         for e in events.iter() {
-            match e {
-                FlightEvent::Armed => defmt::warn!("flight: ARMED"),
-                FlightEvent::ArmRefused(r) => defmt::warn!(
+            let started = match e {
+                FlightEvent::MotorTestStarted(m) => MotorPosition::of(m).map(|p| (m, p)),
+                _ => None,
+            };
+            match (e, started) {
+                (_, Some((m, p))) => defmt::warn!(
+                    "motor test: motor {=u8} ({}) at {=u8} % (props off!)",
+                    m + 1,
+                    p,
+                    (config::MOTOR_TEST_COMMAND * 100.0) as u8
+                ),
+                (FlightEvent::Armed, _) => defmt::warn!("flight: ARMED"),
+                (FlightEvent::ArmRefused(r), _) => defmt::warn!(
                     "flight: arm refused: {} (throttle {=f32})",
                     r,
                     pilot.sticks.throttle
                 ),
-                FlightEvent::Disarmed(c) => defmt::warn!("flight: disarmed: {}", c),
-                other => defmt::warn!("flight: {}", other),
+                (FlightEvent::Disarmed(c), _) => defmt::warn!("flight: disarmed: {}", c),
+                (other, _) => defmt::warn!("flight: {}", other),
             }
         }
     }

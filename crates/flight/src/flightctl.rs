@@ -474,10 +474,11 @@ impl FlightController {
             motor_test_us: us(s.motor_test_max_s),
             bad_input_us: us(s.bad_input_disarm_s),
         };
+        let shaping = StickShaping::new(cfg.sticks)?;
         Ok(Self {
             cfg,
             lim,
-            shaping: StickShaping::new(cfg.sticks)?,
+            shaping,
             rate: RateController::new(cfg.rate)?,
             level: LevelController::new(cfg.level)?,
             alt: AltitudeHold::new(cfg.altitude_hold)?,
@@ -499,7 +500,7 @@ impl FlightController {
             bad_input: Hold::default(),
             motor_test: None,
             test_switch: MotorTestSwitch::new(),
-            shaped: Shaped::new(&StickShaping::new(cfg.sticks)?, &Sticks::default()),
+            shaped: Shaped::new(&shaping, &Sticks::default()),
         })
     }
 
@@ -549,8 +550,7 @@ impl FlightController {
             Some(c) if c < self.lim.arm_cos_tilt => b.insert(ArmRefusal::NotLevel),
             Some(_) => {}
         }
-        let t = pilot.sticks.throttle;
-        if !(t.is_finite() && t <= self.cfg.safety.arm_throttle_max) {
+        if !self.throttle_low(pilot) {
             b.insert(ArmRefusal::ThrottleNotLow);
         }
         if self.motor_test.is_some() {
@@ -562,6 +562,12 @@ impl FlightController {
         b
     }
 
+    /// Throttle stick at or below [`SafetyConfig::arm_throttle_max`].
+    fn throttle_low(&self, pilot: &PilotInput) -> bool {
+        let t = pilot.sticks.throttle;
+        t.is_finite() && t <= self.cfg.safety.arm_throttle_max
+    }
+
     /// Starts the props-off motor test on motor index `motor` (0..=3, mixer
     /// order) with the sticks where they are now. Takes effect from the next
     /// [`step`](Self::step). Refused unless disarmed (or already testing),
@@ -571,35 +577,36 @@ impl FlightController {
         motor: u8,
         pilot: &PilotInput,
     ) -> Result<(), MotorTestRefusal> {
-        self.begin_motor_test(motor, pilot, false)
-    }
-
-    fn begin_motor_test(
-        &mut self,
-        motor: u8,
-        pilot: &PilotInput,
-        by_switch: bool,
-    ) -> Result<(), MotorTestRefusal> {
-        if self.state != FlightState::Disarmed && self.motor_test.is_none() {
-            return Err(MotorTestRefusal::Armed);
-        }
-        if !pilot.link_ok {
-            return Err(MotorTestRefusal::LinkLost);
-        }
-        if pilot.arm_switch {
-            return Err(MotorTestRefusal::ArmSwitchOn);
-        }
-        let t = pilot.sticks.throttle;
-        if !(t.is_finite() && t <= self.cfg.safety.arm_throttle_max) {
-            return Err(MotorTestRefusal::ThrottleNotLow);
-        }
-        if usize::from(motor) >= MOTORS {
-            return Err(MotorTestRefusal::InvalidMotor);
+        if let Some(r) = self.motor_test_refusal(motor, pilot) {
+            return Err(r);
         }
         let sticks = pilot
             .sticks
             .clamped()
             .map_err(|_| MotorTestRefusal::LinkLost)?;
+        self.begin_motor_test(motor, sticks, false);
+        Ok(())
+    }
+
+    /// The first reason to refuse a motor test on `motor` now.
+    fn motor_test_refusal(&self, motor: u8, pilot: &PilotInput) -> Option<MotorTestRefusal> {
+        if self.state != FlightState::Disarmed && self.motor_test.is_none() {
+            Some(MotorTestRefusal::Armed)
+        } else if !pilot.link_ok {
+            Some(MotorTestRefusal::LinkLost)
+        } else if pilot.arm_switch {
+            Some(MotorTestRefusal::ArmSwitchOn)
+        } else if !self.throttle_low(pilot) {
+            Some(MotorTestRefusal::ThrottleNotLow)
+        } else if usize::from(motor) >= MOTORS {
+            Some(MotorTestRefusal::InvalidMotor)
+        } else {
+            None
+        }
+    }
+
+    /// Starts the test; `sticks` is the reference a movement is measured from.
+    fn begin_motor_test(&mut self, motor: u8, sticks: Sticks, by_switch: bool) {
         self.motor_test = Some(MotorTestRun {
             motor,
             sticks,
@@ -607,7 +614,6 @@ impl FlightController {
             by_switch,
         });
         self.state = FlightState::MotorTest(motor);
-        Ok(())
     }
 
     /// Stops the motor test (no effect otherwise); the next step reports
@@ -675,14 +681,19 @@ impl FlightController {
     }
 
     /// Starts the next motor on an off → on flip of the motor-test switch.
+    #[inline(never)]
     fn on_test_switch(&mut self, pilot: &PilotInput, out: &mut FlightOutput) {
         let req = self
             .test_switch
             .update(pilot.link_ok, pilot.motor_test_switch);
         if let SwitchRequest::Start(motor) = req {
-            match self.begin_motor_test(motor, pilot, true) {
-                Ok(()) => self.test_switch.advance(),
-                Err(r) => out.events.push(Event::MotorTestRefused(r)),
+            match self.motor_test_refusal(motor, pilot) {
+                Some(r) => out.events.push(Event::MotorTestRefused(r)),
+                // The sticks are finite here (`step` checked them).
+                None => {
+                    self.begin_motor_test(motor, pilot.sticks, true);
+                    self.test_switch.advance();
+                }
             }
         }
     }

@@ -26,17 +26,43 @@
 
 use control::mixer::MOTORS;
 
-/// Position of each motor (index = mixer order, `0` = motor 1), as the
-/// log names it; the layout of [`control::mixer`] (Betaflight quad-X).
-pub const MOTOR_POSITIONS: [&str; MOTORS] =
-    ["rear right", "front right", "rear left", "front left"];
+/// Where a motor sits on the frame: the layout of [`control::mixer`]
+/// (Betaflight quad-X, seen from above, nose forward).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MotorPosition {
+    /// Motor 1 (index 0), clockwise.
+    RearRight,
+    /// Motor 2 (index 1), counter-clockwise.
+    FrontRight,
+    /// Motor 3 (index 2), counter-clockwise.
+    RearLeft,
+    /// Motor 4 (index 3), clockwise.
+    FrontLeft,
+}
 
-/// The motor's position for motor index `motor` (0..=3), `"?"` outside.
-pub fn motor_position(motor: u8) -> &'static str {
-    MOTOR_POSITIONS
-        .get(usize::from(motor))
-        .copied()
-        .unwrap_or("?")
+impl MotorPosition {
+    /// The position of motor index `motor` (0..=3, mixer order), `None`
+    /// outside.
+    pub fn of(motor: u8) -> Option<Self> {
+        match motor {
+            0 => Some(Self::RearRight),
+            1 => Some(Self::FrontRight),
+            2 => Some(Self::RearLeft),
+            3 => Some(Self::FrontLeft),
+            _ => None,
+        }
+    }
+
+    /// Lower-case words, as the README names the positions.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::RearRight => "rear right",
+            Self::FrontRight => "front right",
+            Self::RearLeft => "rear left",
+            Self::FrontLeft => "front left",
+        }
+    }
 }
 
 /// What one step's switch position asks for.
@@ -107,6 +133,20 @@ mod tests {
         assert_eq!(s.update(true, true), SwitchRequest::None, "on at link up");
     }
 
+    /// The positions follow the mixer's roll and pitch signs: left motors
+    /// have +roll, front motors +pitch.
+    #[test]
+    fn positions_match_the_mixer_table() {
+        use control::mixer::QUAD_X;
+        for (m, [roll, pitch, _]) in (0u8..).zip(QUAD_X) {
+            let p = MotorPosition::of(m).unwrap();
+            let left = matches!(p, MotorPosition::RearLeft | MotorPosition::FrontLeft);
+            let front = matches!(p, MotorPosition::FrontRight | MotorPosition::FrontLeft);
+            assert_eq!(roll > 0.0, left, "{p:?}");
+            assert_eq!(pitch > 0.0, front, "{p:?}");
+        }
+    }
+
     #[test]
     fn the_sequence_wraps_after_motor_4() {
         let mut s = MotorTestSwitch::new();
@@ -116,7 +156,11 @@ mod tests {
             s.advance();
         }
         assert_eq!(seen, [0, 1, 2, 3, 0, 1]);
-        assert_eq!(motor_position(1), "front right");
-        assert_eq!(motor_position(4), "?");
+        assert_eq!(MotorPosition::of(1), Some(MotorPosition::FrontRight));
+        assert_eq!(
+            MotorPosition::of(1).map(MotorPosition::name),
+            Some("front right")
+        );
+        assert_eq!(MotorPosition::of(4), None);
     }
 }
