@@ -66,7 +66,7 @@
 //! ESC protocol, the motor-test command and the magnetometer calibration
 //! of the build are in `config.rs`.
 //!
-//! Flash: 62,684 B of the 63 KiB budget with the flight controller
+//! Flash: 63,092 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
 //! static RAM 4.5 KiB. To fit, the I2C master is our own register-level
 //! driver (`bus.rs`) rather than the HAL's blocking one, the fixed-point
@@ -74,9 +74,9 @@
 //! the firmware runs the full filter), the trigonometry is a polynomial
 //! rather than libm's (whose `sinf`/`cosf` reduce the argument in soft f64),
 //! neither `memmove` nor a 64-bit division is linked, and the magnetometer
-//! calibration on the board is the per-axis min/max (the `MagCal` type
-//! below: one line selects the full ellipsoid fit, ~5.5 KiB more, which
-//! does not fit beside the flight controller).
+//! calibration on the board is the per-axis min/max (`config::MagCal`:
+//! the `mag-ellipsoid` build selects the full ellipsoid fit, ~5.5 KiB more,
+//! which does not fit beside the flight controller).
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]

@@ -577,8 +577,11 @@ impl FlightController {
         motor: u8,
         pilot: &PilotInput,
     ) -> Result<(), MotorTestRefusal> {
-        if let Some(r) = self.motor_test_refusal(motor, pilot) {
+        if let Some(r) = self.motor_test_refusal(pilot) {
             return Err(r);
+        }
+        if usize::from(motor) >= MOTORS {
+            return Err(MotorTestRefusal::InvalidMotor);
         }
         let sticks = pilot
             .sticks
@@ -588,8 +591,9 @@ impl FlightController {
         Ok(())
     }
 
-    /// The first reason to refuse a motor test on `motor` now.
-    fn motor_test_refusal(&self, motor: u8, pilot: &PilotInput) -> Option<MotorTestRefusal> {
+    /// The first reason to refuse a motor test now (the motor index
+    /// aside).
+    fn motor_test_refusal(&self, pilot: &PilotInput) -> Option<MotorTestRefusal> {
         if self.state != FlightState::Disarmed && self.motor_test.is_none() {
             Some(MotorTestRefusal::Armed)
         } else if !pilot.link_ok {
@@ -598,8 +602,6 @@ impl FlightController {
             Some(MotorTestRefusal::ArmSwitchOn)
         } else if !self.throttle_low(pilot) {
             Some(MotorTestRefusal::ThrottleNotLow)
-        } else if usize::from(motor) >= MOTORS {
-            Some(MotorTestRefusal::InvalidMotor)
         } else {
             None
         }
@@ -687,7 +689,8 @@ impl FlightController {
             .test_switch
             .update(pilot.link_ok, pilot.motor_test_switch);
         if let SwitchRequest::Start(motor) = req {
-            match self.motor_test_refusal(motor, pilot) {
+            // `MotorTestSwitch` only hands out indices below MOTORS.
+            match self.motor_test_refusal(pilot) {
                 Some(r) => out.events.push(Event::MotorTestRefused(r)),
                 // The sticks are finite here (`step` checked them).
                 None => {

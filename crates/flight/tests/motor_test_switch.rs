@@ -164,6 +164,13 @@ fn every_refused_flip_names_its_reason_and_retries_the_same_motor() {
     );
     assert_eq!(r.motors(), Motors::Off);
     r.pilot.sticks.throttle = 0.0;
+    // The programmatic start has the same throttle rule.
+    let mut up = r.pilot;
+    up.sticks.throttle = 0.3;
+    assert_eq!(
+        r.fc.start_motor_test(0, &up),
+        Err(MotorTestRefusal::ThrottleNotLow)
+    );
     assert_eq!(r.flip_test_switch(), vec![Event::MotorTestStarted(0)]);
 
     // Armed (with the test switch off), a flip is refused and the motors
