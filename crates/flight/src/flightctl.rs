@@ -683,6 +683,7 @@ impl FlightController {
     }
 
     /// Starts the next motor on an off → on flip of the motor-test switch.
+    // Out of line: inlined into `step`, the firmware measured 120 B larger.
     #[inline(never)]
     fn on_test_switch(&mut self, pilot: &PilotInput, out: &mut FlightOutput) {
         let req = self
