@@ -241,12 +241,14 @@ fn ppm_frames_with_a_wrong_count_or_pulse_are_dropped_and_counted() {
 }
 
 /// Sticks centred, throttle at `throttle_us`, arm switch (channel 5) on or
-/// off, mode switch (channel 6) low: angle mode.
+/// off, mode switch (channel 6) low: angle mode; motor-test switch
+/// (channel 7) off.
 fn sticks(throttle_us: u64, arm: bool) -> [u64; 8] {
     let mut ch = [1_500; 8];
     ch[2] = throttle_us;
     ch[4] = if arm { 2_000 } else { 1_000 };
     ch[5] = 1_000;
+    ch[6] = 1_000;
     ch
 }
 

@@ -62,24 +62,33 @@
 //! off pulse again and waits for the watchdog reset. The flight controller
 //! (`flight::flightctl`) runs in `imu` at 1 kHz on the pipeline's attitude,
 //! gyro and altitude and the receiver's pilot input, and sets the outputs.
+//! The props-off motor test runs from the transmitter's motor-test switch
+//! (`flight::motortest`): "motor test: motor N (Position) at 8 %" in the
+//! log.
 //!
-//! Flash: 62,692 B of the 63 KiB budget with the flight controller
+//! Settings: the channel map, the mode and motor-test switch channels, the
+//! ESC protocol, the motor-test command and the magnetometer calibration
+//! of the build are in `config.rs`.
+//!
+//! Flash: 63,100 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
-//! static RAM 4.5 KiB. The `ppm` build (PPM instead of CRSF): 61,800 B. To fit, the I2C master is our own register-level
-//! driver (`bus.rs`) rather than the HAL's blocking one, the fixed-point
-//! textbook filter is left out (`fc-ahrs` without its `textbook` feature:
+//! static RAM 4.5 KiB; the `ppm` build (PPM instead of CRSF): 62,216 B.
+//! To fit, the I2C master is our own register-level driver (`bus.rs`)
+//! rather than the HAL's blocking one, the fixed-point textbook filter is
+//! left out (`fc-ahrs` without its `textbook` feature:
 //! the firmware runs the full filter), the trigonometry is a polynomial
 //! rather than libm's (whose `sinf`/`cosf` reduce the argument in soft f64),
 //! neither `memmove` nor a 64-bit division is linked, and the magnetometer
-//! calibration on the board is the per-axis min/max (the `MagCal` type
-//! below: one line selects the full ellipsoid fit, ~5.5 KiB more, which
-//! does not fit beside the flight controller).
+//! calibration on the board is the per-axis min/max (`config::MagCal`:
+//! the `mag-ellipsoid` build selects the full ellipsoid fit, ~5.5 KiB more,
+//! which does not fit beside the flight controller).
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
 
 mod bus;
 mod clocks;
+mod config;
 mod delay;
 mod outputs;
 // Each build uses one receiver (the `ppm` build the pilot state only of
@@ -143,6 +152,7 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
 mod app {
     use crate::bus::{self, BusHandle};
     use crate::clocks::{self, Source};
+    use crate::config::{self, MagCal, ESC_PROTOCOL};
     use crate::delay::{cpu_hz, AsmDelay};
     use crate::outputs::EscOutputs;
     #[cfg(feature = "ppm")]
@@ -153,7 +163,7 @@ mod app {
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
-    use control::esc::{EscProtocol, EscTimer};
+    use control::esc::EscTimer;
     use cortex_m::peripheral::DWT;
     use flight::boot::{AhrsMode, BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
@@ -162,6 +172,7 @@ mod app {
         PilotInput, SystemStatus, VehicleState,
     };
     use flight::health::{HealthCounters, SensorState};
+    use flight::motortest::MotorPosition;
     use flight::pipeline::{Pipeline, PipelineConfig};
     use flight::sample::{SampleIn, SampleStep};
     use flight::schedule::{
@@ -170,7 +181,6 @@ mod app {
     };
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
-    use rc_input::ChannelMap;
     #[cfg(not(feature = "ppm"))]
     use rc_input::CrsfParser;
     use rc_input::LinkStatus;
@@ -185,32 +195,7 @@ mod app {
         prelude::*,
     };
 
-    /// Magnetometer calibration used on the board: per-axis min/max in the
-    /// flight build. The ellipsoid fit (`flight::calmode::MagCalMode`:
-    /// integer moments, an f32 solve, 5.5 KiB) does not fit beside the
-    /// flight controller, so it has its own build (feature `mag-ellipsoid`),
-    /// which leaves the flight controller out; both store the same record
-    /// (offset + full soft-iron matrix), which the flight build applies.
-    #[cfg(not(feature = "mag-ellipsoid"))]
-    type MagCal = flight::calmode::MagMinMaxMode;
-    /// The calibration build's magnetometer calibration: the ellipsoid fit.
-    #[cfg(feature = "mag-ellipsoid")]
-    type MagCal = flight::calmode::MagCalMode;
-
     systick_monotonic!(Mono, 1_000);
-
-    /// ESC protocol: standard PWM at 400 Hz, or OneShot125 at 2 kHz with
-    /// the `oneshot125` feature.
-    #[cfg(not(feature = "oneshot125"))]
-    const ESC_PROTOCOL: EscProtocol = EscProtocol::Pwm;
-    #[cfg(feature = "oneshot125")]
-    const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
-
-    /// Receiver channels: AETR sticks, arm switch on channel 5 (high = arm).
-    const CHANNEL_MAP: ChannelMap = ChannelMap::DEFAULT;
-    /// Flight-mode switch: channel 6 (low angle, middle altitude hold, high
-    /// acro).
-    const MODE_CHANNEL: u8 = 5;
 
     /// Shortest watchdog timeout while booting (probing with retries and
     /// the MPU's power-up waits take ≤ 1.1 s), at the LSI's fastest 60 kHz.
@@ -365,12 +350,13 @@ mod app {
     #[cfg(not(feature = "mag-ellipsoid"))]
     #[inline(never)]
     fn start_flight_controller() -> Option<FlightController> {
-        match FlightController::new(flight::flightctl::FlightConfig::default()) {
+        match FlightController::new(config::flight_config()) {
             Ok(fc) => {
                 defmt::info!(
-                    "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}",
-                    CHANNEL_MAP.arm_channel() + 1,
-                    MODE_CHANNEL + 1
+                    "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}, motor-test channel {=u8}",
+                    config::channel_map().arm_channel() + 1,
+                    config::MODE_CHANNEL + 1,
+                    config::MOTOR_TEST_CHANNEL + 1
                 );
                 Some(fc)
             }
@@ -617,10 +603,14 @@ mod app {
     /// the motor commands for the ESC timer (off without a controller or an
     /// estimate).
     fn fly(cx: &mut imu::Context, now_us: u32, mpu_ok: bool, fresh: bool) -> Motors {
-        let pilot = cx
-            .shared
-            .pilot
-            .lock(|p| p.input(now_us, &CHANNEL_MAP, MODE_CHANNEL));
+        let pilot = cx.shared.pilot.lock(|p| {
+            p.input(
+                now_us,
+                &config::channel_map(),
+                config::MODE_CHANNEL,
+                config::MOTOR_TEST_CHANNEL,
+            )
+        });
         let status = SystemStatus {
             sensors_healthy: mpu_ok,
             gyro_bias_done: cx.shared.bias.lock(|b| matches!(b, BiasStatus::Done(_))),
@@ -677,6 +667,11 @@ mod app {
     /// TIM4 capture on PB8 (priority 4, where `crsf_rx` is in the CRSF
     /// build): one edge into the PPM decoder, a completed frame into the
     /// pilot state exactly as a CRSF channel frame goes.
+    ///
+    /// RTIC 2.4 sets the NVIC priority of, and unmasks, the interrupt of a
+    /// hardware task its cfg leaves out (8 B in the CRSF build): TIM4 there
+    /// and USART1 in the `ppm` build are unmasked, but their peripherals
+    /// are never clocked or given an interrupt enable, so they never pend.
     #[cfg(feature = "ppm")]
     #[task(binds = TIM4, priority = 4, local = [ppm], shared = [clock, pilot])]
     fn ppm_rx(mut cx: ppm_rx::Context) {
@@ -716,15 +711,25 @@ mod app {
     #[task(priority = 1)]
     async fn flight_log(_cx: flight_log::Context, events: Events, pilot: PilotInput) {
         for e in events.iter() {
-            match e {
-                FlightEvent::Armed => defmt::warn!("flight: ARMED"),
-                FlightEvent::ArmRefused(r) => defmt::warn!(
+            let started = match e {
+                FlightEvent::MotorTestStarted(m) => MotorPosition::of(m).map(|p| (m, p)),
+                _ => None,
+            };
+            match (e, started) {
+                (_, Some((m, p))) => defmt::warn!(
+                    "motor test: motor {=u8} ({}) at {=u8} % (props off!)",
+                    m + 1,
+                    p,
+                    (config::MOTOR_TEST_COMMAND * 100.0) as u8
+                ),
+                (FlightEvent::Armed, _) => defmt::warn!("flight: ARMED"),
+                (FlightEvent::ArmRefused(r), _) => defmt::warn!(
                     "flight: arm refused: {} (throttle {=f32})",
                     r,
                     pilot.sticks.throttle
                 ),
-                FlightEvent::Disarmed(c) => defmt::warn!("flight: disarmed: {}", c),
-                other => defmt::warn!("flight: {}", other),
+                (FlightEvent::Disarmed(c), _) => defmt::warn!("flight: disarmed: {}", c),
+                (other, _) => defmt::warn!("flight: {}", other),
             }
         }
     }

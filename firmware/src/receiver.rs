@@ -175,9 +175,16 @@ impl Pilot {
     /// The flight controller's view of the pilot at `now_us`: sticks and
     /// the arm switch through `map`, the flight mode from `mode_channel`
     /// (low: angle, middle: altitude hold, high: acro; angle if absent),
-    /// and whether the link is up. A frame missing a stick or the arm
-    /// switch counts as no link.
-    pub fn input(&mut self, now_us: u32, map: &ChannelMap, mode_channel: u8) -> PilotInput {
+    /// the motor-test switch from `motor_test_channel` (high: on; off if
+    /// absent), and whether the link is up. A frame missing a stick or the
+    /// arm switch counts as no link.
+    pub fn input(
+        &mut self,
+        now_us: u32,
+        map: &ChannelMap,
+        mode_channel: u8,
+        motor_test_channel: u8,
+    ) -> PilotInput {
         let link_up = !self.link.is_lost(now_us);
         let Some(frame) = self.frame.filter(|_| link_up) else {
             return PilotInput::default();
@@ -200,6 +207,8 @@ impl Pilot {
             arm_switch,
             mode,
             link_ok: true,
+            motor_test_switch: ChannelMap::switch(&frame, motor_test_channel)
+                == Ok(SwitchPosition::High),
         }
     }
 }
