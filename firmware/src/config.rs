@@ -4,6 +4,10 @@
 //! rebuild (`cargo fw`, `cargo embed --release`); the boot log prints what
 //! the firmware uses ("outputs: ...", "flight controller: ready ...").
 //!
+//! The receiver protocol is a cargo feature, like OneShot125: CRSF on
+//! USART1 RX (PA10) by default, a PPM sum signal on PB8 with `--features
+//! ppm` (`ppm.rs`); the channel settings below apply to both.
+//!
 //! Channel numbers below are 0-based indices (channel 1 = index 0), as
 //! `rc_input` counts them; the log and the README count from 1.
 //!
