@@ -29,8 +29,9 @@
 //! * A bus error on either access (an address outside SRAM, flash and the
 //!   peripheral space, or a write to flash) sets TEIF and clears EN; the
 //!   item is not counted (§13.3.6 "Error management").
-//! * GIF is the OR of a channel's TC, HT and TE flags; IFCR writes of 1
-//!   clear flags, CGIF all four of its channel.
+//! * GIF sets with any of its channel's TC, HT and TE flags and, as
+//!   §13.4.1 describes it, clears only by a write of 1 to CGIF, which also
+//!   clears the other three; CTCIF, CHTIF and CTEIF clear their own flag.
 //!
 //! Timing: a request is served at the instant the peripheral raises it, and
 //! the CPU loses no cycles to it. Left out: AHB bus-matrix arbitration with
@@ -328,11 +329,6 @@ impl Dma {
                 let w = (v >> (4 * ch)) & 0xF;
                 let clear = if w & isr::GIF != 0 { 0xF } else { w };
                 self.isr &= !(clear << (4 * ch));
-                // GIF stays set while any of the others does.
-                let f = (self.isr >> (4 * ch)) & 0xE;
-                if f == 0 {
-                    self.isr &= !(isr::GIF << (4 * ch));
-                }
             }
             return Some(Ok(()));
         }
