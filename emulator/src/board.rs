@@ -517,6 +517,14 @@ impl Hw {
                 } else {
                     (v & mask) as u16
                 };
+                // I2C1's DMA requests (DMA1 channels 6 and 7) are not wired
+                // to the DMA model: a firmware using them would wait for
+                // transfers that never come.
+                if a - 0x4000_5400 == crate::i2c1::reg::CR2 && value & (1 << 11) != 0 {
+                    self.fail(BoardError::Unsupported(
+                        "I2C1 DMA requests (CR2.DMAEN) not modelled".into(),
+                    ));
+                }
                 self.i2c.write(a - 0x4000_5400, value, now);
                 true
             }
