@@ -676,9 +676,10 @@ mod app {
     /// pilot state exactly as a CRSF channel frame goes.
     ///
     /// RTIC 2.4 sets the NVIC priority of, and unmasks, the interrupt of a
-    /// hardware task its cfg leaves out (8 B in the CRSF build): TIM4 there
-    /// and USART1 in the `ppm` build are unmasked, but their peripherals
-    /// are never clocked or given an interrupt enable, so they never pend.
+    /// hardware task its cfg leaves out (8 B in the CRSF build): TIM4 there,
+    /// USART1 and DMA1_CHANNEL5 in the `ppm` build are unmasked, but their
+    /// peripherals are never clocked or given an interrupt enable, so they
+    /// never pend.
     #[cfg(feature = "ppm")]
     #[task(binds = TIM4, priority = 4, local = [ppm], shared = [clock, pilot])]
     fn ppm_rx(mut cx: ppm_rx::Context) {
