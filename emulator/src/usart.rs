@@ -259,10 +259,7 @@ impl Usart {
 
     /// When the next byte lands in DR or IDLE sets (for the scheduler).
     pub fn next_event_ns(&self) -> Option<u64> {
-        let byte = self
-            .line
-            .front()
-            .map(|&(s, _, b)| s + (9.5 * bit_ns(b)).round() as u64);
+        let byte = self.next_byte_ns();
         let idle = self.idle_from_ns.and_then(|t| {
             self.baud()
                 .map(|b| t + (10.0 * 1e9 / b).round() as u64)
