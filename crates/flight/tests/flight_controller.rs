@@ -6,6 +6,7 @@ use control::controllers::BodyRates;
 use control::loops::Quat;
 use control::shaping::Sticks;
 use flight::flightctl::*;
+use std::ops::RangeInclusive;
 
 const STEP_US: u32 = 1_000;
 
@@ -81,6 +82,22 @@ impl Rig {
         (1..=max_ms).find(|_| self.step().events.iter().any(|e| f(&e)))
     }
 
+    /// Runs until `event`, which must come within `max_ms`.
+    fn expect_event_within(&mut self, event: Event, max_ms: u32) -> u32 {
+        self.run_until(max_ms, |e| *e == event)
+            .unwrap_or_else(|| panic!("no {event:?} within {max_ms} ms"))
+    }
+
+    /// Runs until `event`, which must come after a number of steps in
+    /// `expected_ms`.
+    fn expect_event_after(&mut self, event: Event, max_ms: u32, expected_ms: RangeInclusive<u32>) {
+        let ms = self.expect_event_within(event, max_ms);
+        assert!(
+            expected_ms.contains(&ms),
+            "{event:?} after {ms} ms, expected {expected_ms:?}"
+        );
+    }
+
     /// Switch off for a while, then on: one arm request.
     fn flip_arm_switch(&mut self) -> Vec<Event> {
         self.pilot.arm_switch = false;
@@ -102,6 +119,15 @@ impl Rig {
         let ev = self.run_ms(200);
         assert!(ev.is_empty(), "{ev:?}");
     }
+}
+
+/// The vertical estimator's output at `height_m`, moving at
+/// `vertical_speed_mps` (up positive).
+fn altitude(height_m: f32, vertical_speed_mps: f32) -> Option<AltitudeEstimate> {
+    Some(AltitudeEstimate {
+        height_m,
+        vertical_speed_mps,
+    })
 }
 
 fn tilted_deg(deg: f32) -> Quat {
@@ -254,10 +280,7 @@ fn crash_tilt_disarms_after_half_a_second_in_angle_mode() {
     let mut r = Rig::new();
     r.take_off();
     r.vehicle.attitude = tilted_deg(75.0);
-    let ms = r
-        .run_until(2_000, |e| *e == Event::Disarmed(DisarmCause::CrashTilt))
-        .expect("no crash disarm");
-    assert!((499..=501).contains(&ms), "{ms} ms");
+    r.expect_event_after(Event::Disarmed(DisarmCause::CrashTilt), 2_000, 499..=501);
 }
 
 #[test]
@@ -283,10 +306,7 @@ fn saturated_rates_disarm_in_any_mode() {
     r.pilot.mode = FlightMode::Acro;
     r.take_off();
     r.vehicle.gyro.yaw_rps = 990f32.to_radians();
-    let ms = r
-        .run_until(2_000, |e| *e == Event::Disarmed(DisarmCause::CrashRate))
-        .expect("no crash disarm");
-    assert!((299..=301).contains(&ms), "{ms} ms");
+    r.expect_event_after(Event::Disarmed(DisarmCause::CrashRate), 2_000, 299..=301);
 }
 
 #[test]
@@ -294,10 +314,7 @@ fn landing_detected_after_two_seconds() {
     let mut r = Rig::new();
     r.take_off();
     r.pilot.sticks.throttle = 0.0;
-    let ms = r
-        .run_until(5_000, |e| *e == Event::Disarmed(DisarmCause::Landed))
-        .expect("no landing disarm");
-    assert!((1_999..=2_001).contains(&ms), "{ms} ms");
+    r.expect_event_after(Event::Disarmed(DisarmCause::Landed), 5_000, 1_999..=2_001);
 }
 
 #[test]
@@ -309,29 +326,22 @@ fn no_landing_while_rotating_or_sinking() {
     r.run_ms(3_000);
     assert!(r.fc.is_armed());
     r.vehicle.gyro.roll_rps = 0.0;
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 10.0,
-        vertical_speed_mps: -2.0,
-    });
+    r.vehicle.altitude = altitude(10.0, -2.0);
     r.run_ms(3_000);
     assert!(r.fc.is_armed(), "falling is not landed");
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 0.0,
-        vertical_speed_mps: 0.05,
-    });
-    assert!(r
-        .run_until(2_100, |e| *e == Event::Disarmed(DisarmCause::Landed))
-        .is_some());
+    r.vehicle.altitude = altitude(0.0, 0.05);
+    r.expect_event_within(Event::Disarmed(DisarmCause::Landed), 2_100);
 }
 
 #[test]
 fn no_take_off_disarms_after_five_seconds() {
     let mut r = Rig::new();
     r.arm();
-    let ms = r
-        .run_until(10_000, |e| *e == Event::Disarmed(DisarmCause::NoTakeOff))
-        .expect("no idle disarm");
-    assert!((4_990..=5_000).contains(&ms), "{ms} ms");
+    r.expect_event_after(
+        Event::Disarmed(DisarmCause::NoTakeOff),
+        10_000,
+        4_990..=5_000,
+    );
 }
 
 #[test]
@@ -347,10 +357,7 @@ fn single_bad_sample_keeps_motors_and_persistent_fault_disarms() {
     r.run_ms(10);
     assert!(r.fc.is_armed());
     r.vehicle.attitude.w = f32::INFINITY;
-    let ms = r
-        .run_until(1_000, |e| *e == Event::Disarmed(DisarmCause::SensorFault))
-        .unwrap();
-    assert!((100..=101).contains(&ms), "{ms} ms");
+    r.expect_event_after(Event::Disarmed(DisarmCause::SensorFault), 1_000, 100..=101);
 }
 
 // ---- failsafe --------------------------------------------------------------
@@ -370,21 +377,17 @@ fn link_loss_without_altitude_holds_level_then_disarms() {
     assert!(out.rate_setpoint.roll_rps.abs() < 1e-6);
     assert!((out.collective - 0.5).abs() < 1e-6);
     assert!(matches!(out.motors, Motors::Run(_)));
-    let ms = r
-        .run_until(2_000, |e| {
-            *e == Event::Disarmed(DisarmCause::FailsafeNoAltitude)
-        })
-        .unwrap();
-    assert!((998..=1_000).contains(&ms), "{ms} ms");
+    r.expect_event_after(
+        Event::Disarmed(DisarmCause::FailsafeNoAltitude),
+        2_000,
+        998..=1_000,
+    );
 }
 
 #[test]
 fn link_loss_with_altitude_holds_descends_and_lands() {
     let mut r = Rig::new();
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 5.0,
-        vertical_speed_mps: 0.0,
-    });
+    r.vehicle.altitude = altitude(5.0, 0.0);
     r.take_off();
     r.pilot.link_ok = false;
     // The arm switch reads "off" while the link is down: it is not trusted.
@@ -394,23 +397,14 @@ fn link_loss_with_altitude_holds_descends_and_lands() {
     assert_eq!(out.mode, FlightMode::AltitudeHold);
     // Holding at 5 m: the collective stays at the bumpless value.
     assert!((out.collective - 0.5).abs() < 0.02, "{}", out.collective);
-    let ms = r
-        .run_until(2_000, |e| *e == Event::FailsafeDescent)
-        .unwrap();
-    assert!((998..=1_000).contains(&ms), "{ms} ms");
+    r.expect_event_after(Event::FailsafeDescent, 2_000, 998..=1_000);
     // Descending: the collective drops below hover.
     r.run_ms(200);
     let c = r.last.unwrap().collective;
     assert!(c < 0.45, "collective {c}");
     // The model sits still on the ground: the landing detector ends it.
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 0.0,
-        vertical_speed_mps: 0.0,
-    });
-    assert!(r
-        .run_until(10_000, |e| *e
-            == Event::Disarmed(DisarmCause::FailsafeLanded))
-        .is_some());
+    r.vehicle.altitude = altitude(0.0, 0.0);
+    r.expect_event_within(Event::Disarmed(DisarmCause::FailsafeLanded), 10_000);
 }
 
 #[test]
@@ -480,12 +474,11 @@ fn motor_test_ends_on_link_loss_arm_switch_timeout_and_stop() {
     let mut r = Rig::new();
     r.run_ms(10);
     r.fc.start_motor_test(3, &r.pilot).unwrap();
-    let ms = r
-        .run_until(10_000, |e| {
-            *e == Event::MotorTestEnded(MotorTestEnd::Timeout)
-        })
-        .unwrap();
-    assert!((4_999..=5_001).contains(&ms), "{ms} ms");
+    r.expect_event_after(
+        Event::MotorTestEnded(MotorTestEnd::Timeout),
+        10_000,
+        4_999..=5_001,
+    );
 }
 
 #[test]
@@ -531,10 +524,7 @@ fn altitude_hold_without_altitude_falls_back_to_angle_once() {
 #[test]
 fn altitude_hold_holds_at_mid_stick_and_climbs_above() {
     let mut r = Rig::new();
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 3.0,
-        vertical_speed_mps: 0.0,
-    });
+    r.vehicle.altitude = altitude(3.0, 0.0);
     r.take_off();
     r.pilot.mode = FlightMode::AltitudeHold;
     r.run_ms(500);
@@ -707,24 +697,16 @@ fn closed_loop_acro_stick_gives_the_shaped_rate() {
 #[test]
 fn altitude_lost_during_failsafe_descent_still_lands() {
     let mut r = Rig::new();
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 5.0,
-        vertical_speed_mps: 0.0,
-    });
+    r.vehicle.altitude = altitude(5.0, 0.0);
     r.take_off();
     r.pilot.link_ok = false;
-    assert!(r
-        .run_until(1_100, |e| *e == Event::FailsafeDescent)
-        .is_some());
+    r.expect_event_within(Event::FailsafeDescent, 1_100);
     r.vehicle.altitude = None; // the barometer fails
     let c0 = r.step().collective;
     r.run_ms(1_000);
     let c1 = r.last.unwrap().collective;
     assert!(c1 < c0 - 0.04, "collective {c0} → {c1}");
-    assert!(r
-        .run_until(30_000, |e| *e
-            == Event::Disarmed(DisarmCause::FailsafeLanded))
-        .is_some());
+    r.expect_event_within(Event::Disarmed(DisarmCause::FailsafeLanded), 30_000);
 }
 
 #[test]
