@@ -44,6 +44,21 @@ fn read(value: u32) -> [T; 2] {
     ]
 }
 
+/// The driver with the datasheet PROM, on a bus expecting `ex`.
+fn baro_on(ex: &[T]) -> Ms5611<Mock> {
+    Ms5611::with_prom(Mock::new(ex), Address::CsbLow, prom())
+}
+
+/// A good D2 read, the pressure conversion it starts, a good D1 read and the
+/// next pressure conversion (0x48: D1 at OSR 4096).
+fn d2_then_d1() -> Vec<T> {
+    let mut ex = read(D2).to_vec();
+    ex.push(start(0x48));
+    ex.extend(read(D1));
+    ex.push(start(0x48));
+    ex
+}
+
 fn expected(d1: u32, d2: u32) -> Measurement {
     compensate(&prom(), d1, d2).unwrap()
 }
@@ -75,7 +90,7 @@ fn d2_then_n_d1_never_early_exact_deadlines() {
     ex.extend(read(D1 + 10));
     ex.push(start(0x48));
 
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(3));
     assert_eq!(s.next_deadline_us(), None);
     assert_eq!(s.next_channel(), Channel::Temperature);
@@ -121,11 +136,8 @@ fn d2_then_n_d1_never_early_exact_deadlines() {
 #[test]
 fn timestamps_wrap_around() {
     let mut ex = vec![start(0x50)];
-    ex.extend(read(D2));
-    ex.push(start(0x48));
-    ex.extend(read(D1));
-    ex.push(start(0x48));
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    ex.extend(d2_then_d1());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
 
     let t0 = u32::MAX - 500;
@@ -149,7 +161,7 @@ fn timestamps_wrap_around() {
 #[test]
 fn clock_stepping_backwards_never_reads_early() {
     let ex = [start(0x50)];
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
     s.poll(&mut baro, 5_000).unwrap();
     for t in [4_999, 0, 1_000, 5_000 + T_WAIT - 1] {
@@ -172,7 +184,7 @@ fn not_initialised_without_prom_and_no_traffic() {
 fn nack_on_start_recovers_after_longest_conversion() {
     let recovery = 9040 + 100;
     let ex = [start(0x50).with_error(nack()), start(0x50)];
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
     assert_eq!(s.config().recovery_us(), recovery);
     assert_eq!(s.poll(&mut baro, 100), Err(Error::Bus(nack())));
@@ -200,12 +212,9 @@ fn adc_errors_recover_and_redo_the_same_channel() {
     ex.extend(read(0));
     ex.push(start(0x50));
     // Finally a good D2 and a D1.
-    ex.extend(read(D2));
-    ex.push(start(0x48));
-    ex.extend(read(D1));
-    ex.push(start(0x48));
+    ex.extend(d2_then_d1());
 
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
     let mut t = 0u32;
     s.poll(&mut baro, t).unwrap();
@@ -236,7 +245,7 @@ fn failed_start_after_a_pressure_read_keeps_the_measurement() {
     ex.extend(read(D1));
     ex.push(start(0x48).with_error(nack()));
     ex.push(start(0x48)); // retried after the recovery wait
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
     s.poll(&mut baro, 0).unwrap();
     s.poll(&mut baro, T_WAIT).unwrap();
@@ -254,7 +263,7 @@ fn failed_start_after_a_temperature_read_is_returned() {
     let mut ex = vec![start(0x50)];
     ex.extend(read(D2));
     ex.push(start(0x48).with_error(nack()));
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
     s.poll(&mut baro, 0).unwrap();
     assert_eq!(s.poll(&mut baro, T_WAIT), Err(Error::Bus(nack())));
