@@ -73,16 +73,7 @@ fn main() -> ExitCode {
         Task::Bench {
             update_doc,
             profile,
-        } => {
-            let mut args = Vec::new();
-            if update_doc {
-                args.push("--update-doc".to_string());
-            }
-            if profile {
-                args.push("--profile".to_string());
-            }
-            bench::run(&args)
-        }
+        } => bench::run(update_doc, profile),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
