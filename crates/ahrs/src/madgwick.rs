@@ -696,6 +696,8 @@ impl Madgwick {
     }
 
     /// The field matches the reference: no disturbance, no candidate.
+    // Inlined: a call here costs every undisturbed update ~9 instructions.
+    #[inline(always)]
     fn clear_disturbance(&mut self) {
         self.mag_cand = None;
         self.mag_cand_s = 0.0;
