@@ -14,6 +14,8 @@
 //! it the direction of −a (gravity "down" as seen in the body frame). The magnetic
 //! reference is b = (bx, 0, bz) with bz > 0 in the northern hemisphere.
 
+// fixed.rs repeats these steps and checks under the same names, on purpose (see there).
+
 use crate::config::{Algorithm, Config, MagState, UpdatePath, UpdateStatus};
 use crate::quat::mat_vec;
 use crate::Quaternion;

@@ -51,6 +51,7 @@ fn constant_rate_integrates_about_each_axis() {
     }
 }
 
+// The test above again for the fixed filter, on purpose: its inputs are Q-formats.
 #[test]
 fn fixed_constant_rate_integrates() {
     for axis in 0..3 {
