@@ -379,6 +379,82 @@ fn osr_from_bits(bits: u8) -> Osr {
         .unwrap()
 }
 
+/// The conversion a CONVERT command (0x40 | D2 0x10 | OSR bits) starts at `now`:
+/// (channel, start, end), µs.
+fn conversion_for(cmd: u8, now: u64) -> (Channel, u64, u64) {
+    let ch = if cmd & 0x10 == 0 {
+        Channel::Pressure
+    } else {
+        Channel::Temperature
+    };
+    let end = now + u64::from(osr_from_bits(cmd & 0x0F).conversion_time_us());
+    (ch, now, end)
+}
+
+impl ChipState {
+    /// Finish a conversion whose time has come.
+    fn finish_due_conversion(&mut self, now: u64) {
+        if let Some((ch, _, end)) = self.conversion {
+            if now >= end {
+                self.conversion = None;
+                let v = match ch {
+                    Channel::Pressure => self.d1_next,
+                    Channel::Temperature => self.d2_next,
+                };
+                self.result = Some((ch, v));
+            }
+        }
+    }
+
+    fn command(&mut self, cmd: u8, now: u64, fail: bool) -> Result<(), ErrorKind> {
+        if let Some((ch, started, _)) = self.conversion {
+            self.violations.push(format!(
+                "cmd {cmd:#x} at {now} during {ch:?} from {started}"
+            ));
+        }
+        if fail {
+            // Worst case: the chip took the command anyway.
+            if cmd & 0xE0 == 0x40 {
+                self.conversion = Some(conversion_for(cmd, now));
+            }
+            return Err(nack());
+        }
+        match cmd {
+            0x00 => self.pending_read = Some(self.result.take().map_or(0, |(_, v)| v)),
+            c if c & 0xE0 == 0x40 => {
+                self.conversion = Some(conversion_for(c, now));
+                self.result = None;
+            }
+            other => panic!("unexpected command {other:#x}"),
+        }
+        Ok(())
+    }
+
+    fn adc_read(&mut self, buf: &mut [u8], now: u64, fail: bool) -> Result<(), ErrorKind> {
+        let v = self.pending_read.take().expect("read without ADC command");
+        if fail {
+            return Err(nack());
+        }
+        if v == 0 {
+            self.violations.push(format!("ADC read of 0 at {now}"));
+        }
+        buf.copy_from_slice(&v.to_be_bytes()[1..]);
+        if v != 0 {
+            let ch = if v == self.d1_next {
+                Channel::Pressure
+            } else {
+                Channel::Temperature
+            };
+            self.reads.push((ch, v));
+            match ch {
+                Channel::Pressure => self.d1_next += 3,
+                Channel::Temperature => self.d2_next += 5,
+            }
+        }
+        Ok(())
+    }
+}
+
 impl I2c for Chip {
     fn transaction(&mut self, address: u8, ops: &mut [Operation<'_>]) -> Result<(), ErrorKind> {
         assert_eq!(address, A);
@@ -387,77 +463,11 @@ impl I2c for Chip {
         let index = st.transfers;
         st.transfers += 1;
         let fail = index < 64 && st.fail_mask & (1 << index) != 0;
-        // Finish a conversion whose time has come.
-        if let Some((ch, _, end)) = st.conversion {
-            if now >= end {
-                st.conversion = None;
-                let v = match ch {
-                    Channel::Pressure => st.d1_next,
-                    Channel::Temperature => st.d2_next,
-                };
-                st.result = Some((ch, v));
-            }
-        }
+        st.finish_due_conversion(now);
         for op in ops.iter_mut() {
             match op {
-                Operation::Write(bytes) => {
-                    let cmd = bytes[0];
-                    if let Some((ch, started, _)) = st.conversion {
-                        st.violations.push(format!(
-                            "cmd {cmd:#x} at {now} during {ch:?} from {started}"
-                        ));
-                    }
-                    if fail {
-                        // Worst case: the chip took the command anyway.
-                        if cmd & 0xE0 == 0x40 {
-                            let ch = if cmd & 0x10 == 0 {
-                                Channel::Pressure
-                            } else {
-                                Channel::Temperature
-                            };
-                            let end =
-                                now + u64::from(osr_from_bits(cmd & 0x0F).conversion_time_us());
-                            st.conversion = Some((ch, now, end));
-                        }
-                        return Err(nack());
-                    }
-                    match cmd {
-                        0x00 => st.pending_read = Some(st.result.take().map_or(0, |(_, v)| v)),
-                        c if c & 0xE0 == 0x40 => {
-                            let ch = if c & 0x10 == 0 {
-                                Channel::Pressure
-                            } else {
-                                Channel::Temperature
-                            };
-                            let end = now + u64::from(osr_from_bits(c & 0x0F).conversion_time_us());
-                            st.conversion = Some((ch, now, end));
-                            st.result = None;
-                        }
-                        other => panic!("unexpected command {other:#x}"),
-                    }
-                }
-                Operation::Read(buf) => {
-                    let v = st.pending_read.take().expect("read without ADC command");
-                    if fail {
-                        return Err(nack());
-                    }
-                    if v == 0 {
-                        st.violations.push(format!("ADC read of 0 at {now}"));
-                    }
-                    buf.copy_from_slice(&v.to_be_bytes()[1..]);
-                    if v != 0 {
-                        let ch = if v == st.d1_next {
-                            Channel::Pressure
-                        } else {
-                            Channel::Temperature
-                        };
-                        st.reads.push((ch, v));
-                        match ch {
-                            Channel::Pressure => st.d1_next += 3,
-                            Channel::Temperature => st.d2_next += 5,
-                        }
-                    }
-                }
+                Operation::Write(bytes) => st.command(bytes[0], now, fail)?,
+                Operation::Read(buf) => st.adc_read(buf, now, fail)?,
             }
         }
         Ok(())
