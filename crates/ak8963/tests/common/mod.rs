@@ -1,6 +1,7 @@
 //! Shared test helpers: the init sequence, measurement reads, NACK and a
 //! minimal executor for the async API.
 #![allow(dead_code, clippy::unwrap_used, missing_docs)]
+// Shaped like the other drivers' tests/common on purpose: the crates share no test crate.
 
 use ak8963::{Ak8963, Config, Error};
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
