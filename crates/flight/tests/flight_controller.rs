@@ -2,125 +2,15 @@
 //! controller, driven step by step at 1 kHz.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod common;
+
+use common::*;
 use control::controllers::BodyRates;
 use control::loops::Quat;
-use control::shaping::Sticks;
 use flight::flightctl::*;
-use std::ops::RangeInclusive;
-
-const STEP_US: u32 = 1_000;
 
 /// A change made to the rig before a step.
 type Setup = fn(&mut Rig);
-
-struct Rig {
-    fc: FlightController,
-    now_us: u32,
-    pilot: PilotInput,
-    status: SystemStatus,
-    vehicle: VehicleState,
-    last: Option<FlightOutput>,
-}
-
-fn ready_status() -> SystemStatus {
-    SystemStatus {
-        sensors_healthy: true,
-        gyro_bias_done: true,
-        calibration_running: false,
-    }
-}
-
-fn level() -> VehicleState {
-    VehicleState {
-        attitude: Quat::IDENTITY,
-        gyro: BodyRates::default(),
-        altitude: None,
-    }
-}
-
-impl Rig {
-    fn new() -> Self {
-        Self {
-            fc: FlightController::new(FlightConfig::default()).unwrap(),
-            // Start near the wrap of the µs clock: nothing may depend on it.
-            now_us: u32::MAX - 500_000,
-            pilot: PilotInput {
-                sticks: Sticks::default(),
-                arm_switch: false,
-                mode: FlightMode::Angle,
-                link_ok: true,
-                motor_test_switch: false,
-            },
-            status: ready_status(),
-            vehicle: level(),
-            last: None,
-        }
-    }
-
-    fn step(&mut self) -> FlightOutput {
-        self.now_us = self.now_us.wrapping_add(STEP_US);
-        let out = self
-            .fc
-            .step(self.now_us, &self.pilot, &self.status, &self.vehicle);
-        if out.state == FlightState::Disarmed {
-            assert_eq!(out.motors, Motors::Off, "motors must be off when disarmed");
-        }
-        self.last = Some(out);
-        out
-    }
-
-    /// Runs `ms` steps; returns every event in order.
-    fn run_ms(&mut self, ms: u32) -> Vec<Event> {
-        let mut ev = Vec::new();
-        for _ in 0..ms {
-            ev.extend(self.step().events.iter());
-        }
-        ev
-    }
-
-    /// Runs until an event matching `f` or `max_ms`; returns the ms taken.
-    fn run_until(&mut self, max_ms: u32, f: impl Fn(&Event) -> bool) -> Option<u32> {
-        (1..=max_ms).find(|_| self.step().events.iter().any(|e| f(&e)))
-    }
-
-    /// Runs until `event`, which must come within `max_ms`.
-    fn expect_event_within(&mut self, event: Event, max_ms: u32) -> u32 {
-        self.run_until(max_ms, |e| *e == event)
-            .unwrap_or_else(|| panic!("no {event:?} within {max_ms} ms"))
-    }
-
-    /// Runs until `event`, which must come after a number of steps in
-    /// `expected_ms`.
-    fn expect_event_after(&mut self, event: Event, max_ms: u32, expected_ms: RangeInclusive<u32>) {
-        let ms = self.expect_event_within(event, max_ms);
-        assert!(
-            expected_ms.contains(&ms),
-            "{event:?} after {ms} ms, expected {expected_ms:?}"
-        );
-    }
-
-    /// Switch off for a while, then on: one arm request.
-    fn flip_arm_switch(&mut self) -> Vec<Event> {
-        self.pilot.arm_switch = false;
-        self.run_ms(20);
-        self.pilot.arm_switch = true;
-        self.run_ms(1)
-    }
-
-    fn arm(&mut self) {
-        let ev = self.flip_arm_switch();
-        assert_eq!(ev, vec![Event::Armed], "arming failed");
-        assert_eq!(self.fc.state(), FlightState::Armed);
-    }
-
-    /// Armed and flying at hover throttle for a while.
-    fn take_off(&mut self) {
-        self.arm();
-        self.pilot.sticks.throttle = 0.5;
-        let ev = self.run_ms(200);
-        assert!(ev.is_empty(), "{ev:?}");
-    }
-}
 
 /// The vertical estimator's output at `height_m`, moving at
 /// `vertical_speed_mps` (up positive).
