@@ -3,8 +3,9 @@
 //! --features ppm`, its ELF given in `FIL_ELF`; `scripts/check` does both):
 //! an 8-channel PPM train (22.5 ms frames, 0.3 ms separator pulses) driven
 //! on PB8 reaches the log (positive and negative PPM), arming and failsafe
-//! behave as with CRSF, and frames with a wrong channel count or an
-//! out-of-range pulse are dropped and counted.
+//! behave as with CRSF, frames with a wrong channel count or an
+//! out-of-range pulse are dropped and counted, and spikes shorter than the
+//! capture filter never reach the decoder.
 //!
 //! Without `FIL_ELF` the default release ELF is the CRSF build: the tests
 //! say "skipped". An ELF given in `FIL_ELF` that is not the `ppm` build
