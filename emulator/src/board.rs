@@ -1651,6 +1651,7 @@ impl Board {
         at_ns(hw.iwdg.timeout_ns());
         at_ns(hw.tim3.next_update_ns());
         at_ns(hw.tim4.next_update_ns());
+        at_ns(hw.tim4.next_input_ns());
         at_ns(hw.next_pin_edge_ns());
         at_ns(hw.usart1.next_event_ns());
         let s = self.bus.state();

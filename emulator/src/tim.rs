@@ -13,19 +13,19 @@
 //! Modelled: upcounting, edge-aligned (CR1.DIR = 0, CMS = 00), continuous
 //! (OPM = 0), internal clock (SMCR = 0), output compare modes frozen,
 //! forced inactive/active and PWM mode 1/2; input capture with ICx mapped
-//! on its own TIx (CCxS = 01), no input filter (ICxF = 0000), every input
-//! prescaler (ICxPSC: every 1st, 2nd, 4th or 8th active edge), either
-//! polarity (CCxP), CCxIF/CCxOF with their clear sequences, the CCxG
-//! software capture and the capture interrupts (CCxIE).
+//! on its own TIx (CCxS = 01), the digital input filter (ICxF: TIx sampled
+//! at f_CK_INT or f_DTS/2..32, a level passed on after N = 2..8 equal
+//! consecutive samples, which delays every edge alike and swallows pulses
+//! shorter than N samples), every input prescaler (ICxPSC: every 1st, 2nd,
+//! 4th or 8th active edge), either polarity (CCxP), CCxIF/CCxOF with their
+//! clear sequences, the CCxG software capture and the capture interrupts
+//! (CCxIE).
 //!
 //! Not modelled, and stopping the board with an error rather than running
 //! with behaviour the manual does not give it: centre-aligned or down
 //! counting, one-pulse, slave modes, DMA, the compare-match interrupts of
-//! output channels, ICx mapped on the neighbour's TIx or on TRC (CCxS = 10
-//! or 11) and the digital input filter (ICxF ≠ 0000: it samples TIx at
-//! f_CK_INT or f_DTS/2..32 and passes a level only after N = 2..8 equal
-//! consecutive samples, which delays every edge and swallows pulses
-//! shorter than N samples).
+//! output channels, and ICx mapped on the neighbour's TIx or on TRC (CCxS
+//! = 10 or 11).
 
 /// Register offsets (RM0008 §15.4.19, table 87).
 pub mod reg {
@@ -119,8 +119,14 @@ pub struct GpTimer {
     at_tick: u64,
     /// OCxREF kept by the frozen mode.
     frozen_ref: [bool; 4],
-    /// Level of each channel's input TIx.
+    /// Level of each channel's input TIx after the digital filter (what
+    /// the edge detector sees).
     ti_high: [bool; 4],
+    /// Level on each channel's pin, before the filter.
+    ti_raw: [bool; 4],
+    /// A level the filter passes on at a kernel tick, once the pin has
+    /// held it for N samples (ICxF ≠ 0000).
+    ti_pending: [Option<(u64, bool)>; 4],
     /// Active edges counted by each input prescaler since its last capture.
     ic_edges: [u8; 4],
 }
@@ -172,6 +178,8 @@ impl GpTimer {
             at_tick: 0,
             frozen_ref: [false; 4],
             ti_high: [false; 4],
+            ti_raw: [false; 4],
+            ti_pending: [None; 4],
             ic_edges: [0; 4],
         }
     }
@@ -179,9 +187,10 @@ impl GpTimer {
     /// Peripheral reset (RCC APB1RSTR, or the MCU reset), keeping the clock
     /// and the levels on the input pins (the world outside the timer).
     pub fn reset(&mut self) {
-        let ti_high = self.ti_high;
+        let ti_raw = self.ti_raw;
         *self = Self::new(self.name, self.clock_hz);
-        self.ti_high = ti_high;
+        self.ti_raw = ti_raw;
+        self.ti_high = ti_raw;
     }
 
     /// Changes the kernel clock (RCC prescalers) from `now_ns` on.
@@ -240,16 +249,79 @@ impl GpTimer {
         self.sr |= sr::ccif(ch);
     }
 
-    /// The level of input TIx of channel `ch` (0..4) changes to `high` at
-    /// `at_ns` (not before the last time the timer was brought to). An
-    /// active edge of an enabled input-capture channel (rising with CCxP =
-    /// 0, falling with CCxP = 1) counts in the input prescaler, and every
-    /// 1st/2nd/4th/8th one captures the counter as it stands at `at_ns`
-    /// (the input's resynchronisation, a few CK_INT cycles, is below one
-    /// counter tick at any prescaler the firmware uses and is not
-    /// modelled).
+    /// The digital filter of input channel `ch` (ICxF, §15.4.7): the
+    /// sampling period in kernel ticks (f_CK_INT, or f_DTS / 2..32 with
+    /// f_DTS = f_CK_INT / 1, 2 or 4 from CR1.CKD) and the number N of equal
+    /// consecutive samples a new level needs; `None` for ICxF = 0000 or an
+    /// output channel.
+    fn ic_filter(&self, ch: usize) -> Option<(u64, u64)> {
+        if !self.is_input(ch) {
+            return None;
+        }
+        let f = (self.ccmr[ch / 2] >> (4 + 8 * (ch % 2))) & 0xF;
+        let dts = 1u64 << ((self.cr1 >> 8) & 3).min(2);
+        Some(match f {
+            0 => return None,
+            1 => (1, 2),
+            2 => (1, 4),
+            3 => (1, 8),
+            4 => (2 * dts, 6),
+            5 => (2 * dts, 8),
+            6 => (4 * dts, 6),
+            7 => (4 * dts, 8),
+            8 => (8 * dts, 6),
+            9 => (8 * dts, 8),
+            10 => (16 * dts, 5),
+            11 => (16 * dts, 6),
+            12 => (16 * dts, 8),
+            13 => (32 * dts, 5),
+            14 => (32 * dts, 6),
+            _ => (32 * dts, 8),
+        })
+    }
+
+    /// The level on the pin of channel `ch` (0..4) changes to `high` at
+    /// `at_ns` (not before the last time the timer was brought to).
+    ///
+    /// Without a filter (ICxF = 0000) the edge detector sees the change at
+    /// once. With one, the filter samples the pin every sampling period and
+    /// passes a level on at the N-th consecutive sample that reads it
+    /// (§15.3.5's example validates a transition after 8 consecutive
+    /// samples at the new level taken at f_CK_INT, IC1F = 0011): every
+    /// edge is delayed alike, and a pulse shorter than N samples never
+    /// reaches the edge detector.
+    ///
+    /// An active edge of an enabled input-capture channel (rising with CCxP
+    /// = 0, falling with CCxP = 1) counts in the input prescaler, and every
+    /// 1st/2nd/4th/8th one captures the counter as it stands then (the
+    /// input's resynchronisation, a few CK_INT cycles, is below one counter
+    /// tick at any prescaler the firmware uses and is not modelled).
     pub fn input(&mut self, ch: usize, high: bool, at_ns: u64) {
         self.advance(at_ns);
+        let Some(raw) = self.ti_raw.get_mut(ch) else {
+            return;
+        };
+        if *raw == high {
+            return;
+        }
+        *raw = high;
+        let Some((period, n)) = self.ic_filter(ch) else {
+            self.ti_pending[ch] = None;
+            self.detect(ch, high);
+            return;
+        };
+        if self.ti_pending[ch].take().is_some() || high == self.ti_high[ch] {
+            // Back to the filtered level before N samples confirmed the
+            // other one: nothing passes.
+            return;
+        }
+        let first_sample = (self.at_tick / period + 1) * period;
+        self.ti_pending[ch] = Some((first_sample + (n - 1) * period, high));
+    }
+
+    /// The filtered level of channel `ch` becomes `high` now: the edge
+    /// detector, the input prescaler and the capture.
+    fn detect(&mut self, ch: usize, high: bool) {
         let Some(level) = self.ti_high.get_mut(ch) else {
             return;
         };
@@ -269,6 +341,19 @@ impl GpTimer {
         }
     }
 
+    /// The earliest level the filters pass on: (kernel tick, channel).
+    fn next_filtered(&self) -> Option<(u64, usize)> {
+        (0..4)
+            .filter_map(|ch| self.ti_pending[ch].map(|(t, _)| (t, ch)))
+            .min()
+    }
+
+    /// When a filter next passes a level on (for the board's scheduler: a
+    /// capture interrupt can follow).
+    pub fn next_input_ns(&self) -> Option<u64> {
+        self.next_filtered().map(|(t, _)| tick_ns(t, self.clock_hz))
+    }
+
     fn oc_preload(&self, ch: usize) -> bool {
         self.ccmr[ch / 2] & (1 << (3 + 8 * (ch % 2))) != 0
     }
@@ -277,6 +362,19 @@ impl GpTimer {
     /// overflows (update events when UDIS = 0).
     pub fn advance(&mut self, now_ns: u64) {
         let now = ticks(now_ns, self.clock_hz);
+        // Levels the filters pass on before `now`, each with the counter
+        // as it stands at its tick.
+        while let Some((t, ch)) = self.next_filtered().filter(|&(t, _)| t <= now) {
+            self.advance_ticks(t);
+            if let Some((_, high)) = self.ti_pending[ch].take() {
+                self.detect(ch, high);
+            }
+        }
+        self.advance_ticks(now);
+    }
+
+    /// Brings the counter to kernel tick `now`.
+    fn advance_ticks(&mut self, now: u64) {
         if now <= self.at_tick {
             return;
         }
@@ -485,12 +583,7 @@ impl GpTimer {
                     let f = (v >> (8 * half)) & 0xFF;
                     match f & 3 {
                         0 => {}
-                        1 => {
-                            if f >> 4 != 0 {
-                                return unsupported("input filter (ICxF != 0000)");
-                            }
-                            continue;
-                        }
+                        1 => continue,
                         _ => {
                             return unsupported(
                                 "input capture on TRC or the neighbour's TIx (CCxS = 10/11)",

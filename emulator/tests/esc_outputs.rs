@@ -372,6 +372,35 @@ fn a_flash_erase_during_reception_is_counted_late_and_the_link_holds() {
     println!("{last}");
 }
 
+/// A byte with a framing error early in a burst long enough to cross a
+/// half-ring mark: the handover at the mark reads SR (FE set), the DMA's
+/// next DR read completes FE's clear sequence before the burst's IDLE, and
+/// the error must still be counted, once per burst.
+#[test]
+fn a_framing_error_before_a_half_ring_mark_is_counted() {
+    let Some(mut b) = board() else { return };
+    boot_ok(&mut b);
+    let good = rc_frame([ticks(1500); 16]);
+    let up = stream_until(&mut b, &good, "rc: link up", 500 * MS);
+    assert!(up.is_some(), "{}", tail(&b, 20));
+    for _ in 0..3 {
+        // One byte sent 30 % slow (outside the receiver's 3.75 %
+        // tolerance: FE), then four frames back to back: 105 bytes.
+        let now = b.now_ns();
+        b.usart1_send_at(&[0x00], 300_000, now);
+        b.usart1_send_at(&good.repeat(4), CRSF_BAUD, now);
+        let t = b.now_ns() + 10 * MS;
+        run_until(&mut b, t);
+        stream(&mut b, &good, 4 * MS, t + 100 * MS);
+    }
+    let t = b.now_ns();
+    stream(&mut b, &good, 4 * MS, t + 1_100 * MS);
+    let rc = lines_after(&b, t, "rc: ch1-8");
+    let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
+    assert_eq!(field(last, "fe "), 3, "{last}");
+    assert_eq!(field(last, "ore "), 0, "{last}");
+}
+
 /// A LINK_STATISTICS frame (type 0x14) with uplink link quality `lq`.
 fn link_stats_frame(lq: u8) -> Vec<u8> {
     let mut body = vec![0x14, 60, 60, lq, 10, 0, 4, 2, 70, 100, 8];

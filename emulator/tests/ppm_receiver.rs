@@ -3,8 +3,9 @@
 //! --features ppm`, its ELF given in `FIL_ELF`; `scripts/check` does both):
 //! an 8-channel PPM train (22.5 ms frames, 0.3 ms separator pulses) driven
 //! on PB8 reaches the log (positive and negative PPM), arming and failsafe
-//! behave as with CRSF, and frames with a wrong channel count or an
-//! out-of-range pulse are dropped and counted.
+//! behave as with CRSF, frames with a wrong channel count or an
+//! out-of-range pulse are dropped and counted, and spikes shorter than the
+//! capture filter never reach the decoder.
 //!
 //! Without `FIL_ELF` the default release ELF is the CRSF build: the tests
 //! say "skipped". An ELF given in `FIL_ELF` that is not the `ppm` build
@@ -65,6 +66,9 @@ struct Ppm {
     next_frame_ns: u64,
     /// Idle high, low pulses.
     negative: bool,
+    /// A spike of this width (ns) 200 µs after each separator pulse: ringing
+    /// coupled into the receiver lead.
+    spike_ns: Option<u64>,
 }
 
 impl Ppm {
@@ -72,6 +76,7 @@ impl Ppm {
         Self {
             next_frame_ns: b.now_ns() + 100 * US,
             negative: false,
+            spike_ns: None,
         }
     }
 
@@ -83,6 +88,11 @@ impl Ppm {
         for &ch in channels_us {
             edges.push((t, pulse));
             edges.push((t + SEPARATOR_NS, !pulse));
+            if let Some(w) = self.spike_ns {
+                let at = t + SEPARATOR_NS + 200 * US;
+                edges.push((at, pulse));
+                edges.push((at + w, !pulse));
+            }
             t += ch * US;
         }
         edges.push((t, pulse));
@@ -238,6 +248,48 @@ fn ppm_frames_with_a_wrong_count_or_pulse_are_dropped_and_counted() {
         last.contains("[1500, 1500, 1000, 1500, 2000, 1200, 1800, 1500]"),
         "{last}"
     );
+}
+
+/// Spikes shorter than the capture filter's 8 samples at 72 MHz (111 ns)
+/// never reach the decoder: every frame of a train with a 60 ns spike in
+/// each channel decodes. Without the filter each spike is a capture and
+/// every frame is dropped (bad_pulse).
+#[test]
+fn short_spikes_on_the_ppm_line_are_filtered_out() {
+    let Some(mut b) = ppm_board(false) else {
+        return;
+    };
+    let mut ppm = Ppm::new(&b);
+    ppm.spike_ns = Some(60);
+    let start = b.now_ns();
+    let irqs_before = b.exception_entries(emulator::TIM4_IRQ);
+    ppm.stream(&mut b, &EIGHT, start + 1_100 * MS);
+    let sent_frames = (ppm.next_frame_ns - start) / FRAME_NS;
+    let irqs = b.exception_entries(emulator::TIM4_IRQ) - irqs_before;
+    assert!(
+        (9 * (sent_frames - 1)..=9 * sent_frames).contains(&irqs),
+        "{irqs} TIM4 interrupts for {sent_frames} frames: the spikes were captured"
+    );
+    let rc = lines_after(&b, start, "rc: ch1-8");
+    let last = rc
+        .last()
+        .unwrap_or_else(|| panic!("no channel line\n{}", tail(&b, 30)));
+    assert!(
+        last.contains("[1500, 1500, 1000, 1500, 2000, 1200, 1800, 1500]"),
+        "{last}"
+    );
+    assert_eq!(field(last, "bad_pulse "), 0, "{last}");
+    assert!(field(last, "dropped ") <= 1, "{last}");
+    // A 300 ns pulse is longer than the filter: it is an edge, and its
+    // frame is dropped and counted.
+    ppm.spike_ns = Some(300);
+    let mid = b.now_ns();
+    ppm.stream(&mut b, &EIGHT, mid + 300 * MS);
+    ppm.spike_ns = None;
+    ppm.stream(&mut b, &EIGHT, mid + 1_300 * MS);
+    let rc = lines_after(&b, mid, "rc: ch1-8");
+    let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
+    assert!(field(last, "bad_pulse ") >= 10, "{last}");
 }
 
 /// Sticks centred, throttle at `throttle_us`, arm switch (channel 5) on or

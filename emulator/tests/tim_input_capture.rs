@@ -244,11 +244,104 @@ fn an_input_channel_drives_no_output() {
     assert_eq!(r.t.pwm_ns(CH), None);
 }
 
+/// CCMR2 for channel 3 with the input filter IC3F = `f`.
+fn ccmr2_ic3_filtered(f: u32) -> u32 {
+    ccmr2_ic3(0) | (f << 4)
+}
+
+/// TIM4 at 72 MHz, PSC = 0 (the counter at f_CK_INT, so a capture shows
+/// the filter's delay tick by tick), channel 3 on rising edges through
+/// the filter IC3F = `f`, CR1.CKD = `ckd`.
+fn filtered_rig(f: u32, ckd: u32) -> Rig {
+    let mut r = Rig::capture_1mhz();
+    r.wr(reg::PSC, 0);
+    r.wr(reg::CCER, 0);
+    r.wr(reg::CCMR2, ccmr2_ic3_filtered(f));
+    r.wr(reg::CCER, CC3E);
+    r.wr(reg::EGR, 1);
+    r.wr(reg::SR, 0);
+    r.wr(reg::CR1, cr1::CEN | (ckd << 8));
+    r
+}
+
+#[test]
+fn the_input_filter_delays_an_edge_by_its_n_samples() {
+    // IC3F = 0011: sampled at f_CK_INT, N = 8 (§15.3.5's own example).
+    // An edge between kernel ticks 1000 and 1001: first sample at 1001,
+    // the eighth at 1008.
+    let tick_ns = |t: u64| t * 1_000 / 72;
+    let mut r = filtered_rig(0b0011, 0);
+    r.edge(true, tick_ns(1_000) + 5);
+    assert_eq!(r.sr() & sr::ccif(CH), 0, "not through the filter yet");
+    assert_eq!(
+        r.t.next_input_ns().map(|t| t / 10),
+        Some(tick_ns(1_008) / 10)
+    );
+    r.now = tick_ns(1_100);
+    assert_ne!(r.sr() & sr::ccif(CH), 0, "through after 8 samples");
+    assert_eq!(r.rd(reg::CCR3), 1_008);
+    assert_eq!(r.t.next_input_ns(), None);
+}
+
+#[test]
+fn the_input_filter_swallows_a_pulse_shorter_than_n_samples() {
+    let tick_ns = |t: u64| t * 1_000 / 72;
+    // N = 8 at f_CK_INT: a 50 ns (3.6 tick) spike never reaches the edge
+    // detector, a 200 ns (14 tick) pulse does.
+    let mut r = filtered_rig(0b0011, 0);
+    r.pulse(tick_ns(500), 50);
+    r.now = tick_ns(2_000);
+    assert_eq!(r.sr() & sr::ccif(CH), 0, "50 ns spike filtered out");
+    r.pulse(tick_ns(3_000), 200);
+    r.now = tick_ns(4_000);
+    assert_ne!(r.sr() & sr::ccif(CH), 0, "200 ns pulse passes");
+    // IC3F = 1111 with CKD = 10: f_DTS = f_CK_INT / 4, sampled at
+    // f_DTS / 32 (every 128 ticks), N = 8: a level held for less than
+    // 7 × 128 = 896 ticks never reaches the eighth sample.
+    let mut r = filtered_rig(0b1111, 0b10);
+    r.pulse(tick_ns(1_000), tick_ns(890));
+    r.now = tick_ns(10_000);
+    assert_eq!(r.sr() & sr::ccif(CH), 0, "890-tick pulse filtered out");
+    r.pulse(tick_ns(20_000), tick_ns(1_200));
+    r.now = tick_ns(30_000);
+    assert_ne!(r.sr() & sr::ccif(CH), 0, "1200-tick pulse passes");
+    // First sample at tick 20 096 (the next multiple of 128), the eighth
+    // 7 × 128 later.
+    assert_eq!(r.rd(reg::CCR3), 20_096 + 7 * 128);
+}
+
+#[test]
+fn filtered_intervals_equal_the_unfiltered_ones() {
+    // Every edge is delayed alike: a PPM-like train of rising edges at
+    // 1 MHz counting gives the same intervals with IC3F = 0011.
+    let mut plain = Rig::capture_1mhz();
+    let mut filt = Rig::capture_1mhz();
+    filt.wr(reg::CCER, 0);
+    filt.wr(reg::CCMR2, ccmr2_ic3_filtered(0b0011));
+    filt.wr(reg::CCER, CC3E);
+    let mut got = [Vec::new(), Vec::new()];
+    let mut t = 1_000 * US + 321;
+    for width_us in [1_100, 1_500, 1_900, 1_000, 9_000, 1_200] {
+        for (r, g) in [&mut plain, &mut filt].into_iter().zip(got.iter_mut()) {
+            r.pulse(t, 300 * US);
+            r.now = t + 400 * US;
+            g.push(r.rd(reg::CCR3));
+        }
+        t += width_us * US;
+    }
+    let intervals = |g: &[u32]| {
+        g.windows(2)
+            .map(|w| w[1].wrapping_sub(w[0]) & 0xFFFF)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(intervals(&got[0]), [1_100, 1_500, 1_900, 1_000, 9_000]);
+    assert_eq!(intervals(&got[1]), intervals(&got[0]));
+}
+
 #[test]
 fn unmodelled_input_features_are_refused() {
     let mut t = GpTimer::new("TIM4", 72_000_000);
     let refused = |t: &mut GpTimer, off, v| matches!(t.write(off, v, 0), Some(Err(_)));
-    assert!(refused(&mut t, reg::CCMR2, 0b01 | (0b0011 << 4)), "IC3F");
     assert!(refused(&mut t, reg::CCMR2, 0b10), "IC3 on TI4");
     assert!(refused(&mut t, reg::CCMR2, 0b11), "IC3 on TRC");
     assert!(

@@ -74,9 +74,14 @@ impl PpmInput {
         let psc = (timer_hz / CAPTURE_HZ).saturating_sub(1);
         tim.psc().write(|w| w.psc().set(psc as u16));
         tim.arr().write(|w| w.arr().set(0xFFFF));
-        // CC3S = 01 (IC3 on TI3), IC3PSC = 00 (every edge), IC3F = 0000: a
-        // glitch is a wrong interval, which the decoder drops with its frame.
-        tim.ccmr2_input().write(|w| w.cc3s().ti3());
+        // CC3S = 01 (IC3 on TI3), IC3PSC = 00 (every edge), IC3F = 0011:
+        // a level counts once 8 samples at f_CK_INT agree (RM0008 §15.3.5's
+        // own example). A spike shorter than 111 ns (ringing coupled from
+        // the ESC wires into the receiver lead) would otherwise be an edge
+        // and cost its frame; every real edge is delayed by the same
+        // 8 cycles, so the intervals are unchanged.
+        tim.ccmr2_input()
+            .write(|w| w.cc3s().ti3().ic3f().fck_int_n8());
         // CC3P = 0: rising edges.
         tim.ccer().write(|w| w.cc3e().set_bit());
         // UG loads the prescaler before counting.

@@ -59,9 +59,9 @@ const CCR_MINC: u32 = 1 << 7;
 const CCR_PL_VERY_HIGH: u32 = 3 << 12;
 
 /// Receive errors the USART flagged (RM0008 §27.3.3), counted at each IDLE
-/// event from the flags set since the one before: a burst with several bad
-/// bytes counts once. The bytes themselves went to the parser, whose CRC
-/// check drops their frames.
+/// event from the flags any SR read saw since the one before: a burst with
+/// several bad bytes counts once. The bytes themselves went to the parser,
+/// whose CRC check drops their frames.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, defmt::Format)]
 pub struct UartErrors {
     /// Bursts with an overrun (ORE: a byte lost because DR was not emptied
@@ -93,6 +93,11 @@ pub struct CrsfRx {
     parser: CrsfParser,
     line_us: u32,
     errors: UartErrors,
+    /// SR bits (ORE/FE/NE among them) seen by the SR reads of this burst. A handover at a
+    /// half-ring mark reads SR, and the DMA's next read of DR completes the
+    /// flags' clear sequence (SR then DR, RM0008 §27.6.1): a flag seen
+    /// then is gone by the burst's IDLE.
+    seen: u16,
 }
 
 impl CrsfRx {
@@ -144,6 +149,7 @@ impl CrsfRx {
             read_pos: 0,
             parser: CrsfParser::new(),
             line_us: 0,
+            seen: 0,
             errors: UartErrors {
                 overruns: 0,
                 framing: 0,
@@ -154,15 +160,18 @@ impl CrsfRx {
     }
 
     /// USART1's interrupt: IDLE, or pended by [`on_dma_half_or_complete`].
-    /// On IDLE counts the error flags and clears them with IDLE (SR then
-    /// DR, RM0008 §27.6.1); hands the new bytes to the parser; after an
-    /// IDLE, moves the parser's line clock past its idle gap so the next
-    /// byte starts a frame.
+    /// Notes the error flags; on IDLE counts those of the burst and clears
+    /// them with IDLE (SR then DR, RM0008 §27.6.1); hands the new bytes to
+    /// the parser; after an IDLE, moves the parser's line clock past its
+    /// idle gap so the next byte starts a frame.
     pub fn on_interrupt(&mut self, mut on_event: impl FnMut(Event)) {
         let sr = self.usart.sr().read().bits();
+        self.seen |= sr;
         let idle = sr & SR_IDLE != 0;
         if idle {
             let _ = self.usart.dr().read();
+            let sr = self.seen;
+            self.seen = 0;
             for (flag, count) in [
                 (SR_ORE, &mut self.errors.overruns),
                 (SR_FE, &mut self.errors.framing),
