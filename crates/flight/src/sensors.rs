@@ -493,24 +493,24 @@ impl<I: I2c> Sensors<I> {
         if !read_mag {
             return (imu, MagRead::NotReady);
         }
-        let status_block = bytes
-            .get(ST1_OFFSET..)
-            .and_then(|b| b.first_chunk::<{ ak8963::register::STATUS_BLOCK_LEN }>());
-        let resolution = self.mag.config().resolution;
-        let r = match (st1_r, data_r, status_block) {
-            (Some(Err(e)), _, _) => Err(ak8963::Error::Bus(e)),
-            (Some(Ok(())), Some(Err(e)), _) => {
+        let r = match (st1_r, data_r) {
+            (Some(Err(e)), _) => Err(ak8963::Error::Bus(e)),
+            (Some(Ok(())), Some(Err(e))) => {
                 // Best effort, as the driver's own read: its error is the one reported.
                 let _ = self.mag.end_data_read();
                 Err(ak8963::Error::Bus(e))
             }
-            // Without the data block, only a clear DRDY may be parsed.
-            (Some(Ok(())), data, Some(block))
-                if data.is_some() || block[0] & ak8963::register::ST1_DRDY == 0 =>
+            (Some(Ok(())), Some(Ok(()))) => match bytes
+                .get(ST1_OFFSET..)
+                .and_then(|b| b.first_chunk::<{ ak8963::register::STATUS_BLOCK_LEN }>())
             {
-                parse_status_block(block, resolution).map_err(ak8963::Error::from)
-            }
-            _ => return (imu, MagRead::Unavailable),
+                Some(block) => parse_status_block(block, self.mag.config().resolution)
+                    .map_err(ak8963::Error::from),
+                None => return (imu, MagRead::Unavailable),
+            },
+            // The data block is skipped only when ST1 showed DRDY clear.
+            (Some(Ok(())), None) => Err(ak8963::Error::NotReady),
+            (None, _) => return (imu, MagRead::Unavailable),
         };
         (imu, self.record_mag(r))
     }
