@@ -242,6 +242,7 @@ mod suite {
                 arm_switch: false,
                 mode,
                 link_ok: true,
+                motor_test_switch: false,
             };
             let still = VehicleState {
                 attitude: Quat::IDENTITY,

@@ -50,6 +50,26 @@ const RTT_POLL_NS: u64 = 1_000_000;
 pub const EXTI9_5: usize = IRQ0 + 23;
 /// TIM3's exception number (RM0008 §10.1.2 table 63: IRQ 29).
 pub const TIM3_IRQ: usize = IRQ0 + 29;
+/// TIM4's exception number (IRQ 30).
+pub const TIM4_IRQ: usize = IRQ0 + 30;
+/// TIM4 channel inputs in channel order: PB6, PB7, PB8, PB9 (RM0008 §9.3.7
+/// table 44, no remap). PB6/PB7 are I2C1's on this board; PB8 (TIM4_CH3)
+/// and PB9 (TIM4_CH4) are free and 5 V tolerant.
+pub const TIM4_PINS: [(usize, u32); 4] = [(1, 6), (1, 7), (1, 8), (1, 9)];
+/// Pins the board already drives (button, MPU INT, I2C1, TIM3's outputs,
+/// USART1 RX, the LED): a test waveform may not fight them.
+const BOARD_DRIVEN_PINS: [(usize, u32); 10] = [
+    (0, 0),
+    (1, 5),
+    (1, 6),
+    (1, 7),
+    (0, 6),
+    (0, 7),
+    (1, 0),
+    (1, 1),
+    (0, 10),
+    (2, 13),
+];
 /// USART1's exception number (IRQ 37).
 pub const USART1_IRQ: usize = IRQ0 + 37;
 /// TIM3 channel outputs in channel order: PA6, PA7, PB0, PB1 (RM0008
@@ -180,6 +200,18 @@ pub enum BoardFault {
     I2c(crate::i2c1::PeripheralFault),
 }
 
+/// A waveform driven onto a GPIO pin from outside the board (a receiver's
+/// PPM output, a signal generator).
+#[derive(Clone, Debug)]
+struct DrivenPin {
+    port: usize,
+    pin: u32,
+    /// The level now.
+    high: bool,
+    /// Edges still to come: (time in ns since power-on, new level).
+    edges: std::collections::VecDeque<(u64, bool)>,
+}
+
 /// A translated block's size in bytes, instruction count, and whether it
 /// is an idle loop.
 #[derive(Clone, Copy, Debug, Default)]
@@ -211,7 +243,9 @@ pub struct Hw {
     iwdg: Iwdg,
     i2c: I2c1,
     tim3: GpTimer,
+    tim4: GpTimer,
     usart1: Usart,
+    driven: Vec<DrivenPin>,
     clock: sim::SimClock,
     tail_base: u32,
     blocks: Vec<BlockInfo>,
@@ -242,9 +276,53 @@ impl Hw {
         self.clock.advance_to_ns(self.now_ns());
     }
 
+    /// Applies the driven pins' edges up to `t_ns` in time order: the pin
+    /// levels, TIM4's inputs (a timer input sees the pin whatever its GPIO
+    /// mode, except analog) and the EXTI line of a selected pin.
+    fn drive_pins_to(&mut self, t_ns: u64) {
+        loop {
+            let next = self
+                .driven
+                .iter()
+                .enumerate()
+                .filter_map(|(i, d)| d.edges.front().map(|&(t, _)| (t, i)))
+                .filter(|&(t, _)| t <= t_ns)
+                .min();
+            let Some((t, i)) = next else { return };
+            let d = &mut self.driven[i];
+            let Some((_, high)) = d.edges.pop_front() else {
+                return;
+            };
+            d.high = high;
+            let (port, pin) = (d.port, d.pin);
+            let level = self.ports[port].level(pin, Some(high));
+            let tim4_mapped = self.afio.mapr & (1 << 12) == 0;
+            if let Some(ch) = TIM4_PINS.iter().position(|&p| p == (port, pin)) {
+                if tim4_mapped && !matches!(self.ports[port].config(pin), PinConfig::Analog) {
+                    self.tim4.input(ch, level, t);
+                }
+            }
+            if self.afio.exti_port(pin) as usize == port {
+                self.exti.input(pin, level);
+            }
+        }
+    }
+
+    /// Time of the next edge of a driven pin.
+    fn next_pin_edge_ns(&self) -> Option<u64> {
+        self.driven
+            .iter()
+            .filter_map(|d| d.edges.front().map(|&(t, _)| t))
+            .min()
+    }
+
     /// Level of a GPIO pin including what the board drives onto it.
     fn pin_level(&mut self, port: usize, pin: u32) -> bool {
         let now = self.now_ns();
+        if let Some(d) = self.driven.iter().find(|d| (d.port, d.pin) == (port, pin)) {
+            let high = d.high;
+            return self.ports[port].level(pin, Some(high));
+        }
         let external = match (port, pin) {
             (0, 0) => self.button_pressed.then_some(false),
             (1, 5) => {
@@ -279,6 +357,7 @@ impl Hw {
     }
 
     fn idr(&mut self, port: usize) -> u32 {
+        self.drive_pins_to(self.now_ns());
         (0..16).fold(0, |v, pin| {
             v | (u32::from(self.pin_level(port, pin)) << pin)
         })
@@ -323,6 +402,7 @@ impl Hw {
             0x4001_1000..=0x4001_13FF => ("GPIOC", self.rcc.apb2enr & (1 << 4) != 0),
             0x4000_5400..=0x4000_57FF => ("I2C1", self.rcc.apb1enr & (1 << 21) != 0),
             0x4000_0400..=0x4000_07FF => ("TIM3", self.rcc.apb1enr & (1 << 1) != 0),
+            0x4000_0800..=0x4000_0BFF => ("TIM4", self.rcc.apb1enr & (1 << 2) != 0),
             0x4001_3800..=0x4001_3BFF => ("USART1", self.rcc.apb2enr & (1 << 14) != 0),
             _ => return None,
         };
@@ -337,6 +417,11 @@ impl Hw {
             0x4000_0400..=0x4000_07FF => {
                 self.resched = true;
                 self.tim3.read(a - 0x4000_0400, now)
+            }
+            0x4000_0800..=0x4000_0BFF => {
+                self.resched = true;
+                self.drive_pins_to(now);
+                self.tim4.read(a - 0x4000_0800, now)
             }
             0x4001_3800..=0x4001_3BFF => {
                 self.resched = true;
@@ -389,6 +474,12 @@ impl Hw {
                 let r = self.tim3.write(a - 0x4000_0400, merged(0), now);
                 self.peripheral_result(r)
             }
+            0x4000_0800..=0x4000_0BFF => {
+                self.resched = true;
+                self.drive_pins_to(now);
+                let r = self.tim4.write(a - 0x4000_0800, merged(0), now);
+                self.peripheral_result(r)
+            }
             0x4001_3800..=0x4001_3BFF => {
                 let r = self.usart1.write(a - 0x4001_3800, merged(0), now);
                 self.peripheral_result(r)
@@ -404,6 +495,7 @@ impl Hw {
                 true
             }
             0x4001_0000..=0x4001_03FF => {
+                self.drive_pins_to(now);
                 let ok = self.afio.write(a - 0x4001_0000, v, mask);
                 if self.afio.mapr & 2 != 0 {
                     self.fail(BoardError::Unsupported(
@@ -414,6 +506,7 @@ impl Hw {
             }
             0x4001_0400..=0x4001_07FF => self.exti.write(a - 0x4001_0400, v, mask),
             0x4001_0800..=0x4001_13FF => {
+                self.drive_pins_to(now);
                 let port = ((a - 0x4001_0800) / 0x400) as usize;
                 let ok = self.ports[port].write((a - 0x4001_0800) % 0x400, v, mask);
                 if port == 1 {
@@ -437,10 +530,15 @@ impl Hw {
                 if self.rcc.apb1rstr & (1 << 1) != 0 {
                     self.tim3.reset();
                 }
+                self.drive_pins_to(now);
+                if self.rcc.apb1rstr & (1 << 2) != 0 {
+                    self.tim4.reset();
+                }
                 if self.rcc.apb2rstr & (1 << 14) != 0 {
                     self.usart1.reset();
                 }
                 self.tim3.set_clock_hz(self.rcc.apb1_timer_hz(), now);
+                self.tim4.set_clock_hz(self.rcc.apb1_timer_hz(), now);
                 self.usart1.set_pclk_hz(self.rcc.pclk2_hz());
                 for (bit, port) in [(2, 0), (3, 1), (4, 2)] {
                     if self.rcc.apb2rstr & (1 << bit) != 0 && old2 & (1 << bit) == 0 {
@@ -534,7 +632,11 @@ pub fn refresh_irq_lines(hw: &mut Hw) {
             hw.nvic.pending[IRQ0 + irq] = true;
         }
     }
-    for (n, on) in [(TIM3_IRQ, hw.tim3.irq()), (USART1_IRQ, hw.usart1.irq())] {
+    for (n, on) in [
+        (TIM3_IRQ, hw.tim3.irq()),
+        (TIM4_IRQ, hw.tim4.irq()),
+        (USART1_IRQ, hw.usart1.irq()),
+    ] {
         if on && !hw.nvic.active.contains(&n) {
             hw.nvic.pending[n] = true;
         }
@@ -804,7 +906,9 @@ impl Board {
             iwdg: Iwdg::new(config.lsi_hz),
             i2c: I2c1::new(bus.clone()),
             tim3: GpTimer::new("TIM3", 8_000_000),
+            tim4: GpTimer::new("TIM4", 8_000_000),
             usart1: Usart::new("USART1", 8_000_000),
+            driven: Vec::new(),
             clock,
             tail_base,
             blocks: vec![BlockInfo::default(); FLASH_SIZE as usize / 2],
@@ -990,6 +1094,9 @@ impl Board {
             hw.update_i2c_pins();
             hw.tim3.reset();
             hw.tim3.set_clock_hz(hw.rcc.apb1_timer_hz(), now);
+            hw.drive_pins_to(now);
+            hw.tim4.reset();
+            hw.tim4.set_clock_hz(hw.rcc.apb1_timer_hz(), now);
             hw.usart1.reset();
             hw.usart1.set_pclk_hz(hw.rcc.pclk2_hz());
             hw.exc_return = None;
@@ -1108,6 +1215,69 @@ impl Board {
         self.uc.get_data_mut().pin_level(port, pin)
     }
 
+    /// Drives `(time_ns, high)` edges onto a GPIO pin (`port` 0 = A, 1 = B,
+    /// 2 = C) from outside the board, after the edges already queued: the
+    /// pin reads that level from each edge's time on, and TIM4's channel
+    /// input on PB6..PB9 sees each edge at its time (not when the firmware
+    /// next looks). Times are ns since power-on, not in the past and not
+    /// decreasing. A pin the board itself drives (button, MPU INT, I2C1,
+    /// TIM3's outputs, USART1 RX, LED) is refused, as is a pin outside the
+    /// ports.
+    pub fn drive_pin(
+        &mut self,
+        port: usize,
+        pin: u32,
+        edges: &[(u64, bool)],
+    ) -> Result<(), BoardError> {
+        let now = self.now_ns();
+        let hw = self.uc.get_data_mut();
+        if port > 2 || pin > 15 || BOARD_DRIVEN_PINS.contains(&(port, pin)) {
+            return Err(BoardError::Unsupported(format!(
+                "driving pin P{}{pin}: not a free pin of this board",
+                char::from(b'A' + port.min(25) as u8)
+            )));
+        }
+        let i = match hw
+            .driven
+            .iter()
+            .position(|d| (d.port, d.pin) == (port, pin))
+        {
+            Some(i) => i,
+            None => {
+                let high = hw.ports[port].level(pin, None);
+                hw.driven.push(DrivenPin {
+                    port,
+                    pin,
+                    high,
+                    edges: Default::default(),
+                });
+                hw.driven.len() - 1
+            }
+        };
+        let d = &mut hw.driven[i];
+        let mut last = d.edges.back().map_or(now, |&(t, _)| t.max(now));
+        for &(t, _) in edges {
+            if t < last {
+                return Err(BoardError::Unsupported(format!(
+                    "pin waveform: edge at {t} ns is before {last} ns (the past or an earlier edge)"
+                )));
+            }
+            last = t;
+        }
+        d.edges.extend(edges.iter().copied());
+        Ok(())
+    }
+
+    /// Edges queued by [`Board::drive_pin`] and not reached yet.
+    pub fn pending_pin_edges(&self) -> usize {
+        self.uc
+            .get_data()
+            .driven
+            .iter()
+            .map(|d| d.edges.len())
+            .sum()
+    }
+
     /// USART1: bytes received into DR and bytes lost to overrun since the
     /// last reset.
     pub fn usart1_counts(&self) -> (u64, u64) {
@@ -1224,6 +1394,8 @@ impl Board {
         hw.sync_clock();
         hw.i2c.advance(now);
         hw.tim3.advance(now);
+        hw.drive_pins_to(now);
+        hw.tim4.advance(now);
         hw.usart1.advance(now);
         hw.sample_exti();
         refresh_irq_lines(hw);
@@ -1251,6 +1423,8 @@ impl Board {
         at_ns(hw.rcc.next_event_ns());
         at_ns(hw.iwdg.timeout_ns());
         at_ns(hw.tim3.next_update_ns());
+        at_ns(hw.tim4.next_update_ns());
+        at_ns(hw.next_pin_edge_ns());
         at_ns(hw.usart1.next_event_ns());
         let s = self.bus.state();
         at_ns(Some(s.mpu.next_sample_ns()));
@@ -1387,6 +1561,37 @@ mod tests {
         assert_eq!(reg(&b, RegisterARM::SP), 0x2000_5000, "frame unstacked");
         assert_eq!(reg(&b, RegisterARM::IPSR), 0, "back in thread mode");
         assert_eq!(reg(&b, RegisterARM::PC), 0x0800_010A);
+    }
+
+    #[test]
+    fn a_driven_pin_follows_its_waveform_in_emulated_time() {
+        // b . (an idle loop): the board only advances time.
+        let fw = bare(&[0xE7FE], 0);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        assert!(b.drive_pin(1, 6, &[(10, true)]).is_err(), "PB6 is I2C1's");
+        assert!(
+            b.drive_pin(0, 0, &[(10, true)]).is_err(),
+            "PA0 is the button"
+        );
+        assert!(b.drive_pin(3, 0, &[(10, true)]).is_err(), "no port D");
+        let edges = [(100_000, true), (400_000, false), (1_100_000, true)];
+        assert!(b.drive_pin(1, 8, &edges).is_ok());
+        assert!(
+            b.drive_pin(1, 8, &[(1_000_000, false)]).is_err(),
+            "before an edge already queued"
+        );
+        // PB8 at reset is a floating input: it reads what is driven.
+        let mut seen = Vec::new();
+        for t in [50_000, 150_000, 450_000, 1_200_000] {
+            b.run_until_ns(t).unwrap_or_else(|e| panic!("{e}"));
+            seen.push(b.pin_high(1, 8));
+        }
+        assert_eq!(seen, [false, true, false, true]);
+        assert_eq!(b.pending_pin_edges(), 0);
+        assert!(
+            b.drive_pin(1, 8, &[(1_000_000, false)]).is_err(),
+            "the past"
+        );
     }
 
     #[test]

@@ -1,18 +1,31 @@
 //! General-purpose timer (TIM2–TIM5, RM0008 §15): the time base (PSC, ARR
 //! with ARPE, CNT, update events from overflow and EGR.UG loading the
 //! preload registers into their shadows), the four output-compare channels
-//! (CCMRx OCxM and OCxPE, CCRx, CCER CCxE/CCxP) and the update interrupt.
+//! (CCMRx OCxM and OCxPE, CCRx, CCER CCxE/CCxP), input capture (§15.3.5)
+//! and the update and capture interrupts.
 //!
 //! The counter is evaluated lazily from the kernel clock's tick count, so
 //! the model costs nothing between register accesses; the level of each
-//! channel's output at any time follows from the counter (`output_high`).
+//! channel's output at any time follows from the counter (`output_high`),
+//! and an input edge handed to [`GpTimer::input`] at its time latches the
+//! counter as it stood then.
 //!
 //! Modelled: upcounting, edge-aligned (CR1.DIR = 0, CMS = 00), continuous
 //! (OPM = 0), internal clock (SMCR = 0), output compare modes frozen,
-//! forced inactive/active and PWM mode 1/2. Anything else (input capture,
-//! centre-aligned or down counting, one-pulse, slave modes, DMA, the
-//! compare interrupts) stops the board with an error rather than running
-//! with behaviour the manual does not give it.
+//! forced inactive/active and PWM mode 1/2; input capture with ICx mapped
+//! on its own TIx (CCxS = 01), no input filter (ICxF = 0000), every input
+//! prescaler (ICxPSC: every 1st, 2nd, 4th or 8th active edge), either
+//! polarity (CCxP), CCxIF/CCxOF with their clear sequences, the CCxG
+//! software capture and the capture interrupts (CCxIE).
+//!
+//! Not modelled, and stopping the board with an error rather than running
+//! with behaviour the manual does not give it: centre-aligned or down
+//! counting, one-pulse, slave modes, DMA, the compare-match interrupts of
+//! output channels, ICx mapped on the neighbour's TIx or on TRC (CCxS = 10
+//! or 11) and the digital input filter (ICxF ≠ 0000: it samples TIx at
+//! f_CK_INT or f_DTS/2..32 and passes a level only after N = 2..8 equal
+//! consecutive samples, which delays every edge and swallows pulses
+//! shorter than N samples).
 
 /// Register offsets (RM0008 §15.4.19, table 87).
 pub mod reg {
@@ -106,6 +119,24 @@ pub struct GpTimer {
     at_tick: u64,
     /// OCxREF kept by the frozen mode.
     frozen_ref: [bool; 4],
+    /// Level of each channel's input TIx.
+    ti_high: [bool; 4],
+    /// Active edges counted by each input prescaler since its last capture.
+    ic_edges: [u8; 4],
+}
+
+/// Status register bits.
+pub mod sr {
+    /// Update interrupt flag.
+    pub const UIF: u32 = 1 << 0;
+    /// Capture/compare interrupt flag of channel `ch` (0..4).
+    pub const fn ccif(ch: usize) -> u32 {
+        1 << (1 + ch)
+    }
+    /// Over-capture flag of channel `ch` (0..4).
+    pub const fn ccof(ch: usize) -> u32 {
+        1 << (9 + ch)
+    }
 }
 
 /// Ticks of a `hz` clock at `ns` since power-on.
@@ -140,12 +171,17 @@ impl GpTimer {
             psc_cnt: 0,
             at_tick: 0,
             frozen_ref: [false; 4],
+            ti_high: [false; 4],
+            ic_edges: [0; 4],
         }
     }
 
-    /// Peripheral reset (RCC APB1RSTR, or the MCU reset), keeping the clock.
+    /// Peripheral reset (RCC APB1RSTR, or the MCU reset), keeping the clock
+    /// and the levels on the input pins (the world outside the timer).
     pub fn reset(&mut self) {
+        let ti_high = self.ti_high;
         *self = Self::new(self.name, self.clock_hz);
+        self.ti_high = ti_high;
     }
 
     /// Changes the kernel clock (RCC prescalers) from `now_ns` on.
@@ -176,6 +212,61 @@ impl GpTimer {
 
     fn oc_mode(&self, ch: usize) -> u32 {
         (self.ccmr[ch / 2] >> (4 + 8 * (ch % 2))) & 7
+    }
+
+    /// CCxS of channel `ch`: 00 output, 01 input on TIx, 10/11 other inputs.
+    fn cc_select(&self, ch: usize) -> u32 {
+        (self.ccmr[ch / 2] >> (8 * (ch % 2))) & 3
+    }
+
+    /// Channel `ch` is an input capture on its own TIx (CCxS = 01).
+    fn is_input(&self, ch: usize) -> bool {
+        self.cc_select(ch) == 1
+    }
+
+    /// Active edges per capture (ICxPSC): 1, 2, 4 or 8.
+    fn ic_divider(&self, ch: usize) -> u8 {
+        1 << ((self.ccmr[ch / 2] >> (2 + 8 * (ch % 2))) & 3)
+    }
+
+    /// A capture on channel `ch` now: CCRx latches the counter, CCxIF is
+    /// set, and CCxOF too if CCxIF was still set (§15.3.5: "the CCxOF flag
+    /// is set when a new capture occurs while CCxIF is still high").
+    fn capture(&mut self, ch: usize) {
+        if self.sr & sr::ccif(ch) != 0 {
+            self.sr |= sr::ccof(ch);
+        }
+        self.ccr[ch] = self.cnt;
+        self.sr |= sr::ccif(ch);
+    }
+
+    /// The level of input TIx of channel `ch` (0..4) changes to `high` at
+    /// `at_ns` (not before the last time the timer was brought to). An
+    /// active edge of an enabled input-capture channel (rising with CCxP =
+    /// 0, falling with CCxP = 1) counts in the input prescaler, and every
+    /// 1st/2nd/4th/8th one captures the counter as it stands at `at_ns`
+    /// (the input's resynchronisation, a few CK_INT cycles, is below one
+    /// counter tick at any prescaler the firmware uses and is not
+    /// modelled).
+    pub fn input(&mut self, ch: usize, high: bool, at_ns: u64) {
+        self.advance(at_ns);
+        let Some(level) = self.ti_high.get_mut(ch) else {
+            return;
+        };
+        if *level == high {
+            return;
+        }
+        *level = high;
+        let e = self.ccer >> (4 * ch);
+        let falling_active = e & 2 != 0;
+        if !self.is_input(ch) || e & 1 == 0 || high == falling_active {
+            return;
+        }
+        self.ic_edges[ch] += 1;
+        if self.ic_edges[ch] >= self.ic_divider(ch) {
+            self.ic_edges[ch] = 0;
+            self.capture(ch);
+        }
     }
 
     fn oc_preload(&self, ch: usize) -> bool {
@@ -238,9 +329,10 @@ impl GpTimer {
         Some(tick_ns(self.at_tick + to_overflow, self.clock_hz))
     }
 
-    /// The update interrupt line (DIER.UIE and SR.UIF).
+    /// The timer's interrupt line: an update (UIE and UIF) or a capture
+    /// (CCxIE and CCxIF); the over-capture flags have no enable of their own.
     pub fn irq(&self) -> bool {
-        self.dier & self.sr & 1 != 0
+        self.dier & self.sr & 0x1F != 0
     }
 
     /// OCxREF of channel `ch` (0..4) at the counter's current value.
@@ -257,16 +349,21 @@ impl GpTimer {
 
     /// Level of output OCx (channel `ch`, 0..4) at `now_ns`: OCxREF through
     /// the polarity (CCxP), low while the channel is disabled (CCxE = 0).
+    /// An input-capture channel drives nothing: low.
     pub fn output_high(&mut self, ch: usize, now_ns: u64) -> bool {
         self.advance(now_ns);
+        if self.cc_select(ch) != 0 {
+            return false;
+        }
         let e = self.ccer >> (4 * ch);
         e & 1 != 0 && (self.oc_ref(ch) != (e & 2 != 0))
     }
 
     /// Channel `ch`'s waveform as the shadow registers make it now:
-    /// (period, time high) in ns, `None` while the counter is stopped.
+    /// (period, time high) in ns, `None` while the counter is stopped or
+    /// the channel is an input.
     pub fn pwm_ns(&self, ch: usize) -> Option<(u64, u64)> {
-        if !self.running() {
+        if !self.running() || self.cc_select(ch) != 0 {
             return None;
         }
         let tick = (u64::from(self.psc_shadow) + 1) * 1_000_000_000;
@@ -303,7 +400,15 @@ impl GpTimer {
             reg::CNT => self.cnt,
             reg::PSC => self.psc,
             reg::ARR => self.arr,
-            0x34..=0x40 => self.ccr[((offset - reg::CCR1) / 4) as usize],
+            0x34..=0x40 => {
+                let ch = ((offset - reg::CCR1) / 4) as usize;
+                // §15.4.10: in input mode, reading CCRx clears CCxIF (not
+                // CCxOF, which only a write of 0 clears).
+                if self.is_input(ch) {
+                    self.sr &= !sr::ccif(ch);
+                }
+                self.ccr[ch]
+            }
             _ => return None,
         })
     }
@@ -328,16 +433,29 @@ impl GpTimer {
                 }
             }
             reg::DIER => {
-                if v & !1 != 0 {
-                    return unsupported("compare/trigger interrupts and DMA requests");
+                if v & !0x1F != 0 {
+                    return unsupported("trigger interrupt and DMA requests");
+                }
+                if (0..4).any(|ch| v & (2 << ch) != 0 && !self.is_input(ch)) {
+                    return unsupported("compare-match interrupts of output channels");
                 }
                 self.dier = v;
             }
             // rc_w0: writing 0 clears, writing 1 has no effect.
             reg::SR => self.sr &= v & 0x1E5F,
             reg::EGR => {
-                if v & !1 != 0 {
-                    return unsupported("capture/compare and trigger event generation");
+                if v & !0x1F != 0 {
+                    return unsupported("trigger and COM event generation");
+                }
+                if (0..4).any(|ch| v & (2 << ch) != 0 && !self.is_input(ch)) {
+                    return unsupported("compare event generation on output channels");
+                }
+                // CCxG on an input channel: a capture as if from the input
+                // (§15.4.6), CCxOF included.
+                for ch in 0..4 {
+                    if v & (2 << ch) != 0 {
+                        self.capture(ch);
+                    }
                 }
                 if v & 1 != 0 {
                     // UG: counter and prescaler re-initialised, shadows loaded;
@@ -352,10 +470,35 @@ impl GpTimer {
             }
             reg::CCMR1 | reg::CCMR2 => {
                 let i = ((offset - reg::CCMR1) / 4) as usize;
+                // §15.4.7: CCxS is writable only while the channel is off
+                // (CCxE = 0); otherwise the old selection stays.
+                let mut v = v;
                 for half in 0..2 {
-                    let f = v >> (8 * half);
-                    if f & 3 != 0 {
-                        return unsupported("input capture (CCxS != 00)");
+                    let ch = 2 * i + half;
+                    if self.ccer & (1 << (4 * ch)) != 0 {
+                        let shift = 8 * half;
+                        v = (v & !(3 << shift)) | (self.ccmr[i] & (3 << shift));
+                    }
+                }
+                for half in 0..2 {
+                    let ch = 2 * i + half;
+                    let f = (v >> (8 * half)) & 0xFF;
+                    match f & 3 {
+                        0 => {}
+                        1 => {
+                            if f >> 4 != 0 {
+                                return unsupported("input filter (ICxF != 0000)");
+                            }
+                            continue;
+                        }
+                        _ => {
+                            return unsupported(
+                                "input capture on TRC or the neighbour's TIx (CCxS = 10/11)",
+                            )
+                        }
+                    }
+                    if self.dier & (2 << ch) != 0 {
+                        return unsupported("compare-match interrupts of output channels");
                     }
                     let m = (f >> 4) & 7;
                     if !matches!(
@@ -379,12 +522,20 @@ impl GpTimer {
                 }
                 for half in 0..2 {
                     let ch = 2 * i + half;
-                    if !self.oc_preload(ch) {
+                    if !self.oc_preload(ch) || self.is_input(ch) {
                         self.ccr_shadow[ch] = self.ccr[ch];
                     }
                 }
             }
-            reg::CCER => self.ccer = v & 0x3333,
+            reg::CCER => {
+                self.ccer = v & 0x3333;
+                // §15.4.7 ICxPSC: "the prescaler is reset as soon as CCxE = 0".
+                for ch in 0..4 {
+                    if self.ccer & (1 << (4 * ch)) == 0 {
+                        self.ic_edges[ch] = 0;
+                    }
+                }
+            }
             reg::CNT => {
                 self.cnt = v;
                 self.psc_cnt = 0;
@@ -398,6 +549,10 @@ impl GpTimer {
             }
             0x34..=0x40 => {
                 let ch = ((offset - reg::CCR1) / 4) as usize;
+                // §15.4.13: read-only in input mode.
+                if self.is_input(ch) {
+                    return Some(Ok(()));
+                }
                 self.ccr[ch] = v;
                 if !self.oc_preload(ch) {
                     self.ccr_shadow[ch] = v;

@@ -353,3 +353,115 @@ fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
     }
     assert_no_reset(&b);
 }
+
+/// Sticks centred, throttle at `throttle_us`, arm switch off, mode switch
+/// low, motor-test switch (channel 7) on or off.
+fn motor_test_frame(throttle_us: i32, test_switch: bool) -> Vec<u8> {
+    let mut ch = [ticks(1500); 16];
+    ch[2] = ticks(throttle_us);
+    ch[4] = ticks(1000);
+    ch[5] = ticks(1000);
+    ch[6] = ticks(if test_switch { 2000 } else { 1000 });
+    rc_frame(ch)
+}
+
+/// Which channels carry more than the off pulse, and at what high time.
+fn spinning(b: &mut Board) -> Vec<(usize, u64)> {
+    let (_, off_ns) = protocol(b);
+    outputs(b)
+        .into_iter()
+        .enumerate()
+        .filter_map(|(ch, o)| {
+            let (_, high) = o.unwrap_or_else(|| panic!("channel {ch} silent"));
+            (high != off_ns).then_some((ch, high))
+        })
+        .collect()
+}
+
+/// The props-off motor test from the transmitter on the real firmware:
+/// the switch on at boot spins nothing; each off → on flip puts exactly
+/// one output at the test pulse (8 % of the range above the off pulse:
+/// 1080 µs in standard PWM, 135 µs in OneShot125) and the others at the
+/// off pulse, motor 1 then motor 2; the switch off or a throttle movement
+/// ends it.
+#[test]
+fn motor_test_switch_spins_one_motor_per_flip() {
+    let Some(mut b) = board() else { return };
+    let fc = b.wait_for_line("flight controller:", 2 * S).unwrap();
+    assert!(
+        fc.as_ref()
+            .is_some_and(|l| l.text.contains("motor-test channel 7")),
+        "{:?}\n{}",
+        fc.map(|l| l.text),
+        tail(&b, 20)
+    );
+    let (_, off_ns) = protocol(&b);
+    // A command of 0.08 spans 8 % of the off pulse (the range is off..2·off).
+    let test_ns = off_ns + off_ns * 8 / 100;
+    let on = motor_test_frame(1000, true);
+    let off = motor_test_frame(1000, false);
+
+    // Switch on from the first frame: an edge is needed, nothing spins.
+    let up = stream_until(&mut b, &on, "rc: link up", S);
+    assert!(up.is_some(), "{}", tail(&b, 20));
+    let start = b.now_ns();
+    stream(&mut b, &on, 4 * MS, start + 1_000 * MS);
+    assert!(
+        lines_after(&b, start, "motor test").is_empty(),
+        "switch on at boot started a motor\n{}",
+        tail(&b, 20)
+    );
+    assert_off(&mut b, "motor-test switch on since the link came up");
+
+    for (motor, position) in [(1, "RearRight"), (2, "FrontRight")] {
+        let t = b.now_ns();
+        stream(&mut b, &off, 4 * MS, t + 100 * MS);
+        assert_off(&mut b, "switch off");
+        let started = stream_until(&mut b, &on, "motor test:", S);
+        let want = format!("motor test: motor {motor} ({position}) at 8 %");
+        assert!(
+            started.as_ref().is_some_and(|l| l.contains(&want)),
+            "{started:?}, want {want}\n{}",
+            tail(&b, 20)
+        );
+        // The preloaded compare takes effect with the next timer frame.
+        let t = b.now_ns();
+        stream(&mut b, &on, 4 * MS, t + 20 * MS);
+        let s = spinning(&mut b);
+        assert_eq!(s.len(), 1, "motor {motor}: spinning {s:?}");
+        let (ch, high) = s[0];
+        assert_eq!(ch, motor - 1, "motor {motor} is TIM3 CH{motor}");
+        assert!(
+            high.abs_diff(test_ns) <= off_ns / 200,
+            "motor {motor}: {high} ns, want {test_ns} ns"
+        );
+        // Held on: still spinning 1 s later.
+        let t = b.now_ns();
+        stream(&mut b, &on, 4 * MS, t + 1_000 * MS);
+        assert_eq!(spinning(&mut b), s, "motor {motor} after 1 s");
+        if motor == 1 {
+            let t = b.now_ns();
+            let ended = stream_until(&mut b, &off, "MotorTestEnded", S);
+            assert!(
+                ended.as_ref().is_some_and(|l| l.contains("SwitchOff")),
+                "{ended:?}"
+            );
+            stream(&mut b, &off, 4 * MS, t + 200 * MS);
+            assert_off(&mut b, "after the switch went off");
+        }
+    }
+    // Throttle moved with motor 2 running: back to off.
+    let ended = stream_until(&mut b, &motor_test_frame(1300, true), "MotorTestEnded", S);
+    assert!(
+        ended.as_ref().is_some_and(|l| l.contains("StickMoved")),
+        "{ended:?}\n{}",
+        tail(&b, 20)
+    );
+    let t = b.now_ns();
+    stream(&mut b, &motor_test_frame(1300, true), 4 * MS, t + 20 * MS);
+    assert_off(&mut b, "after the throttle moved");
+    for l in lines_with(&b, "motor test") {
+        println!("{l}");
+    }
+    assert_no_reset(&b);
+}

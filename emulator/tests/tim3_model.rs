@@ -234,8 +234,8 @@ fn forced_modes_and_frozen_hold_the_reference() {
 fn features_outside_the_model_are_refused() {
     let mut t = GpTimer::new("TIM3", 1_000_000);
     assert!(
-        matches!(t.write(reg::CCMR1, 1, 0), Some(Err(_))),
-        "input capture"
+        matches!(t.write(reg::CCMR1, 2, 0), Some(Err(_))),
+        "input capture on the neighbour's TIx"
     );
     assert!(matches!(t.write(reg::CCMR1, 0b001 << 4, 0), Some(Err(_))));
     assert!(matches!(t.write(reg::CR1, cr1::DIR, 0), Some(Err(_))));

@@ -19,7 +19,7 @@
 //!   drivers (a failure is counted and the sample skipped, never retried),
 //!   `flight::sample::SampleStep`, the flight controller, the ESC outputs.
 //!   CPU per sample on the emulated board (`cargo fil -t hover -s 10`, one
-//!   instruction per cycle): mean 5,580, worst 7,159 cycles of 72,000
+//!   instruction per cycle): mean 5,608, worst 7,190 cycles of 72,000
 //!   (cpu 7.7 %), against 34,953 / 57,156 (48.5 %) with the task waiting
 //!   on the bus; the read itself takes 0.4 ms of bus time (0.72 ms on a
 //!   magnetometer tick).
@@ -57,7 +57,11 @@
 //! recordings, 100 Hz), or abort a calibration.
 //!
 //! * `crsf_rx` (USART1, priority 4): CRSF bytes from PA10 at 420 kbaud into
-//!   `rc_input`'s parser and link monitor.
+//!   `rc_input`'s parser and link monitor. With the `ppm` feature instead
+//!   `ppm_rx` (TIM4, priority 4): a PPM train on PB8 (TIM4_CH3 input
+//!   capture at 1 MHz, `ppm.rs`) into `rc_input`'s PPM decoder and the same
+//!   link monitor and pilot state, so arming, failsafe and signal-loss
+//!   detection are the same for both receivers.
 //!
 //! Safety: the ESC outputs (TIM3 CH1-4 on PA6, PA7, PB0, PB1) carry the
 //! "off" pulse from the boot step right after the clock switch, whenever
@@ -67,29 +71,45 @@
 //! off pulse again and waits for the watchdog reset. The flight controller
 //! (`flight::flightctl`) runs in `sample_done` at 1 kHz on the pipeline's attitude,
 //! gyro and altitude and the receiver's pilot input, and sets the outputs.
+//! The props-off motor test runs from the transmitter's motor-test switch
+//! (`flight::motortest`): "motor test: motor N (Position) at 8 %" in the
+//! log.
 //!
-//! Flash: 62,904 B of the 63 KiB budget with the flight controller
+//! Settings: the channel map, the mode and motor-test switch channels, the
+//! ESC protocol, the motor-test command and the magnetometer calibration
+//! of the build are in `config.rs`.
+//!
+//! Flash: 63,340 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
-//! static RAM 4.6 KiB. The interrupt-driven sample read costs 1,780 B of
-//! it, and `mem.rs`'s 50 B of `__aeabi_memcpy*`/`__aeabi_memclr*` save
-//! 1,560 B over `compiler_builtins`' own. To fit, the I2C master is our own register-level
-//! driver (`bus.rs`) rather than the HAL's blocking one, the fixed-point
-//! textbook filter is left out (`fc-ahrs` without its `textbook` feature:
+//! static RAM 4.6 KiB; the `ppm` build (PPM instead of CRSF): 62,464 B.
+//! The interrupt-driven sample read costs 1,780 B of it, and `mem.rs`'s
+//! 50 B of `__aeabi_memcpy*`/`__aeabi_memclr*` save 1,560 B over
+//! `compiler_builtins`' own.
+//! To fit, the I2C master is our own register-level driver (`bus.rs`)
+//! rather than the HAL's blocking one, the fixed-point textbook filter is
+//! left out (`fc-ahrs` without its `textbook` feature:
 //! the firmware runs the full filter), the trigonometry is a polynomial
 //! rather than libm's (whose `sinf`/`cosf` reduce the argument in soft f64),
 //! neither `memmove` nor a 64-bit division is linked, and the magnetometer
-//! calibration on the board is the per-axis min/max (the `MagCal` type
-//! below: one line selects the full ellipsoid fit, ~5.5 KiB more, which
-//! does not fit beside the flight controller).
+//! calibration on the board is the per-axis min/max (`config::MagCal`:
+//! the `mag-ellipsoid` build selects the full ellipsoid fit, ~5.5 KiB more,
+//! which does not fit beside the flight controller).
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
 
 mod bus;
 mod clocks;
+mod config;
 mod delay;
 mod mem;
 mod outputs;
+// Each build uses one receiver (the `ppm` build the pilot state only of
+// `receiver`); both modules stay compiled because RTIC's generated task
+// contexts name the local resources' types outside their cfg.
+#[cfg_attr(not(feature = "ppm"), allow(dead_code))]
+mod ppm;
+#[cfg_attr(feature = "ppm", allow(dead_code))]
 mod receiver;
 mod stack;
 mod store;
@@ -145,13 +165,18 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
 mod app {
     use crate::bus::{self, BusHandle};
     use crate::clocks::{self, Source};
+    use crate::config::{self, MagCal, ESC_PROTOCOL};
     use crate::delay::{cpu_hz, AsmDelay};
     use crate::outputs::EscOutputs;
-    use crate::receiver::{self, CrsfUart, Pilot};
+    #[cfg(feature = "ppm")]
+    use crate::ppm::PpmInput;
+    use crate::receiver::Pilot;
+    #[cfg(not(feature = "ppm"))]
+    use crate::receiver::{self, CrsfUart};
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
-    use control::esc::{EscProtocol, EscTimer};
+    use control::esc::EscTimer;
     use cortex_m::peripheral::DWT;
     use flight::boot::{AhrsMode, BiasStatus, Capabilities, StartupGyroBias};
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
@@ -160,6 +185,7 @@ mod app {
         PilotInput, SystemStatus, VehicleState,
     };
     use flight::health::{HealthCounters, SensorState};
+    use flight::motortest::MotorPosition;
     use flight::pipeline::{Pipeline, PipelineConfig};
     use flight::sample::{SampleIn, SampleStep};
     use flight::schedule::{
@@ -168,8 +194,9 @@ mod app {
     };
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
-    use rc_input::ChannelMap;
-    use rc_input::{CrsfParser, LinkStatus};
+    #[cfg(not(feature = "ppm"))]
+    use rc_input::CrsfParser;
+    use rc_input::LinkStatus;
     use rtic::Mutex;
     use rtic_monotonics::fugit::ExtU32;
     use rtic_monotonics::rtic_time::monotonic::TimerQueueBasedInstant;
@@ -181,32 +208,7 @@ mod app {
         prelude::*,
     };
 
-    /// Magnetometer calibration used on the board: per-axis min/max in the
-    /// flight build. The ellipsoid fit (`flight::calmode::MagCalMode`:
-    /// integer moments, an f32 solve, 5.5 KiB) does not fit beside the
-    /// flight controller, so it has its own build (feature `mag-ellipsoid`),
-    /// which leaves the flight controller out; both store the same record
-    /// (offset + full soft-iron matrix), which the flight build applies.
-    #[cfg(not(feature = "mag-ellipsoid"))]
-    type MagCal = flight::calmode::MagMinMaxMode;
-    /// The calibration build's magnetometer calibration: the ellipsoid fit.
-    #[cfg(feature = "mag-ellipsoid")]
-    type MagCal = flight::calmode::MagCalMode;
-
     systick_monotonic!(Mono, 1_000);
-
-    /// ESC protocol: standard PWM at 400 Hz, or OneShot125 at 2 kHz with
-    /// the `oneshot125` feature.
-    #[cfg(not(feature = "oneshot125"))]
-    const ESC_PROTOCOL: EscProtocol = EscProtocol::Pwm;
-    #[cfg(feature = "oneshot125")]
-    const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
-
-    /// Receiver channels: AETR sticks, arm switch on channel 5 (high = arm).
-    const CHANNEL_MAP: ChannelMap = ChannelMap::DEFAULT;
-    /// Flight-mode switch: channel 6 (low angle, middle altitude hold, high
-    /// acro).
-    const MODE_CHANNEL: u8 = 5;
 
     /// Shortest watchdog timeout while booting (probing with retries and
     /// the MPU's power-up waits take ≤ 1.1 s), at the LSI's fastest 60 kHz.
@@ -261,8 +263,14 @@ mod app {
         dt: DtClock,
         esc: EscOutputs,
         fc: Option<FlightController>,
-        uart: CrsfUart,
-        parser: CrsfParser,
+        // Full paths: RTIC's generated task contexts name these types
+        // outside the cfg that removes their imports from the other build.
+        #[cfg(not(feature = "ppm"))]
+        uart: crate::receiver::CrsfUart,
+        #[cfg(not(feature = "ppm"))]
+        parser: rc_input::CrsfParser,
+        #[cfg(feature = "ppm")]
+        ppm: crate::ppm::PpmInput,
     }
 
     #[init]
@@ -300,7 +308,10 @@ mod app {
         let pipeline = build_pipeline(&sensors, &sensors.capabilities(), &record);
         let bias = start_gyro_bias(&sensors);
         let session = start_session(&button_pin);
+        #[cfg(not(feature = "ppm"))]
         let uart = start_receiver(dp.USART1);
+        #[cfg(feature = "ppm")]
+        let ppm = start_ppm(dp.TIM4);
 
         let mut exti = dp.EXTI;
         let mut mpu_int = gpiob.pb5.into_pull_up_input(&mut gpiob.crl);
@@ -335,8 +346,12 @@ mod app {
                 dt: DtClock::new(cpu_hz(), IMU_RATE_HZ),
                 esc,
                 fc: start_flight_controller(),
+                #[cfg(not(feature = "ppm"))]
                 uart,
+                #[cfg(not(feature = "ppm"))]
                 parser: CrsfParser::new(),
+                #[cfg(feature = "ppm")]
+                ppm,
             },
         )
     }
@@ -369,12 +384,13 @@ mod app {
     #[cfg(not(feature = "mag-ellipsoid"))]
     #[inline(never)]
     fn start_flight_controller() -> Option<FlightController> {
-        match FlightController::new(flight::flightctl::FlightConfig::default()) {
+        match FlightController::new(config::flight_config()) {
             Ok(fc) => {
                 defmt::info!(
-                    "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}",
-                    CHANNEL_MAP.arm_channel() + 1,
-                    MODE_CHANNEL + 1
+                    "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}, motor-test channel {=u8}",
+                    config::channel_map().arm_channel() + 1,
+                    config::MODE_CHANNEL + 1,
+                    config::MOTOR_TEST_CHANNEL + 1
                 );
                 Some(fc)
             }
@@ -394,7 +410,21 @@ mod app {
         None
     }
 
+    /// Boot step: the PPM receiver on PB8 (TIM4_CH3); TIM4's clock is
+    /// APB1 × 2 = SYSCLK, like TIM3's.
+    #[cfg(feature = "ppm")]
+    #[inline(never)]
+    fn start_ppm(tim: pac::TIM4) -> PpmInput {
+        let ppm = PpmInput::start(tim, cpu_hz());
+        defmt::info!(
+            "receiver: PPM on PB8 (TIM4_CH3 input capture, 5 V tolerant), rising edges, 1 us resolution, signal loss after {=u32} ms",
+            rc_input::PPM_TIMEOUT_US / 1_000
+        );
+        ppm
+    }
+
     /// Boot step: the CRSF receiver on USART1 RX (PA10); APB2 runs at SYSCLK.
+    #[cfg(not(feature = "ppm"))]
     #[inline(never)]
     fn start_receiver(usart: pac::USART1) -> CrsfUart {
         let uart = CrsfUart::start(usart, cpu_hz());
@@ -682,10 +712,14 @@ mod app {
     /// the motor commands for the ESC timer (off without a controller or an
     /// estimate).
     fn fly(cx: &mut sample_done::Context, now_us: u32, mpu_ok: bool, fresh: bool) -> Motors {
-        let pilot = cx
-            .shared
-            .pilot
-            .lock(|p| p.input(now_us, &CHANNEL_MAP, MODE_CHANNEL));
+        let pilot = cx.shared.pilot.lock(|p| {
+            p.input(
+                now_us,
+                &config::channel_map(),
+                config::MODE_CHANNEL,
+                config::MOTOR_TEST_CHANNEL,
+            )
+        });
         let status = SystemStatus {
             sensors_healthy: mpu_ok,
             gyro_bias_done: cx.shared.bias.lock(|b| matches!(b, BiasStatus::Done(_))),
@@ -721,6 +755,7 @@ mod app {
     /// byte arrives every 24 µs; below the I2C1 handlers, whose steps are a
     /// few register accesses, up to one bit time, 2.5 µs, at a block's
     /// end): bytes into the CRSF parser, frames into the pilot state.
+    #[cfg(not(feature = "ppm"))]
     #[task(binds = USART1, priority = 4, local = [uart, parser], shared = [clock, pilot])]
     fn crsf_rx(mut cx: crsf_rx::Context) {
         let clock = &mut cx.shared.clock;
@@ -737,6 +772,28 @@ mod app {
                 })
             },
         );
+    }
+
+    /// TIM4 capture on PB8 (priority 4, where `crsf_rx` is in the CRSF
+    /// build): one edge into the PPM decoder, a completed frame into the
+    /// pilot state exactly as a CRSF channel frame goes.
+    ///
+    /// RTIC 2.4 sets the NVIC priority of, and unmasks, the interrupt of a
+    /// hardware task its cfg leaves out (8 B in the CRSF build): TIM4 there
+    /// and USART1 in the `ppm` build are unmasked, but their peripherals
+    /// are never clocked or given an interrupt enable, so they never pend.
+    #[cfg(feature = "ppm")]
+    #[task(binds = TIM4, priority = 4, local = [ppm], shared = [clock, pilot])]
+    fn ppm_rx(mut cx: ppm_rx::Context) {
+        let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
+        let frame = cx.local.ppm.on_interrupt(now_us);
+        let counters = cx.local.ppm.counters();
+        cx.shared.pilot.lock(|p| {
+            if let Some(f) = frame {
+                p.on_event(rc_input::Event::Channels(f), now_us);
+            }
+            p.ppm = counters;
+        });
     }
 
     /// The flight controller's view of the vehicle. Without a fresh sample
@@ -764,15 +821,25 @@ mod app {
     #[task(priority = 1)]
     async fn flight_log(_cx: flight_log::Context, events: Events, pilot: PilotInput) {
         for e in events.iter() {
-            match e {
-                FlightEvent::Armed => defmt::warn!("flight: ARMED"),
-                FlightEvent::ArmRefused(r) => defmt::warn!(
+            let started = match e {
+                FlightEvent::MotorTestStarted(m) => MotorPosition::of(m).map(|p| (m, p)),
+                _ => None,
+            };
+            match (e, started) {
+                (_, Some((m, p))) => defmt::warn!(
+                    "motor test: motor {=u8} ({}) at {=u8} % (props off!)",
+                    m + 1,
+                    p,
+                    (config::MOTOR_TEST_COMMAND * 100.0) as u8
+                ),
+                (FlightEvent::Armed, _) => defmt::warn!("flight: ARMED"),
+                (FlightEvent::ArmRefused(r), _) => defmt::warn!(
                     "flight: arm refused: {} (throttle {=f32})",
                     r,
                     pilot.sticks.throttle
                 ),
-                FlightEvent::Disarmed(c) => defmt::warn!("flight: disarmed: {}", c),
-                other => defmt::warn!("flight: {}", other),
+                (FlightEvent::Disarmed(c), _) => defmt::warn!("flight: disarmed: {}", c),
+                (other, _) => defmt::warn!("flight: {}", other),
             }
         }
     }
@@ -1044,6 +1111,26 @@ mod app {
                 other => defmt::warn!("rc: link lost ({})", other),
             }
         }
+        #[cfg(feature = "ppm")]
+        let _ = (stats, uart, lq);
+        #[cfg(feature = "ppm")]
+        if tick.is_multiple_of(20) && status == LinkStatus::Ok {
+            if let Some(f) = frame {
+                let c = f.channels();
+                let n = pilot.lock(|p| p.ppm);
+                defmt::info!(
+                    "rc: ch1-8 {} us | ppm frames {=u32} dropped {=u32} (bad_pulse {=u32} bad_count {=u32} unconfirmed {=u32}) overcapture {=u32}",
+                    c.get(..8).unwrap_or(c),
+                    n.decoder.frames,
+                    n.decoder.dropped(),
+                    n.decoder.bad_pulse,
+                    n.decoder.bad_count,
+                    n.decoder.unconfirmed,
+                    n.overcaptures
+                );
+            }
+        }
+        #[cfg(not(feature = "ppm"))]
         if tick.is_multiple_of(20) && status == LinkStatus::Ok {
             if let Some(f) = frame {
                 let c = f.channels();

@@ -109,6 +109,9 @@ pub struct Pilot {
     pub stats: CrsfStats,
     /// The USART's receive errors.
     pub uart: UartErrors,
+    /// The PPM input's counters (the `ppm` build's receiver).
+    #[cfg(feature = "ppm")]
+    pub ppm: crate::ppm::PpmCounters,
 }
 
 impl Pilot {
@@ -116,7 +119,11 @@ impl Pilot {
     pub const fn new() -> Self {
         Self {
             frame: None,
-            link: LinkMonitor::crsf(),
+            link: if cfg!(feature = "ppm") {
+                LinkMonitor::ppm()
+            } else {
+                LinkMonitor::crsf()
+            },
             link_quality_pct: None,
             stats: CrsfStats::ZERO,
             uart: UartErrors {
@@ -124,6 +131,8 @@ impl Pilot {
                 framing: 0,
                 noise: 0,
             },
+            #[cfg(feature = "ppm")]
+            ppm: crate::ppm::PpmCounters::ZERO,
         }
     }
 
@@ -166,9 +175,16 @@ impl Pilot {
     /// The flight controller's view of the pilot at `now_us`: sticks and
     /// the arm switch through `map`, the flight mode from `mode_channel`
     /// (low: angle, middle: altitude hold, high: acro; angle if absent),
-    /// and whether the link is up. A frame missing a stick or the arm
-    /// switch counts as no link.
-    pub fn input(&mut self, now_us: u32, map: &ChannelMap, mode_channel: u8) -> PilotInput {
+    /// the motor-test switch from `motor_test_channel` (high: on; off if
+    /// absent), and whether the link is up. A frame missing a stick or the
+    /// arm switch counts as no link.
+    pub fn input(
+        &mut self,
+        now_us: u32,
+        map: &ChannelMap,
+        mode_channel: u8,
+        motor_test_channel: u8,
+    ) -> PilotInput {
         let link_up = !self.link.is_lost(now_us);
         let Some(frame) = self.frame.filter(|_| link_up) else {
             return PilotInput::default();
@@ -191,6 +207,8 @@ impl Pilot {
             arm_switch,
             mode,
             link_ok: true,
+            motor_test_switch: ChannelMap::switch(&frame, motor_test_channel)
+                == Ok(SwitchPosition::High),
         }
     }
 }

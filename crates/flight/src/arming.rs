@@ -35,11 +35,14 @@ pub enum ArmRefusal {
     /// The props-off motor test is running. Only in [`ArmBlockers`]: the
     /// arm switch ends the motor test instead.
     MotorTestActive,
+    /// The motor-test switch is on (bench mode, props off): turn it off
+    /// first (see [`crate::motortest`]).
+    MotorTestSwitchOn,
 }
 
 impl ArmRefusal {
     /// Every refusal, in checking order.
-    pub const ALL: [Self; 8] = [
+    pub const ALL: [Self; 9] = [
         Self::LinkLost,
         Self::CalibrationRunning,
         Self::SensorsUnhealthy,
@@ -48,6 +51,7 @@ impl ArmRefusal {
         Self::NotLevel,
         Self::ThrottleNotLow,
         Self::MotorTestActive,
+        Self::MotorTestSwitchOn,
     ];
 
     const fn bit(self) -> u16 {
@@ -127,6 +131,9 @@ pub enum MotorTestRefusal {
     LinkLost,
     /// Only with the arm switch off.
     ArmSwitchOn,
+    /// Only with the throttle stick at or below
+    /// [`SafetyConfig::arm_throttle_max`].
+    ThrottleNotLow,
     /// Motor index not 0..=3.
     InvalidMotor,
 }
@@ -137,6 +144,7 @@ impl core::fmt::Display for MotorTestRefusal {
             Self::Armed => "motor test refused: armed",
             Self::LinkLost => "motor test refused: pilot link lost",
             Self::ArmSwitchOn => "motor test refused: arm switch on",
+            Self::ThrottleNotLow => "motor test refused: throttle not low",
             Self::InvalidMotor => "motor test refused: motor index not 0..=3",
         })
     }
@@ -155,6 +163,7 @@ impl core::fmt::Display for ArmRefusal {
             Self::NotLevel => "not level",
             Self::ThrottleNotLow => "throttle not low",
             Self::MotorTestActive => "motor test running",
+            Self::MotorTestSwitchOn => "motor-test switch on",
         })
     }
 }
@@ -173,6 +182,8 @@ pub enum MotorTestEnd {
     Timeout,
     /// The firmware stopped it.
     Stopped,
+    /// The motor-test switch that started it was turned off.
+    SwitchOff,
 }
 
 /// Something the flight controller wants logged.
@@ -200,6 +211,8 @@ pub enum Event {
     MotorTestStarted(u8),
     /// Motor test ended.
     MotorTestEnded(MotorTestEnd),
+    /// A flip of the motor-test switch was refused.
+    MotorTestRefused(MotorTestRefusal),
     /// Altitude hold requested without an altitude estimate: flying
     /// self-level with manual throttle.
     AltitudeUnavailable,

@@ -65,12 +65,17 @@
 //! [`FAILSAFE_BLIND_RAMP_PER_S`] until the landing detector disarms. If the link returns during
 //! the failsafe, the pilot has control again (and the arm switch decides).
 //!
-//! **Motor test** (props off!): [`FlightController::start_motor_test`]
-//! while disarmed, link up and arm switch off spins one motor at
+//! **Motor test** (props off!): each off → on flip of the motor-test switch
+//! ([`PilotInput::motor_test_switch`], rules in [`crate::motortest`]) or a
+//! call of [`FlightController::start_motor_test`], while disarmed, link up,
+//! arm switch off and throttle low, spins one motor at
 //! [`SafetyConfig::motor_test_command`] (8 %), the others off, for at most
-//! [`SafetyConfig::motor_test_max_s`]; any stick movement beyond
-//! [`SafetyConfig::motor_test_stick_tolerance`], the arm switch or link loss
-//! end it.
+//! [`SafetyConfig::motor_test_max_s`]; the flips take motors 1, 2, 3, 4,
+//! then 1 again. Any stick movement beyond
+//! [`SafetyConfig::motor_test_stick_tolerance`], the arm switch, link loss
+//! or (when the switch started it) the switch going off end it. A refused
+//! flip is reported as [`Event::MotorTestRefused`] with its reason, and
+//! arming is refused while the switch is on.
 //!
 //! # Time
 //!
@@ -85,6 +90,7 @@ use control::loops::{LevelConfig, LevelController, Quat, RateConfig, RateControl
 use control::mixer::{MixOutput, Mixer, MixerConfig, MOTORS};
 use control::shaping::{StickShaping, Sticks, SticksConfig};
 
+use crate::motortest::{MotorTestSwitch, SwitchRequest};
 use crate::pipeline::Pipeline;
 
 pub use crate::arming::{
@@ -128,12 +134,15 @@ pub struct PilotInput {
     /// Valid frames are arriving (false = signal lost; the other fields are
     /// then ignored).
     pub link_ok: bool,
+    /// Motor-test switch position (true = on; see [`crate::motortest`]).
+    pub motor_test_switch: bool,
 }
 
 impl PilotInput {
     /// From the receiver crate's mapped sticks (same conventions: roll and
     /// yaw +1 = right, pitch +1 = forward = nose down, throttle 0..1), the
-    /// arm switch, the selected mode and the link state.
+    /// arm switch, the selected mode and the link state; the motor-test
+    /// switch off.
     pub fn from_rc(
         sticks: &rc_input::Sticks,
         arm_switch: bool,
@@ -150,6 +159,7 @@ impl PilotInput {
             arm_switch,
             mode,
             link_ok,
+            motor_test_switch: false,
         }
     }
 }
@@ -392,6 +402,8 @@ struct MotorTestRun {
     motor: u8,
     sticks: Sticks,
     elapsed_us: u32,
+    /// Started by the motor-test switch: ends when the switch goes off.
+    by_switch: bool,
 }
 
 /// Limits in the units the hot path compares against.
@@ -440,6 +452,7 @@ pub struct FlightController {
     landed: Hold,
     bad_input: Hold,
     motor_test: Option<MotorTestRun>,
+    test_switch: MotorTestSwitch,
     shaped: Shaped,
 }
 
@@ -461,10 +474,11 @@ impl FlightController {
             motor_test_us: us(s.motor_test_max_s),
             bad_input_us: us(s.bad_input_disarm_s),
         };
+        let shaping = StickShaping::new(cfg.sticks)?;
         Ok(Self {
             cfg,
             lim,
-            shaping: StickShaping::new(cfg.sticks)?,
+            shaping,
             rate: RateController::new(cfg.rate)?,
             level: LevelController::new(cfg.level)?,
             alt: AltitudeHold::new(cfg.altitude_hold)?,
@@ -485,7 +499,8 @@ impl FlightController {
             landed: Hold::default(),
             bad_input: Hold::default(),
             motor_test: None,
-            shaped: Shaped::new(&StickShaping::new(cfg.sticks)?, &Sticks::default()),
+            test_switch: MotorTestSwitch::new(),
+            shaped: Shaped::new(&shaping, &Sticks::default()),
         })
     }
 
@@ -535,32 +550,35 @@ impl FlightController {
             Some(c) if c < self.lim.arm_cos_tilt => b.insert(ArmRefusal::NotLevel),
             Some(_) => {}
         }
-        let t = pilot.sticks.throttle;
-        if !(t.is_finite() && t <= self.cfg.safety.arm_throttle_max) {
+        if !self.throttle_low(pilot) {
             b.insert(ArmRefusal::ThrottleNotLow);
         }
         if self.motor_test.is_some() {
             b.insert(ArmRefusal::MotorTestActive);
         }
+        if pilot.motor_test_switch {
+            b.insert(ArmRefusal::MotorTestSwitchOn);
+        }
         b
+    }
+
+    /// Throttle stick at or below [`SafetyConfig::arm_throttle_max`].
+    fn throttle_low(&self, pilot: &PilotInput) -> bool {
+        let t = pilot.sticks.throttle;
+        t.is_finite() && t <= self.cfg.safety.arm_throttle_max
     }
 
     /// Starts the props-off motor test on motor index `motor` (0..=3, mixer
     /// order) with the sticks where they are now. Takes effect from the next
-    /// [`step`](Self::step).
+    /// [`step`](Self::step). Refused unless disarmed (or already testing),
+    /// link up, arm switch off and throttle low.
     pub fn start_motor_test(
         &mut self,
         motor: u8,
         pilot: &PilotInput,
     ) -> Result<(), MotorTestRefusal> {
-        if self.state != FlightState::Disarmed && self.motor_test.is_none() {
-            return Err(MotorTestRefusal::Armed);
-        }
-        if !pilot.link_ok {
-            return Err(MotorTestRefusal::LinkLost);
-        }
-        if pilot.arm_switch {
-            return Err(MotorTestRefusal::ArmSwitchOn);
+        if let Some(r) = self.motor_test_refusal(pilot) {
+            return Err(r);
         }
         if usize::from(motor) >= MOTORS {
             return Err(MotorTestRefusal::InvalidMotor);
@@ -569,13 +587,35 @@ impl FlightController {
             .sticks
             .clamped()
             .map_err(|_| MotorTestRefusal::LinkLost)?;
+        self.begin_motor_test(motor, sticks, false);
+        Ok(())
+    }
+
+    /// The first reason to refuse a motor test now (the motor index
+    /// aside).
+    fn motor_test_refusal(&self, pilot: &PilotInput) -> Option<MotorTestRefusal> {
+        if self.state != FlightState::Disarmed && self.motor_test.is_none() {
+            Some(MotorTestRefusal::Armed)
+        } else if !pilot.link_ok {
+            Some(MotorTestRefusal::LinkLost)
+        } else if pilot.arm_switch {
+            Some(MotorTestRefusal::ArmSwitchOn)
+        } else if !self.throttle_low(pilot) {
+            Some(MotorTestRefusal::ThrottleNotLow)
+        } else {
+            None
+        }
+    }
+
+    /// Starts the test; `sticks` is the reference a movement is measured from.
+    fn begin_motor_test(&mut self, motor: u8, sticks: Sticks, by_switch: bool) {
         self.motor_test = Some(MotorTestRun {
             motor,
             sticks,
             elapsed_us: 0,
+            by_switch,
         });
         self.state = FlightState::MotorTest(motor);
-        Ok(())
     }
 
     /// Stops the motor test (no effect otherwise); the next step reports
@@ -622,6 +662,7 @@ impl FlightController {
             collective: 0.0,
             mix: None,
         };
+        self.on_test_switch(&pilot, &mut out);
         match self.state {
             FlightState::Disarmed => self.step_disarmed(edge, &pilot, status, vehicle, &mut out),
             FlightState::MotorTest(_) => self.step_motor_test(dt_us, edge, &pilot, &mut out),
@@ -639,6 +680,26 @@ impl FlightController {
         self.last_motors = out.motors;
         out.state = self.state;
         out
+    }
+
+    /// Starts the next motor on an off → on flip of the motor-test switch.
+    // Out of line: inlined into `step`, the firmware measured 120 B larger.
+    #[inline(never)]
+    fn on_test_switch(&mut self, pilot: &PilotInput, out: &mut FlightOutput) {
+        let req = self
+            .test_switch
+            .update(pilot.link_ok, pilot.motor_test_switch);
+        if let SwitchRequest::Start(motor) = req {
+            // `MotorTestSwitch` only hands out indices below MOTORS.
+            match self.motor_test_refusal(pilot) {
+                Some(r) => out.events.push(Event::MotorTestRefused(r)),
+                // The sticks are finite here (`step` checked them).
+                None => {
+                    self.begin_motor_test(motor, pilot.sticks, true);
+                    self.test_switch.advance();
+                }
+            }
+        }
     }
 
     fn step_disarmed(
@@ -707,6 +768,8 @@ impl FlightController {
             Some(MotorTestEnd::ArmSwitch)
         } else if t.elapsed_us == u32::MAX {
             Some(MotorTestEnd::Stopped)
+        } else if t.by_switch && !pilot.motor_test_switch {
+            Some(MotorTestEnd::SwitchOff)
         } else if moved(s.roll, t.sticks.roll)
             || moved(s.pitch, t.sticks.pitch)
             || moved(s.yaw, t.sticks.yaw)

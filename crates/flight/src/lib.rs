@@ -21,6 +21,7 @@
 //! | [`pipeline`] | the 1 kHz / 100 Hz processing chain (fixed-point AHRS by default, f32 with `f32-ahrs`) |
 //! | [`mounting`] | MPU frame → body FRD signed axis permutation |
 //! | [`flightctl`] | [`flightctl::FlightController`]: pilot input + attitude + gyro + time → 4 motor commands, state, events (modes, arming, crash/landing disarm, failsafe, motor test) |
+//! | [`motortest`] | the motor-test switch: off → on flips while disarmed spin motors 1, 2, 3, 4 in turn |
 //! | [`arming`] | arming refusals, disarm causes, events and the safety limits |
 //! | [`angles`] | integer Euler angles and the down axis from the Q30 quaternion |
 //!
@@ -48,6 +49,7 @@ pub mod calmode;
 pub mod crc32;
 pub mod flightctl;
 pub mod health;
+pub mod motortest;
 pub mod mounting;
 pub mod pipeline;
 pub mod sample;

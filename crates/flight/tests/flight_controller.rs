@@ -48,6 +48,7 @@ impl Rig {
                 arm_switch: false,
                 mode: FlightMode::Angle,
                 link_ok: true,
+                motor_test_switch: false,
             },
             status: ready_status(),
             vehicle: level(),

@@ -65,4 +65,4 @@ pub use error::{ConfigError, MissingChannel};
 pub use frame::{RcFrame, MAX_CHANNELS};
 pub use link::{LinkMonitor, LinkStatus, CRSF_TIMEOUT_US, PPM_TIMEOUT_US};
 pub use map::{Axis, ChannelMap, ChannelOrder, ChannelRange, Sticks, SwitchPosition};
-pub use ppm::{PpmConfig, PpmDecoder, PpmStats};
+pub use ppm::{CaptureIntervals, PpmConfig, PpmDecoder, PpmStats};

@@ -228,3 +228,63 @@ impl PpmDecoder {
         Some(RcFrame::new(self.channels_us, count))
     }
 }
+
+/// Coarse elapsed time (µs) from which a 16-bit capture difference is no
+/// longer trusted: half the counter's 65 536 µs wrap. An interval comes out
+/// exact while it plus the difference of the two interrupt latencies stays
+/// below this (a 2.25 ms channel with up to 30 ms of latency), and a pause
+/// of whole wraps is seen as long while the latencies differ by less than
+/// 32 ms.
+pub const CAPTURE_WRAP_GUARD_US: u32 = 32_768;
+
+/// Intervals between input captures of a free-running 16-bit timer counting
+/// at 1 MHz (0..=0xFFFF, wrapping every 65.536 ms), for
+/// [`PpmDecoder::push_interval_us`].
+///
+/// Within one wrap the interval is the wrapping 16-bit difference of the
+/// two captures, exact to the timer's tick. A longer pause (the receiver
+/// unplugged and back) wraps the counter more than once, which the 16-bit
+/// difference cannot see; a coarse clock read in the capture interrupt
+/// tells the two apart: from [`CAPTURE_WRAP_GUARD_US`] on, the interval is
+/// the coarse elapsed time, which is far longer than any channel pulse and
+/// so is treated as the sync gap it is.
+///
+/// ```
+/// use rc_input::ppm::CaptureIntervals;
+///
+/// let mut c = CaptureIntervals::new();
+/// assert_eq!(c.push(65_000, 1_000), None); // first edge: no interval yet
+/// assert_eq!(c.push(1_464, 3_000), Some(2_000)); // across the wrap
+/// assert_eq!(c.push(1_464, 500_000), Some(497_000)); // long pause
+/// ```
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CaptureIntervals {
+    /// The previous capture (timer ticks) and the coarse time it was read.
+    last: Option<(u16, u32)>,
+}
+
+impl CaptureIntervals {
+    /// No capture yet.
+    pub const fn new() -> Self {
+        Self { last: None }
+    }
+
+    /// A capture `capture_us` (the timer's 1 µs count) read at coarse time
+    /// `now_us`: the interval since the previous capture, µs; `None` for
+    /// the first capture (or the first after [`CaptureIntervals::restart`]).
+    pub fn push(&mut self, capture_us: u16, now_us: u32) -> Option<u32> {
+        let last = self.last.replace((capture_us, now_us));
+        let (prev_capture, prev_now) = last?;
+        let coarse_us = now_us.wrapping_sub(prev_now);
+        if coarse_us >= CAPTURE_WRAP_GUARD_US {
+            return Some(coarse_us);
+        }
+        Some(u32::from(capture_us.wrapping_sub(prev_capture)))
+    }
+
+    /// Forgets the previous capture: the next interval would span an edge
+    /// the timer lost (an over-capture).
+    pub fn restart(&mut self) {
+        self.last = None;
+    }
+}

@@ -1,0 +1,100 @@
+//! The board's build-time settings in one place: which receiver channel
+//! does what, the ESC protocol, the motor-test command and which
+//! magnetometer calibration the build carries. Change them here and
+//! rebuild (`cargo fw`, `cargo embed --release`); the boot log prints what
+//! the firmware uses ("outputs: ...", "flight controller: ready ...").
+//!
+//! The receiver protocol is a cargo feature, like OneShot125: CRSF on
+//! USART1 RX (PA10) by default, a PPM sum signal on PB8 with `--features
+//! ppm` (`ppm.rs`); the channel settings below apply to both.
+//!
+//! Channel numbers below are 0-based indices (channel 1 = index 0), as
+//! `rc_input` counts them; the log and the README count from 1.
+//!
+//! # How do I change my channel order?
+//!
+//! Edit [`channel_map`]: `ChannelMap::DEFAULT` is AETR (roll, pitch,
+//! throttle, yaw on channels 1-4) with the arm switch on channel 5 high.
+//! For a Futaba/Spektrum-style TAER radio:
+//!
+//! ```ignore
+//! pub fn channel_map() -> ChannelMap {
+//!     ChannelMap::new(ChannelOrder::TAER) // arm switch stays on channel 5
+//! }
+//! ```
+//!
+//! A stick that runs the wrong way: `.with_reversed(Axis::Pitch, true)`;
+//! the arm switch elsewhere: `ChannelMap::with_arm_switch` (it refuses a
+//! channel a stick uses). Any other order: `ChannelOrder::new(roll, pitch,
+//! yaw, throttle)`. Keep [`MODE_CHANNEL`] and [`MOTOR_TEST_CHANNEL`] off
+//! the stick and arm channels.
+
+use control::esc::EscProtocol;
+#[cfg(not(feature = "mag-ellipsoid"))]
+use flight::{arming::SafetyConfig, flightctl::FlightConfig};
+use rc_input::ChannelMap;
+
+/// Sticks and arm switch: AETR on channels 1-4, arm on channel 5 (AUX1,
+/// which ExpressLRS always sends at full rate) in the high position.
+#[inline(always)]
+pub fn channel_map() -> ChannelMap {
+    ChannelMap::DEFAULT
+}
+
+/// Flight-mode switch (index 5 = channel 6, AUX2): low angle, middle
+/// altitude hold, high acro. Absent from the frame: angle.
+pub const MODE_CHANNEL: u8 = 5;
+
+/// Motor-test switch (index 6 = channel 7, AUX3), on in the high
+/// position. While disarmed, with the arm switch off and the throttle low,
+/// each off → on flip spins the next motor alone (1, 2, 3, 4, then 1
+/// again) at [`MOTOR_TEST_COMMAND`] until the switch goes off, a stick
+/// moves, the arm switch goes on, the link is lost or 5 s pass. Arming is
+/// refused while it is on. Absent from the frame: off. PROPS OFF.
+pub const MOTOR_TEST_CHANNEL: u8 = 6;
+
+/// Motor-test command, 0..=0.2 of the ESC range above the off pulse
+/// (0.08: 1080 µs in standard PWM): enough to turn every common ESC's
+/// motor over, too little to lift anything.
+pub const MOTOR_TEST_COMMAND: f32 = 0.08;
+
+const _: () = assert!(
+    MODE_CHANNEL != MOTOR_TEST_CHANNEL && MODE_CHANNEL < 16 && MOTOR_TEST_CHANNEL < 16,
+    "the mode and motor-test switches need two distinct channels of the 16"
+);
+
+/// ESC protocol of the four outputs (TIM3 CH1-4): standard PWM
+/// 1000-2000 µs at 400 Hz, or OneShot125 (125-250 µs at 2 kHz) with
+/// `--features oneshot125`.
+#[cfg(not(feature = "oneshot125"))]
+pub const ESC_PROTOCOL: EscProtocol = EscProtocol::Pwm;
+/// ESC protocol of the four outputs: OneShot125 at 2 kHz (feature
+/// `oneshot125`).
+#[cfg(feature = "oneshot125")]
+pub const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
+
+/// The flight controller's tuning: the `flight`/`control` defaults with
+/// this board's motor-test command. (The `mag-ellipsoid` calibration
+/// build has no flight controller.)
+#[cfg(not(feature = "mag-ellipsoid"))]
+pub fn flight_config() -> FlightConfig {
+    FlightConfig {
+        safety: SafetyConfig {
+            motor_test_command: MOTOR_TEST_COMMAND,
+            ..SafetyConfig::default()
+        },
+        ..FlightConfig::default()
+    }
+}
+
+/// Magnetometer calibration on the board: per-axis min/max in the flight
+/// build. The ellipsoid fit (`flight::calmode::MagCalMode`: integer
+/// moments, an f32 solve, 5.5 KiB) does not fit beside the flight
+/// controller, so it has its own build (`--features mag-ellipsoid`), which
+/// leaves the flight controller out; both store the same record (offset +
+/// full soft-iron matrix), which the flight build applies.
+#[cfg(not(feature = "mag-ellipsoid"))]
+pub type MagCal = flight::calmode::MagMinMaxMode;
+/// The calibration build's magnetometer calibration: the ellipsoid fit.
+#[cfg(feature = "mag-ellipsoid")]
+pub type MagCal = flight::calmode::MagCalMode;
