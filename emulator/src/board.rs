@@ -7,6 +7,7 @@
 //! Cortex-M3 with two flash wait states takes more cycles for the same
 //! code: logged cycle figures are lower bounds, CPU loads likewise.
 
+use crate::dma::{self, Dma};
 use crate::elf::{Firmware, FLASH_BASE, FLASH_SIZE};
 use crate::exceptions;
 use crate::exti::{irq_of_line, Exti};
@@ -72,6 +73,13 @@ const BOARD_DRIVEN_PINS: [(usize, u32); 10] = [
 ];
 /// USART1's exception number (IRQ 37).
 pub const USART1_IRQ: usize = IRQ0 + 37;
+/// DMA1 channel 5's exception number (IRQ 15; channel `n` is IRQ `10 + n`).
+pub const DMA1_CHANNEL5_IRQ: usize = IRQ0 + dma::CHANNEL1_IRQ + 4;
+/// DMA1's registers (RM0008 §3.3, table 3).
+const DMA1_BASE: u32 = 0x4002_0000;
+const DMA1_END: u32 = 0x4002_03FF;
+const USART1_BASE: u32 = 0x4001_3800;
+const USART1_END: u32 = 0x4001_3BFF;
 /// TIM3 channel outputs in channel order: PA6, PA7, PB0, PB1 (RM0008
 /// §9.3.7 table 43, no remap).
 pub const TIM3_PINS: [(usize, u32); 4] = [(0, 6), (0, 7), (1, 0), (1, 1)];
@@ -245,6 +253,7 @@ pub struct Hw {
     tim3: GpTimer,
     tim4: GpTimer,
     usart1: Usart,
+    dma1: Dma,
     driven: Vec<DrivenPin>,
     clock: sim::SimClock,
     tail_base: u32,
@@ -403,7 +412,8 @@ impl Hw {
             0x4000_5400..=0x4000_57FF => ("I2C1", self.rcc.apb1enr & (1 << 21) != 0),
             0x4000_0400..=0x4000_07FF => ("TIM3", self.rcc.apb1enr & (1 << 1) != 0),
             0x4000_0800..=0x4000_0BFF => ("TIM4", self.rcc.apb1enr & (1 << 2) != 0),
-            0x4001_3800..=0x4001_3BFF => ("USART1", self.rcc.apb2enr & (1 << 14) != 0),
+            USART1_BASE..=USART1_END => ("USART1", self.rcc.apb2enr & (1 << 14) != 0),
+            DMA1_BASE..=DMA1_END => ("DMA1", self.rcc.ahbenr() & 1 != 0),
             _ => return None,
         };
         (!on).then_some(name)
@@ -411,7 +421,12 @@ impl Hw {
 
     /// Word-register read (`None`: not modelled).
     fn periph_read(&mut self, a: u32) -> Option<u32> {
-        let now = self.now_ns();
+        self.periph_read_at(a, self.now_ns())
+    }
+
+    /// Word-register read by a bus master at `now` (the CPU now, the DMA
+    /// when the peripheral requested it).
+    fn periph_read_at(&mut self, a: u32, now: u64) -> Option<u32> {
         match a {
             0x4000_3000..=0x4000_33FF => self.iwdg.read(a - 0x4000_3000, now),
             0x4000_0400..=0x4000_07FF => {
@@ -423,10 +438,11 @@ impl Hw {
                 self.drive_pins_to(now);
                 self.tim4.read(a - 0x4000_0800, now)
             }
-            0x4001_3800..=0x4001_3BFF => {
+            USART1_BASE..=USART1_END => {
                 self.resched = true;
-                self.usart1.read(a - 0x4001_3800, now)
+                self.usart1.read(a - USART1_BASE, now)
             }
+            DMA1_BASE..=DMA1_END => self.dma1.read(a - DMA1_BASE),
             0x4000_5400..=0x4000_5420 => {
                 self.sync_clock();
                 let off = a - 0x4000_5400;
@@ -458,7 +474,11 @@ impl Hw {
 
     /// Word-register write with byte-lane `mask`; false if not modelled.
     fn periph_write(&mut self, a: u32, v: u32, mask: u32) -> bool {
-        let now = self.now_ns();
+        self.periph_write_at(a, v, mask, self.now_ns())
+    }
+
+    /// Word-register write by a bus master at `now`.
+    fn periph_write_at(&mut self, a: u32, v: u32, mask: u32, now: u64) -> bool {
         let merged = |old: u32| (old & !mask) | (v & mask);
         match a {
             0x4000_3000..=0x4000_33FF => match self.iwdg.write(a - 0x4000_3000, v & mask, now) {
@@ -480,8 +500,14 @@ impl Hw {
                 let r = self.tim4.write(a - 0x4000_0800, merged(0), now);
                 self.peripheral_result(r)
             }
-            0x4001_3800..=0x4001_3BFF => {
-                let r = self.usart1.write(a - 0x4001_3800, merged(0), now);
+            USART1_BASE..=USART1_END => {
+                let r = self.usart1.write(a - USART1_BASE, merged(0), now);
+                self.peripheral_result(r)
+            }
+            DMA1_BASE..=DMA1_END => {
+                let off = a - DMA1_BASE;
+                let current = self.dma1.read(off).unwrap_or(0);
+                let r = self.dma1.write(off, merged(current));
                 self.peripheral_result(r)
             }
             0x4000_5400..=0x4000_5420 => {
@@ -491,6 +517,14 @@ impl Hw {
                 } else {
                     (v & mask) as u16
                 };
+                // I2C1's DMA requests (DMA1 channels 6 and 7) are not wired
+                // to the DMA model: a firmware using them would wait for
+                // transfers that never come.
+                if a - 0x4000_5400 == crate::i2c1::reg::CR2 && value & (1 << 11) != 0 {
+                    self.fail(BoardError::Unsupported(
+                        "I2C1 DMA requests (CR2.DMAEN) not modelled".into(),
+                    ));
+                }
                 self.i2c.write(a - 0x4000_5400, value, now);
                 true
             }
@@ -641,6 +675,12 @@ pub fn refresh_irq_lines(hw: &mut Hw) {
             hw.nvic.pending[n] = true;
         }
     }
+    for ch in 0..dma::CHANNELS {
+        let n = IRQ0 + dma::CHANNEL1_IRQ + ch;
+        if hw.dma1.irq(ch) && !hw.nvic.active.contains(&n) {
+            hw.nvic.pending[n] = true;
+        }
+    }
     for line in 0..19 {
         if let Some(irq) = irq_of_line(line) {
             let n = IRQ0 + irq;
@@ -687,6 +727,10 @@ fn mmio_read(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize) -> u64 {
     if stopped_on_unclocked(uc, addr, pc) {
         return 0;
     }
+    if dma_side(a) {
+        let now = uc.get_data().now_ns();
+        catch_up_usart1(uc, now);
+    }
     let hw = uc.get_data_mut();
     match hw.periph_read(a) {
         Some(v) => u64::from((v & mask) >> shift),
@@ -709,9 +753,12 @@ fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
     if stopped_on_unclocked(uc, addr, pc) {
         return;
     }
+    if dma_side(a) {
+        let now = uc.get_data().now_ns();
+        catch_up_usart1(uc, now);
+    }
     let hw = uc.get_data_mut();
     let pend_before = hw.nvic.pending;
-    let hw = uc.get_data_mut();
     hw.resched = true;
     if !hw.periph_write(a, (value as u32) << shift, mask) {
         hw.fail(BoardError::Unmodelled {
@@ -721,6 +768,13 @@ fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
             pc,
         });
     }
+    if dma_side(a) {
+        // A channel enabled, or a request line raised, by this write.
+        let now = uc.get_data().now_ns();
+        serve_dma(uc, now);
+        refresh_irq_lines(uc.get_data_mut());
+    }
+    let hw = uc.get_data_mut();
     // A write that pends an exception, stalls the CPU or resets ends the
     // slice at the next block so the run loop acts on it at once. (Not
     // `emu_stop` here: unicorn would re-execute the store on restart.)
@@ -734,6 +788,157 @@ fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
     {
         hw.slice_end = hw.cycles;
     }
+}
+
+/// A register of DMA1 or of a DMA requester: its state depends on the
+/// transfers up to now.
+fn dma_side(a: u32) -> bool {
+    matches!(a, DMA1_BASE..=DMA1_END | USART1_BASE..=USART1_END)
+}
+
+/// DMA1's request lines (RM0008 §13.3.7 table 78), bit `n` = channel
+/// `n + 1`. A new requester is one more line here (I2C1_RX: bit 6, channel
+/// 7, from CR2.DMAEN and RxNE), the side effects of the DMA's access to its
+/// data register in its own model (the same as the CPU's), and a
+/// [`serve_dma`] wherever its model advances to an event that raises the
+/// request, as [`catch_up_usart1`] does for USART1.
+fn dma1_requests(hw: &Hw) -> u8 {
+    u8::from(hw.usart1.rx_dma_request()) << 4
+}
+
+/// What a DMA access reaches (RM0008 §3.3, table 3 and figure 1: the DMA
+/// masters SRAM, flash and the AHB/APB peripherals through the bus
+/// matrix).
+enum DmaTarget {
+    Ram,
+    Flash(u32),
+    Periph,
+    BusError,
+}
+
+fn dma_target(addr: u32, bytes: u32) -> DmaTarget {
+    let end = u64::from(addr) + u64::from(bytes);
+    let within = |base: u32, size: u32| addr >= base && end <= u64::from(base) + u64::from(size);
+    if within(RAM_BASE, RAM_SIZE) {
+        DmaTarget::Ram
+    } else if within(FLASH_BASE, FLASH_SIZE) {
+        DmaTarget::Flash(addr - FLASH_BASE)
+    } else if within(PERIPH_BASE, PERIPH_SIZE) {
+        DmaTarget::Periph
+    } else {
+        DmaTarget::BusError
+    }
+}
+
+/// The DMA reads `bytes` at `addr` at time `at_ns`; `None`: bus error.
+fn dma_read(uc: &mut Unicorn<'_, Hw>, addr: u32, bytes: u32, at_ns: u64) -> Option<u32> {
+    let mut b = [0u8; 4];
+    let n = bytes as usize;
+    match dma_target(addr, bytes) {
+        DmaTarget::Ram => {
+            uc.mem_read(u64::from(addr), &mut b[..n]).ok()?;
+            Some(u32::from_le_bytes(b))
+        }
+        DmaTarget::Flash(off) => {
+            let hw = uc.get_data();
+            let src = hw.flash.image.get(off as usize..off as usize + n)?;
+            b[..n].copy_from_slice(src);
+            Some(u32::from_le_bytes(b))
+        }
+        DmaTarget::Periph => {
+            let (a, shift, mask) = lanes(u64::from(addr), n);
+            let hw = uc.get_data_mut();
+            if let Some(p) = hw.unclocked(addr) {
+                hw.fail(BoardError::ClockDisabled {
+                    peripheral: p,
+                    addr,
+                    pc: 0,
+                });
+                return Some(0);
+            }
+            match hw.periph_read_at(a, at_ns) {
+                Some(v) => Some((v & mask) >> shift),
+                None => {
+                    hw.fail(BoardError::Unmodelled {
+                        addr,
+                        write: None,
+                        size: n,
+                        pc: 0,
+                    });
+                    Some(0)
+                }
+            }
+        }
+        DmaTarget::BusError => None,
+    }
+}
+
+/// The DMA writes `v` (`bytes` wide) at `addr`; `None`: bus error (also a
+/// write to flash, which is programmed only through its controller).
+fn dma_write(uc: &mut Unicorn<'_, Hw>, addr: u32, bytes: u32, v: u32, at_ns: u64) -> Option<()> {
+    let n = bytes as usize;
+    match dma_target(addr, bytes) {
+        DmaTarget::Ram => uc.mem_write(u64::from(addr), &v.to_le_bytes()[..n]).ok(),
+        DmaTarget::Periph => {
+            let (a, shift, mask) = lanes(u64::from(addr), n);
+            let hw = uc.get_data_mut();
+            if let Some(p) = hw.unclocked(addr) {
+                hw.fail(BoardError::ClockDisabled {
+                    peripheral: p,
+                    addr,
+                    pc: 0,
+                });
+            } else if !hw.periph_write_at(a, v << shift, mask, at_ns) {
+                hw.fail(BoardError::Unmodelled {
+                    addr,
+                    write: Some(v),
+                    size: n,
+                    pc: 0,
+                });
+            }
+            Some(())
+        }
+        DmaTarget::Flash(_) | DmaTarget::BusError => None,
+    }
+}
+
+/// Serves DMA1's pending requests at `at_ns`, one item per request, in the
+/// arbiter's order.
+fn serve_dma(uc: &mut Unicorn<'_, Hw>, at_ns: u64) {
+    // Each item lowers its request (the DMA read or wrote the requester's
+    // data register); the bound only stops a requester that never does.
+    for _ in 0..1024 {
+        let hw = uc.get_data();
+        if hw.error.is_some() {
+            return;
+        }
+        let Some(t) = hw.dma1.next_transfer(dma1_requests(hw)) else {
+            return;
+        };
+        let moved = dma_read(uc, t.from, t.from_bytes, at_ns)
+            .and_then(|v| dma_write(uc, t.to, t.to_bytes, t.value_written(v), at_ns));
+        let hw = uc.get_data_mut();
+        match moved {
+            Some(()) => hw.dma1.complete(t.channel),
+            None => hw.dma1.bus_error(t.channel),
+        }
+    }
+}
+
+/// Brings USART1 to `now_ns` one received byte at a time, serving its DMA
+/// request as each byte lands (the CPU may have been stalled, or its
+/// registers not read, for many byte times).
+fn catch_up_usart1(uc: &mut Unicorn<'_, Hw>, now_ns: u64) {
+    loop {
+        let hw = uc.get_data_mut();
+        let Some(t) = hw.usart1.next_byte_ns().filter(|&t| t <= now_ns) else {
+            break;
+        };
+        hw.usart1.advance(t);
+        serve_dma(uc, t);
+    }
+    uc.get_data_mut().usart1.advance(now_ns);
+    serve_dma(uc, now_ns);
 }
 
 fn bitband_target(alias_base: u32, target_base: u32, off: u32) -> (u32, u32) {
@@ -908,6 +1113,7 @@ impl Board {
             tim3: GpTimer::new("TIM3", 8_000_000),
             tim4: GpTimer::new("TIM4", 8_000_000),
             usart1: Usart::new("USART1", 8_000_000),
+            dma1: Dma::new(),
             driven: Vec::new(),
             clock,
             tail_base,
@@ -1099,6 +1305,7 @@ impl Board {
             hw.tim4.set_clock_hz(hw.rcc.apb1_timer_hz(), now);
             hw.usart1.reset();
             hw.usart1.set_pclk_hz(hw.rcc.pclk2_hz());
+            hw.dma1 = Dma::new();
             hw.exc_return = None;
             hw.cpu_fault = None;
             hw.stall_ns = 0;
@@ -1284,22 +1491,42 @@ impl Board {
         self.uc.get_data().usart1.counts()
     }
 
+    /// DMA1: items each channel moved since the last reset.
+    pub fn dma1_served(&self) -> [u64; dma::CHANNELS] {
+        self.uc.get_data().dma1.served()
+    }
+
     /// When USART1's RX line has sent everything injected so far (ns).
     pub fn usart1_line_free_ns(&self) -> Option<u64> {
         self.uc.get_data().usart1.line_free_ns()
     }
 
+    /// Puts `bytes` on USART1's RX line back to back at `baud`, the first
+    /// start bit at `at_ns` (or now, or when the bytes queued before them
+    /// are through, whichever is latest): a sender on its own schedule,
+    /// whatever the board does meanwhile (a flash erase stalls the CPU, not
+    /// the line).
+    pub fn usart1_send_at(&mut self, bytes: &[u8], baud: u32, at_ns: u64) {
+        let now = self.now_ns();
+        catch_up_usart1(&mut self.uc, now);
+        self.uc
+            .get_data_mut()
+            .usart1
+            .inject(bytes, baud, at_ns.max(now));
+    }
+
     /// Applies a board-level fault or stimulus now.
     pub fn apply(&mut self, fault: BoardFault) {
+        if let BoardFault::UsartRx { bytes, baud } = &fault {
+            let now = self.now_ns();
+            catch_up_usart1(&mut self.uc, now);
+            self.uc.get_data_mut().usart1.inject(bytes, *baud, now);
+            // Byte-level stimuli would flood the event list.
+            return;
+        }
         let hw = self.uc.get_data_mut();
         match &fault {
-            BoardFault::UsartRx { bytes, baud } => {
-                let now = hw.now_ns();
-                hw.usart1.advance(now);
-                hw.usart1.inject(bytes, *baud, now);
-                // Byte-level stimuli would flood the event list.
-                return;
-            }
+            BoardFault::UsartRx { .. } => {}
             BoardFault::ImuIntStops => hw.imu_int_cut = true,
             BoardFault::ImuIntRestored => hw.imu_int_cut = false,
             BoardFault::Button(p) => hw.button_pressed = *p,
@@ -1384,6 +1611,7 @@ impl Board {
             self.poll_rtt();
             self.next_rtt_poll_ns = now + RTT_POLL_NS;
         }
+        catch_up_usart1(&mut self.uc, now);
         let hw = self.uc.get_data_mut();
         if let Some(e) = hw.error.take() {
             return Err(e);
@@ -1396,7 +1624,6 @@ impl Board {
         hw.tim3.advance(now);
         hw.drive_pins_to(now);
         hw.tim4.advance(now);
-        hw.usart1.advance(now);
         hw.sample_exti();
         refresh_irq_lines(hw);
         if hw.nvic.reset_requested {
@@ -1615,22 +1842,26 @@ mod tests {
 
     #[test]
     fn unclocked_peripheral_stops_the_board_on_read_and_write() {
-        // ldr r0,=I2C1; ldr r1,[r0]; b .   and   ldr r0,=I2C1; str r1,[r0]; b .
-        for code in [[0x4802, 0x6801, 0xE7FE], [0x4802, 0x6001, 0xE7FE]] {
-            let fw = bare(&code, 0x4000_5400);
-            let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
-            let e = b.run_until_ns(1_000).err();
-            assert!(
-                matches!(
-                    e,
-                    Some(BoardError::ClockDisabled {
-                        peripheral: "I2C1",
-                        addr: 0x4000_5400,
-                        ..
-                    })
-                ),
-                "{code:x?}: {e:?}"
-            );
+        // ldr r0,=addr; ldr r1,[r0]; b .   and   ldr r0,=addr; str r1,[r0]; b .
+        // I2C1 on APB1; DMA1 (its CNDTR5) on AHB, whose enable is off at reset.
+        for (addr, name) in [(0x4000_5400, "I2C1"), (0x4002_005C, "DMA1")] {
+            for code in [[0x4802, 0x6801, 0xE7FE], [0x4802, 0x6001, 0xE7FE]] {
+                let fw = bare(&code, addr);
+                let mut b =
+                    Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+                let e = b.run_until_ns(1_000).err();
+                assert!(
+                    matches!(
+                        &e,
+                        Some(BoardError::ClockDisabled {
+                            peripheral,
+                            addr: a,
+                            ..
+                        }) if *peripheral == name && *a == addr
+                    ),
+                    "{code:x?}: {e:?}"
+                );
+            }
         }
     }
 

@@ -5,7 +5,7 @@
 //! NVIC priorities, tail-chaining) and every peripheral the firmware
 //! touches are register-level models written from RM0008 and PM0056
 //! (`scs`, `exceptions`, `rcc`, `flash`, `gpio`, `exti`, `iwdg`, `i2c1`,
-//! `tim` for TIM3 and TIM4, `usart` for USART1's receiver);
+//! `tim` for TIM3 and TIM4, `usart` for USART1's receiver, `dma` for DMA1);
 //! the sensor chips on I2C1 are the simulator's (`sim`). The firmware's
 //! defmt-RTT output is read like a probe does and decoded from the ELF's
 //! own table (`rtt`). Any access to a register that is not modelled stops
@@ -13,11 +13,12 @@
 //!
 //! Not modelled: the PLL/HSI clock before the switch (the CPU counts at
 //! 72 MHz from reset), instruction timing (one instruction per cycle),
-//! the process stack, MPU/FPU (none on the M3 part used), DMA, timers
+//! the process stack, MPU/FPU (none on the M3 part used), DMA2, timers
 //! other than TIM3 and TIM4, USART transmit and USART2/3, ADC, sleep modes beyond
 //! "idle until the next event".
 
 pub mod board;
+pub mod dma;
 pub mod elf;
 pub mod exceptions;
 pub mod exti;
@@ -32,8 +33,8 @@ pub mod tim;
 pub mod usart;
 
 pub use board::{
-    Board, BoardConfig, BoardError, BoardEvent, BoardFault, EXTI9_5, TIM3_IRQ, TIM3_PINS, TIM4_IRQ,
-    TIM4_PINS, USART1_IRQ,
+    Board, BoardConfig, BoardError, BoardEvent, BoardFault, DMA1_CHANNEL5_IRQ, EXTI9_5, TIM3_IRQ,
+    TIM3_PINS, TIM4_IRQ, TIM4_PINS, USART1_IRQ,
 };
 pub use elf::{release_elf_path, Firmware};
 pub use rcc::ResetCause;

@@ -176,6 +176,11 @@ impl Rcc {
         self.hclk_hz() >> Self::apb_shift((self.cfgr >> 11) & 7)
     }
 
+    /// AHBENR (DMA1, SRAM, FLITF clocks).
+    pub fn ahbenr(&self) -> u32 {
+        self.ahbenr
+    }
+
     /// The LSI was started by the watchdog (KR 0xCCCC forces it on).
     pub fn force_lsi(&mut self, now_ns: u64) {
         if self.lsi_on_at.is_none() {

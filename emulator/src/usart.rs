@@ -12,9 +12,17 @@
 //! and M = 0; the model takes it for every BRR) or each byte is received
 //! with FE set.
 //!
+//! Receiver DMA (CR3.DMAR, §27.3.13): RXNE is then a request to the DMA
+//! (USART1_RX is DMA1 channel 5), and the DMA's read of DR is a DR read
+//! like the CPU's: it clears RXNE and, when an SR read came before it, the
+//! flags that SR read saw (the USART sees only the bus access, not which
+//! master made it). IDLE therefore still needs an SR read followed by a DR
+//! read to clear (§27.6.1). With DMAR, EIE raises the interrupt on FE, NE
+//! or ORE (§27.4, figure 296).
+//!
 //! Not modelled (stop the board with an error if switched on): the
-//! transmitter, parity, 9-bit words, LIN, IrDA, smartcard, half-duplex,
-//! hardware flow control, DMA, multiprocessor wake-up.
+//! transmitter and its DMA (DMAT), parity, 9-bit words, LIN, IrDA,
+//! smartcard, half-duplex, hardware flow control, multiprocessor wake-up.
 
 use std::collections::VecDeque;
 
@@ -70,6 +78,14 @@ pub mod cr1 {
     pub const UE: u32 = 1 << 13;
 }
 
+/// CR3 bits.
+pub mod cr3 {
+    /// Error interrupt enable (FE, NE, ORE with DMAR).
+    pub const EIE: u32 = 1 << 0;
+    /// DMA enable receiver.
+    pub const DMAR: u32 = 1 << 6;
+}
+
 /// Receiver tolerance to the line's baud rate (RM0008 §27.3.5, table 180).
 pub const RX_TOLERANCE: f64 = 0.0375;
 
@@ -82,6 +98,7 @@ pub struct Usart {
     dr: u8,
     brr: u32,
     cr1: u32,
+    cr3: u32,
     /// Error and IDLE flags seen by the last SR read (the first half of
     /// their clear sequence).
     sr_read: u32,
@@ -109,6 +126,7 @@ impl Usart {
             dr: 0,
             brr: 0,
             cr1: 0,
+            cr3: 0,
             sr_read: 0,
             line: VecDeque::new(),
             idle_from_ns: None,
@@ -221,12 +239,27 @@ impl Usart {
         self.received += 1;
     }
 
+    /// When the next byte on the line lands in DR (or overruns).
+    pub fn next_byte_ns(&self) -> Option<u64> {
+        self.line
+            .front()
+            .map(|&(s, _, b)| s + (9.5 * bit_ns(b)).round() as u64)
+    }
+
+    /// The receiver's DMA request (USART1_RX: DMA1 channel 5): RXNE with
+    /// CR3.DMAR.
+    pub fn rx_dma_request(&self) -> bool {
+        self.cr3 & cr3::DMAR != 0 && self.sr & sr::RXNE != 0
+    }
+
+    /// The DMA's read of DR: the same bus access as the CPU's.
+    pub fn dma_read_dr(&mut self, now_ns: u64) -> u32 {
+        self.read(reg::DR, now_ns).unwrap_or(0)
+    }
+
     /// When the next byte lands in DR or IDLE sets (for the scheduler).
     pub fn next_event_ns(&self) -> Option<u64> {
-        let byte = self
-            .line
-            .front()
-            .map(|&(s, _, b)| s + (9.5 * bit_ns(b)).round() as u64);
+        let byte = self.next_byte_ns();
         let idle = self.idle_from_ns.and_then(|t| {
             self.baud()
                 .map(|b| t + (10.0 * 1e9 / b).round() as u64)
@@ -239,11 +272,13 @@ impl Usart {
     }
 
     /// The interrupt line (RM0008 §27.4, figure 296): RXNE or ORE with
-    /// RXNEIE, IDLE with IDLEIE.
+    /// RXNEIE, IDLE with IDLEIE, FE/NE/ORE with EIE and DMAR.
     pub fn irq(&self) -> bool {
         let rx = self.cr1 & cr1::RXNEIE != 0 && self.sr & (sr::RXNE | sr::ORE) != 0;
         let idle = self.cr1 & cr1::IDLEIE != 0 && self.sr & sr::IDLE != 0;
-        rx || idle
+        let err = self.cr3 & (cr3::EIE | cr3::DMAR) == cr3::EIE | cr3::DMAR
+            && self.sr & (sr::FE | sr::NE | sr::ORE) != 0;
+        rx || idle || err
     }
 
     /// Register read at `offset`; `None`: not modelled.
@@ -263,7 +298,8 @@ impl Usart {
             }
             reg::BRR => self.brr,
             reg::CR1 => self.cr1,
-            reg::CR2 | reg::CR3 | reg::GTPR => 0,
+            reg::CR3 => self.cr3,
+            reg::CR2 | reg::GTPR => 0,
             _ => return None,
         })
     }
@@ -305,9 +341,17 @@ impl Usart {
                     return unsupported("stop bits other than 1, LIN");
                 }
             }
-            reg::CR3 | reg::GTPR => {
+            reg::CR3 => {
+                if v & !(cr3::DMAR | cr3::EIE) != 0 {
+                    return unsupported(
+                        "CR3 bits other than DMAR and EIE (transmit DMA, flow control, IrDA, smartcard, half-duplex)",
+                    );
+                }
+                self.cr3 = v;
+            }
+            reg::GTPR => {
                 if v != 0 {
-                    return unsupported("CR3 (DMA, flow control, IrDA, smartcard) / GTPR");
+                    return unsupported("GTPR (IrDA, smartcard)");
                 }
             }
             _ => return None,

@@ -186,7 +186,10 @@ fn features_outside_the_model_are_refused() {
         matches!(u.write(reg::CR1, cr1::UE | (1 << 12), 0), Some(Err(_))),
         "9 bits"
     );
-    assert!(matches!(u.write(reg::CR3, 1 << 6, 0), Some(Err(_))), "DMA");
+    assert!(
+        matches!(u.write(reg::CR3, 1 << 7, 0), Some(Err(_))),
+        "transmit DMA"
+    );
     assert!(matches!(u.write(reg::DR, 0x55, 0), Some(Err(_))));
     assert_eq!(u.read(0x1C, 0), None);
 }

@@ -19,7 +19,7 @@
 //!   drivers (a failure is counted and the sample skipped, never retried),
 //!   `flight::sample::SampleStep`, the flight controller, the ESC outputs.
 //!   CPU per sample on the emulated board (`cargo fil -t hover -s 10`, one
-//!   instruction per cycle): mean 5,608, worst 7,190 cycles of 72,000
+//!   instruction per cycle): mean 5,605, worst 7,184 cycles of 72,000
 //!   (cpu 7.7 %), against 34,953 / 57,156 (48.5 %) with the task waiting
 //!   on the bus; the read itself takes 0.4 ms of bus time (0.72 ms on a
 //!   magnetometer tick).
@@ -56,11 +56,16 @@
 //! figure-eight; short press → raw-log mode on/off (CSV order of the BROAD
 //! recordings, 100 Hz), or abort a calibration.
 //!
-//! * `crsf_rx` (USART1, priority 4): CRSF bytes from PA10 at 420 kbaud into
-//!   `rc_input`'s parser and link monitor. With the `ppm` feature instead
-//!   `ppm_rx` (TIM4, priority 4): a PPM train on PB8 (TIM4_CH3 input
-//!   capture at 1 MHz, `ppm.rs`) into `rc_input`'s PPM decoder and the same
-//!   link monitor and pilot state, so arming, failsafe and signal-loss
+//! * `crsf_rx` (USART1, priority 4): CRSF bytes from PA10 at 420 kbaud,
+//!   which DMA1 channel 5 moves into a 128 B ring as they arrive, into
+//!   `rc_input`'s parser and link monitor; it runs at the end of every
+//!   burst (IDLE, the parser's frame boundary) and, pended by `crsf_dma`
+//!   (DMA1_CHANNEL5, priority 4), at every half ring. Interrupts held off
+//!   for up to 1.5 ms (defmt-rtt encodes each line with interrupts
+//!   disabled) lose no byte. With the `ppm` feature instead `ppm_rx`
+//!   (TIM4, priority 4): a PPM train on PB8 (TIM4_CH3 input capture at
+//!   1 MHz, `ppm.rs`) into `rc_input`'s PPM decoder and the same link
+//!   monitor and pilot state, so arming, failsafe and signal-loss
 //!   detection are the same for both receivers.
 //!
 //! Safety: the ESC outputs (TIM3 CH1-4 on PA6, PA7, PB0, PB1) carry the
@@ -79,9 +84,9 @@
 //! ESC protocol, the motor-test command and the magnetometer calibration
 //! of the build are in `config.rs`.
 //!
-//! Flash: 63,340 B of the 63 KiB budget with the flight controller
+//! Flash: 63,588 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
-//! static RAM 4.6 KiB; the `ppm` build (PPM instead of CRSF): 62,464 B.
+//! static RAM 4.6 KiB; the `ppm` build (PPM instead of CRSF): 62,476 B.
 //! The interrupt-driven sample read costs 1,780 B of it, and `mem.rs`'s
 //! 50 B of `__aeabi_memcpy*`/`__aeabi_memclr*` save 1,560 B over
 //! `compiler_builtins`' own.
@@ -170,9 +175,9 @@ mod app {
     use crate::outputs::EscOutputs;
     #[cfg(feature = "ppm")]
     use crate::ppm::PpmInput;
-    use crate::receiver::Pilot;
     #[cfg(not(feature = "ppm"))]
-    use crate::receiver::{self, CrsfUart};
+    use crate::receiver::{self, CrsfRx};
+    use crate::receiver::{Pilot, RING_BYTES};
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
@@ -194,8 +199,6 @@ mod app {
     };
     use flight::sensors::{Maintenance, Sensors, SensorsConfig};
     use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
-    #[cfg(not(feature = "ppm"))]
-    use rc_input::CrsfParser;
     use rc_input::LinkStatus;
     use rtic::Mutex;
     use rtic_monotonics::fugit::ExtU32;
@@ -266,14 +269,12 @@ mod app {
         // Full paths: RTIC's generated task contexts name these types
         // outside the cfg that removes their imports from the other build.
         #[cfg(not(feature = "ppm"))]
-        uart: crate::receiver::CrsfUart,
-        #[cfg(not(feature = "ppm"))]
-        parser: rc_input::CrsfParser,
+        rx: crate::receiver::CrsfRx,
         #[cfg(feature = "ppm")]
         ppm: crate::ppm::PpmInput,
     }
 
-    #[init]
+    #[init(local = [ring: [u8; RING_BYTES] = [0; RING_BYTES]])]
     fn init(cx: init::Context) -> (Shared, Local) {
         stack::paint();
         let mut core = cx.core;
@@ -309,9 +310,11 @@ mod app {
         let bias = start_gyro_bias(&sensors);
         let session = start_session(&button_pin);
         #[cfg(not(feature = "ppm"))]
-        let uart = start_receiver(dp.USART1);
+        let rx = start_receiver(dp.USART1, dp.DMA1, cx.local.ring);
+        // RTIC's init locals take no cfg: the ppm build keeps the unused
+        // ring (128 B of RAM).
         #[cfg(feature = "ppm")]
-        let ppm = start_ppm(dp.TIM4);
+        let (ppm, _) = (start_ppm(dp.TIM4), cx.local.ring);
 
         let mut exti = dp.EXTI;
         let mut mpu_int = gpiob.pb5.into_pull_up_input(&mut gpiob.crl);
@@ -347,9 +350,7 @@ mod app {
                 esc,
                 fc: start_flight_controller(),
                 #[cfg(not(feature = "ppm"))]
-                uart,
-                #[cfg(not(feature = "ppm"))]
-                parser: CrsfParser::new(),
+                rx,
                 #[cfg(feature = "ppm")]
                 ppm,
             },
@@ -426,13 +427,18 @@ mod app {
     /// Boot step: the CRSF receiver on USART1 RX (PA10); APB2 runs at SYSCLK.
     #[cfg(not(feature = "ppm"))]
     #[inline(never)]
-    fn start_receiver(usart: pac::USART1) -> CrsfUart {
-        let uart = CrsfUart::start(usart, cpu_hz());
+    fn start_receiver(
+        usart: pac::USART1,
+        dma: pac::DMA1,
+        ring: &'static mut [u8; RING_BYTES],
+    ) -> CrsfRx {
+        let rx = CrsfRx::start(usart, dma, ring, cpu_hz());
         defmt::info!(
-            "receiver: CRSF on USART1 RX (PA10), {=u32} baud",
-            receiver::CRSF_BAUD
+            "receiver: CRSF on USART1 RX (PA10), {=u32} baud, DMA1 channel 5 into a {=u16} B ring",
+            receiver::CRSF_BAUD,
+            RING_BYTES as u16
         );
-        uart
+        rx
     }
 
     /// Boot step: the boot line, with the clock source.
@@ -751,27 +757,29 @@ mod app {
         out.map_or(Motors::Off, |o| o.motors)
     }
 
-    /// USART1 receive (priority 4, above the 1 kHz tasks: at 420 kbaud a
-    /// byte arrives every 24 µs; below the I2C1 handlers, whose steps are a
+    /// DMA1 channel 5: half or all of the receive ring written (priority
+    /// 4, above the 1 kHz tasks; below the I2C1 handlers, whose steps are a
     /// few register accesses, up to one bit time, 2.5 µs, at a block's
-    /// end): bytes into the CRSF parser, frames into the pilot state.
+    /// end). Pends `crsf_rx`, which hands the bytes over.
     #[cfg(not(feature = "ppm"))]
-    #[task(binds = USART1, priority = 4, local = [uart, parser], shared = [clock, pilot])]
+    #[task(binds = DMA1_CHANNEL5, priority = 4)]
+    fn crsf_dma(_cx: crsf_dma::Context) {
+        receiver::on_dma_half_or_complete();
+    }
+
+    /// USART1 IDLE, or pended by `crsf_dma` (priority 4, above the 1 kHz
+    /// tasks so that the sample's processing never holds up emptying the
+    /// ring: half the ring, 1.5 ms, is the latency it tolerates): the bytes
+    /// the DMA wrote since the last run into the CRSF parser, frames into
+    /// the pilot state; an IDLE marks a frame boundary.
+    #[cfg(not(feature = "ppm"))]
+    #[task(binds = USART1, priority = 4, local = [rx], shared = [clock, pilot])]
     fn crsf_rx(mut cx: crsf_rx::Context) {
-        let clock = &mut cx.shared.clock;
+        let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
+        let rx = cx.local.rx;
         let pilot = &mut cx.shared.pilot;
-        receiver::drain(
-            cx.local.uart,
-            cx.local.parser,
-            || clock.lock(|c| c.now_us(DWT::cycle_count())),
-            |ev, now_us, stats, uart| {
-                pilot.lock(|p| {
-                    p.on_event(ev, now_us);
-                    p.stats = *stats;
-                    p.uart = uart;
-                })
-            },
-        );
+        rx.on_interrupt(|ev| pilot.lock(|p| p.on_event(ev, now_us)));
+        pilot.lock(|p| p.update_counters(rx.stats(), rx.errors()));
     }
 
     /// TIM4 capture on PB8 (priority 4, where `crsf_rx` is in the CRSF
@@ -779,9 +787,10 @@ mod app {
     /// pilot state exactly as a CRSF channel frame goes.
     ///
     /// RTIC 2.4 sets the NVIC priority of, and unmasks, the interrupt of a
-    /// hardware task its cfg leaves out (8 B in the CRSF build): TIM4 there
-    /// and USART1 in the `ppm` build are unmasked, but their peripherals
-    /// are never clocked or given an interrupt enable, so they never pend.
+    /// hardware task its cfg leaves out (8 B in the CRSF build): TIM4 there,
+    /// USART1 and DMA1_CHANNEL5 in the `ppm` build are unmasked, but their
+    /// peripherals are never clocked or given an interrupt enable, so they
+    /// never pend.
     #[cfg(feature = "ppm")]
     #[task(binds = TIM4, priority = 4, local = [ppm], shared = [clock, pilot])]
     fn ppm_rx(mut cx: ppm_rx::Context) {
@@ -1135,14 +1144,15 @@ mod app {
             if let Some(f) = frame {
                 let c = f.channels();
                 defmt::info!(
-                    "rc: ch1-8 {} us | lq {} % | frames {=u32} crc_err {=u32} dropped {=u32} | uart ore {=u32} fe {=u32}",
+                    "rc: ch1-8 {} us | lq {} % | frames {=u32} crc_err {=u32} dropped {=u32} | uart ore {=u32} fe {=u32} late {=u32}",
                     c.get(..8).unwrap_or(c),
                     lq,
                     stats.rc_frames,
                     stats.crc_errors,
                     stats.dropped(),
                     uart.overruns,
-                    uart.framing
+                    uart.framing,
+                    uart.late
                 );
             }
         }

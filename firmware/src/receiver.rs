@@ -1,9 +1,34 @@
-//! The CRSF receiver on USART1 RX (PA10) at 420 kbaud 8N1: register set-up,
-//! the per-interrupt byte read with the manual's flag handling, and the
-//! pilot state the control loop reads. Frame parsing, channel mapping and
-//! signal-loss timing are `rc_input`'s.
+//! The CRSF receiver on USART1 RX (PA10) at 420 kbaud 8N1, received by
+//! DMA1 channel 5 into a circular buffer: register set-up, handing new
+//! bytes to the parser on the channel's half/complete interrupts and on the
+//! USART's IDLE interrupt, and the pilot state the control loop reads.
+//! Frame parsing, channel mapping and signal-loss timing are `rc_input`'s.
+//!
+//! Why DMA: a byte arrives every 23.8 µs and the USART holds one. defmt-rtt
+//! encodes a whole log line with interrupts disabled, so a byte-per-
+//! interrupt receiver overruns (ORE) whenever a line takes longer than a
+//! byte time. The DMA takes each byte out of DR within a few bus cycles
+//! whatever the CPU does, so ORE cannot happen; the CPU only has to empty
+//! the ring before the DMA comes round to unread bytes. The handler runs at
+//! every half ring (HT, TC) and at the end of every burst (IDLE), so a byte
+//! waits at most half a ring before an interrupt asks for it, and the other
+//! half is the interrupt latency it tolerates: [`RING_BYTES`] = 128 gives
+//! 64 byte times, 1.52 ms, longer than any log line's critical section.
+//!
+//! Frame boundaries: the parser abandons a partial frame after an idle gap,
+//! which needs a time per byte. Bytes handed over in chunks have no such
+//! time (a chunk's drain time lags its bytes by the interrupt latency, and
+//! the two chunks of a frame split at a half-ring mark can be drained more
+//! than the gap apart), so the parser runs on a line clock that stands
+//! still while bytes arrive and jumps past the idle gap at each IDLE event
+//! (the USART saw a whole idle frame after a stop bit). If the IDLE
+//! interrupt is held off until the next frame has begun, that frame's first
+//! bytes fall before the boundary and it is dropped (counted, never
+//! misparsed); CRSF senders leave milliseconds between frames. The link
+//! monitor gets wall-clock times.
 
 use control::shaping::Sticks;
+use core::sync::atomic::{compiler_fence, AtomicU32, Ordering};
 use flight::flightctl::{FlightMode, PilotInput};
 use rc_input::{ChannelMap, SwitchPosition};
 use rc_input::{CrsfParser, CrsfStats, Event, LinkMonitor, LinkStatus, RcFrame};
@@ -12,44 +37,86 @@ use stm32f1xx_hal::pac;
 /// CRSF line rate (ExpressLRS/Crossfire receivers to a flight controller).
 pub const CRSF_BAUD: u32 = rc_input::crsf::CRSF_BAUD;
 
+/// The receive ring: a power of two (the write position is `RING_BYTES -
+/// CNDTR`, the read position wraps with a mask).
+pub const RING_BYTES: usize = 128;
+
 const SR_FE: u16 = 1 << 1;
 const SR_NE: u16 = 1 << 2;
 const SR_ORE: u16 = 1 << 3;
-const SR_RXNE: u16 = 1 << 5;
+const SR_IDLE: u16 = 1 << 4;
 const CR1_RE: u16 = 1 << 2;
-const CR1_RXNEIE: u16 = 1 << 5;
+const CR1_IDLEIE: u16 = 1 << 4;
 const CR1_UE: u16 = 1 << 13;
+const CR3_DMAR: u16 = 1 << 6;
+/// DMA1 channel 5 (USART1_RX, RM0008 §13.3.7 table 78), index 4.
+const CH5: usize = 4;
+const CCR_EN: u32 = 1 << 0;
+const CCR_TCIE: u32 = 1 << 1;
+const CCR_HTIE: u32 = 1 << 2;
+const CCR_CIRC: u32 = 1 << 5;
+const CCR_MINC: u32 = 1 << 7;
+const CCR_PL_VERY_HIGH: u32 = 3 << 12;
 
-/// Receive errors the USART flagged (RM0008 §27.3.3).
+/// Receive errors the USART flagged (RM0008 §27.3.3), counted at each IDLE
+/// event from the flags set since the one before: a burst with several bad
+/// bytes counts once. The bytes themselves went to the parser, whose CRC
+/// check drops their frames.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, defmt::Format)]
 pub struct UartErrors {
-    /// Bytes lost because the previous one was not read in time (ORE).
+    /// Bursts with an overrun (ORE: a byte lost because DR was not emptied
+    /// in time; with the DMA serving DR, only if the channel stopped).
     pub overruns: u32,
-    /// Bytes with a framing error (FE: no stop bit, wrong baud rate or a
-    /// line disturbance), dropped.
+    /// Bursts with a framing error (FE: no stop bit, wrong baud rate or a
+    /// line disturbance).
     pub framing: u32,
-    /// Bytes with noise detected in their samples (NE), kept: the CRC
-    /// decides.
+    /// Bursts with noise detected in a byte's samples (NE).
     pub noise: u32,
+    /// Times the DMA passed both half-ring marks before the handover ran:
+    /// interrupts held off for half a ring (1.5 ms) or more, for instance
+    /// by a flash page erase (20-40 ms, the CPU stalls while the DMA goes
+    /// on). Bytes may then have been overwritten before they were read; the
+    /// parser resynchronises on the bytes that follow.
+    pub late: u32,
 }
 
-/// USART1 configured as the CRSF receiver.
-pub struct CrsfUart {
+/// [`UartErrors::late`], counted in the DMA interrupt.
+static LATE: AtomicU32 = AtomicU32::new(0);
+
+/// USART1 and DMA1 channel 5 receiving CRSF into the ring, with the parser
+/// the bytes go to.
+pub struct CrsfRx {
     usart: pac::USART1,
+    dma: pac::DMA1,
+    ring: &'static mut [u8; RING_BYTES],
+    read_pos: usize,
+    parser: CrsfParser,
+    line_us: u32,
     errors: UartErrors,
 }
 
-impl CrsfUart {
-    /// Clocks USART1 and GPIOA, makes PA10 a pulled-up input (an unplugged
-    /// receiver reads as an idle line, not noise), sets 420 kbaud from
-    /// `pclk2_hz` and enables the receiver with the RXNE interrupt.
-    pub fn start(usart: pac::USART1, pclk2_hz: u32) -> Self {
+impl CrsfRx {
+    /// Clocks USART1, GPIOA and DMA1, makes PA10 a pulled-up input (an
+    /// unplugged receiver reads as an idle line, not noise), points DMA1
+    /// channel 5 from USART1's DR into `ring` (circular, byte items, half
+    /// and complete interrupts), sets 420 kbaud from `pclk2_hz` and enables
+    /// the receiver with DMA requests and the IDLE interrupt.
+    pub fn start(
+        usart: pac::USART1,
+        dma: pac::DMA1,
+        ring: &'static mut [u8; RING_BYTES],
+        pclk2_hz: u32,
+    ) -> Self {
         // SAFETY: register writes in init, before any task runs: RCC enable
-        // bits (read-modify-write), PA10's CRH nibble and ODR bit, and
-        // USART1's BRR/CR1 with values from RM0008 §27.6.
+        // bits (read-modify-write), PA10's CRH nibble and ODR bit, DMA1
+        // channel 5 (disabled at reset, so CNDTR/CPAR/CMAR are writable)
+        // and USART1's BRR/CR3/CR1 with values from RM0008 §13.4 and §27.6.
+        // The channel writes only into `ring`, which this struct owns for
+        // the life of the program and reads with volatile reads.
         #[allow(unsafe_code)]
         unsafe {
             let rcc = &*pac::RCC::ptr();
+            rcc.ahbenr().modify(|_, w| w.dma1en().set_bit());
             rcc.apb2enr()
                 .modify(|_, w| w.iopaen().set_bit().usart1en().set_bit());
             let gpioa = &*pac::GPIOA::ptr();
@@ -57,43 +124,109 @@ impl CrsfUart {
                 .crh()
                 .modify(|r, w| w.bits((r.bits() & !(0xF << 8)) | (0b1000 << 8)));
             gpioa.bsrr().write(|w| w.bits(1 << 10));
+            let ch = dma.ch(CH5);
+            ch.par().write(|w| w.bits(usart.dr().as_ptr() as u32));
+            ch.mar().write(|w| w.bits(ring.as_mut_ptr() as u32));
+            ch.ndtr().write(|w| w.bits(RING_BYTES as u32));
+            ch.cr().write(|w| {
+                w.bits(CCR_MINC | CCR_CIRC | CCR_HTIE | CCR_TCIE | CCR_PL_VERY_HIGH | CCR_EN)
+            });
             // BRR = f_PCLK / baud (16× oversampling, mantissa.fraction).
             let brr = (pclk2_hz + CRSF_BAUD / 2) / CRSF_BAUD;
             usart.brr().write(|w| w.bits(brr as u16));
-            usart.cr1().write(|w| w.bits(CR1_UE | CR1_RE | CR1_RXNEIE));
+            usart.cr3().write(|w| w.bits(CR3_DMAR));
+            usart.cr1().write(|w| w.bits(CR1_UE | CR1_RE | CR1_IDLEIE));
         }
         Self {
             usart,
-            errors: UartErrors::default(),
+            dma,
+            ring,
+            read_pos: 0,
+            parser: CrsfParser::new(),
+            line_us: 0,
+            errors: UartErrors {
+                overruns: 0,
+                framing: 0,
+                noise: 0,
+                late: 0,
+            },
         }
     }
 
-    /// The next received byte, if any. Reads SR then DR, which also clears
-    /// ORE/NE/FE (their clear sequence); an overrun is counted, a byte with
-    /// a framing error is counted and dropped.
-    pub fn read(&mut self) -> Option<u8> {
+    /// USART1's interrupt: IDLE, or pended by [`on_dma_half_or_complete`].
+    /// On IDLE counts the error flags and clears them with IDLE (SR then
+    /// DR, RM0008 §27.6.1); hands the new bytes to the parser; after an
+    /// IDLE, moves the parser's line clock past its idle gap so the next
+    /// byte starts a frame.
+    pub fn on_interrupt(&mut self, mut on_event: impl FnMut(Event)) {
         let sr = self.usart.sr().read().bits();
-        if sr & (SR_RXNE | SR_ORE) == 0 {
-            return None;
+        let idle = sr & SR_IDLE != 0;
+        if idle {
+            let _ = self.usart.dr().read();
+            for (flag, count) in [
+                (SR_ORE, &mut self.errors.overruns),
+                (SR_FE, &mut self.errors.framing),
+                (SR_NE, &mut self.errors.noise),
+            ] {
+                if sr & flag != 0 {
+                    *count = count.saturating_add(1);
+                }
+            }
         }
-        let byte = self.usart.dr().read().bits() as u8;
-        if sr & SR_ORE != 0 {
-            self.errors.overruns = self.errors.overruns.saturating_add(1);
+        let left = self.dma.ch(CH5).ndtr().read().bits() as usize;
+        let write_pos = RING_BYTES.wrapping_sub(left) & (RING_BYTES - 1);
+        // The DMA's writes up to `write_pos` happened before CNDTR said so.
+        compiler_fence(Ordering::Acquire);
+        while self.read_pos != write_pos {
+            let i = self.read_pos & (RING_BYTES - 1);
+            // SAFETY: `i` is inside the ring; a volatile read because the
+            // DMA, not this code, writes the ring.
+            #[allow(unsafe_code)]
+            let byte = unsafe { core::ptr::read_volatile(self.ring.as_ptr().add(i)) };
+            self.read_pos = (i + 1) & (RING_BYTES - 1);
+            if let Some(ev) = self.parser.push(byte, self.line_us) {
+                on_event(ev);
+            }
         }
-        if sr & SR_NE != 0 {
-            self.errors.noise = self.errors.noise.saturating_add(1);
+        if idle {
+            self.line_us = self
+                .line_us
+                .wrapping_add(rc_input::crsf::DEFAULT_IDLE_GAP_US + 1);
         }
-        if sr & SR_FE != 0 {
-            self.errors.framing = self.errors.framing.saturating_add(1);
-            return None;
-        }
-        Some(byte)
     }
 
-    /// Receive errors so far.
-    pub fn errors(&self) -> UartErrors {
-        self.errors
+    /// The parser's counters.
+    pub fn stats(&self) -> &CrsfStats {
+        self.parser.stats()
     }
+
+    /// The USART's receive errors and late handovers.
+    pub fn errors(&self) -> UartErrors {
+        UartErrors {
+            late: LATE.load(Ordering::Relaxed),
+            ..self.errors
+        }
+    }
+}
+
+/// DMA1 channel 5's interrupt (half or all of the ring written): counts a
+/// late handover when both marks were passed, clears the channel's flags
+/// and pends USART1's interrupt, whose handler hands the bytes over (one
+/// routine for both events: one copy of the parser's inlined code in
+/// flash).
+pub fn on_dma_half_or_complete() {
+    // SAFETY: ISR is read-only; IFCR is write-only and a write of 1 to
+    // CGIF5 clears channel 5's GIF, TC, HT and TE and nothing else (RM0008
+    // §13.4.2): no read-modify-write, so neither races `CrsfRx`'s reads of
+    // the channel.
+    #[allow(unsafe_code)]
+    let dma = unsafe { &*pac::DMA1::ptr() };
+    let isr = dma.isr().read();
+    if isr.htif5().bit_is_set() && isr.tcif5().bit_is_set() {
+        LATE.fetch_add(1, Ordering::Relaxed);
+    }
+    dma.ifcr().write(|w| w.cgif5().set_bit());
+    cortex_m::peripheral::NVIC::pend(pac::Interrupt::USART1);
 }
 
 /// What the pilot's receiver last said, shared from the receive interrupt
@@ -130,6 +263,7 @@ impl Pilot {
                 overruns: 0,
                 framing: 0,
                 noise: 0,
+                late: 0,
             },
             #[cfg(feature = "ppm")]
             ppm: crate::ppm::PpmCounters::ZERO,
@@ -150,24 +284,15 @@ impl Pilot {
         }
     }
 
+    /// The receiver's counters as they are now.
+    pub fn update_counters(&mut self, stats: &CrsfStats, uart: UartErrors) {
+        self.stats = *stats;
+        self.uart = uart;
+    }
+
     /// The link's state at `now_us`.
     pub fn status(&mut self, now_us: u32) -> LinkStatus {
         self.link.status(now_us)
-    }
-}
-
-/// One receive interrupt's worth of bytes through the parser.
-pub fn drain(
-    uart: &mut CrsfUart,
-    parser: &mut CrsfParser,
-    mut now_us: impl FnMut() -> u32,
-    mut on_event: impl FnMut(Event, u32, &CrsfStats, UartErrors),
-) {
-    while let Some(byte) = uart.read() {
-        let t = now_us();
-        if let Some(ev) = parser.push(byte, t) {
-            on_event(ev, t, parser.stats(), uart.errors());
-        }
     }
 }
 

@@ -88,10 +88,11 @@ fn budgets() -> Vec<(&'static str, Vec<Limit>)> {
         // The 1 kHz flight step: a regression guard at ~10 % over the
         // measured 14.7k (about 0.2 ms of each 1 ms sample at 72 MHz).
         (FC_STEP_ANGLE, vec![Limit::Max(16_000)]),
-        // A byte arrives every 23.8 µs at 420 kbaud (1,714 cycles at 72 MHz).
-        // An interrupt that reads the data register first has two byte times
-        // before an overrun; these limits keep the worst byte well inside
-        // that and an ordinary byte a small share of one.
+        // The receiver's DMA ring hands the parser a frame's bytes in one
+        // interrupt at priority 4, above the 1 kHz IMU task: 25 ordinary
+        // bytes and the completing one. These limits keep that under 7,650
+        // cycles (0.11 ms at 72 MHz), the IMU task's delay per frame, and
+        // far inside the 1.5 ms the ring tolerates.
         (CRSF_COMPLETING_BYTE, vec![Limit::Max(1_400)]),
         (CRSF_MID_BYTE, vec![Limit::Max(250)]),
     ]

@@ -365,7 +365,10 @@ impl CrsfParser {
     /// A parser that abandons a partial frame when no byte arrived for more
     /// than `idle_gap_us`. `u32::MAX` disables the idle rule (for bytes with
     /// no arrival times, e.g. a file). A caller draining a DMA buffer can
-    /// keep the rule by stamping each chunk with the time it was drained.
+    /// keep the rule by stamping each chunk with the time it was drained
+    /// (while its interrupt latency stays well under the gap), or by
+    /// stamping bytes with a line clock that jumps past the gap at each
+    /// idle-line event, as the firmware does.
     pub const fn with_idle_gap_us(idle_gap_us: u32) -> Self {
         Self {
             buf: [0; MAX_FRAME_BYTES],
