@@ -170,18 +170,23 @@ mod suite {
 
     /// The 1 kHz flight-control step (armed, flying) and its parts.
     fn flight_control_cases() {
-        use control::controllers::{BodyRates, TorqueCommand};
-        use control::loops::{LevelConfig, LevelController, Quat, TiltQuat};
-        use control::mixer::{Mixer, MixerConfig};
-        use control::shaping::{Sticks, TiltSetpoint};
-        use flight::flightctl::{
-            FlightConfig, FlightController, FlightMode, FlightState, Motors, PilotInput,
-            SystemStatus, VehicleState,
-        };
+        use control::loops::Quat;
 
         let q: [Quat; CALLS] = core::array::from_fn(|k| {
             Quat::from_euler(0.05 * k as f32 - 0.1, 0.02 * k as f32, 0.3 * k as f32)
         });
+        level_and_mixer_cases(&q);
+        flight_controller_cases(&q);
+    }
+
+    /// The angle-mode outer loop and the mixer, the flight controller's
+    /// costliest parts.
+    fn level_and_mixer_cases(q: &[control::loops::Quat; CALLS]) {
+        use control::controllers::TorqueCommand;
+        use control::loops::{LevelConfig, LevelController, TiltQuat};
+        use control::mixer::{Mixer, MixerConfig};
+        use control::shaping::TiltSetpoint;
+
         if let Ok(mut level) = LevelController::new(LevelConfig::default()) {
             let tilt = TiltSetpoint {
                 roll_rad: 0.2,
@@ -191,7 +196,7 @@ mod suite {
                 case(
                     "control::loops::LevelController::rate_setpoint_q (1 kHz form)",
                     &mut level,
-                    &q,
+                    q,
                     |l, q| l.rate_setpoint_q(q, &tq, 0.5),
                 );
             }
@@ -222,6 +227,18 @@ mod suite {
                 |r| r.as_ref().is_ok_and(|o| o.saturated()),
             );
         }
+    }
+
+    /// `FlightController::step` armed and flying, in angle and acro mode.
+    fn flight_controller_cases(q: &[control::loops::Quat; CALLS]) {
+        use control::controllers::BodyRates;
+        use control::loops::Quat;
+        use control::shaping::Sticks;
+        use flight::flightctl::{
+            FlightConfig, FlightController, FlightMode, FlightState, Motors, PilotInput,
+            SystemStatus, VehicleState,
+        };
+
         for (mode, name) in [
             (FlightMode::Angle, FC_ANGLE_NAME),
             (
@@ -457,14 +474,10 @@ mod suite {
     }
 
     fn ahrs_cases() {
-        use bench::{counts_config, features_on, plain, FixedSample};
-        use fc_ahrs::fixed::{dt_us_to_q31, FixedConfig, MadgwickFixed};
-        use fc_ahrs::{Madgwick, UpdatePath};
+        use bench::{features_on, plain, FixedSample};
         let (warm_raw, raw) = filter_inputs::<CALLS>(31);
         let s = raw.map(|r| r.to_si());
         let fx: [FixedSample; CALLS] = raw.map(|r| r.to_fixed());
-        let (w, w_fx) = (warm_raw.to_si(), warm_raw.to_fixed());
-        let dt_q31 = dt_us_to_q31(1000);
 
         // Steady state: no start-up gain ramp (`startup_s` = 0; the filters
         // start aligned by `from_accel_mag`), everything else as configured.
@@ -475,81 +488,161 @@ mod suite {
             c
         };
         for (on, cfg) in [(true, steady(features_on())), (false, steady(plain()))] {
-            let name = |on_name: &'static str, plain_name: &'static str| {
-                if on {
-                    on_name
-                } else {
-                    plain_name
-                }
-            };
-            // The f32 and fixed-point blocks below repeat each other's shape on
-            // purpose: the filters take different input types, and each block is
-            // one pair of rows of BENCHMARKS.md's table.
-            // f32: warm up past the start-up gain ramp, then measure.
-            let mut f = Madgwick::from_accel_mag(cfg, w.accel_mps2, w.mag_ut);
-            for _ in 0..WARM_CALLS {
-                f.update_marg(w.gyro_rps, w.accel_mps2, w.mag_ut, DT_S);
-            }
-            let mut imu = f.clone();
-            case_checked(
-                name(
-                    "fc_ahrs::Madgwick f32 MARG (rejection on)",
-                    "fc_ahrs::Madgwick f32 MARG (textbook)",
-                ),
-                &mut f,
-                &s,
-                |f, s| f.update_marg(s.gyro_rps, s.accel_mps2, s.mag_ut, DT_S),
-                |st| st.path == UpdatePath::Marg,
-            );
-            case_checked(
-                name(
-                    "fc_ahrs::Madgwick f32 IMU (rejection on)",
-                    "fc_ahrs::Madgwick f32 IMU (textbook)",
-                ),
-                &mut imu,
-                &s,
-                |f, s| f.update_imu(s.gyro_rps, s.accel_mps2, DT_S),
-                |st| st.path == UpdatePath::Imu,
-            );
-
-            // Fixed point, raw counts in.
-            let fcfg = FixedConfig::from_config(&counts_config(cfg));
-            let mut f = MadgwickFixed::from_accel_mag(fcfg, w_fx.accel, w_fx.mag);
-            for _ in 0..WARM_CALLS {
-                f.update_marg(w_fx.gyro_rps_q20, w_fx.accel, w_fx.mag, dt_q31);
-            }
-            let mut imu = f.clone();
-            case_checked(
-                name(
-                    "fc_ahrs::MadgwickFixed MARG (rejection on)",
-                    "fc_ahrs::MadgwickFixed MARG (textbook)",
-                ),
-                &mut f,
-                &fx,
-                |f, s| f.update_marg(s.gyro_rps_q20, s.accel, s.mag, dt_q31),
-                |st| st.path == UpdatePath::Marg,
-            );
-            case_checked(
-                name(
-                    "fc_ahrs::MadgwickFixed IMU (rejection on)",
-                    "fc_ahrs::MadgwickFixed IMU (textbook)",
-                ),
-                &mut imu,
-                &fx,
-                |f, s| f.update_imu(s.gyro_rps_q20, s.accel, dt_q31),
-                |st| st.path == UpdatePath::Imu,
-            );
+            f32_filter_cases(on, cfg, &warm_raw.to_si(), &s);
+            fixed_filter_cases(on, cfg, &warm_raw.to_fixed(), &fx);
         }
+    }
+
+    /// Row name for the filter with rejection on (`on`) or the textbook one.
+    fn filter_name(on: bool, on_name: &'static str, plain_name: &'static str) -> &'static str {
+        if on {
+            on_name
+        } else {
+            plain_name
+        }
+    }
+
+    // The f32 and fixed-point functions repeat each other's shape on purpose:
+    // the filters take different input types, and each is one pair of rows
+    // of BENCHMARKS.md's table.
+    /// The f32 filter, MARG and IMU: warmed up on `w`, measured on `s`.
+    fn f32_filter_cases(on: bool, cfg: fc_ahrs::Config, w: &SiSample, s: &[SiSample; CALLS]) {
+        use fc_ahrs::{Madgwick, UpdatePath};
+        let mut f = Madgwick::from_accel_mag(cfg, w.accel_mps2, w.mag_ut);
+        for _ in 0..WARM_CALLS {
+            f.update_marg(w.gyro_rps, w.accel_mps2, w.mag_ut, DT_S);
+        }
+        let mut imu = f.clone();
+        case_checked(
+            filter_name(
+                on,
+                "fc_ahrs::Madgwick f32 MARG (rejection on)",
+                "fc_ahrs::Madgwick f32 MARG (textbook)",
+            ),
+            &mut f,
+            s,
+            |f, s| f.update_marg(s.gyro_rps, s.accel_mps2, s.mag_ut, DT_S),
+            |st| st.path == UpdatePath::Marg,
+        );
+        case_checked(
+            filter_name(
+                on,
+                "fc_ahrs::Madgwick f32 IMU (rejection on)",
+                "fc_ahrs::Madgwick f32 IMU (textbook)",
+            ),
+            &mut imu,
+            s,
+            |f, s| f.update_imu(s.gyro_rps, s.accel_mps2, DT_S),
+            |st| st.path == UpdatePath::Imu,
+        );
+    }
+
+    /// The fixed-point filter on raw counts, MARG and IMU: warmed up on `w`,
+    /// measured on `fx`.
+    fn fixed_filter_cases(
+        on: bool,
+        cfg: fc_ahrs::Config,
+        w: &bench::FixedSample,
+        fx: &[bench::FixedSample; CALLS],
+    ) {
+        use fc_ahrs::fixed::{dt_us_to_q31, FixedConfig, MadgwickFixed};
+        use fc_ahrs::UpdatePath;
+        let dt_q31 = dt_us_to_q31(1000);
+        let fcfg = FixedConfig::from_config(&bench::counts_config(cfg));
+        let mut f = MadgwickFixed::from_accel_mag(fcfg, w.accel, w.mag);
+        for _ in 0..WARM_CALLS {
+            f.update_marg(w.gyro_rps_q20, w.accel, w.mag, dt_q31);
+        }
+        let mut imu = f.clone();
+        case_checked(
+            filter_name(
+                on,
+                "fc_ahrs::MadgwickFixed MARG (rejection on)",
+                "fc_ahrs::MadgwickFixed MARG (textbook)",
+            ),
+            &mut f,
+            fx,
+            |f, s| f.update_marg(s.gyro_rps_q20, s.accel, s.mag, dt_q31),
+            |st| st.path == UpdatePath::Marg,
+        );
+        case_checked(
+            filter_name(
+                on,
+                "fc_ahrs::MadgwickFixed IMU (rejection on)",
+                "fc_ahrs::MadgwickFixed IMU (textbook)",
+            ),
+            &mut imu,
+            fx,
+            |f, s| f.update_imu(s.gyro_rps_q20, s.accel, dt_q31),
+            |st| st.path == UpdatePath::Imu,
+        );
     }
 
     /// `flight::pipeline::Pipeline` as the firmware schedules it (default
     /// features: the fixed-point AHRS): per 10 ms, ten 1 kHz `imu_step`s,
     /// one magnetometer and one barometer sample and one `control_step`.
     fn pipeline_cases() {
-        use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
-        const FRAMES: usize = 3;
-        const SAMPLES_PER_FRAME: usize = 10;
-        const WARM_FRAMES: usize = 2;
+        use flight::pipeline::{Pipeline, PipelineConfig};
+        let (warm, frames) = pipeline_frames();
+
+        let mut cfg = PipelineConfig::new();
+        // Our generator's scales (±8 g: 4096 counts/g; ±1000 °/s).
+        cfg.accel_g_per_lsb = 1.0 / bench::ACCEL_LSB_PER_G as f32;
+        cfg.gyro_dps_per_lsb = 10.0 / bench::GYRO_LSB_PER_DPS_X10 as f32;
+        // Steady state (see `ahrs_cases`).
+        cfg.ahrs.startup_s = 0.0;
+        let Ok(mut p) = Pipeline::new(cfg, &Default::default()) else {
+            hprintln!("FAIL flight::pipeline::Pipeline::new refused the configuration");
+            return;
+        };
+        // The take-off pressure reference first, so the vertical estimator
+        // and the altitude hold run in the measured control steps.
+        for _ in 0..flight::pipeline::P0_AVERAGE_SAMPLES {
+            p.baro_step(96_000);
+        }
+        for f in &warm {
+            run_frame(&mut p, f);
+        }
+        if p.outputs().baro_samples == 0 {
+            hprintln!("FAIL flight pipeline: no barometer reference after the warm-up");
+        }
+        case(FRAME_NAME, &mut p, &frames, |p, f| {
+            run_frame(p, f);
+            p.outputs()
+        });
+        pipeline_step_cases(&mut p, &frames);
+        hprintln!("NOTE pipeline AHRS: {}", flight::pipeline::AHRS_KIND);
+    }
+
+    const FRAMES: usize = 3;
+    const SAMPLES_PER_FRAME: usize = 10;
+    const WARM_FRAMES: usize = 2;
+    /// One 10 ms frame: ten IMU samples, one magnetometer sample (AK8963
+    /// frame, counts), one pressure (Pa).
+    type Frame = (
+        [flight::pipeline::ImuInput; SAMPLES_PER_FRAME],
+        [i16; 3],
+        i32,
+    );
+
+    /// One frame as the firmware schedules it: the magnetometer and the
+    /// barometer, ten IMU steps, and the control step they ask for.
+    fn run_frame(p: &mut flight::pipeline::Pipeline, f: &Frame) {
+        p.mag_step(f.1);
+        p.baro_step(f.2);
+        let mut control = false;
+        for s in &f.0 {
+            control |= p.imu_step(s);
+        }
+        if control {
+            p.control_step();
+        }
+    }
+
+    /// Warm-up and measured frames from the generator, in the sensors' own
+    /// frames as the drivers deliver them.
+    fn pipeline_frames() -> ([Frame; WARM_FRAMES], [Frame; FRAMES]) {
+        use flight::pipeline::ImuInput;
         // Our generator's body-FRD counts → the sensors' own frames (default
         // mounting: body = (x, −y, −z) of the MPU; AK8963: x_ak = y_mpu,
         // y_ak = x_mpu, z_ak = −z_mpu).
@@ -567,7 +660,6 @@ mod suite {
             dt_cycles: 72_000,
         };
         let to_ak = |r: &RawSample| [r.mag[1].saturating_neg(), r.mag[0], r.mag[2]];
-        type Frame = ([ImuInput; SAMPLES_PER_FRAME], [i16; 3], i32);
         let mut g = SampleGen::new(61, false);
         let mut rng = bench::Rng::new(62);
         let mut frame = || -> Frame {
@@ -580,70 +672,32 @@ mod suite {
         };
         let warm: [Frame; WARM_FRAMES] = core::array::from_fn(|_| frame());
         let frames: [Frame; FRAMES] = core::array::from_fn(|_| frame());
+        (warm, frames)
+    }
 
-        let mut cfg = PipelineConfig::new();
-        // Our generator's scales (±8 g: 4096 counts/g; ±1000 °/s).
-        cfg.accel_g_per_lsb = 1.0 / bench::ACCEL_LSB_PER_G as f32;
-        cfg.gyro_dps_per_lsb = 10.0 / bench::GYRO_LSB_PER_DPS_X10 as f32;
-        // Steady state (see `ahrs_cases`).
-        cfg.ahrs.startup_s = 0.0;
-        let Ok(mut p) = Pipeline::new(cfg, &Default::default()) else {
-            hprintln!("FAIL flight::pipeline::Pipeline::new refused the configuration");
-            return;
-        };
-        let run_frame = |p: &mut Pipeline, f: &Frame| {
-            p.mag_step(f.1);
-            p.baro_step(f.2);
-            let mut control = false;
-            for s in &f.0 {
-                control |= p.imu_step(s);
-            }
-            if control {
-                p.control_step();
-            }
-        };
-        // The take-off pressure reference first, so the vertical estimator
-        // and the altitude hold run in the measured control steps.
-        for _ in 0..flight::pipeline::P0_AVERAGE_SAMPLES {
-            p.baro_step(96_000);
-        }
-        for f in &warm {
-            run_frame(&mut p, f);
-        }
-        if p.outputs().baro_samples == 0 {
-            hprintln!("FAIL flight pipeline: no barometer reference after the warm-up");
-        }
-        case(FRAME_NAME, &mut p, &frames, |p, f| {
-            run_frame(p, f);
-            p.outputs()
-        });
-        // The steps one by one, on the frames' first samples.
+    /// The pipeline's steps one by one, on the frames' samples.
+    fn pipeline_step_cases(p: &mut flight::pipeline::Pipeline, frames: &[Frame; FRAMES]) {
+        use flight::pipeline::ImuInput;
         let inputs: [ImuInput; CALLS] = core::array::from_fn(|k| frames[k % FRAMES].0[k / FRAMES]);
         case(
             "flight::Pipeline::imu_step (1 kHz, MARG)",
-            &mut p,
+            p,
             &inputs,
             |p, s| p.imu_step(s),
         );
         let mags: [[i16; 3]; FRAMES] = frames.map(|f| f.1);
-        case(
-            "flight::Pipeline::mag_step (100 Hz)",
-            &mut p,
-            &mags,
-            |p, m| p.mag_step(*m),
-        );
+        case("flight::Pipeline::mag_step (100 Hz)", p, &mags, |p, m| {
+            p.mag_step(*m)
+        });
         let baros: [i32; FRAMES] = frames.map(|f| f.2);
-        case(
-            "flight::Pipeline::baro_step (100 Hz)",
-            &mut p,
-            &baros,
-            |p, b| p.baro_step(*b),
-        );
+        case("flight::Pipeline::baro_step (100 Hz)", p, &baros, |p, b| {
+            p.baro_step(*b)
+        });
         // Each control step after its ten IMU steps (run outside the markers).
         case_full(
             "flight::Pipeline::control_step (100 Hz)",
-            &mut p,
-            &frames,
+            p,
+            frames,
             |p, f| {
                 for s in &f.0 {
                     p.imu_step(s);
@@ -652,7 +706,6 @@ mod suite {
             |p, _| p.control_step(),
             |_| true,
         );
-        hprintln!("NOTE pipeline AHRS: {}", flight::pipeline::AHRS_KIND);
     }
 
     /// Name of the 10 ms frame case (`cargo xtask bench` derives the

@@ -98,6 +98,114 @@ fn sin_hz(t: f64, hz: f64, phase: f64) -> f64 {
     (2.0 * PI * hz * t + phase).sin()
 }
 
+/// Hand-held dance: yaw turns, nose up/down, full rolls.
+fn figure_eight_pose(tau: f64, env: f64) -> Pose {
+    let yaw = env * 2.0 * PI * tau / 9.0;
+    let pitch = env * 1.3 * sin_hz(tau, 1.0 / 5.3, 0.0);
+    let roll = env * PI * sin_hz(tau, 1.0 / 7.1, 0.0);
+    let pos = [
+        env * 0.4 * sin_hz(tau, 0.25, 0.0),
+        env * 0.2 * sin_hz(tau, 0.5, 0.0),
+        env * 0.1 * sin_hz(tau, 0.37, 0.0),
+    ];
+    (pos, Quat::from_euler(roll, pitch, yaw))
+}
+
+/// Take-off to 10 m, then 25 m, 5 m and back to 10 m in 80 s laps, with
+/// small attitude wobbles and a slow horizontal drift.
+fn hover_pose(tau: f64, env: f64) -> Pose {
+    let period = 80.0;
+    let c = if tau > 0.0 { tau % period } else { 0.0 };
+    let laps = if tau > 0.0 {
+        (tau / period).floor()
+    } else {
+        0.0
+    };
+    // 0 → 10 m (take-off), → 25 m, → 5 m, → 10 m (then repeats from 10 m).
+    let base = if laps > 0.0 { 10.0 } else { 0.0 };
+    let h = base + (10.0 - base) * smoothstep(c, 2.0, 10.0) + 15.0 * smoothstep(c, 20.0, 32.0)
+        - 20.0 * smoothstep(c, 42.0, 56.0)
+        + 5.0 * smoothstep(c, 66.0, 72.0);
+    let roll = env * (0.05 * sin_hz(tau, 0.31, 0.0) + 0.02 * sin_hz(tau, 1.7, 1.0));
+    let pitch = env * (0.05 * sin_hz(tau, 0.23, 0.5) + 0.02 * sin_hz(tau, 1.3, 0.0));
+    let yaw = env * 0.6 * sin_hz(tau, 0.017, 0.0);
+    let pos = [
+        env * 2.0 * sin_hz(tau, 0.02, 0.0),
+        env * 1.5 * sin_hz(tau, 0.027, 0.0),
+        -h,
+    ];
+    (pos, Quat::from_euler(roll, pitch, yaw))
+}
+
+/// A 360° roll flip in 0.9 s every 8 s, on top of fast wobbles; the position
+/// swings under its own, slower envelope `env_pos`.
+fn aggressive_pose(tau: f64, env: f64, env_pos: f64) -> Pose {
+    let mut flip = 0.0;
+    if tau > 0.0 {
+        let k = (tau / 8.0).floor();
+        let c = tau - 8.0 * k;
+        flip = 2.0 * PI * (k + smoothstep(c, 4.0, 4.9));
+    }
+    let roll = env * 0.9 * sin_hz(tau, 0.7, 0.0) + flip;
+    let pitch = env * 0.7 * sin_hz(tau, 0.53, 1.0);
+    let yaw = env * 2.5 * sin_hz(tau, 0.2, 0.0);
+    let pos = [
+        env_pos * 4.0 * sin_hz(tau, 0.25, 0.0),
+        env_pos * 3.0 * sin_hz(tau, 0.19, 0.3),
+        -(env_pos * (8.0 + 2.0 * sin_hz(tau, 0.3, 0.0))),
+    ];
+    (pos, Quat::from_euler(roll, pitch, yaw))
+}
+
+/// A 15 cm arm whirled about the vertical: 5 s cycles of a 3 s whirl
+/// (smooth 0.5 s ramps to 2π rad/s) and a 2 s pause, direction alternating.
+fn whirl_pose(tau: f64, env: f64) -> Pose {
+    let mut angle = 0.0;
+    if tau > 0.0 {
+        let k = (tau / 5.0).floor();
+        let c = tau - 5.0 * k;
+        // Rate 2π·(S(x; 0, 0.5) − S(x; 2.5, 3.0)), S the smoothstep; its
+        // integral in closed form: ∫S = T·(u⁶ − 3u⁵ + 2.5u⁴) on the ramp.
+        let ramp_int = |x: f64, a: f64| {
+            let t = 0.5;
+            let u = ((x - a) / t).clamp(0.0, 1.0);
+            t * u * u * u * u * (u * (u - 3.0) + 2.5) + (x - a - t).max(0.0)
+        };
+        let turn = |x: f64| 2.0 * PI * (ramp_int(x, 0.0) - ramp_int(x, 2.5));
+        let per = turn(5.0);
+        let dir = if (k as i64) % 2 == 0 { 1.0 } else { -1.0 };
+        // Net angle after an even number of cycles returns to 0.
+        let base = if (k as i64) % 2 == 0 { 0.0 } else { per };
+        angle = base + dir * turn(c);
+    }
+    let r = 0.15;
+    let pos = [r * angle.cos() - r, r * angle.sin(), 0.0];
+    let roll = env * 0.3 * sin_hz(tau, 0.11, 0.0);
+    let pitch = env * 0.25 * sin_hz(tau, 0.07, 1.0);
+    (pos, Quat::from_euler(roll, pitch, angle))
+}
+
+/// Slow rotations under seven vibration tones of 1 m/s² each, 50–290 Hz.
+fn vibration_pose(tau: f64, env: f64) -> Pose {
+    let roll = env * 0.5 * sin_hz(tau, 0.05, 0.0);
+    let pitch = env * 0.4 * sin_hz(tau, 0.037, 0.0);
+    let yaw = env * 1.5 * sin_hz(tau, 0.021, 0.0);
+    let mut pos = [0.0; 3];
+    if tau > 0.0 {
+        for (i, f) in [50.0, 83.0, 120.0, 155.0, 197.0, 240.0, 290.0]
+            .iter()
+            .enumerate()
+        {
+            // 1 m/s² per tone: amplitude a/(2πf)², each axis its own phase.
+            let amp = env / (2.0 * PI * f).powi(2);
+            for (j, p) in pos.iter_mut().enumerate() {
+                *p += amp * sin_hz(tau, *f, (i * 3 + j) as f64 * 1.3);
+            }
+        }
+    }
+    (pos, Quat::from_euler(roll, pitch, yaw))
+}
+
 impl Trajectory {
     /// Length of the rest phase at the start of the moving built-ins (s).
     pub const REST_S: f64 = 3.0;
@@ -264,109 +372,15 @@ impl Trajectory {
                 let yaw = env * (1.8 * sin_hz(tau, 0.021, 0.0) + 0.4 * sin_hz(tau, 0.061, 0.0));
                 ([0.0; 3], Quat::from_euler(roll, pitch, yaw))
             }
-            Trajectory::FigureEight => {
-                // Hand-held dance: yaw turns, nose up/down, full rolls.
-                let yaw = env * 2.0 * PI * tau / 9.0;
-                let pitch = env * 1.3 * sin_hz(tau, 1.0 / 5.3, 0.0);
-                let roll = env * PI * sin_hz(tau, 1.0 / 7.1, 0.0);
-                let pos = [
-                    env * 0.4 * sin_hz(tau, 0.25, 0.0),
-                    env * 0.2 * sin_hz(tau, 0.5, 0.0),
-                    env * 0.1 * sin_hz(tau, 0.37, 0.0),
-                ];
-                (pos, Quat::from_euler(roll, pitch, yaw))
-            }
-            Trajectory::Hover => {
-                let period = 80.0;
-                let c = if tau > 0.0 { tau % period } else { 0.0 };
-                let laps = if tau > 0.0 {
-                    (tau / period).floor()
-                } else {
-                    0.0
-                };
-                // 0 → 10 m (take-off), → 25 m, → 5 m, → 10 m (then repeats from 10 m).
-                let base = if laps > 0.0 { 10.0 } else { 0.0 };
-                let h = base
-                    + (10.0 - base) * smoothstep(c, 2.0, 10.0)
-                    + 15.0 * smoothstep(c, 20.0, 32.0)
-                    - 20.0 * smoothstep(c, 42.0, 56.0)
-                    + 5.0 * smoothstep(c, 66.0, 72.0);
-                let roll = env * (0.05 * sin_hz(tau, 0.31, 0.0) + 0.02 * sin_hz(tau, 1.7, 1.0));
-                let pitch = env * (0.05 * sin_hz(tau, 0.23, 0.5) + 0.02 * sin_hz(tau, 1.3, 0.0));
-                let yaw = env * 0.6 * sin_hz(tau, 0.017, 0.0);
-                let pos = [
-                    env * 2.0 * sin_hz(tau, 0.02, 0.0),
-                    env * 1.5 * sin_hz(tau, 0.027, 0.0),
-                    -h,
-                ];
-                (pos, Quat::from_euler(roll, pitch, yaw))
-            }
+            Trajectory::FigureEight => figure_eight_pose(tau, env),
+            Trajectory::Hover => hover_pose(tau, env),
             Trajectory::Aggressive => {
-                // A 360° roll flip in 0.9 s every 8 s, on top of fast wobbles.
-                let mut flip = 0.0;
-                if tau > 0.0 {
-                    let k = (tau / 8.0).floor();
-                    let c = tau - 8.0 * k;
-                    flip = 2.0 * PI * (k + smoothstep(c, 4.0, 4.9));
-                }
-                let roll = env * 0.9 * sin_hz(tau, 0.7, 0.0) + flip;
-                let pitch = env * 0.7 * sin_hz(tau, 0.53, 1.0);
-                let yaw = env * 2.5 * sin_hz(tau, 0.2, 0.0);
-                let env_p = smoothstep(t_s, Self::REST_S, Self::REST_S + 5.0);
-                let pos = [
-                    env_p * 4.0 * sin_hz(tau, 0.25, 0.0),
-                    env_p * 3.0 * sin_hz(tau, 0.19, 0.3),
-                    -(env_p * (8.0 + 2.0 * sin_hz(tau, 0.3, 0.0))),
-                ];
-                (pos, Quat::from_euler(roll, pitch, yaw))
+                let env_pos = smoothstep(t_s, Self::REST_S, Self::REST_S + 5.0);
+                aggressive_pose(tau, env, env_pos)
             }
             Trajectory::SixPosition => ([0.0; 3], Self::six_position_at(t_s)),
-            Trajectory::Whirl => {
-                // Arm angle: 5 s cycles of a 3 s whirl (smooth 0.5 s ramps to 2π rad/s)
-                // and a 2 s pause, direction alternating per cycle.
-                let mut angle = 0.0;
-                if tau > 0.0 {
-                    let k = (tau / 5.0).floor();
-                    let c = tau - 5.0 * k;
-                    // Rate 2π·(S(x; 0, 0.5) − S(x; 2.5, 3.0)), S the smoothstep; its
-                    // integral in closed form: ∫S = T·(u⁶ − 3u⁵ + 2.5u⁴) on the ramp.
-                    let ramp_int = |x: f64, a: f64| {
-                        let t = 0.5;
-                        let u = ((x - a) / t).clamp(0.0, 1.0);
-                        t * u * u * u * u * (u * (u - 3.0) + 2.5) + (x - a - t).max(0.0)
-                    };
-                    let turn = |x: f64| 2.0 * PI * (ramp_int(x, 0.0) - ramp_int(x, 2.5));
-                    let per = turn(5.0);
-                    let dir = if (k as i64) % 2 == 0 { 1.0 } else { -1.0 };
-                    // Net angle after an even number of cycles returns to 0.
-                    let base = if (k as i64) % 2 == 0 { 0.0 } else { per };
-                    angle = base + dir * turn(c);
-                }
-                let r = 0.15;
-                let pos = [r * angle.cos() - r, r * angle.sin(), 0.0];
-                let roll = env * 0.3 * sin_hz(tau, 0.11, 0.0);
-                let pitch = env * 0.25 * sin_hz(tau, 0.07, 1.0);
-                (pos, Quat::from_euler(roll, pitch, angle))
-            }
-            Trajectory::Vibration => {
-                let roll = env * 0.5 * sin_hz(tau, 0.05, 0.0);
-                let pitch = env * 0.4 * sin_hz(tau, 0.037, 0.0);
-                let yaw = env * 1.5 * sin_hz(tau, 0.021, 0.0);
-                let mut pos = [0.0; 3];
-                if tau > 0.0 {
-                    for (i, f) in [50.0, 83.0, 120.0, 155.0, 197.0, 240.0, 290.0]
-                        .iter()
-                        .enumerate()
-                    {
-                        // 1 m/s² per tone: amplitude a/(2πf)², each axis its own phase.
-                        let amp = env / (2.0 * PI * f).powi(2);
-                        for (j, p) in pos.iter_mut().enumerate() {
-                            *p += amp * sin_hz(tau, *f, (i * 3 + j) as f64 * 1.3);
-                        }
-                    }
-                }
-                (pos, Quat::from_euler(roll, pitch, yaw))
-            }
+            Trajectory::Whirl => whirl_pose(tau, env),
+            Trajectory::Vibration => vibration_pose(tau, env),
             Trajectory::Custom(f) => f(t_s),
         }
     }

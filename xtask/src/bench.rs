@@ -161,61 +161,19 @@ enum Status {
     Pending,
 }
 
-/// Runs the benchmark suite.
-pub fn run(args: &[String]) -> Result<(), String> {
-    let mut update_doc = false;
-    let mut profile = false;
-    for a in args {
-        match a.as_str() {
-            "--update-doc" => update_doc = true,
-            "--profile" => profile = true,
-            other => {
-                return Err(format!(
-                    "bench: unknown argument {other:?} (--update-doc, --profile)"
-                ))
-            }
-        }
-    }
+/// Runs the benchmark suite: instruction counts against their budgets and
+/// the correctness sequences; with `update_doc`, rewrites BENCHMARKS.md's
+/// table; with `profile`, also prints where the instructions go.
+pub fn run(update_doc: bool, profile: bool) -> Result<(), String> {
     let started = Instant::now();
     let qemu = qemu_version()?;
     build_bench()?;
     let release = target_dir().join(TARGET).join("release");
-    let elf = release.join("bench");
-    let check_elf = release.join("bench-check");
-
-    let syms = symbols(&elf, &["bench_start", "bench_end", "__VECTORS"])?;
-    if syms["__VECTORS"] != 0 {
-        return Err(format!(
-            "bench ELF has its vector table at {:#x}, not 0x0: the bench's own link.x was not used",
-            syms["__VECTORS"]
-        ));
-    }
-    let work = target_dir().join("xtask-bench");
-    fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
-    let stripped = work.join("bench.stripped.elf");
-    strip(&elf, &stripped)?;
-
-    eprintln!(
-        "bench: counting instructions in {QEMU} {} ({MACHINE})",
-        qemu.0
-    );
-    let functions = if profile {
-        function_table(&elf)?
-    } else {
-        Vec::new()
-    };
-    let (cases, harness_failures) = count_instructions(
-        &stripped,
-        &qemu,
-        syms["bench_start"],
-        syms["bench_end"],
-        &functions,
-    )?;
-    let _ = fs::remove_file(&stripped);
+    let (cases, harness_failures) = measure(&release.join("bench"), &qemu, profile)?;
     let cases = derive_rows(cases);
 
     eprintln!("bench: correctness sequences on the emulated M3 vs the host");
-    let check_report = correctness(&check_elf)?;
+    let check_report = correctness(&release.join("bench-check"))?;
 
     let rows = evaluate(&cases);
     let table = render_table(&rows);
@@ -241,6 +199,45 @@ pub fn run(args: &[String]) -> Result<(), String> {
     } else {
         Err(format!("bench failed:\n  {}", failures.join("\n  ")))
     }
+}
+
+/// Instruction counts of every case in the bench ELF `elf` (and, with
+/// `profile`, the per-function table), with the harness's own failures.
+fn measure(
+    elf: &Path,
+    qemu: &(String, bool),
+    profile: bool,
+) -> Result<(Vec<Case>, Vec<String>), String> {
+    let syms = symbols(elf, &["bench_start", "bench_end", "__VECTORS"])?;
+    if syms["__VECTORS"] != 0 {
+        return Err(format!(
+            "bench ELF has its vector table at {:#x}, not 0x0: the bench's own link.x was not used",
+            syms["__VECTORS"]
+        ));
+    }
+    let work = target_dir().join("xtask-bench");
+    fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
+    let stripped = work.join("bench.stripped.elf");
+    strip(elf, &stripped)?;
+
+    eprintln!(
+        "bench: counting instructions in {QEMU} {} ({MACHINE})",
+        qemu.0
+    );
+    let functions = if profile {
+        function_table(elf)?
+    } else {
+        Vec::new()
+    };
+    let counted = count_instructions(
+        &stripped,
+        qemu,
+        syms["bench_start"],
+        syms["bench_end"],
+        &functions,
+    );
+    let _ = fs::remove_file(&stripped);
+    counted
 }
 
 /// `(version string, use the newer one-insn-per-tb option)`.

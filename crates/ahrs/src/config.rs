@@ -186,6 +186,23 @@ pub enum MagState {
     Fallback,
 }
 
+impl MagState {
+    /// How many states there are.
+    pub const COUNT: usize = 7;
+
+    /// Position in declaration order (`Absent` 0 … `Fallback` 6), for
+    /// tallying states in an array.
+    ///
+    /// ```
+    /// use fc_ahrs::MagState;
+    /// assert_eq!(MagState::Absent.index(), 0);
+    /// assert_eq!(MagState::Fallback.index(), MagState::COUNT - 1);
+    /// ```
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+}
+
 impl Default for Config {
     fn default() -> Self {
         Self::DEFAULT

@@ -1271,40 +1271,84 @@ impl MadgwickFixed {
         let ok =
             |rf: &MagRef| n2 >= rf.lo && n2 <= rf.hi && (hz - rf.hz_q30).abs() <= rf.hz_tol_q30;
         if ok(re) {
-            self.cand = None;
-            self.cand_q20 = 0;
-            self.mag_reject_q20 = 0;
-            if c.inv_mag_ref_tau_q30 > 0 && w2_q40 > c.mag_min_rate_sq_q40 {
-                // Moving and undisturbed: the reference follows the field (as the f32
-                // filter; the dip tolerance is kept). k = dt/τ in Q31; ‖m‖² moves in
-                // steps of 2^12 so the product stays in 64 bits.
-                let k = (i64::from(dt_q31) * c.inv_mag_ref_tau_q30) >> 30;
-                let d = (n2 as i64).wrapping_sub(re.n2 as i64) >> 12;
-                let n2r = (re.n2 as i64)
-                    .saturating_add(d.saturating_mul(k) >> 19)
-                    .max(0) as u64;
-                let scaled = |q: u64| (n2r >> 16).saturating_mul(q);
-                let r = MagRef {
-                    n2: n2r,
-                    lo: scaled(c.mag_lo_q16),
-                    hi: scaled(c.mag_hi_q16),
-                    hz_q30: re.hz_q30 + ((k * (hz - re.hz_q30)) >> 31),
-                    hz_tol_q30: re.hz_tol_q30,
-                };
-                self.mag_ref = Some(r);
+            let (ref_n2, ref_hz_q30, hz_tol_q30) = (re.n2, re.hz_q30, re.hz_tol_q30);
+            let moving = c.inv_mag_ref_tau_q30 > 0 && w2_q40 > c.mag_min_rate_sq_q40;
+            self.clear_disturbance();
+            if moving {
+                self.follow_reference(n2, hz, ref_n2, ref_hz_q30, hz_tol_q30, dt_q31);
                 st.mag_state = MagState::Learning;
             }
             return true;
         }
+        let hz_tol_q30 = re.hz_tol_q30;
+        self.on_rejected(n2, hz, hz_tol_q30, w2_q40, dt_q31, st, ok)
+    }
+
+    /// The field matches the reference: no disturbance, no candidate.
+    // Inlined: a call here costs every undisturbed update ~9 instructions.
+    #[inline(always)]
+    fn clear_disturbance(&mut self) {
+        self.cand = None;
+        self.cand_q20 = 0;
+        self.mag_reject_q20 = 0;
+    }
+
+    /// Moving and undisturbed: the reference follows the field (as the f32 filter;
+    /// the dip tolerance is kept).
+    // Out of line, as `on_rejected`: off the undisturbed path, which is cheaper
+    // without them.
+    #[inline(never)]
+    fn follow_reference(
+        &mut self,
+        n2: u64,
+        hz: i64,
+        ref_n2: u64,
+        ref_hz_q30: i64,
+        hz_tol_q30: i64,
+        dt_q31: i32,
+    ) {
+        let c = &self.c;
+        // k = dt/τ in Q31; ‖m‖² moves in steps of 2^12 so the product stays in 64 bits.
+        let k = (i64::from(dt_q31) * c.inv_mag_ref_tau_q30) >> 30;
+        let d = (n2 as i64).wrapping_sub(ref_n2 as i64) >> 12;
+        let n2r = (ref_n2 as i64)
+            .saturating_add(d.saturating_mul(k) >> 19)
+            .max(0) as u64;
+        let scaled = |q: u64| (n2r >> 16).saturating_mul(q);
+        let r = MagRef {
+            n2: n2r,
+            lo: scaled(c.mag_lo_q16),
+            hi: scaled(c.mag_hi_q16),
+            hz_q30: ref_hz_q30 + ((k * (hz - ref_hz_q30)) >> 31),
+            hz_tol_q30,
+        };
+        self.mag_ref = Some(r);
+    }
+
+    /// The field is off the reference: reject it, unless the disturbance has lasted
+    /// long enough to adopt the field (fallback) or a candidate field has stayed
+    /// consistent (by `ok`, with the reference's dip tolerance `hz_tol_q30`) through
+    /// enough rotation (recovery). Returns true if the sample may be used.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn on_rejected(
+        &mut self,
+        n2: u64,
+        hz: i64,
+        hz_tol_q30: i64,
+        w2_q40: i64,
+        dt_q31: i32,
+        st: &mut UpdateStatus,
+        ok: impl Fn(&MagRef) -> bool,
+    ) -> bool {
+        let c = &self.c;
         st.mag_rejected = true;
         st.mag_state = MagState::Rejected;
         self.mag_reject_q20 = (self.mag_reject_q20 + i64::from(dt_q31 >> 11)).min(1 << 50);
         if self.mag_reject_q20 >= c.mag_fallback_q20 {
             // Fallback: the disturbance persisted; adopt the field as it is now.
             self.mag_ref = Some(self.make_ref(n2, hz));
-            self.cand = None;
-            self.cand_q20 = 0;
-            self.mag_reject_q20 = 0;
+            self.clear_disturbance();
             st.mag_rejected = false;
             st.mag_reference_relearned = true;
             st.mag_state = MagState::Fallback;
@@ -1312,7 +1356,7 @@ impl MadgwickFixed {
         }
         let cand_ok = self.cand.is_some_and(|(cn2, chz)| {
             let cr = MagRef {
-                hz_tol_q30: re.hz_tol_q30,
+                hz_tol_q30,
                 ..self.make_ref(cn2, chz)
             };
             ok(&cr)
@@ -1325,9 +1369,7 @@ impl MadgwickFixed {
                 if let Some((cn2, chz)) = self.cand {
                     self.mag_ref = Some(self.make_ref(cn2, chz));
                 }
-                self.cand = None;
-                self.cand_q20 = 0;
-                self.mag_reject_q20 = 0;
+                self.clear_disturbance();
                 st.mag_rejected = false;
                 st.mag_reference_relearned = true;
                 st.mag_state = MagState::Recovered;

@@ -14,6 +14,8 @@
 //! it the direction of −a (gravity "down" as seen in the body frame). The magnetic
 //! reference is b = (bx, 0, bz) with bz > 0 in the northern hemisphere.
 
+// fixed.rs repeats these steps and checks under the same names, on purpose (see there).
+
 use crate::config::{Algorithm, Config, MagState, UpdatePath, UpdateStatus};
 use crate::quat::mat_vec;
 use crate::Quaternion;
@@ -685,31 +687,57 @@ impl Madgwick {
             n2 >= lo * r.norm_sq && n2 <= hi * r.norm_sq && (hz - r.hz).abs() <= re.hz_tol
         };
         if ok(&re) {
-            self.mag_cand = None;
-            self.mag_cand_s = 0.0;
-            self.mag_reject_s = 0.0;
+            self.clear_disturbance();
             if mr.ref_tau_s > 0.0 && w2 > mr.recovery_min_rate_rps * mr.recovery_min_rate_rps {
-                // Moving and undisturbed: the reference follows the field (the dip
-                // tolerance, set from the dip, is kept).
-                let k = (dt_s / mr.ref_tau_s).clamp(0.0, 1.0);
-                self.mag_ref = Some(MagReference {
-                    norm_sq: re.norm_sq + k * (n2 - re.norm_sq),
-                    hz: re.hz + k * (hz - re.hz),
-                    hz_tol: re.hz_tol,
-                });
+                self.follow_reference(n2, hz, re, dt_s);
                 st.mag_state = MagState::Learning;
             }
             return true;
         }
+        self.on_rejected(n2, hz, w2, dt_s, st, ok)
+    }
+
+    /// The field matches the reference: no disturbance, no candidate.
+    // Inlined: a call here costs every undisturbed update ~9 instructions.
+    #[inline(always)]
+    fn clear_disturbance(&mut self) {
+        self.mag_cand = None;
+        self.mag_cand_s = 0.0;
+        self.mag_reject_s = 0.0;
+    }
+
+    /// Moving and undisturbed: the reference `re` follows the field (the dip
+    /// tolerance, set from the dip, is kept).
+    fn follow_reference(&mut self, n2: f32, hz: f32, re: MagReference, dt_s: f32) {
+        let k = (dt_s / self.cfg.mag_rejection.ref_tau_s).clamp(0.0, 1.0);
+        self.mag_ref = Some(MagReference {
+            norm_sq: re.norm_sq + k * (n2 - re.norm_sq),
+            hz: re.hz + k * (hz - re.hz),
+            hz_tol: re.hz_tol,
+        });
+    }
+
+    /// The field is off the reference: reject it, unless the disturbance has lasted
+    /// long enough to adopt the field (fallback) or a candidate field has stayed
+    /// consistent (by `ok`) through enough rotation (recovery). Returns true if the
+    /// sample may be used.
+    fn on_rejected(
+        &mut self,
+        n2: f32,
+        hz: f32,
+        w2: f32,
+        dt_s: f32,
+        st: &mut UpdateStatus,
+        ok: impl Fn(&MagReference) -> bool,
+    ) -> bool {
+        let mr = self.cfg.mag_rejection;
         st.mag_rejected = true;
         st.mag_state = MagState::Rejected;
         self.mag_reject_s = (self.mag_reject_s + dt_s).min(1e6);
         if self.mag_reject_s >= mr.fallback_s {
             // Fallback: the disturbance persisted; adopt the field as it is now.
             self.set_mag_reference(n2, hz);
-            self.mag_cand = None;
-            self.mag_cand_s = 0.0;
-            self.mag_reject_s = 0.0;
+            self.clear_disturbance();
             st.mag_rejected = false;
             st.mag_reference_relearned = true;
             st.mag_state = MagState::Fallback;
@@ -723,9 +751,7 @@ impl Madgwick {
                 }
                 if self.mag_cand_s >= mr.recovery_s {
                     self.set_mag_reference(cand.norm_sq, cand.hz);
-                    self.mag_cand = None;
-                    self.mag_cand_s = 0.0;
-                    self.mag_reject_s = 0.0;
+                    self.clear_disturbance();
                     st.mag_rejected = false;
                     st.mag_reference_relearned = true;
                     st.mag_state = MagState::Recovered;

@@ -3,7 +3,7 @@
 
 use core::f32::consts::{FRAC_PI_2, PI};
 use fc_ahrs::fixed::{dt_s_to_q31, rps_to_q20, FixedConfig, MadgwickFixed};
-use fc_ahrs::{frames, Config, Madgwick, Quaternion, UpdatePath};
+use fc_ahrs::{frames, Config, Madgwick, MagState, Quaternion, UpdatePath};
 
 const G: f32 = 9.80665;
 /// Berlin-like field in NED (µT): 19.5 north, 45 down (dip ≈ 67°).
@@ -51,6 +51,7 @@ fn constant_rate_integrates_about_each_axis() {
     }
 }
 
+// The test above again for the fixed filter, on purpose: its inputs are Q-formats.
 #[test]
 fn fixed_constant_rate_integrates() {
     for axis in 0..3 {
@@ -457,17 +458,7 @@ fn persisting_inconsistent_disturbance_is_adopted_after_the_fallback_time() {
 /// Spins the body about the vertical at 60 °/s for `secs`, the field seen with a
 /// body-fixed offset added (µT, a magnet riding along); returns the count of each
 /// `MagState` for the f32 and the fixed filter.
-fn spin_with_offset(cfg: Config, offset: [f32; 3], secs: f32) -> [[usize; 7]; 2] {
-    use fc_ahrs::MagState;
-    let idx = |s: MagState| match s {
-        MagState::Absent => 0,
-        MagState::Invalid => 1,
-        MagState::Undisturbed => 2,
-        MagState::Learning => 3,
-        MagState::Rejected => 4,
-        MagState::Recovered => 5,
-        MagState::Fallback => 6,
-    };
+fn spin_with_offset(cfg: Config, offset: [f32; 3], secs: f32) -> [[usize; MagState::COUNT]; 2] {
     let q16 = |v: [f32; 3]| v.map(|x| fc_ahrs::fixed::float_to_q(x, 16));
     let fc = FixedConfig::from_config(&Config {
         gravity_norm: G * 65536.0,
@@ -482,15 +473,15 @@ fn spin_with_offset(cfg: Config, offset: [f32; 3], secs: f32) -> [[usize; 7]; 2]
         fx.update_marg([0; 3], q16(a), q16(m), dt_s_to_q31(dt));
     }
     let rate = 60f32.to_radians();
-    let mut counts = [[0usize; 7]; 2];
+    let mut counts = [[0usize; MagState::COUNT]; 2];
     for i in 0..(secs / dt) as usize {
         let q = Quaternion::from_axis_angle([0.0, 0.0, 1.0], rate * (i + 1) as f32 * dt);
         let (a, m) = sense(&q);
         let d = [m[0] + offset[0], m[1] + offset[1], m[2] + offset[2]];
         let s = f.update_marg([0.0, 0.0, rate], a, d, dt);
         let sx = fx.update_marg([0, 0, rps_to_q20(rate)], q16(a), q16(d), dt_s_to_q31(dt));
-        counts[0][idx(s.mag_state)] += 1;
-        counts[1][idx(sx.mag_state)] += 1;
+        counts[0][s.mag_state.index()] += 1;
+        counts[1][sx.mag_state.index()] += 1;
     }
     counts
 }

@@ -57,6 +57,7 @@ fn spin_f32(tol: f32, scale: f32, secs: f32) -> (f32, f32) {
     (worst, last)
 }
 
+// `spin_f32` again for the fixed filter, on purpose: its inputs are counts and Q-formats.
 fn spin_fixed(tol: f32, scale: f32, secs: f32) -> (f32, f32) {
     let truth = |t: f32| Quaternion::from_axis_angle([0.0, 0.0, 1.0], RATE_RPS * t);
     let sense = |q: &Quaternion| {

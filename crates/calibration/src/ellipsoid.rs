@@ -658,6 +658,20 @@ struct Fit {
 }
 
 fn solve(mom: &Moments) -> Result<Fit, Error> {
+    let u = least_squares(mom)?;
+    let (c, shape) = quadric_centre_and_shape(u)?;
+    let (w, radius, semi_axes) = axes_and_soft_iron(shape)?;
+    Ok(Fit {
+        center: [c[0], c[1], c[2]],
+        w,
+        radius,
+        semi_axes,
+        rms_error: rms_residual(mom, &shape, &c),
+    })
+}
+
+/// The nine regression coefficients `u` of `REGRESSORS·u ≈ TARGET`.
+fn least_squares(mom: &Moments) -> Result<[f64; 9], Error> {
     // Normal matrix N = mean φφᵀ (lower triangle is enough) and right-hand
     // side mean φ·target, then Jacobi equilibration D·N·D (unit diagonal)
     // with D = diag(1/√Nᵢᵢ).
@@ -689,7 +703,13 @@ fn solve(mom: &Moments) -> Result<Fit, Error> {
     for (r, di) in rhs.iter_mut().zip(&d) {
         *r *= di;
     }
-    let [u1, u2, u3, u4, u5, u6, u7, u8, u9] = rhs;
+    Ok(rhs)
+}
+
+/// Centre `c` and shape `S` of the ellipsoid `(x − c)ᵀS(x − c) = 1` the
+/// coefficients describe; an error where they describe no ellipsoid.
+fn quadric_centre_and_shape(u: [f64; 9]) -> Result<(Vector3<f64>, Matrix3<f64>), Error> {
+    let [u1, u2, u3, u4, u5, u6, u7, u8, u9] = u;
 
     // Quadric xᵀMx + 2bᵀx + J = 0 (= regressors·u − target).
     let m = Matrix3::new(
@@ -715,6 +735,12 @@ fn solve(mom: &Moments) -> Result<Fit, Error> {
     if !shape.iter().all(|v| v.is_finite()) {
         return Err(Error::NotEllipsoid);
     }
+    Ok((c, shape))
+}
+
+/// Soft-iron matrix `W` (maps the ellipsoid onto a sphere of the mean
+/// radius), that radius, and the semi-axes ascending.
+fn axes_and_soft_iron(shape: Matrix3<f64>) -> Result<(Matrix3<f64>, f64, [f64; 3]), Error> {
     let eig = SymmetricEigen::try_new(shape, 1.0e-14, 200).ok_or(Error::NotEllipsoid)?;
     let lambda = eig.eigenvalues;
     if !lambda.iter().all(|l| *l > 0.0 && l.is_finite()) {
@@ -733,7 +759,12 @@ fn solve(mom: &Moments) -> Result<Fit, Error> {
     let v = eig.eigenvectors;
     let w = v * Matrix3::from_diagonal(&sqrt_l) * v.transpose();
     sort3(&mut semi_axes);
+    Ok((w, radius, semi_axes))
+}
 
+/// RMS of the residual `((x − c)ᵀS(x − c) − 1) / 2` over the samples: to
+/// first order the relative deviation of the corrected magnitude.
+fn rms_residual(mom: &Moments, shape: &Matrix3<f64>, c: &Vector3<f64>) -> f64 {
     // Residual p(x) = (x − c)ᵀS(x − c) − 1 = xᵀSx − 2(Sc)ᵀx + cᵀSc − 1,
     // mean of p² from the moments.
     let sc = shape * c;
@@ -750,15 +781,7 @@ fn solve(mom: &Moments) -> Result<Fit, Error> {
         ([0, 0, 0], c.dot(&sc) - 1.0),
     ];
     let mean_p2 = mom.product(&p, &p);
-    let rms_error = 0.5 * libm::sqrt(mean_p2.max(0.0));
-
-    Ok(Fit {
-        center: [c[0], c[1], c[2]],
-        w,
-        radius,
-        semi_axes,
-        rms_error,
-    })
+    0.5 * libm::sqrt(mean_p2.max(0.0))
 }
 
 /// Sort three values ascending (no slice-sort machinery on the target).

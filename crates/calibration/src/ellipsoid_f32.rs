@@ -401,6 +401,20 @@ struct FitF32 {
 
 #[inline(never)]
 fn solve(mom: &MomentsF32) -> Result<FitF32, Error> {
+    let u = least_squares(mom)?;
+    let (c, shape) = quadric_centre_and_shape(u)?;
+    let (w, radius, semi_axes) = axes_and_soft_iron(shape)?;
+    Ok(FitF32 {
+        center: c,
+        w,
+        radius,
+        semi_axes,
+        rms_error: rms_residual(mom, &shape, c),
+    })
+}
+
+/// The nine regression coefficients `u` of `REGRESSORS_F32·u ≈ TARGET_F32`.
+fn least_squares(mom: &MomentsF32) -> Result<[f32; 9], Error> {
     let mut a = [[0.0f32; 9]; 9];
     let mut rhs = [0.0f32; 9];
     for ((row, r), phi_i) in a.iter_mut().zip(&mut rhs).zip(REGRESSORS_F32.iter()) {
@@ -429,7 +443,13 @@ fn solve(mom: &MomentsF32) -> Result<FitF32, Error> {
     for (r, di) in rhs.iter_mut().zip(&d) {
         *r *= di;
     }
-    let [u1, u2, u3, u4, u5, u6, u7, u8, u9] = rhs;
+    Ok(rhs)
+}
+
+/// Centre `c` and shape `S` of the ellipsoid `(x − c)ᵀS(x − c) = 1` the
+/// coefficients describe; an error where they describe no ellipsoid.
+fn quadric_centre_and_shape(u: [f32; 9]) -> Result<([f32; 3], M3), Error> {
+    let [u1, u2, u3, u4, u5, u6, u7, u8, u9] = u;
     let m: M3 = [
         [u1 + u2 - 1.0, u3, u4],
         [u3, u1 - 2.0 * u2 - 1.0, u5],
@@ -442,7 +462,12 @@ fn solve(mom: &MomentsF32) -> Result<FitF32, Error> {
     if !(k.is_finite() && k != 0.0) {
         return Err(Error::NotEllipsoid);
     }
-    let shape = m.map(|r| r.map(|v| v / k));
+    Ok((c, m.map(|r| r.map(|v| v / k))))
+}
+
+/// Soft-iron matrix `W` (maps the ellipsoid onto a sphere of the mean
+/// radius), that radius, and the semi-axes ascending.
+fn axes_and_soft_iron(shape: M3) -> Result<(M3, f32, [f32; 3]), Error> {
     let (lambda, v) = jacobi_eigen3(shape).ok_or(Error::NotEllipsoid)?;
     if !lambda.iter().all(|l| *l > 0.0 && l.is_finite()) {
         return Err(Error::NotEllipsoid);
@@ -453,7 +478,13 @@ fn solve(mom: &MomentsF32) -> Result<FitF32, Error> {
     // W = V diag(root) Vᵀ, symmetric: element (i, j) = Σₖ V[i][k] root[k] V[j][k].
     let w = mul_diag_t(&v, root, &v);
     sort3(&mut semi_axes);
-    let sc = mul(&shape, c);
+    Ok((w, radius, semi_axes))
+}
+
+/// RMS of the residual `((x − c)ᵀS(x − c) − 1) / 2` over the samples: to
+/// first order the relative deviation of the corrected magnitude.
+fn rms_residual(mom: &MomentsF32, shape: &M3, c: [f32; 3]) -> f32 {
+    let sc = mul(shape, c);
     let p = [
         ([2, 0, 0], shape[0][0]),
         ([0, 2, 0], shape[1][1]),
@@ -467,13 +498,7 @@ fn solve(mom: &MomentsF32) -> Result<FitF32, Error> {
         ([0, 0, 0], dot(c, sc) - 1.0),
     ];
     let mean_p2 = mom.product(&p, &p);
-    Ok(FitF32 {
-        center: c,
-        w,
-        radius,
-        semi_axes,
-        rms_error: 0.5 * crate::sqrt::sqrtf(mean_p2.max(0.0)),
-    })
+    0.5 * crate::sqrt::sqrtf(mean_p2.max(0.0))
 }
 
 /// In-place Cholesky solve of a 9×9 symmetric positive-definite system

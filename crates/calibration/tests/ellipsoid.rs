@@ -10,8 +10,6 @@ mod common;
 use calibration::{EllipsoidFit, EllipsoidFitConfig, EllipsoidSolution, Error};
 use common::*;
 
-const R_UT: f64 = 48.0;
-
 /// Feed `n` samples `offset + D·(R·h) + noise` with `h` from `dir`.
 fn feed(
     fit: &mut EllipsoidFit,

@@ -10,8 +10,6 @@ mod common;
 use calibration::{Error, MagMinMax, MagMinMaxConfig};
 use common::*;
 
-const R_UT: f64 = 48.0;
-
 #[test]
 fn recovers_injected_per_axis_offset_and_scale() {
     let mut rng = Rng::new(11);

@@ -230,6 +230,30 @@ struct Step {
     final_error: f32,
 }
 
+impl Step {
+    /// Prints the response (shown with `--nocapture`) and checks it against
+    /// the limits: rise time in s, overshoot and final error as fractions.
+    fn check(&self, what: &str, max_rise_s: f32, max_overshoot: f32, max_final_error: f32) {
+        println!(
+            "{what}: rise {:.0} ms, overshoot {:.1} %, final error {:.2} %",
+            self.rise_s * 1e3,
+            self.overshoot * 100.0,
+            self.final_error * 100.0
+        );
+        assert!(self.rise_s < max_rise_s, "{what}: rise {} s", self.rise_s);
+        assert!(
+            self.overshoot < max_overshoot,
+            "{what}: overshoot {}",
+            self.overshoot
+        );
+        assert!(
+            self.final_error < max_final_error,
+            "{what}: final error {}",
+            self.final_error
+        );
+    }
+}
+
 fn analyse(trace: &[f32], target: f32) -> Step {
     let t10 = trace.iter().position(|v| *v >= 0.1 * target).unwrap();
     let t90 = trace.iter().position(|v| *v >= 0.9 * target).unwrap();
@@ -266,30 +290,14 @@ fn rate_step(axis: usize, target_rps: f32, seconds: f32) -> Step {
 fn roll_and_pitch_rate_steps() {
     for axis in [0, 1] {
         let s = rate_step(axis, 200f32.to_radians(), 1.0);
-        println!(
-            "rate step axis {axis}: rise {:.0} ms, overshoot {:.1} %, final error {:.2} %",
-            s.rise_s * 1e3,
-            s.overshoot * 100.0,
-            s.final_error * 100.0
-        );
-        assert!(s.rise_s < 0.08, "rise {} s", s.rise_s);
-        assert!(s.overshoot < 0.15, "overshoot {}", s.overshoot);
-        assert!(s.final_error < 0.02, "final error {}", s.final_error);
+        s.check(&format!("rate step axis {axis}"), 0.08, 0.15, 0.02);
     }
 }
 
 #[test]
 fn yaw_rate_step() {
     let s = rate_step(2, 90f32.to_radians(), 1.5);
-    println!(
-        "yaw rate step: rise {:.0} ms, overshoot {:.1} %, final error {:.2} %",
-        s.rise_s * 1e3,
-        s.overshoot * 100.0,
-        s.final_error * 100.0
-    );
-    assert!(s.rise_s < 0.3, "rise {} s", s.rise_s);
-    assert!(s.overshoot < 0.2, "overshoot {}", s.overshoot);
-    assert!(s.final_error < 0.03, "final error {}", s.final_error);
+    s.check("yaw rate step", 0.3, 0.2, 0.03);
 }
 
 #[test]
@@ -309,15 +317,7 @@ fn self_level_roll_step() {
         trace.push(quad.roll_rad());
     }
     let s = analyse(&trace, target);
-    println!(
-        "angle step 20°: rise {:.0} ms, overshoot {:.1} %, final error {:.2} %",
-        s.rise_s * 1e3,
-        s.overshoot * 100.0,
-        s.final_error * 100.0
-    );
-    assert!(s.rise_s < 0.45, "rise {} s", s.rise_s);
-    assert!(s.overshoot < 0.1, "overshoot {}", s.overshoot);
-    assert!(s.final_error < 0.01, "final error {}", s.final_error);
+    s.check("angle step 20°", 0.45, 0.1, 0.01);
     // The demand is rate-limited.
     assert!(peak_rate <= level.config().max_rate_rps + 1e-6);
 }

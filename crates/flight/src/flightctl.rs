@@ -883,44 +883,73 @@ impl FlightController {
         out: &mut FlightOutput,
     ) -> Option<(BodyRates, f32, bool)> {
         let dt_s = dt_us as f32 * 1.0e-6;
-        let q = &vehicle.attitude;
-        if let FlightState::Failsafe(phase) = self.state {
-            out.mode = FlightMode::Angle;
-            self.failsafe_us = self.failsafe_us.saturating_add(dt_us);
-            let mut phase = phase;
-            if phase == FailsafePhase::Hold && self.failsafe_us >= self.lim.failsafe_hold_us {
-                if alt.is_none() {
-                    self.disarm(DisarmCause::FailsafeNoAltitude, out);
-                    return None;
-                }
-                phase = FailsafePhase::Descend;
-                self.state = FlightState::Failsafe(phase);
-                out.events.push(Event::FailsafeDescent);
+        match self.state {
+            FlightState::Failsafe(phase) => {
+                self.failsafe_setpoints(phase, dt_us, dt_s, vehicle, alt, out)
             }
-            let rate_sp = self
-                .level
-                .rate_setpoint_q(q, &TiltQuat::LEVEL, 0.0)
-                .unwrap_or_default();
-            let collective = match alt {
-                Some(a) => {
-                    out.mode = FlightMode::AltitudeHold;
-                    let climb = if phase == FailsafePhase::Descend {
-                        -self.cfg.safety.failsafe_descent_mps
-                    } else {
-                        0.0
-                    };
-                    self.altitude_collective(a, climb, dt_s)
-                }
-                // Altitude lost during the descent: keep going down by
-                // ramping the collective off, so the landing detector ends it.
-                None if phase == FailsafePhase::Descend => {
-                    (self.last_collective - FAILSAFE_BLIND_RAMP_PER_S * dt_s).max(0.0)
-                }
-                None => self.last_collective,
-            };
-            return Some((rate_sp, collective, true));
+            _ => Some(self.pilot_setpoints(dt_s, pilot, vehicle, alt, out)),
         }
+    }
 
+    /// The failsafe's setpoints: level, then (with an altitude estimate) a
+    /// hold and a descent; `None` after a disarm for lack of altitude.
+    fn failsafe_setpoints(
+        &mut self,
+        phase: FailsafePhase,
+        dt_us: u32,
+        dt_s: f32,
+        vehicle: &VehicleState,
+        alt: Option<AltitudeEstimate>,
+        out: &mut FlightOutput,
+    ) -> Option<(BodyRates, f32, bool)> {
+        let q = &vehicle.attitude;
+        out.mode = FlightMode::Angle;
+        self.failsafe_us = self.failsafe_us.saturating_add(dt_us);
+        let mut phase = phase;
+        if phase == FailsafePhase::Hold && self.failsafe_us >= self.lim.failsafe_hold_us {
+            if alt.is_none() {
+                self.disarm(DisarmCause::FailsafeNoAltitude, out);
+                return None;
+            }
+            phase = FailsafePhase::Descend;
+            self.state = FlightState::Failsafe(phase);
+            out.events.push(Event::FailsafeDescent);
+        }
+        let rate_sp = self
+            .level
+            .rate_setpoint_q(q, &TiltQuat::LEVEL, 0.0)
+            .unwrap_or_default();
+        let collective = match alt {
+            Some(a) => {
+                out.mode = FlightMode::AltitudeHold;
+                let climb = if phase == FailsafePhase::Descend {
+                    -self.cfg.safety.failsafe_descent_mps
+                } else {
+                    0.0
+                };
+                self.altitude_collective(a, climb, dt_s)
+            }
+            // Altitude lost during the descent: keep going down by
+            // ramping the collective off, so the landing detector ends it.
+            None if phase == FailsafePhase::Descend => {
+                (self.last_collective - FAILSAFE_BLIND_RAMP_PER_S * dt_s).max(0.0)
+            }
+            None => self.last_collective,
+        };
+        Some((rate_sp, collective, true))
+    }
+
+    /// The pilot's setpoints in the selected mode (altitude hold falls back
+    /// to angle mode without an altitude estimate).
+    fn pilot_setpoints(
+        &mut self,
+        dt_s: f32,
+        pilot: &PilotInput,
+        vehicle: &VehicleState,
+        alt: Option<AltitudeEstimate>,
+        out: &mut FlightOutput,
+    ) -> (BodyRates, f32, bool) {
+        let q = &vehicle.attitude;
         let mut mode = pilot.mode;
         let fallback = mode == FlightMode::AltitudeHold && alt.is_none();
         if fallback {
@@ -953,7 +982,7 @@ impl FlightController {
                 sh.throttle
             }
         };
-        Some((rate_sp, collective, mode != FlightMode::Acro))
+        (rate_sp, collective, mode != FlightMode::Acro)
     }
 
     /// Climb-rate demand of the throttle stick in altitude hold, m/s.

@@ -268,6 +268,21 @@ fn classify_baro<E>(e: &ms5611::Error<E>) -> ProbeFailure {
     }
 }
 
+/// One chip's boot probe: `op` with the configured retries, its errors
+/// sorted by `classify`.
+fn probe_chip<T, E, D: DelayNs>(
+    chip: Chip,
+    cfg: &SensorsConfig,
+    delay: &mut D,
+    op: impl FnMut(&mut D) -> Result<T, E>,
+    classify: impl Fn(&E) -> ProbeFailure,
+) -> ProbeResult {
+    to_result(
+        chip,
+        probe_with_retries(cfg.probe_attempts, cfg.probe_retry_ms, delay, op, classify),
+    )
+}
+
 fn to_result<T>(chip: Chip, r: Result<(T, u8), (ProbeFailure, u8)>) -> ProbeResult {
     match r {
         Ok((_, attempts)) => ProbeResult {
@@ -306,32 +321,26 @@ impl<I: I2c> Sensors<I> {
         let mpu_cfg = cfg.mpu;
         // Power-up: the MPU-9250's registers are not reliable before.
         delay.delay_ms(cfg.mpu_settle_ms);
-        let mpu_r = to_result(
+        let mpu_r = probe_chip(
             Chip::Mpu9250,
-            probe_with_retries(
-                cfg.probe_attempts,
-                cfg.probe_retry_ms,
-                delay,
-                |d| {
-                    mpu.init(d, &mpu_cfg)?;
-                    mpu.set_bypass(true)?;
-                    d.delay_ms(cfg.mpu_settle_ms);
-                    mpu_settled(&mut mpu)
-                },
-                classify_mpu,
-            ),
+            &cfg,
+            delay,
+            |d| {
+                mpu.init(d, &mpu_cfg)?;
+                mpu.set_bypass(true)?;
+                d.delay_ms(cfg.mpu_settle_ms);
+                mpu_settled(&mut mpu)
+            },
+            classify_mpu,
         );
         let mag_r = if mpu_r.present() {
             let mag_cfg = cfg.mag;
-            to_result(
+            probe_chip(
                 Chip::Ak8963,
-                probe_with_retries(
-                    cfg.probe_attempts,
-                    cfg.probe_retry_ms,
-                    delay,
-                    |d| mag.init(d, &mag_cfg),
-                    classify_mag,
-                ),
+                &cfg,
+                delay,
+                |d| mag.init(d, &mag_cfg),
+                classify_mag,
             )
         } else {
             ProbeResult {
@@ -340,16 +349,24 @@ impl<I: I2c> Sensors<I> {
                 attempts: 0,
             }
         };
-        let baro_r = to_result(
-            Chip::Ms5611,
-            probe_with_retries(
-                cfg.probe_attempts,
-                cfg.probe_retry_ms,
-                delay,
-                |d| baro.init(d),
-                classify_baro,
-            ),
-        );
+        let baro_r = probe_chip(Chip::Ms5611, &cfg, delay, |d| baro.init(d), classify_baro);
+        let report = BootReport {
+            mpu: mpu_r,
+            mag: mag_r,
+            baro: baro_r,
+        };
+        (Self::after_boot(cfg, mpu, mag, baro, &report), report)
+    }
+
+    /// The set as [`boot`](Self::boot) leaves it: each chip's health starts
+    /// from its probe verdict, no recovery or re-probe pending.
+    fn after_boot(
+        cfg: SensorsConfig,
+        mpu: Mpu9250<I>,
+        mag: Ak8963<I>,
+        baro: Ms5611<I>,
+        report: &BootReport,
+    ) -> Self {
         let health = |r: &ProbeResult| {
             if r.present() {
                 SensorHealth::new(cfg.policy)
@@ -357,20 +374,15 @@ impl<I: I2c> Sensors<I> {
                 SensorHealth::missing(cfg.policy)
             }
         };
-        let report = BootReport {
-            mpu: mpu_r,
-            mag: mag_r,
-            baro: baro_r,
-        };
-        let s = Self {
+        Self {
             cfg,
             mpu,
             mag,
             baro,
             sampler: Sampler::new(cfg.baro),
-            mpu_health: health(&mpu_r),
-            mag_health: health(&mag_r),
-            baro_health: health(&baro_r),
+            mpu_health: health(&report.mpu),
+            mag_health: health(&report.mag),
+            baro_health: health(&report.baro),
             reinit_pending: [false; 3],
             bus_recoveries: 0,
             recovery_requested: false,
@@ -379,8 +391,7 @@ impl<I: I2c> Sensors<I> {
             reprobe: [Backoff::new(cfg.reprobe_first_ms, cfg.reprobe_max_ms); 3],
             recovery_backoff: Backoff::new(RECOVERY_RETRY_FIRST_MS, RECOVERY_RETRY_MAX_MS),
             recovery_failing: false,
-        };
-        (s, report)
+        }
     }
 
     /// Gyro/accelerometer scale of the configured ranges.

@@ -2,107 +2,23 @@
 //! controller, driven step by step at 1 kHz.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod common;
+
+use common::*;
 use control::controllers::BodyRates;
 use control::loops::Quat;
-use control::shaping::Sticks;
 use flight::flightctl::*;
-
-const STEP_US: u32 = 1_000;
 
 /// A change made to the rig before a step.
 type Setup = fn(&mut Rig);
 
-struct Rig {
-    fc: FlightController,
-    now_us: u32,
-    pilot: PilotInput,
-    status: SystemStatus,
-    vehicle: VehicleState,
-    last: Option<FlightOutput>,
-}
-
-fn ready_status() -> SystemStatus {
-    SystemStatus {
-        sensors_healthy: true,
-        gyro_bias_done: true,
-        calibration_running: false,
-    }
-}
-
-fn level() -> VehicleState {
-    VehicleState {
-        attitude: Quat::IDENTITY,
-        gyro: BodyRates::default(),
-        altitude: None,
-    }
-}
-
-impl Rig {
-    fn new() -> Self {
-        Self {
-            fc: FlightController::new(FlightConfig::default()).unwrap(),
-            // Start near the wrap of the µs clock: nothing may depend on it.
-            now_us: u32::MAX - 500_000,
-            pilot: PilotInput {
-                sticks: Sticks::default(),
-                arm_switch: false,
-                mode: FlightMode::Angle,
-                link_ok: true,
-                motor_test_switch: false,
-            },
-            status: ready_status(),
-            vehicle: level(),
-            last: None,
-        }
-    }
-
-    fn step(&mut self) -> FlightOutput {
-        self.now_us = self.now_us.wrapping_add(STEP_US);
-        let out = self
-            .fc
-            .step(self.now_us, &self.pilot, &self.status, &self.vehicle);
-        if out.state == FlightState::Disarmed {
-            assert_eq!(out.motors, Motors::Off, "motors must be off when disarmed");
-        }
-        self.last = Some(out);
-        out
-    }
-
-    /// Runs `ms` steps; returns every event in order.
-    fn run_ms(&mut self, ms: u32) -> Vec<Event> {
-        let mut ev = Vec::new();
-        for _ in 0..ms {
-            ev.extend(self.step().events.iter());
-        }
-        ev
-    }
-
-    /// Runs until an event matching `f` or `max_ms`; returns the ms taken.
-    fn run_until(&mut self, max_ms: u32, f: impl Fn(&Event) -> bool) -> Option<u32> {
-        (1..=max_ms).find(|_| self.step().events.iter().any(|e| f(&e)))
-    }
-
-    /// Switch off for a while, then on: one arm request.
-    fn flip_arm_switch(&mut self) -> Vec<Event> {
-        self.pilot.arm_switch = false;
-        self.run_ms(20);
-        self.pilot.arm_switch = true;
-        self.run_ms(1)
-    }
-
-    fn arm(&mut self) {
-        let ev = self.flip_arm_switch();
-        assert_eq!(ev, vec![Event::Armed], "arming failed");
-        assert_eq!(self.fc.state(), FlightState::Armed);
-    }
-
-    /// Armed and flying at hover throttle for a while.
-    fn take_off(&mut self) {
-        self.arm();
-        self.pilot.sticks.throttle = 0.5;
-        let ev = self.run_ms(200);
-        assert!(ev.is_empty(), "{ev:?}");
-    }
+/// The vertical estimator's output at `height_m`, moving at
+/// `vertical_speed_mps` (up positive).
+fn altitude(height_m: f32, vertical_speed_mps: f32) -> Option<AltitudeEstimate> {
+    Some(AltitudeEstimate {
+        height_m,
+        vertical_speed_mps,
+    })
 }
 
 fn tilted_deg(deg: f32) -> Quat {
@@ -255,10 +171,7 @@ fn crash_tilt_disarms_after_half_a_second_in_angle_mode() {
     let mut r = Rig::new();
     r.take_off();
     r.vehicle.attitude = tilted_deg(75.0);
-    let ms = r
-        .run_until(2_000, |e| *e == Event::Disarmed(DisarmCause::CrashTilt))
-        .expect("no crash disarm");
-    assert!((499..=501).contains(&ms), "{ms} ms");
+    r.expect_event_after(Event::Disarmed(DisarmCause::CrashTilt), 2_000, 499..=501);
 }
 
 #[test]
@@ -284,10 +197,7 @@ fn saturated_rates_disarm_in_any_mode() {
     r.pilot.mode = FlightMode::Acro;
     r.take_off();
     r.vehicle.gyro.yaw_rps = 990f32.to_radians();
-    let ms = r
-        .run_until(2_000, |e| *e == Event::Disarmed(DisarmCause::CrashRate))
-        .expect("no crash disarm");
-    assert!((299..=301).contains(&ms), "{ms} ms");
+    r.expect_event_after(Event::Disarmed(DisarmCause::CrashRate), 2_000, 299..=301);
 }
 
 #[test]
@@ -295,10 +205,7 @@ fn landing_detected_after_two_seconds() {
     let mut r = Rig::new();
     r.take_off();
     r.pilot.sticks.throttle = 0.0;
-    let ms = r
-        .run_until(5_000, |e| *e == Event::Disarmed(DisarmCause::Landed))
-        .expect("no landing disarm");
-    assert!((1_999..=2_001).contains(&ms), "{ms} ms");
+    r.expect_event_after(Event::Disarmed(DisarmCause::Landed), 5_000, 1_999..=2_001);
 }
 
 #[test]
@@ -310,29 +217,22 @@ fn no_landing_while_rotating_or_sinking() {
     r.run_ms(3_000);
     assert!(r.fc.is_armed());
     r.vehicle.gyro.roll_rps = 0.0;
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 10.0,
-        vertical_speed_mps: -2.0,
-    });
+    r.vehicle.altitude = altitude(10.0, -2.0);
     r.run_ms(3_000);
     assert!(r.fc.is_armed(), "falling is not landed");
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 0.0,
-        vertical_speed_mps: 0.05,
-    });
-    assert!(r
-        .run_until(2_100, |e| *e == Event::Disarmed(DisarmCause::Landed))
-        .is_some());
+    r.vehicle.altitude = altitude(0.0, 0.05);
+    r.expect_event_within(Event::Disarmed(DisarmCause::Landed), 2_100);
 }
 
 #[test]
 fn no_take_off_disarms_after_five_seconds() {
     let mut r = Rig::new();
     r.arm();
-    let ms = r
-        .run_until(10_000, |e| *e == Event::Disarmed(DisarmCause::NoTakeOff))
-        .expect("no idle disarm");
-    assert!((4_990..=5_000).contains(&ms), "{ms} ms");
+    r.expect_event_after(
+        Event::Disarmed(DisarmCause::NoTakeOff),
+        10_000,
+        4_990..=5_000,
+    );
 }
 
 #[test]
@@ -348,10 +248,7 @@ fn single_bad_sample_keeps_motors_and_persistent_fault_disarms() {
     r.run_ms(10);
     assert!(r.fc.is_armed());
     r.vehicle.attitude.w = f32::INFINITY;
-    let ms = r
-        .run_until(1_000, |e| *e == Event::Disarmed(DisarmCause::SensorFault))
-        .unwrap();
-    assert!((100..=101).contains(&ms), "{ms} ms");
+    r.expect_event_after(Event::Disarmed(DisarmCause::SensorFault), 1_000, 100..=101);
 }
 
 // ---- failsafe --------------------------------------------------------------
@@ -371,21 +268,17 @@ fn link_loss_without_altitude_holds_level_then_disarms() {
     assert!(out.rate_setpoint.roll_rps.abs() < 1e-6);
     assert!((out.collective - 0.5).abs() < 1e-6);
     assert!(matches!(out.motors, Motors::Run(_)));
-    let ms = r
-        .run_until(2_000, |e| {
-            *e == Event::Disarmed(DisarmCause::FailsafeNoAltitude)
-        })
-        .unwrap();
-    assert!((998..=1_000).contains(&ms), "{ms} ms");
+    r.expect_event_after(
+        Event::Disarmed(DisarmCause::FailsafeNoAltitude),
+        2_000,
+        998..=1_000,
+    );
 }
 
 #[test]
 fn link_loss_with_altitude_holds_descends_and_lands() {
     let mut r = Rig::new();
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 5.0,
-        vertical_speed_mps: 0.0,
-    });
+    r.vehicle.altitude = altitude(5.0, 0.0);
     r.take_off();
     r.pilot.link_ok = false;
     // The arm switch reads "off" while the link is down: it is not trusted.
@@ -395,23 +288,14 @@ fn link_loss_with_altitude_holds_descends_and_lands() {
     assert_eq!(out.mode, FlightMode::AltitudeHold);
     // Holding at 5 m: the collective stays at the bumpless value.
     assert!((out.collective - 0.5).abs() < 0.02, "{}", out.collective);
-    let ms = r
-        .run_until(2_000, |e| *e == Event::FailsafeDescent)
-        .unwrap();
-    assert!((998..=1_000).contains(&ms), "{ms} ms");
+    r.expect_event_after(Event::FailsafeDescent, 2_000, 998..=1_000);
     // Descending: the collective drops below hover.
     r.run_ms(200);
     let c = r.last.unwrap().collective;
     assert!(c < 0.45, "collective {c}");
     // The model sits still on the ground: the landing detector ends it.
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 0.0,
-        vertical_speed_mps: 0.0,
-    });
-    assert!(r
-        .run_until(10_000, |e| *e
-            == Event::Disarmed(DisarmCause::FailsafeLanded))
-        .is_some());
+    r.vehicle.altitude = altitude(0.0, 0.0);
+    r.expect_event_within(Event::Disarmed(DisarmCause::FailsafeLanded), 10_000);
 }
 
 #[test]
@@ -481,12 +365,11 @@ fn motor_test_ends_on_link_loss_arm_switch_timeout_and_stop() {
     let mut r = Rig::new();
     r.run_ms(10);
     r.fc.start_motor_test(3, &r.pilot).unwrap();
-    let ms = r
-        .run_until(10_000, |e| {
-            *e == Event::MotorTestEnded(MotorTestEnd::Timeout)
-        })
-        .unwrap();
-    assert!((4_999..=5_001).contains(&ms), "{ms} ms");
+    r.expect_event_after(
+        Event::MotorTestEnded(MotorTestEnd::Timeout),
+        10_000,
+        4_999..=5_001,
+    );
 }
 
 #[test]
@@ -532,10 +415,7 @@ fn altitude_hold_without_altitude_falls_back_to_angle_once() {
 #[test]
 fn altitude_hold_holds_at_mid_stick_and_climbs_above() {
     let mut r = Rig::new();
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 3.0,
-        vertical_speed_mps: 0.0,
-    });
+    r.vehicle.altitude = altitude(3.0, 0.0);
     r.take_off();
     r.pilot.mode = FlightMode::AltitudeHold;
     r.run_ms(500);
@@ -708,24 +588,16 @@ fn closed_loop_acro_stick_gives_the_shaped_rate() {
 #[test]
 fn altitude_lost_during_failsafe_descent_still_lands() {
     let mut r = Rig::new();
-    r.vehicle.altitude = Some(AltitudeEstimate {
-        height_m: 5.0,
-        vertical_speed_mps: 0.0,
-    });
+    r.vehicle.altitude = altitude(5.0, 0.0);
     r.take_off();
     r.pilot.link_ok = false;
-    assert!(r
-        .run_until(1_100, |e| *e == Event::FailsafeDescent)
-        .is_some());
+    r.expect_event_within(Event::FailsafeDescent, 1_100);
     r.vehicle.altitude = None; // the barometer fails
     let c0 = r.step().collective;
     r.run_ms(1_000);
     let c1 = r.last.unwrap().collective;
     assert!(c1 < c0 - 0.04, "collective {c0} → {c1}");
-    assert!(r
-        .run_until(30_000, |e| *e
-            == Event::Disarmed(DisarmCause::FailsafeLanded))
-        .is_some());
+    r.expect_event_within(Event::Disarmed(DisarmCause::FailsafeLanded), 30_000);
 }
 
 #[test]

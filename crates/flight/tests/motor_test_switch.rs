@@ -3,83 +3,12 @@
 //! `FlightController::step` at 1 kHz.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use control::controllers::BodyRates;
-use control::loops::Quat;
-use control::shaping::Sticks;
+mod common;
+
+use common::*;
 use flight::flightctl::*;
 
-const STEP_US: u32 = 1_000;
 const TEST_COMMAND: f32 = 0.08;
-
-struct Rig {
-    fc: FlightController,
-    now_us: u32,
-    pilot: PilotInput,
-    status: SystemStatus,
-    vehicle: VehicleState,
-    last: Option<FlightOutput>,
-}
-
-impl Rig {
-    fn new() -> Self {
-        Self {
-            fc: FlightController::new(FlightConfig::default()).unwrap(),
-            now_us: 0,
-            pilot: PilotInput {
-                sticks: Sticks::default(),
-                arm_switch: false,
-                mode: FlightMode::Angle,
-                link_ok: true,
-                motor_test_switch: false,
-            },
-            status: SystemStatus {
-                sensors_healthy: true,
-                gyro_bias_done: true,
-                calibration_running: false,
-            },
-            vehicle: VehicleState {
-                attitude: Quat::IDENTITY,
-                gyro: BodyRates::default(),
-                altitude: None,
-            },
-            last: None,
-        }
-    }
-
-    fn step(&mut self) -> FlightOutput {
-        self.now_us = self.now_us.wrapping_add(STEP_US);
-        let out = self
-            .fc
-            .step(self.now_us, &self.pilot, &self.status, &self.vehicle);
-        self.last = Some(out);
-        out
-    }
-
-    fn run_ms(&mut self, ms: u32) -> Vec<Event> {
-        (0..ms)
-            .flat_map(|_| self.step().events.iter().collect::<Vec<_>>())
-            .collect()
-    }
-
-    /// Test switch off for 20 ms, then on for one step: that step's events.
-    fn flip_test_switch(&mut self) -> Vec<Event> {
-        self.pilot.motor_test_switch = false;
-        self.run_ms(20);
-        self.pilot.motor_test_switch = true;
-        self.run_ms(1)
-    }
-
-    fn flip_arm_switch(&mut self) -> Vec<Event> {
-        self.pilot.arm_switch = false;
-        self.run_ms(20);
-        self.pilot.arm_switch = true;
-        self.run_ms(1)
-    }
-
-    fn motors(&self) -> Motors {
-        self.last.unwrap().motors
-    }
-}
 
 /// Motor index `m` alone at the test command.
 fn only(m: usize) -> Motors {

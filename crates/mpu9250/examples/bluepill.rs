@@ -7,6 +7,8 @@
 //! ```
 //!
 //! On the host this example only prints how to build it.
+
+// The board set-up repeats the other drivers' examples on purpose: each example stands alone.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
 

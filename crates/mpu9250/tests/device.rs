@@ -96,6 +96,8 @@ fn init_non_default_config_exact_bytes() {
     i2c.done();
 }
 
+// One table per register field, as the register map lists them: the repeated
+// shape is the datasheet's, not shared logic.
 #[test]
 fn every_bandwidth_register_value() {
     let g = [

@@ -5,6 +5,8 @@
 //! cargo run -p ms5611 --example linux -- /dev/i2c-1
 //! ```
 
+// The I2C set-up repeats the other drivers' examples on purpose: each example stands alone.
+
 #[cfg(target_os = "linux")]
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     use linux_embedded_hal::{Delay, I2cdev};

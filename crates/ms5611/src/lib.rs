@@ -68,7 +68,8 @@
 // crates with no helper crate in common, so the transport seam (interface.rs),
 // the private register helpers, the `maybe_async_cfg` attribute blocks, the
 // error and config boilerplate, the examples, and the tests' helpers and
-// datasheet tables repeat across them on purpose.
+// datasheet tables repeat across them on purpose. Within a crate, each impl block
+// carries its own `maybe_async_cfg` attribute: the macro works per item.
 #![no_std]
 #![deny(unsafe_code)]
 

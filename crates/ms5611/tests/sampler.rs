@@ -44,6 +44,21 @@ fn read(value: u32) -> [T; 2] {
     ]
 }
 
+/// The driver with the datasheet PROM, on a bus expecting `ex`.
+fn baro_on(ex: &[T]) -> Ms5611<Mock> {
+    Ms5611::with_prom(Mock::new(ex), Address::CsbLow, prom())
+}
+
+/// A good D2 read, the pressure conversion it starts, a good D1 read and the
+/// next pressure conversion (0x48: D1 at OSR 4096).
+fn d2_then_d1() -> Vec<T> {
+    let mut ex = read(D2).to_vec();
+    ex.push(start(0x48));
+    ex.extend(read(D1));
+    ex.push(start(0x48));
+    ex
+}
+
 fn expected(d1: u32, d2: u32) -> Measurement {
     compensate(&prom(), d1, d2).unwrap()
 }
@@ -75,7 +90,7 @@ fn d2_then_n_d1_never_early_exact_deadlines() {
     ex.extend(read(D1 + 10));
     ex.push(start(0x48));
 
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(3));
     assert_eq!(s.next_deadline_us(), None);
     assert_eq!(s.next_channel(), Channel::Temperature);
@@ -121,11 +136,8 @@ fn d2_then_n_d1_never_early_exact_deadlines() {
 #[test]
 fn timestamps_wrap_around() {
     let mut ex = vec![start(0x50)];
-    ex.extend(read(D2));
-    ex.push(start(0x48));
-    ex.extend(read(D1));
-    ex.push(start(0x48));
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    ex.extend(d2_then_d1());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
 
     let t0 = u32::MAX - 500;
@@ -149,7 +161,7 @@ fn timestamps_wrap_around() {
 #[test]
 fn clock_stepping_backwards_never_reads_early() {
     let ex = [start(0x50)];
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
     s.poll(&mut baro, 5_000).unwrap();
     for t in [4_999, 0, 1_000, 5_000 + T_WAIT - 1] {
@@ -172,7 +184,7 @@ fn not_initialised_without_prom_and_no_traffic() {
 fn nack_on_start_recovers_after_longest_conversion() {
     let recovery = 9040 + 100;
     let ex = [start(0x50).with_error(nack()), start(0x50)];
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
     assert_eq!(s.config().recovery_us(), recovery);
     assert_eq!(s.poll(&mut baro, 100), Err(Error::Bus(nack())));
@@ -200,12 +212,9 @@ fn adc_errors_recover_and_redo_the_same_channel() {
     ex.extend(read(0));
     ex.push(start(0x50));
     // Finally a good D2 and a D1.
-    ex.extend(read(D2));
-    ex.push(start(0x48));
-    ex.extend(read(D1));
-    ex.push(start(0x48));
+    ex.extend(d2_then_d1());
 
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
     let mut t = 0u32;
     s.poll(&mut baro, t).unwrap();
@@ -236,7 +245,7 @@ fn failed_start_after_a_pressure_read_keeps_the_measurement() {
     ex.extend(read(D1));
     ex.push(start(0x48).with_error(nack()));
     ex.push(start(0x48)); // retried after the recovery wait
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
     s.poll(&mut baro, 0).unwrap();
     s.poll(&mut baro, T_WAIT).unwrap();
@@ -254,7 +263,7 @@ fn failed_start_after_a_temperature_read_is_returned() {
     let mut ex = vec![start(0x50)];
     ex.extend(read(D2));
     ex.push(start(0x48).with_error(nack()));
-    let mut baro = Ms5611::with_prom(Mock::new(&ex), Address::CsbLow, prom());
+    let mut baro = baro_on(&ex);
     let mut s = Sampler::new(config(10));
     s.poll(&mut baro, 0).unwrap();
     assert_eq!(s.poll(&mut baro, T_WAIT), Err(Error::Bus(nack())));
@@ -370,6 +379,82 @@ fn osr_from_bits(bits: u8) -> Osr {
         .unwrap()
 }
 
+/// The conversion a CONVERT command (0x40 | D2 0x10 | OSR bits) starts at `now`:
+/// (channel, start, end), µs.
+fn conversion_for(cmd: u8, now: u64) -> (Channel, u64, u64) {
+    let ch = if cmd & 0x10 == 0 {
+        Channel::Pressure
+    } else {
+        Channel::Temperature
+    };
+    let end = now + u64::from(osr_from_bits(cmd & 0x0F).conversion_time_us());
+    (ch, now, end)
+}
+
+impl ChipState {
+    /// Finish a conversion whose time has come.
+    fn finish_due_conversion(&mut self, now: u64) {
+        if let Some((ch, _, end)) = self.conversion {
+            if now >= end {
+                self.conversion = None;
+                let v = match ch {
+                    Channel::Pressure => self.d1_next,
+                    Channel::Temperature => self.d2_next,
+                };
+                self.result = Some((ch, v));
+            }
+        }
+    }
+
+    fn command(&mut self, cmd: u8, now: u64, fail: bool) -> Result<(), ErrorKind> {
+        if let Some((ch, started, _)) = self.conversion {
+            self.violations.push(format!(
+                "cmd {cmd:#x} at {now} during {ch:?} from {started}"
+            ));
+        }
+        if fail {
+            // Worst case: the chip took the command anyway.
+            if cmd & 0xE0 == 0x40 {
+                self.conversion = Some(conversion_for(cmd, now));
+            }
+            return Err(nack());
+        }
+        match cmd {
+            0x00 => self.pending_read = Some(self.result.take().map_or(0, |(_, v)| v)),
+            c if c & 0xE0 == 0x40 => {
+                self.conversion = Some(conversion_for(c, now));
+                self.result = None;
+            }
+            other => panic!("unexpected command {other:#x}"),
+        }
+        Ok(())
+    }
+
+    fn adc_read(&mut self, buf: &mut [u8], now: u64, fail: bool) -> Result<(), ErrorKind> {
+        let v = self.pending_read.take().expect("read without ADC command");
+        if fail {
+            return Err(nack());
+        }
+        if v == 0 {
+            self.violations.push(format!("ADC read of 0 at {now}"));
+        }
+        buf.copy_from_slice(&v.to_be_bytes()[1..]);
+        if v != 0 {
+            let ch = if v == self.d1_next {
+                Channel::Pressure
+            } else {
+                Channel::Temperature
+            };
+            self.reads.push((ch, v));
+            match ch {
+                Channel::Pressure => self.d1_next += 3,
+                Channel::Temperature => self.d2_next += 5,
+            }
+        }
+        Ok(())
+    }
+}
+
 impl I2c for Chip {
     fn transaction(&mut self, address: u8, ops: &mut [Operation<'_>]) -> Result<(), ErrorKind> {
         assert_eq!(address, A);
@@ -378,77 +463,11 @@ impl I2c for Chip {
         let index = st.transfers;
         st.transfers += 1;
         let fail = index < 64 && st.fail_mask & (1 << index) != 0;
-        // Finish a conversion whose time has come.
-        if let Some((ch, _, end)) = st.conversion {
-            if now >= end {
-                st.conversion = None;
-                let v = match ch {
-                    Channel::Pressure => st.d1_next,
-                    Channel::Temperature => st.d2_next,
-                };
-                st.result = Some((ch, v));
-            }
-        }
+        st.finish_due_conversion(now);
         for op in ops.iter_mut() {
             match op {
-                Operation::Write(bytes) => {
-                    let cmd = bytes[0];
-                    if let Some((ch, started, _)) = st.conversion {
-                        st.violations.push(format!(
-                            "cmd {cmd:#x} at {now} during {ch:?} from {started}"
-                        ));
-                    }
-                    if fail {
-                        // Worst case: the chip took the command anyway.
-                        if cmd & 0xE0 == 0x40 {
-                            let ch = if cmd & 0x10 == 0 {
-                                Channel::Pressure
-                            } else {
-                                Channel::Temperature
-                            };
-                            let end =
-                                now + u64::from(osr_from_bits(cmd & 0x0F).conversion_time_us());
-                            st.conversion = Some((ch, now, end));
-                        }
-                        return Err(nack());
-                    }
-                    match cmd {
-                        0x00 => st.pending_read = Some(st.result.take().map_or(0, |(_, v)| v)),
-                        c if c & 0xE0 == 0x40 => {
-                            let ch = if c & 0x10 == 0 {
-                                Channel::Pressure
-                            } else {
-                                Channel::Temperature
-                            };
-                            let end = now + u64::from(osr_from_bits(c & 0x0F).conversion_time_us());
-                            st.conversion = Some((ch, now, end));
-                            st.result = None;
-                        }
-                        other => panic!("unexpected command {other:#x}"),
-                    }
-                }
-                Operation::Read(buf) => {
-                    let v = st.pending_read.take().expect("read without ADC command");
-                    if fail {
-                        return Err(nack());
-                    }
-                    if v == 0 {
-                        st.violations.push(format!("ADC read of 0 at {now}"));
-                    }
-                    buf.copy_from_slice(&v.to_be_bytes()[1..]);
-                    if v != 0 {
-                        let ch = if v == st.d1_next {
-                            Channel::Pressure
-                        } else {
-                            Channel::Temperature
-                        };
-                        st.reads.push((ch, v));
-                        match ch {
-                            Channel::Pressure => st.d1_next += 3,
-                            Channel::Temperature => st.d2_next += 5,
-                        }
-                    }
-                }
+                Operation::Write(bytes) => st.command(bytes[0], now, fail)?,
+                Operation::Read(buf) => st.adc_read(buf, now, fail)?,
             }
         }
         Ok(())

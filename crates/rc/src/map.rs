@@ -190,6 +190,8 @@ impl SwitchPosition {
 }
 
 /// Normalised stick positions.
+// `control::shaping::Sticks` has the same fields on purpose: the receiver and the
+// controllers do not depend on each other; `flight` converts between them.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Sticks {

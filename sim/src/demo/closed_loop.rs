@@ -14,6 +14,7 @@ use super::stack::{self, Stack};
 use control::shaping::Sticks;
 pub use flight::flightctl::FlightMode as Mode;
 use flight::flightctl::{PilotInput, VehicleState};
+use flight::storage::CalibrationRecord;
 use sim::quad::QuadState;
 use sim::{
     Environment, QuadLink, QuadParams, Quadcopter, Quat, SensorErrors, SimBus, SimClock, SimConfig,
@@ -305,9 +306,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
         seed: opts.seed,
         ..SimConfig::default()
     };
-    let accel = stack::calibrate_accel_six_position(&base)?;
-    let mag = stack::calibrate_mag_on_dance(&base, opts.mag_dance_s)?;
-    let record = stack::calibration_record(&accel.calibration, &mag.calibration)?;
+    let record = ground_calibration(&base, opts.mag_dance_s)?;
 
     let mut quad = Quadcopter::new(opts.airframe).map_err(|e| e.to_string())?;
     link.publish(&quad);
@@ -316,9 +315,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     let mut delay = clock.delay();
     let mut stack = Stack::boot(&bus, &mut delay, &record)?;
     let duration_s = opts.duration_s.unwrap_or(opts.scenario.duration_s());
-    let esc_period_s = 1.0 / opts.esc_rate_hz;
-    let mut esc = [0.0f64; 4];
-    let mut next_esc_s = 0.0;
+    let mut escs = Escs::new(opts.esc_rate_hz);
     let mut out = ControlOutput::default();
     let mut samples = Vec::with_capacity((duration_s * 1000.0) as usize + 16);
     let mut missed = 0;
@@ -326,26 +323,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     let mut radio = Radio::default();
     while clock.now_s() < duration_s {
         let t_next = bus.next_mpu_sample_ns() as f64 * 1e-9;
-        // The ESCs take a new command at each of their frames.
-        let latch = |t_s: f64| {
-            let mut m = out.motors.map(f64::from);
-            for (i, c) in m.iter_mut().enumerate() {
-                if opts.scenario.motor_failed(i, t_s) {
-                    *c = 0.0;
-                }
-            }
-            m
-        };
-        while next_esc_s <= quad.state().t_s {
-            esc = latch(next_esc_s);
-            next_esc_s += esc_period_s;
-        }
-        while next_esc_s < t_next {
-            quad.advance_to(next_esc_s, esc);
-            esc = latch(next_esc_s);
-            next_esc_s += esc_period_s;
-        }
-        quad.advance_to(t_next, esc);
+        escs.fly_to(&mut quad, t_next, &out.motors, &opts.scenario);
         link.publish(&quad);
         bus.advance_to_next_mpu_sample();
         if !bus.data_ready() {
@@ -388,6 +366,56 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
         events,
         radio_frames: radio.frames(),
     })
+}
+
+/// The calibrations a user runs once on the ground: the accelerometer on six
+/// faces, the magnetometer on a hand-held dance of `mag_dance_s`.
+fn ground_calibration(base: &SimConfig, mag_dance_s: f64) -> Result<CalibrationRecord, String> {
+    let accel = stack::calibrate_accel_six_position(base)?;
+    let mag = stack::calibrate_mag_on_dance(base, mag_dance_s)?;
+    stack::calibration_record(&accel.calibration, &mag.calibration)
+}
+
+/// The four ESCs: each takes a new command at each of its frames and holds
+/// it until the next; a failed motor's command is zero.
+struct Escs {
+    period_s: f64,
+    next_frame_s: f64,
+    latched: [f64; 4],
+}
+
+impl Escs {
+    fn new(rate_hz: f64) -> Self {
+        Self {
+            period_s: 1.0 / rate_hz,
+            next_frame_s: 0.0,
+            latched: [0.0; 4],
+        }
+    }
+
+    /// Advances `quad` to `t_s`, latching `motors` at every ESC frame on the
+    /// way.
+    fn fly_to(&mut self, quad: &mut Quadcopter, t_s: f64, motors: &[f32; 4], scenario: &Scenario) {
+        let latch = |frame_s: f64| {
+            let mut m = motors.map(f64::from);
+            for (i, c) in m.iter_mut().enumerate() {
+                if scenario.motor_failed(i, frame_s) {
+                    *c = 0.0;
+                }
+            }
+            m
+        };
+        while self.next_frame_s <= quad.state().t_s {
+            self.latched = latch(self.next_frame_s);
+            self.next_frame_s += self.period_s;
+        }
+        while self.next_frame_s < t_s {
+            quad.advance_to(self.next_frame_s, self.latched);
+            self.latched = latch(self.next_frame_s);
+            self.next_frame_s += self.period_s;
+        }
+        quad.advance_to(t_s, self.latched);
+    }
 }
 
 #[cfg(test)]

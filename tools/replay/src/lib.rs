@@ -15,12 +15,12 @@ use fc_ahrs::{frames, Algorithm, Config, Madgwick, MagState, Quaternion, UpdateS
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct MagCounts {
     /// Counts in the order of [`MagCounts::NAMES`].
-    pub counts: [usize; 7],
+    pub counts: [usize; MagState::COUNT],
 }
 
 impl MagCounts {
     /// Column names, one per [`MagState`].
-    pub const NAMES: [&'static str; 7] = [
+    pub const NAMES: [&'static str; MagState::COUNT] = [
         "absent",
         "invalid",
         "undisturbed",
@@ -32,16 +32,7 @@ impl MagCounts {
 
     /// Counts one update.
     pub fn add(&mut self, st: &UpdateStatus) {
-        let i = match st.mag_state {
-            MagState::Absent => 0,
-            MagState::Invalid => 1,
-            MagState::Undisturbed => 2,
-            MagState::Learning => 3,
-            MagState::Rejected => 4,
-            MagState::Recovered => 5,
-            MagState::Fallback => 6,
-        };
-        self.counts[i] += 1;
+        self.counts[st.mag_state.index()] += 1;
     }
 
     /// The sum of two counts.

@@ -1,8 +1,9 @@
 //! Shared test helpers: the init sequence, measurement reads, NACK and a
 //! minimal executor for the async API.
 #![allow(dead_code, clippy::unwrap_used, missing_docs)]
+// Shaped like the other drivers' tests/common on purpose: the crates share no test crate.
 
-use ak8963::{Ak8963, Config};
+use ak8963::{Ak8963, Config, Error};
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
@@ -38,6 +39,14 @@ pub fn inited(asa: [u8; 3], extra: impl IntoIterator<Item = T>) -> (Mock, Ak8963
     mag.init(&mut NoopDelay::new(), &Config::default()).unwrap();
     (i2c, mag)
 }
+
+/// CNTL1 read back as 0x00 (a chip reset) where the default config wrote
+/// 0x16 (continuous mode 2, 16-bit).
+pub const CNTL1_CLEARED: Error<ErrorKind> = Error::ConfigMismatch {
+    register: 0x0A,
+    expected: 0x16,
+    found: 0x00,
+};
 
 /// HXL..HZH little-endian, then ST2.
 pub fn le(v: [i16; 3], st2: u8) -> Vec<u8> {

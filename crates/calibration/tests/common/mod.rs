@@ -1,6 +1,9 @@
 //! Shared test helpers: a deterministic RNG and small vector maths (f64).
 #![allow(dead_code)]
 
+/// Earth-field magnitude of the synthetic magnetometer data, µT.
+pub const R_UT: f64 = 48.0;
+
 /// xorshift64* — tiny, deterministic, good enough for test data.
 pub struct Rng(u64);
 

@@ -2,6 +2,7 @@
 //! and turned into I2C or SPI mock transactions, sample bursts, NACK, and a
 //! minimal executor for the async API.
 #![allow(dead_code, clippy::unwrap_used, missing_docs)]
+// Shaped like the other drivers' tests/common on purpose: the crates share no test crate.
 
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
 use embedded_hal_mock::eh1::i2c::Transaction as I2cT;
