@@ -368,3 +368,84 @@ fn interrupt_requests_follow_the_enable_bits() {
     r.wait(9 * BIT_NS);
     assert!(r.i2c.error_irq(), "AF");
 }
+
+/// The event interrupt through a register read as the firmware's
+/// interrupt-driven engine runs it (RM0008 §26.3.3 with §26.4's interrupt
+/// table: SB, ADDR, BTF with ITEVTEN; RxNE with ITBUFEN too): write the
+/// register, repeated START on BTF, then N = 3 with the BTF ending, and a
+/// single byte with NACK and STOP programmed around the ADDR clear. The
+/// request drops as each event is handled and rises at the next.
+#[test]
+fn event_interrupt_through_an_interrupt_driven_register_read() {
+    use emulator::i2c1::cr2;
+    let mut r = Rig::new();
+    let irqs = cr2::ITEVTEN | cr2::ITERREN;
+    r.wr(reg::CR2, 36 | irqs);
+    let reg_at = |r: &Rig, a: u8| r.i2c.bus().state().mpu.register(a);
+
+    // Write phase: SB, ADDR, then BTF once the register byte is out.
+    r.set_cr1(cr1::ACK | cr1::START);
+    r.wait(BIT_NS);
+    assert!(r.i2c.event_irq(), "SB");
+    r.rd(reg::SR1);
+    r.wr(reg::DR, u16::from(MPU << 1));
+    assert!(!r.i2c.event_irq(), "SB cleared by the address write");
+    r.wait(9 * BIT_NS);
+    assert!(r.i2c.event_irq(), "ADDR");
+    r.clear_addr();
+    r.wr(reg::DR, 0x19);
+    assert!(!r.i2c.event_irq(), "TXE alone needs ITBUFEN");
+    r.wait(9 * BIT_NS);
+    assert_eq!(r.rd(reg::SR1) & sr1::BTF, sr1::BTF);
+    assert!(r.i2c.event_irq(), "BTF");
+    // BTF is cleared by the START (RM0008: "by hardware after a start");
+    // a handler entered again before that must find nothing to do.
+    r.set_cr1(cr1::START);
+    r.wait(BIT_NS);
+    assert_eq!(r.rd(reg::SR1), sr1::SB, "repeated START: BTF cleared");
+
+    // N = 3: ADDR, then BTF with bytes 1 and 2 in; NACK, read 1; BTF
+    // again; STOP, read 2 and 3.
+    r.wr(reg::DR, u16::from((MPU << 1) | 1));
+    r.wait(9 * BIT_NS);
+    assert!(r.i2c.event_irq(), "ADDR (read)");
+    r.clear_addr();
+    r.wait(9 * BIT_NS);
+    assert!(!r.i2c.event_irq(), "RxNE alone needs ITBUFEN");
+    r.wait(9 * BIT_NS);
+    assert!(r.i2c.event_irq(), "BTF: two bytes in, SCL held");
+    r.clear_cr1(cr1::ACK);
+    let b1 = r.rd(reg::DR) as u8;
+    r.wait(9 * BIT_NS);
+    assert!(r.i2c.event_irq(), "BTF: the NACKed third byte in");
+    r.set_cr1(cr1::STOP);
+    let b2 = r.rd(reg::DR) as u8;
+    let b3 = r.rd(reg::DR) as u8;
+    assert!(!r.i2c.event_irq());
+    assert_eq!(
+        [b1, b2, b3],
+        [reg_at(&r, 0x19), reg_at(&r, 0x1A), reg_at(&r, 0x1B)]
+    );
+    assert!(r.wait_stop_cleared(2 * BIT_NS).is_some());
+    assert_eq!(r.sr2(), 0, "STOP sent, bus free");
+
+    // N = 1 (WHO_AM_I), RxNE with ITBUFEN.
+    r.write_bytes(MPU, &[0x75]).unwrap();
+    r.wr(reg::CR2, 36 | irqs | cr2::ITBUFEN);
+    r.set_cr1(cr1::ACK | cr1::START);
+    r.wait(BIT_NS);
+    r.rd(reg::SR1);
+    r.wr(reg::DR, u16::from((MPU << 1) | 1));
+    r.wait(9 * BIT_NS);
+    assert!(r.i2c.event_irq(), "ADDR (read, one byte)");
+    r.clear_cr1(cr1::ACK);
+    r.clear_addr();
+    r.set_cr1(cr1::STOP);
+    assert!(!r.i2c.event_irq());
+    r.wait(9 * BIT_NS);
+    assert!(r.i2c.event_irq(), "RxNE");
+    assert_eq!(r.rd(reg::DR), 0x71);
+    assert!(!r.i2c.event_irq(), "RxNE cleared by the DR read");
+    assert!(r.wait_stop_cleared(2 * BIT_NS).is_some());
+    assert!(r.i2c.sda_high(r.t), "the byte was NACKed: SDA released");
+}

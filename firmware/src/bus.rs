@@ -1,6 +1,6 @@
 //! The I2C1 bus shared by the three chips: a small register-level master
-//! (polling, every wait bounded by a DWT timeout) and the stuck-bus
-//! recovery.
+//! (polling, every wait bounded by a DWT timeout), the interrupt-driven
+//! read of the 1 kHz sample, and the stuck-bus recovery.
 //!
 //! The HAL's `BlockingI2c` is not used: its transfer code (~1.5 KiB) and a
 //! bounds check that links `core::fmt` (~0.7 KiB) cost more flash than
@@ -21,22 +21,58 @@
 //! * A lone BERR in master mode is cleared and the transfer goes on
 //!   (ES096, "spurious bus error detection in master mode").
 //!
-//! Concurrency: all [`BusHandle`]s live in the single RTIC `sensors`
-//! resource, and [`recover`] is only called with that resource locked, so
-//! RTIC's priority ceiling serialises every I2C1 access and a transfer
-//! runs with interrupts enabled (it only keeps the `imu` task, at the
-//! ceiling, waiting: at most one transfer, 0.45 ms for the 14-byte burst
-//! at 400 kHz, plus 0.1 ms on a timeout). Only the errata-critical
+//! The 1 kHz sample read runs on the I2C1 interrupts instead:
+//! * `imu` (EXTI9_5, priority 3) takes `sensors`, asks it for the sample's
+//!   blocks (`Sensors::plan_sample`: MPU-9250 14 bytes; on a magnetometer
+//!   tick AK8963 ST1, then HXL..ST2 only if ST1 shows DRDY), calls
+//!   [`start_sample`] (START, interrupt enables) and returns.
+//! * I2C1_EV and I2C1_ER run [`on_irq`] at priority 5, the highest: ES096
+//!   §2.13.2 asks for the master's events to be handled before the current
+//!   byte ends (its workaround for interrupt-driven transfers). The
+//!   handler is one short step per event; every decision falls where SCL
+//!   is held low (ADDR, BTF), the endings are RM0008's for N = 1 and N ≥ 3.
+//! * The last block's end pends [`SAMPLE_DONE_IRQ`]: `sample_done`
+//!   (priority 3) takes the bytes ([`take_sample`]) and `sensors` parses
+//!   them with the drivers' pure functions (`Sensors::finish_sample`),
+//!   then the pipeline, the flight controller and the ESC outputs run.
+//! * Exclusion, by RTIC's ceilings plus one state ([`SAMPLE_STATE`]: idle,
+//!   running, finished): blocking transfers (boot, `service`) run only
+//!   with `sensors` locked or in `init`; `imu` and `sample_done` run at
+//!   `sensors`' ceiling (3), so they never start a read inside a blocking
+//!   transfer. A blocking transfer (and [`recover`]) first waits for a
+//!   running read to end (≤ 0.75 ms: the longest plan is 288 bit times),
+//!   so none starts while a read is on the bus. A data-ready that finds a
+//!   read still running or unprocessed is started by `sample_done`.
+//! * Faults end a block as the polling transfers end theirs: NACK,
+//!   arbitration loss and overrun by the error interrupt ([`abort`], the
+//!   same [`BusError`]s, the read goes on with the next block); BUSY
+//!   before a START refuses the block and counts for [`take_busy_seen`];
+//!   a lone BERR is cleared. A read with no bus event for 100 µs (a stuck
+//!   bus, a real BERR, a lost START) is ended with [`BusError::Timeout`]
+//!   by whoever looks next: the next data-ready (≤ 1 ms), a blocking
+//!   transfer's wait, or the service round (≤ 10 ms, when data-ready
+//!   stopped too). The results reach the same health counters, re-init
+//!   triggers and bus recovery as the blocking reads'.
+//!
+//! Concurrency of the blocking transfers: all [`BusHandle`]s live in the
+//! single RTIC `sensors` resource, and [`recover`] is only called with
+//! that resource locked, so RTIC's priority ceiling serialises every
+//! blocking I2C1 access and a transfer runs with interrupts enabled (it
+//! keeps the 1 kHz path waiting at most one transfer: 0.1–0.3 ms for the
+//! service task's, plus 0.1 ms on a timeout). Only the errata-critical
 //! endings (ADDR clear followed by ACK/STOP programming; ES096, "some
 //! software events must be managed before the current byte is being
 //! transferred") run in a critical section of two or three register
 //! accesses (< 1 µs at 72 MHz).
 
-use core::sync::atomic::{AtomicU32, Ordering};
-use cortex_m::peripheral::DWT;
+use core::cell::UnsafeCell;
+use core::mem::MaybeUninit;
+use core::sync::atomic::{AtomicU32, AtomicU8, Ordering};
+use cortex_m::peripheral::{DWT, NVIC};
 use embedded_hal::delay::DelayNs;
 use embedded_hal::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Operation};
 use flight::health::{recover_bus, unlock_busy_flag, RecoveryError, RecoveryPins, RecoveryReport};
+use flight::sensors::{BlockRead, BlockResults, SampleBytes, SamplePlan, SAMPLE_BYTES};
 use stm32f1xx_hal::pac;
 
 use crate::delay::AsmDelay;
@@ -66,6 +102,11 @@ const OVR: u16 = 1 << 11;
 const SR1_ABORTS: u16 = ARLO | AF | OVR;
 // SR2 flags.
 const SR2_BUSY: u16 = 1 << 1;
+// CR2 interrupt enables.
+const CR2_ITERREN: u16 = 1 << 8;
+const CR2_ITEVTEN: u16 = 1 << 9;
+const CR2_ITBUFEN: u16 = 1 << 10;
+const CR2_IRQS: u16 = CR2_ITERREN | CR2_ITEVTEN | CR2_ITBUFEN;
 // CR1 bits.
 const CR1_PE: u16 = 1 << 0;
 const CR1_START: u16 = 1 << 8;
@@ -309,12 +350,8 @@ fn write(
 fn read(i2c: &pac::i2c1::RegisterBlock, address: u8, buf: &mut [u8]) -> Result<(), BusError> {
     let addr_byte = (address << 1) | 1;
     match buf {
-        [] => {
-            start(i2c, addr_byte)?;
-            clear_addr(i2c);
-            cr1_set(i2c, CR1_STOP);
-            Ok(())
-        }
+        // No driver reads nothing.
+        [] => Err(BusError::Unsupported),
         [only] => {
             cr1_clear(i2c, CR1_ACK | CR1_POS);
             start(i2c, addr_byte)?;
@@ -400,6 +437,7 @@ impl I2c for BusHandle {
         operations: &mut [Operation<'_>],
     ) -> Result<(), BusError> {
         let i2c = i2c1();
+        wait_for_sample_read(i2c);
         // Every transfer of ours ends with its STOP sent (or the cell
         // reset), so BUSY here is someone else holding the bus.
         if busy(i2c) {
@@ -461,6 +499,7 @@ impl RecoveryPins for Pb67<'_> {
 /// stay enabled.
 pub fn recover() -> Result<RecoveryReport, RecoveryError> {
     let (gpiob, i2c) = (gpiob(), i2c1());
+    wait_for_sample_read(i2c);
     cr1_clear(i2c, CR1_PE);
     let mut pins = Pb67 { gpiob };
     pins.set_scl(true);
@@ -477,6 +516,394 @@ pub fn recover() -> Result<RecoveryReport, RecoveryError> {
 
 /// `true` if I2C1 reports BUSY while no transfer of ours is under way
 /// (call with the `sensors` resource locked): the bus needs [`recover`].
+/// A sample read that stopped making progress is ended first.
 pub fn busy_while_idle() -> bool {
-    busy(i2c1())
+    let i2c = i2c1();
+    end_stalled_read(i2c);
+    SAMPLE_STATE.load(Ordering::Acquire) != RUNNING && busy(i2c)
+}
+
+// ------------------------------------------------- interrupt-driven read
+
+/// The interrupt that runs the sample's processing when its read ended:
+/// bound to the `sample_done` task. CAN is not used; its number (21) is
+/// below EXTI9_5's (23), so when both are pending at the same priority the
+/// finished sample is processed before the next read starts.
+pub const SAMPLE_DONE_IRQ: pac::Interrupt = pac::Interrupt::CAN_RX1;
+
+/// [`SAMPLE_STATE`]: no read, or its result taken.
+const IDLE: u8 = 0;
+/// A read is on the bus: [`SAMPLE`] belongs to the I2C1 handlers.
+const RUNNING: u8 = 1;
+/// The read ended (all blocks done, failed or skipped): [`SAMPLE`] waits
+/// for [`take_sample`].
+const FINISHED: u8 = 2;
+static SAMPLE_STATE: AtomicU8 = AtomicU8::new(IDLE);
+/// CYCCNT when the running read last made progress (a block's START, or
+/// a handled event); read by whoever checks it for a stall.
+static PROGRESS: AtomicU32 = AtomicU32::new(0);
+
+/// Where the current block is.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Step {
+    /// START requested: the address byte for writing the register goes out on SB.
+    WriteAddress,
+    /// Register byte in DR: the repeated START goes out on BTF.
+    Register,
+    /// Repeated START requested: the address byte for reading goes out on SB.
+    ReadAddress,
+    /// Receiving.
+    Receive,
+}
+
+/// One sample's read as the handlers run it.
+struct SampleRead {
+    plan: SamplePlan,
+    /// The block on the bus.
+    cur: BlockRead,
+    bytes: SampleBytes,
+    results: BlockResults<BusError>,
+    block: usize,
+    step: Step,
+    /// Next byte's index in `bytes`, and bytes left in this block.
+    at: usize,
+    left: usize,
+    /// CPU cycles spent in the I2C1 handlers for this read.
+    handler_cycles: u32,
+}
+
+struct SampleCell(UnsafeCell<MaybeUninit<SampleRead>>);
+// SAFETY: ownership of the cell's contents follows SAMPLE_STATE: while
+// RUNNING only the I2C1 handlers touch it (they run at the highest
+// priority, so they never overlap each other and never run inside code
+// that reads it); otherwise only code holding the `sensors` resource
+// does (`start_sample`, `take_sample`, and `end_stalled_read` after it
+// won the RUNNING → FINISHED exchange). The state is stored with Release
+// after the last write and loaded with Acquire before the first read.
+#[allow(unsafe_code)]
+unsafe impl Sync for SampleCell {}
+
+/// Uninitialised until the first [`start_sample`] writes all of it (an
+/// initialised static would cost its image in flash); nothing reads it
+/// before, as every reader first sees SAMPLE_STATE leave IDLE.
+static SAMPLE: SampleCell = SampleCell(UnsafeCell::new(MaybeUninit::uninit()));
+
+/// The read, for whoever owns it by [`SAMPLE_STATE`] (see [`SampleCell`]),
+/// after the first [`start_sample`].
+#[allow(clippy::mut_from_ref)]
+fn sample() -> &'static mut SampleRead {
+    // SAFETY: callers own the contents by SAMPLE_STATE (see SampleCell)
+    // and keep the reference only while they do; SAMPLE_STATE leaves IDLE
+    // only after `start_sample` initialised the contents.
+    #[allow(unsafe_code)]
+    unsafe {
+        (*SAMPLE.0.get()).assume_init_mut()
+    }
+}
+
+fn cr2_modify(i2c: &pac::i2c1::RegisterBlock, set: u16, clear: u16) {
+    // SAFETY: only the interrupt enable bits change; FREQ is kept.
+    #[allow(unsafe_code)]
+    i2c.cr2()
+        .modify(|r, w| unsafe { w.bits((r.bits() & !clear) | set) });
+}
+
+/// Starts `plan`'s reads on the I2C1 interrupts and returns at once; when
+/// they end (each block done, failed or skipped), [`SAMPLE_DONE_IRQ`] is
+/// pended and [`take_sample`] hands the bytes over. An empty plan ends at
+/// once. `false` (nothing started, nothing pended) while the previous read
+/// is still running or not yet taken; a read that stopped making progress
+/// is ended with [`BusError::Timeout`] first. Call with the `sensors`
+/// resource locked, so no blocking transfer is under way.
+pub fn start_sample(plan: &SamplePlan) -> bool {
+    let i2c = i2c1();
+    end_stalled_read(i2c);
+    if SAMPLE_STATE.load(Ordering::Acquire) != IDLE {
+        return false;
+    }
+    // SAFETY: IDLE: the cell is ours (see SampleCell); this writes all of it.
+    #[allow(unsafe_code)]
+    let s = unsafe {
+        (*SAMPLE.0.get()).write(SampleRead {
+            plan: *plan,
+            cur: BlockRead {
+                address: 0,
+                register: 0,
+                offset: 0,
+                len: 0,
+                only_if: None,
+            },
+            bytes: [0; SAMPLE_BYTES],
+            results: [None; 3],
+            block: 0,
+            step: Step::WriteAddress,
+            at: 0,
+            left: 0,
+            handler_cycles: 0,
+        })
+    };
+    if s.next_block(i2c) {
+        SAMPLE_STATE.store(RUNNING, Ordering::Release);
+        cr2_modify(i2c, CR2_ITEVTEN | CR2_ITERREN, CR2_ITBUFEN);
+    } else {
+        finish();
+    }
+    true
+}
+
+/// Runs `f` on the finished read (its bytes where [`SamplePlan`]'s blocks
+/// put them, each block's outcome, and the CPU cycles the I2C1 handlers
+/// spent on it), then frees the engine for the next read. `None` if no
+/// read has finished.
+pub fn take_sample<R>(f: impl FnOnce(&SampleBytes, BlockResults<BusError>, u32) -> R) -> Option<R> {
+    if SAMPLE_STATE.load(Ordering::Acquire) != FINISHED {
+        return None;
+    }
+    let s = sample();
+    let r = f(&s.bytes, s.results, s.handler_cycles);
+    SAMPLE_STATE.store(IDLE, Ordering::Release);
+    Some(r)
+}
+
+fn finish() {
+    SAMPLE_STATE.store(FINISHED, Ordering::Release);
+    NVIC::pend(SAMPLE_DONE_IRQ);
+}
+
+/// A blocking transfer waits for a running sample read (≤ 0.75 ms: the
+/// longest plan is 288 bit times at 400 kHz) and ends one that stopped
+/// making progress.
+fn wait_for_sample_read(i2c: &pac::i2c1::RegisterBlock) {
+    while SAMPLE_STATE.load(Ordering::Acquire) == RUNNING {
+        end_stalled_read(i2c);
+    }
+}
+
+/// Ends a running read with [`BusError::Timeout`] if no bus event came for
+/// [`timeout_cycles`] (the polling transfers' bound per event).
+fn end_stalled_read(i2c: &pac::i2c1::RegisterBlock) {
+    if SAMPLE_STATE.load(Ordering::Acquire) != RUNNING {
+        return;
+    }
+    let since = DWT::cycle_count().wrapping_sub(PROGRESS.load(Ordering::Relaxed));
+    if since <= timeout_cycles() {
+        return;
+    }
+    if SAMPLE_STATE
+        .compare_exchange(RUNNING, FINISHED, Ordering::AcqRel, Ordering::Acquire)
+        .is_err()
+    {
+        // The handlers finished it meanwhile.
+        return;
+    }
+    cr2_modify(i2c, 0, CR2_IRQS);
+    abort(i2c);
+    let s = sample();
+    if let Some(r) = s.results.get_mut(s.block) {
+        *r = Some(Err(BusError::Timeout));
+    }
+    NVIC::pend(SAMPLE_DONE_IRQ);
+}
+
+impl SampleRead {
+    /// Starts the next block whose condition holds; `false` when none is left.
+    fn next_block(&mut self, i2c: &pac::i2c1::RegisterBlock) -> bool {
+        while let Some(slot) = self.plan.blocks.get(self.block) {
+            let Some(b) = *slot else {
+                self.block += 1;
+                continue;
+            };
+            if !self.wanted(&b) {
+                self.block += 1;
+                continue;
+            }
+            // Two bytes need the POS ending, which this engine leaves out.
+            if b.len == 0 || b.len == 2 {
+                self.fail(BusError::Unsupported);
+                continue;
+            }
+            // As every transfer: BUSY before START is someone else's.
+            if busy(i2c) {
+                BUSY_SEEN.fetch_add(1, Ordering::Relaxed);
+                self.fail(BusError::Busy);
+                continue;
+            }
+            self.cur = b;
+            self.at = usize::from(b.offset);
+            self.left = usize::from(b.len);
+            self.step = Step::WriteAddress;
+            PROGRESS.store(DWT::cycle_count(), Ordering::Relaxed);
+            cr2_modify(i2c, 0, CR2_ITBUFEN);
+            cr1_clear(i2c, CR1_POS);
+            cr1_set(i2c, CR1_ACK | CR1_START);
+            return true;
+        }
+        false
+    }
+
+    fn wanted(&self, b: &BlockRead) -> bool {
+        let Some(c) = b.only_if else { return true };
+        let done = matches!(self.results.get(usize::from(c.block)), Some(Some(Ok(()))));
+        done && self
+            .bytes
+            .get(usize::from(c.byte))
+            .is_some_and(|v| v & c.mask != 0)
+    }
+
+    fn fail(&mut self, e: BusError) {
+        if let Some(r) = self.results.get_mut(self.block) {
+            *r = Some(Err(e));
+        }
+        self.block += 1;
+    }
+
+    fn put(&mut self, v: u8) {
+        if let Some(b) = self.bytes.get_mut(self.at) {
+            *b = v;
+        }
+        self.at += 1;
+        self.left = self.left.saturating_sub(1);
+    }
+
+    /// One event (RM0008 §26.3.3, master receiver with the BTF endings:
+    /// SCL is held low at every decision, so none depends on how soon the
+    /// handler runs, except the single-byte ending's STOP, programmed in
+    /// the same handler run as the ADDR clear). `true` when the block ended.
+    fn on_event(&mut self, i2c: &pac::i2c1::RegisterBlock, sr1: u16) -> bool {
+        if sr1 & SB != 0 {
+            // EV5: SR1 read, then the address byte in DR clears SB.
+            let rw = u8::from(self.step == Step::ReadAddress);
+            // SAFETY: DR takes the 8-bit address byte.
+            #[allow(unsafe_code)]
+            i2c.dr()
+                .write(|w| unsafe { w.bits(u16::from((self.cur.address << 1) | rw)) });
+            return false;
+        }
+        if sr1 & ADDR != 0 {
+            if self.step == Step::WriteAddress {
+                clear_addr(i2c);
+                // SAFETY: DR takes the register byte.
+                #[allow(unsafe_code)]
+                i2c.dr()
+                    .write(|w| unsafe { w.bits(u16::from(self.cur.register)) });
+                self.step = Step::Register;
+            } else if self.left == 1 {
+                // EV6_3: NACK before the ADDR clear, STOP right after it.
+                cr1_clear(i2c, CR1_ACK);
+                clear_addr(i2c);
+                cr1_set(i2c, CR1_STOP);
+                self.step = Step::Receive;
+                cr2_modify(i2c, CR2_ITBUFEN, 0);
+            } else {
+                clear_addr(i2c);
+                self.step = Step::Receive;
+                if self.left > 3 {
+                    cr2_modify(i2c, CR2_ITBUFEN, 0);
+                }
+            }
+            return false;
+        }
+        match self.step {
+            Step::Register if sr1 & BTF != 0 => {
+                cr1_set(i2c, CR1_START);
+                self.step = Step::ReadAddress;
+                false
+            }
+            Step::Receive if self.left == 1 && sr1 & RXNE != 0 => {
+                self.put(read_dr(i2c));
+                true
+            }
+            Step::Receive if self.left > 3 && sr1 & RXNE != 0 => {
+                self.put(read_dr(i2c));
+                if self.left == 3 {
+                    // The last three bytes are taken on BTF.
+                    cr2_modify(i2c, 0, CR2_ITBUFEN);
+                }
+                false
+            }
+            Step::Receive if self.left == 3 && sr1 & BTF != 0 => {
+                // EV7_1: N−2 in DR, N−1 in the shift register, SCL low.
+                cr1_clear(i2c, CR1_ACK);
+                self.put(read_dr(i2c));
+                false
+            }
+            Step::Receive if self.left == 2 && sr1 & BTF != 0 => {
+                // N−1 in DR, N (NACKed) in the shift register.
+                cr1_set(i2c, CR1_STOP);
+                self.put(read_dr(i2c));
+                self.put(read_dr(i2c));
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// The block ended (read, or failed and aborted): its STOP out, then
+    /// the next block or the end of the read. `true` when the read ended.
+    fn after_block(&mut self, i2c: &pac::i2c1::RegisterBlock) -> bool {
+        if wait_stop_sent(i2c).is_err() {
+            configure(i2c);
+        }
+        if self.next_block(i2c) {
+            return false;
+        }
+        cr2_modify(i2c, 0, CR2_IRQS);
+        true
+    }
+}
+
+/// I2C1 event and error interrupts (both vectors run this): one step of
+/// the sample read. NACK, arbitration loss and overrun end the block as
+/// the polling transfers end theirs ([`abort`]), and the read goes on
+/// with the next block. A lone BERR is cleared and the block goes on
+/// (ES096: spurious in master mode; a real one leaves the block without
+/// events, and the timeout ends it).
+#[inline(never)]
+pub fn on_irq() {
+    let t0 = DWT::cycle_count();
+    let i2c = i2c1();
+    if SAMPLE_STATE.load(Ordering::Acquire) != RUNNING {
+        // Ended by a timeout: nothing of ours is on the bus any more.
+        cr2_modify(i2c, 0, CR2_IRQS);
+        return;
+    }
+    let s = sample();
+    let sr1 = i2c.sr1().read().bits();
+    let errors = sr1 & (SR1_ABORTS | BERR);
+    let ended = if errors != 0 {
+        // SAFETY: writing 0 clears the rc_w0 error flags; the other SR1
+        // bits are read-only.
+        #[allow(unsafe_code)]
+        i2c.sr1().write(|w| unsafe { w.bits(!errors) });
+        if errors & SR1_ABORTS != 0 {
+            abort(i2c);
+            s.fail(if sr1 & AF != 0 {
+                BusError::Nack
+            } else if sr1 & ARLO != 0 {
+                BusError::Arbitration
+            } else {
+                BusError::Overrun
+            });
+            s.after_block(i2c)
+        } else {
+            false
+        }
+    } else {
+        PROGRESS.store(t0, Ordering::Relaxed);
+        if s.on_event(i2c, sr1) {
+            if let Some(r) = s.results.get_mut(s.block) {
+                *r = Some(Ok(()));
+            }
+            s.block += 1;
+            s.after_block(i2c)
+        } else {
+            false
+        }
+    };
+    s.handler_cycles = s
+        .handler_cycles
+        .wrapping_add(DWT::cycle_count().wrapping_sub(t0));
+    if ended {
+        finish();
+    }
 }

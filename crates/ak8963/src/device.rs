@@ -323,12 +323,22 @@ where
             // protected until ST2 is read, so DRDY would never rise again.
             // Reading ST2 ends that read (best effort; the burst's own error
             // is the one reported).
-            let _ = self.read_reg(reg::ST2).await;
+            let _ = self.end_data_read().await;
             return Err(e);
         }
         let mut raw = parse_measurement(&buf, self.config.resolution)?;
         raw.data_overrun = st1.data_overrun;
         Ok(raw)
+    }
+
+    /// Read ST2 alone: ends a data read that a failed HXL..ST2 burst left
+    /// open. From the first data byte read until ST2 is read the chip keeps
+    /// its data registers protected and DRDY low, so without this no new
+    /// measurement would ever be reported. For callers that read the
+    /// measurement block themselves (an interrupt-driven transfer, parsed
+    /// with [`parse_status_block`](crate::parse_status_block)).
+    pub async fn end_data_read(&mut self) -> Result<(), Error<E>> {
+        self.read_reg(reg::ST2).await.map(|_| ())
     }
 
     /// Read one measurement in µT: factory adjustment, then the hard/soft-iron

@@ -11,6 +11,14 @@
 //! resets need a few ms of delay); call those from boot or a low-priority
 //! context.
 //!
+//! The per-sample read also comes split for an interrupt-driven bus:
+//! [`Sensors::plan_sample`] says which register blocks to read (the
+//! MPU-9250's 14-byte sample, the AK8963's ST1 and, only if ST1 shows
+//! DRDY, HXL..ST2), the caller's transfer engine reads them into a
+//! [`SampleBytes`] buffer without blocking, and [`Sensors::finish_sample`]
+//! parses them with the drivers' pure functions and keeps the same health
+//! books as [`Sensors::read_sample`].
+//!
 //! Background maintenance ([`Sensors::maintain`]) does one thing per call,
 //! so a caller that holds a lock around each call never holds it for more
 //! than one chip's (re-)initialisation:
@@ -25,9 +33,9 @@
 //! 4. a re-probe of one missing (or failed) chip when its [`Backoff`]
 //!    expires, preceded by a bus recovery when no chip answers at all.
 
-use ak8963::{Ak8963, RawMag};
+use ak8963::{parse_status_block, Ak8963, RawMag};
 use embedded_hal::{delay::DelayNs, i2c::I2c};
-use mpu9250::{Address as MpuAddress, Mpu9250, RawSample};
+use mpu9250::{parse_sample, Address as MpuAddress, Mpu9250, RawSample};
 use ms5611::{Address as BaroAddress, Measurement, Ms5611, Sampler, SamplerConfig};
 
 use crate::boot::{probe_with_retries, BootReport, Chip, ProbeFailure, ProbeResult};
@@ -147,6 +155,58 @@ pub struct ServiceReport {
     /// `Some(true)` succeeded, `Some(false)` failed.
     pub reinit: [Option<bool>; 3],
 }
+
+/// Buffer offset of the AK8963's ST1 byte in [`SampleBytes`]: the
+/// MPU-9250's block comes first, and ST1..ST2 lie contiguous after it as
+/// [`ak8963::parse_status_block`] reads them.
+const ST1_OFFSET: usize = mpu9250::register::SAMPLE_LEN;
+/// Length of one sample's bytes: the MPU-9250's ACCEL..GYRO block, then
+/// the AK8963's ST1..ST2 block.
+pub const SAMPLE_BYTES: usize = ST1_OFFSET + ak8963::register::STATUS_BLOCK_LEN;
+/// One sample's bytes as [`SamplePlan`]'s blocks fill them.
+pub type SampleBytes = [u8; SAMPLE_BYTES];
+
+/// A condition on an earlier block of the same plan: run only if that
+/// block completed and `bytes[byte] & mask != 0`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OnlyIf {
+    /// Index of the block that must have completed.
+    pub block: u8,
+    /// Offset of the tested byte in [`SampleBytes`].
+    pub byte: u8,
+    /// Bits of which at least one must be set.
+    pub mask: u8,
+}
+
+/// One register-block read: write `register` to the 7-bit `address`,
+/// repeated START, read `len` bytes into [`SampleBytes`] at `offset`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BlockRead {
+    /// 7-bit I2C address.
+    pub address: u8,
+    /// First register.
+    pub register: u8,
+    /// Offset of the first byte in [`SampleBytes`].
+    pub offset: u8,
+    /// Bytes to read (1 or at least 3: the lengths whose endings need no
+    /// timing from the master beyond its highest interrupt priority).
+    pub len: u8,
+    /// Skip this block unless the condition holds.
+    pub only_if: Option<OnlyIf>,
+}
+
+/// The blocks one sample reads, in order; `None` entries are not read.
+/// Index 0: MPU-9250 sample; 1: AK8963 ST1; 2: AK8963 HXL..ST2.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SamplePlan {
+    /// The blocks.
+    pub blocks: [Option<BlockRead>; 3],
+}
+
+/// What became of each block of a [`SamplePlan`]: `None` not read (absent
+/// from the plan, or its condition did not hold), else the transfer's
+/// result.
+pub type BlockResults<E> = [Option<Result<(), E>>; 3];
 
 /// The chips, their health, and the barometer schedule.
 pub struct Sensors<I> {
@@ -351,7 +411,12 @@ impl<I: I2c> Sensors<I> {
         if !self.mpu_usable() {
             return None;
         }
-        let r = self.mpu_health.record(self.mpu.read_raw());
+        let r = self.mpu.read_raw();
+        self.record_imu(r)
+    }
+
+    fn record_imu(&mut self, r: Result<RawSample, mpu9250::Error<I::Error>>) -> Option<RawSample> {
+        let r = self.mpu_health.record(r);
         if r.is_err() && self.mpu_health.pending_action() == Action::Reinit {
             self.reinit_pending[0] = true;
         }
@@ -370,13 +435,109 @@ impl<I: I2c> Sensors<I> {
         (imu, mag)
     }
 
+    /// The register blocks [`read_sample`](Self::read_sample) would read,
+    /// for a caller that reads them without blocking: the MPU-9250's
+    /// sample if it is usable; on a magnetometer tick with both chips
+    /// usable, the AK8963's ST1 and, on condition of its DRDY bit, HXL..ST2
+    /// (the driver's own order: a block read while DRDY is clear would
+    /// start a data read and make the chip skip a measurement that ends
+    /// during it). Each block is one attempt, whatever became of the
+    /// others.
+    pub fn plan_sample(&self, read_mag: bool) -> SamplePlan {
+        let mut plan = SamplePlan::default();
+        if !self.mpu_usable() {
+            return plan;
+        }
+        plan.blocks[0] = Some(BlockRead {
+            address: self.mpu.address(),
+            register: mpu9250::register::ACCEL_XOUT_H,
+            offset: 0,
+            len: mpu9250::register::SAMPLE_LEN as u8,
+            only_if: None,
+        });
+        if read_mag && self.mag_health.usable() {
+            let address = self.mag.address();
+            plan.blocks[1] = Some(BlockRead {
+                address,
+                register: ak8963::register::ST1,
+                offset: ST1_OFFSET as u8,
+                len: 1,
+                only_if: None,
+            });
+            plan.blocks[2] = Some(BlockRead {
+                address,
+                register: ak8963::register::HXL,
+                offset: ST1_OFFSET as u8 + 1,
+                len: ak8963::register::MEASUREMENT_LEN as u8,
+                only_if: Some(OnlyIf {
+                    block: 1,
+                    byte: ST1_OFFSET as u8,
+                    mask: ak8963::register::ST1_DRDY,
+                }),
+            });
+        }
+        plan
+    }
+
+    /// Parses and books what a [`plan_sample`](Self::plan_sample) read
+    /// brought back, as [`read_sample`](Self::read_sample) does for its own
+    /// reads: the same counters, the same re-initialisation triggers, the
+    /// same results. A failed HXL..ST2 block is followed by the driver's
+    /// blocking ST2 read ([`Ak8963::end_data_read`]), so call this with
+    /// the bus idle.
+    pub fn finish_sample(
+        &mut self,
+        read_mag: bool,
+        bytes: &SampleBytes,
+        results: BlockResults<I::Error>,
+    ) -> (Option<RawSample>, MagRead) {
+        let [imu_r, st1_r, data_r] = results;
+        let imu = match (
+            imu_r,
+            bytes.first_chunk::<{ mpu9250::register::SAMPLE_LEN }>(),
+        ) {
+            (Some(r), Some(block)) => {
+                self.record_imu(r.map(|()| parse_sample(block)).map_err(mpu9250::Error::Bus))
+            }
+            _ => None,
+        };
+        if !read_mag {
+            return (imu, MagRead::NotReady);
+        }
+        let r = match (st1_r, data_r) {
+            (Some(Err(e)), _) => Err(ak8963::Error::Bus(e)),
+            (Some(Ok(())), Some(Err(e))) => {
+                // Best effort, as the driver's own read: its error is the one reported.
+                let _ = self.mag.end_data_read();
+                Err(ak8963::Error::Bus(e))
+            }
+            (Some(Ok(())), Some(Ok(()))) => match bytes
+                .get(ST1_OFFSET..)
+                .and_then(|b| b.first_chunk::<{ ak8963::register::STATUS_BLOCK_LEN }>())
+            {
+                Some(block) => parse_status_block(block, self.mag.config().resolution)
+                    .map_err(ak8963::Error::from),
+                None => return (imu, MagRead::Unavailable),
+            },
+            // The data block is skipped only when ST1 showed DRDY clear.
+            (Some(Ok(())), None) => Err(ak8963::Error::NotReady),
+            (None, _) => return (imu, MagRead::Unavailable),
+        };
+        (imu, self.record_mag(r))
+    }
+
     /// Reads the magnetometer if a measurement is ready (one attempt, as
     /// [`read_imu`](Self::read_imu)).
     pub fn read_mag(&mut self) -> MagRead {
         if !self.mag_health.usable() || !self.mpu_usable() {
             return MagRead::Unavailable;
         }
-        let r = self.mag_health.record(match self.mag.read_raw() {
+        let r = self.mag.read_raw();
+        self.record_mag(r)
+    }
+
+    fn record_mag(&mut self, r: Result<RawMag, ak8963::Error<I::Error>>) -> MagRead {
+        let r = self.mag_health.record(match r {
             Ok(raw) => Ok(MagRead::Sample(raw)),
             Err(ak8963::Error::NotReady) => Ok(MagRead::NotReady),
             Err(ak8963::Error::Overflow) => Ok(MagRead::Overflow),
