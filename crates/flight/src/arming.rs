@@ -134,6 +134,8 @@ pub enum MotorTestRefusal {
     /// Only with the throttle stick at or below
     /// [`SafetyConfig::arm_throttle_max`].
     ThrottleNotLow,
+    /// Not while a calibration runs (the craft is in someone's hands).
+    CalibrationRunning,
     /// Motor index not 0..=3.
     InvalidMotor,
 }
@@ -145,6 +147,7 @@ impl core::fmt::Display for MotorTestRefusal {
             Self::LinkLost => "motor test refused: pilot link lost",
             Self::ArmSwitchOn => "motor test refused: arm switch on",
             Self::ThrottleNotLow => "motor test refused: throttle not low",
+            Self::CalibrationRunning => "motor test refused: calibration running",
             Self::InvalidMotor => "motor test refused: motor index not 0..=3",
         })
     }

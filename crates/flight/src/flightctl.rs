@@ -452,6 +452,8 @@ pub struct FlightController {
     landed: Hold,
     bad_input: Hold,
     motor_test: Option<MotorTestRun>,
+    /// A calibration was running at the last step (refuses the motor test).
+    calibrating: bool,
     test_switch: MotorTestSwitch,
     shaped: Shaped,
 }
@@ -499,6 +501,7 @@ impl FlightController {
             landed: Hold::default(),
             bad_input: Hold::default(),
             motor_test: None,
+            calibrating: false,
             test_switch: MotorTestSwitch::new(),
             shaped: Shaped::new(&shaping, &Sticks::default()),
         })
@@ -602,6 +605,8 @@ impl FlightController {
             Some(MotorTestRefusal::ArmSwitchOn)
         } else if !self.throttle_low(pilot) {
             Some(MotorTestRefusal::ThrottleNotLow)
+        } else if self.calibrating {
+            Some(MotorTestRefusal::CalibrationRunning)
         } else {
             None
         }
@@ -662,6 +667,7 @@ impl FlightController {
             collective: 0.0,
             mix: None,
         };
+        self.calibrating = status.calibration_running;
         self.on_test_switch(&pilot, &mut out);
         match self.state {
             FlightState::Disarmed => self.step_disarmed(edge, &pilot, status, vehicle, &mut out),

@@ -93,6 +93,20 @@ fn every_refused_flip_names_its_reason_and_retries_the_same_motor() {
     );
     assert_eq!(r.motors(), Motors::Off);
     r.pilot.sticks.throttle = 0.0;
+    // Calibrating: the craft is in someone's hands.
+    r.status.calibration_running = true;
+    assert_eq!(
+        r.flip_test_switch(),
+        vec![Event::MotorTestRefused(
+            MotorTestRefusal::CalibrationRunning
+        )]
+    );
+    assert_eq!(
+        r.fc.start_motor_test(0, &r.pilot),
+        Err(MotorTestRefusal::CalibrationRunning)
+    );
+    assert_eq!(r.motors(), Motors::Off);
+    r.status.calibration_running = false;
     // The programmatic start has the same throttle rule.
     let mut up = r.pilot;
     up.sticks.throttle = 0.3;
