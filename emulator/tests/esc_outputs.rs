@@ -184,15 +184,8 @@ fn crsf_frames_reach_the_firmware_and_loss_is_detected() {
     // 250 Hz, as ExpressLRS sends by default.
     let start = b.now_ns();
     stream(&mut b, &frame, 4 * MS, start + 1_500 * MS);
-    assert!(
-        !lines_after(&b, start, "rc: link up").is_empty(),
-        "{}",
-        tail(&b, 40)
-    );
-    let rc = lines_after(&b, start, "rc: ch1-8");
-    let last = rc
-        .last()
-        .unwrap_or_else(|| panic!("no channel line\n{}", tail(&b, 40)));
+    assert_link_up_after(&b, start);
+    let last = last_channel_line(&b, start);
     assert!(
         last.contains("[1500, 1500, 1000, 1500, 2000, 1500, 1500, 1500]"),
         "{last}"
@@ -205,17 +198,9 @@ fn crsf_frames_reach_the_firmware_and_loss_is_detected() {
     assert!(received >= 26 * (sent - 2), "{received} bytes");
     assert_eq!(overruns, 0);
     assert_eq!(b.dma1_served()[4], received, "every byte by DMA1 channel 5");
-    let (frames, dropped) = (field(last, "frames "), field(last, "dropped "));
+    let (frames, dropped) = (field(&last, "frames "), field(&last, "dropped "));
     assert!(frames >= 200 && dropped == 0, "{last}");
-    // Stop sending: lost within the 100 ms timeout plus one 50 ms log tick.
-    let stop = b.now_ns();
-    run_until(&mut b, stop + 200 * MS);
-    let lost = lines_after(&b, stop, "rc: link lost");
-    assert!(
-        lost.first().is_some_and(|l| l.contains("TimedOut")),
-        "{lost:?}\n{}",
-        tail(&b, 20)
-    );
+    assert_link_times_out(&mut b);
     assert_no_reset(&b);
 }
 
@@ -235,9 +220,8 @@ fn corrupted_crsf_frames_are_dropped_and_counted() {
     // Then good frames: the counters show the earlier CRC errors.
     let good = rc_frame([ticks(1500); 16]);
     stream(&mut b, &good, 4 * MS, start + 1_600 * MS);
-    let rc = lines_after(&b, start, "rc: ch1-8");
-    let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
-    assert!(field(last, "crc_err ") >= 100, "{last}");
+    let last = last_channel_line(&b, start);
+    assert!(field(&last, "crc_err ") >= 100, "{last}");
 }
 
 /// Frames every 4 ms for 4 s while the firmware logs as much as it ever
@@ -362,12 +346,11 @@ fn a_flash_erase_during_reception_is_counted_late_and_the_link_holds() {
     let up = lines_with(&b, "rc: link up").len();
     assert_eq!(up, 1, "the link came up once and held\n{}", tail(&b, 30));
     assert!(lines_with(&b, "rc: link lost").is_empty());
-    let after = lines_after(&b, saved_at, "rc: ch1-8");
-    let last = after.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
-    assert!(field(last, "late ") >= 1, "{last}");
+    let last = last_channel_line(&b, saved_at);
+    assert!(field(&last, "late ") >= 1, "{last}");
     let before = lines_with(&b, "rc: ch1-8");
     let first = before.first().map_or(0, |l| field(l, "frames "));
-    assert!(field(last, "frames ") > first + 1_000, "{last}");
+    assert!(field(&last, "frames ") > first + 1_000, "{last}");
     assert_eq!(b.usart1_counts().1, 0, "still no overrun");
     println!("{last}");
 }
@@ -395,10 +378,9 @@ fn a_framing_error_before_a_half_ring_mark_is_counted() {
     }
     let t = b.now_ns();
     stream(&mut b, &good, 4 * MS, t + 1_100 * MS);
-    let rc = lines_after(&b, t, "rc: ch1-8");
-    let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
-    assert_eq!(field(last, "fe "), 3, "{last}");
-    assert_eq!(field(last, "ore "), 0, "{last}");
+    let last = last_channel_line(&b, t);
+    assert_eq!(field(&last, "fe "), 3, "{last}");
+    assert_eq!(field(&last, "ore "), 0, "{last}");
 }
 
 /// A LINK_STATISTICS frame (type 0x14) with uplink link quality `lq`.
@@ -441,8 +423,7 @@ fn a_torn_frame_ends_at_the_idle_line_and_back_to_back_frames_parse() {
     let t = b.now_ns() + 10 * MS;
     run_until(&mut b, t);
     sent_at.extend(stream(&mut b, &good, 4 * MS, t + 1_200 * MS));
-    let rc = lines_after(&b, start, "rc: ch1-8");
-    let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
+    let last = last_channel_line(&b, start);
     assert!(last.contains("lq Some(87) %"), "{last}");
     // Every good frame sent 10 ms before the line was read was parsed
     // (the burst's take 7 ms), none of the torn one.
@@ -454,21 +435,12 @@ fn a_torn_frame_ends_at_the_idle_line_and_back_to_back_frames_parse() {
         .map_or(0, |l| l.host_time_ns);
     let done = sent_at.iter().filter(|&&t| t + 10 * MS <= line).count() as u64;
     let begun = sent_at.iter().filter(|&&t| t <= line).count() as u64;
-    let frames = field(last, "frames ");
+    let frames = field(&last, "frames ");
     assert!((done..=begun).contains(&frames), "{done}..={begun}: {last}");
-    assert_eq!(field(last, "dropped "), 1, "{last}");
-    assert_eq!(field(last, "crc_err "), 0, "{last}");
+    assert_eq!(field(&last, "dropped "), 1, "{last}");
+    assert_eq!(field(&last, "crc_err "), 0, "{last}");
     assert_eq!(b.usart1_counts().1, 0);
     assert!(lines_after(&b, start, "rc: link lost").is_empty());
-}
-
-/// The number after `key` in a log line (0 if absent).
-fn field(line: &str, key: &str) -> u64 {
-    line.split(key)
-        .nth(1)
-        .and_then(|s| s.split_whitespace().next())
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0)
 }
 
 /// Sends `frame` every 4 ms (250 Hz) until a log line containing

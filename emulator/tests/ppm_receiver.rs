@@ -135,15 +135,6 @@ impl Ppm {
 
 const EIGHT: [u64; 8] = [1_500, 1_500, 1_000, 1_500, 2_000, 1_200, 1_800, 1_500];
 
-/// The number after `key` in a log line (0 if absent).
-fn field(line: &str, key: &str) -> u64 {
-    line.split(key)
-        .nth(1)
-        .and_then(|s| s.split_whitespace().next())
-        .and_then(|s| s.trim_end_matches(')').parse().ok())
-        .unwrap_or(0)
-}
-
 #[test]
 fn ppm_frames_reach_the_firmware_and_loss_is_detected() {
     let Some(mut b) = ppm_board(false) else {
@@ -160,34 +151,19 @@ fn ppm_frames_reach_the_firmware_and_loss_is_detected() {
         (9 * (sent_frames - 1)..=9 * sent_frames).contains(&irqs),
         "{irqs} TIM4 interrupts for {sent_frames} frames"
     );
-    assert!(
-        !lines_after(&b, start, "rc: link up").is_empty(),
-        "{}",
-        tail(&b, 40)
-    );
-    let rc = lines_after(&b, start, "rc: ch1-8");
-    let last = rc
-        .last()
-        .unwrap_or_else(|| panic!("no channel line\n{}", tail(&b, 40)));
+    assert_link_up_after(&b, start);
+    let last = last_channel_line(&b, start);
     assert!(
         last.contains("[1500, 1500, 1000, 1500, 2000, 1200, 1800, 1500]"),
         "{last}"
     );
     // 1.5 s of 22.5 ms frames, less the last second's log period: the
     // first frame after the first sync is held back (unconfirmed).
-    let frames = field(last, "ppm frames ");
+    let frames = field(&last, "ppm frames ");
     assert!(frames >= 40, "{last}");
-    assert!(field(last, "dropped ") <= 1, "{last}");
-    assert_eq!(field(last, "overcapture "), 0, "{last}");
-    // Stop: lost within the 100 ms timeout plus one 50 ms log tick.
-    let stop = b.now_ns();
-    run_until(&mut b, stop + 200 * MS);
-    let lost = lines_after(&b, stop, "rc: link lost");
-    assert!(
-        lost.first().is_some_and(|l| l.contains("TimedOut")),
-        "{lost:?}\n{}",
-        tail(&b, 20)
-    );
+    assert!(field(&last, "dropped ") <= 1, "{last}");
+    assert_eq!(field(&last, "overcapture "), 0, "{last}");
+    assert_link_times_out(&mut b);
     // The receiver comes back after a pause of many counter wraps.
     let back = b.now_ns() + 500 * MS;
     run_until(&mut b, back);
@@ -211,13 +187,12 @@ fn negative_ppm_decodes_the_same() {
         .unwrap();
     let start = b.now_ns();
     ppm.stream(&mut b, &EIGHT, start + 1_100 * MS);
-    let rc = lines_after(&b, start, "rc: ch1-8");
-    let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
+    let last = last_channel_line(&b, start);
     assert!(
         last.contains("[1500, 1500, 1000, 1500, 2000, 1200, 1800, 1500]"),
         "{last}"
     );
-    assert_eq!(field(last, "bad_pulse "), 0, "{last}");
+    assert_eq!(field(&last, "bad_pulse "), 0, "{last}");
 }
 
 #[test]
@@ -240,10 +215,9 @@ fn ppm_frames_with_a_wrong_count_or_pulse_are_dropped_and_counted() {
     );
     // Then good frames: the counters show the earlier drops.
     ppm.stream(&mut b, &EIGHT, start + 1_700 * MS);
-    let rc = lines_after(&b, start, "rc: ch1-8");
-    let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
-    assert!(field(last, "bad_count ") >= 10, "{last}");
-    assert!(field(last, "bad_pulse ") >= 10, "{last}");
+    let last = last_channel_line(&b, start);
+    assert!(field(&last, "bad_count ") >= 10, "{last}");
+    assert!(field(&last, "bad_pulse ") >= 10, "{last}");
     assert!(
         last.contains("[1500, 1500, 1000, 1500, 2000, 1200, 1800, 1500]"),
         "{last}"
@@ -270,16 +244,13 @@ fn short_spikes_on_the_ppm_line_are_filtered_out() {
         (9 * (sent_frames - 1)..=9 * sent_frames).contains(&irqs),
         "{irqs} TIM4 interrupts for {sent_frames} frames: the spikes were captured"
     );
-    let rc = lines_after(&b, start, "rc: ch1-8");
-    let last = rc
-        .last()
-        .unwrap_or_else(|| panic!("no channel line\n{}", tail(&b, 30)));
+    let last = last_channel_line(&b, start);
     assert!(
         last.contains("[1500, 1500, 1000, 1500, 2000, 1200, 1800, 1500]"),
         "{last}"
     );
-    assert_eq!(field(last, "bad_pulse "), 0, "{last}");
-    assert!(field(last, "dropped ") <= 1, "{last}");
+    assert_eq!(field(&last, "bad_pulse "), 0, "{last}");
+    assert!(field(&last, "dropped ") <= 1, "{last}");
     // A 300 ns pulse is longer than the filter: it is an edge, and its
     // frame is dropped and counted.
     ppm.spike_ns = Some(300);
@@ -287,9 +258,8 @@ fn short_spikes_on_the_ppm_line_are_filtered_out() {
     ppm.stream(&mut b, &EIGHT, mid + 300 * MS);
     ppm.spike_ns = None;
     ppm.stream(&mut b, &EIGHT, mid + 1_300 * MS);
-    let rc = lines_after(&b, mid, "rc: ch1-8");
-    let last = rc.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
-    assert!(field(last, "bad_pulse ") >= 10, "{last}");
+    let last = last_channel_line(&b, mid);
+    assert!(field(&last, "bad_pulse ") >= 10, "{last}");
 }
 
 /// Sticks centred, throttle at `throttle_us`, arm switch (channel 5) on or

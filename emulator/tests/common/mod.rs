@@ -95,6 +95,45 @@ pub fn lines_after(b: &Board, t_ns: u64, pat: &str) -> Vec<String> {
         .collect()
 }
 
+/// The number after `key` in a log line (0 if absent); a `)` closing a
+/// group is not part of it.
+pub fn field(line: &str, key: &str) -> u64 {
+    line.split(key)
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.trim_end_matches(')').parse().ok())
+        .unwrap_or(0)
+}
+
+/// The last `rc: ch1-8` receiver line read after `t_ns`; none fails the test.
+pub fn last_channel_line(b: &Board, t_ns: u64) -> String {
+    lines_after(b, t_ns, "rc: ch1-8")
+        .pop()
+        .unwrap_or_else(|| panic!("no channel line\n{}", tail(b, 40)))
+}
+
+/// Asserts the receiver reported `rc: link up` after `t_ns`.
+pub fn assert_link_up_after(b: &Board, t_ns: u64) {
+    assert!(
+        !lines_after(b, t_ns, "rc: link up").is_empty(),
+        "{}",
+        tail(b, 40)
+    );
+}
+
+/// Runs 200 ms with nothing sent and asserts the link was lost by timeout:
+/// within the 100 ms timeout plus one 50 ms log tick.
+pub fn assert_link_times_out(b: &mut Board) {
+    let stop = b.now_ns();
+    run_until(b, stop + 200 * MS);
+    let lost = lines_after(b, stop, "rc: link lost");
+    assert!(
+        lost.first().is_some_and(|l| l.contains("TimedOut")),
+        "{lost:?}\n{}",
+        tail(b, 20)
+    );
+}
+
 /// Asserts a line containing `pat` was logged.
 pub fn assert_logged(b: &Board, pat: &str) {
     assert!(
