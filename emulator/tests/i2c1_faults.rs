@@ -27,6 +27,27 @@ fn swrst_and_configure(r: &mut Rig) {
     r.configure();
 }
 
+/// A START asked for on a busy bus gets no SB within `timeout_ns` and no
+/// master mode; PE and START go off, ready for a recovery by GPIO.
+fn start_held_then_pe_off(r: &mut Rig, timeout_ns: u64) {
+    r.set_cr1(cr1::START);
+    assert_eq!(
+        r.poll_sr1(sr1::SB, timeout_ns),
+        None,
+        "START waits for a free bus"
+    );
+    assert_eq!(r.sr2() & sr2::MSL, 0, "no master mode");
+    r.clear_cr1(cr1::PE | cr1::START);
+}
+
+/// Pins back to the peripheral, SWRST and set-up: the bus is free and the
+/// MPU-9250 answers.
+fn back_on_the_bus(r: &mut Rig) {
+    back_to_af(r);
+    swrst_and_configure(r);
+    assert!(!r.busy(), "the recovery cleared BUSY");
+    assert_eq!(r.who_am_i(), Some(0x71));
+}
 #[test]
 fn chip_holding_sda_at_power_up_blocks_start_until_clocked_out() {
     let mut r = Rig::bare();
@@ -36,21 +57,12 @@ fn chip_holding_sda_at_power_up_blocks_start_until_clocked_out() {
     assert!(!r.i2c.sda_high(r.t), "SDA held low by the chip");
     assert!(r.i2c.scl_high(r.t));
     assert!(r.busy(), "BUSY while SDA is low");
-    r.set_cr1(cr1::START);
-    assert_eq!(
-        r.poll_sr1(sr1::SB, 1_000_000),
-        None,
-        "START waits for a free bus"
-    );
-    assert_eq!(r.sr2() & sr2::MSL, 0);
     // Recovery: PE off, GPIO, clock SCL, STOP by hand, SWRST, AF again.
-    r.clear_cr1(cr1::PE | cr1::START);
+    start_held_then_pe_off(&mut r, 1_000_000);
     let pulses = r.clock_out_stuck_slave().expect("SDA released");
     assert!((1..=9).contains(&pulses), "{pulses} pulses");
     assert!(!r.busy(), "the hand-made STOP cleared BUSY");
-    back_to_af(&mut r);
-    swrst_and_configure(&mut r);
-    assert_eq!(r.who_am_i(), Some(0x71));
+    back_on_the_bus(&mut r);
 }
 
 #[test]
@@ -70,14 +82,10 @@ fn reset_mid_read_leaves_the_chip_holding_sda() {
     assert!(r.busy(), "BUSY seen by the freshly reset peripheral");
     back_to_af(&mut r);
     r.configure();
-    r.set_cr1(cr1::START);
-    assert_eq!(r.poll_sr1(sr1::SB, 200_000), None);
-    r.clear_cr1(cr1::PE | cr1::START);
+    start_held_then_pe_off(&mut r, 200_000);
     // 0x71: bit 0 is low, bits 1..3 high; one pulse moves the chip to a 1.
     assert_eq!(r.clock_out_stuck_slave(), Some(1));
-    back_to_af(&mut r);
-    swrst_and_configure(&mut r);
-    assert_eq!(r.who_am_i(), Some(0x71));
+    back_on_the_bus(&mut r);
 }
 
 #[test]
@@ -118,17 +126,13 @@ fn sda_stuck_low_is_not_released_by_clocking() {
     r.i2c.bus().inject(Fault::StuckBus);
     r.wait(BIT_NS);
     assert!(r.busy());
-    r.set_cr1(cr1::START);
-    assert_eq!(r.poll_sr1(sr1::SB, 1_000_000), None);
-    r.clear_cr1(cr1::PE | cr1::START);
+    start_held_then_pe_off(&mut r, 1_000_000);
     assert_eq!(r.clock_out_stuck_slave(), None, "9 pulses, SDA still low");
     r.i2c.bus().clear_faults();
     r.gpio(true, true);
     r.wait(BIT_NS);
     assert!(!r.busy(), "SDA rising with SCL high is a STOP");
-    back_to_af(&mut r);
-    swrst_and_configure(&mut r);
-    assert_eq!(r.who_am_i(), Some(0x71));
+    back_on_the_bus(&mut r);
 }
 
 #[test]
@@ -263,9 +267,7 @@ fn busy_lockup_survives_swrst_and_pe_alone() {
         "the lines are high"
     );
     assert!(r.busy(), "but BUSY is set");
-    r.set_cr1(cr1::START);
-    assert_eq!(r.poll_sr1(sr1::SB, 500_000), None, "no master mode");
-    r.clear_cr1(cr1::START | cr1::PE);
+    start_held_then_pe_off(&mut r, 500_000);
     swrst_and_configure(&mut r);
     assert!(r.busy(), "SWRST alone does not clear it");
     // Clocking SCL alone does not toggle SDA: still locked.
@@ -386,10 +388,7 @@ fn stop_with_ack_still_set_leaves_the_chip_holding_sda() {
     assert!(r.busy());
     r.clear_cr1(cr1::PE | cr1::ACK);
     assert_eq!(r.clock_out_stuck_slave(), Some(8));
-    back_to_af(&mut r);
-    swrst_and_configure(&mut r);
-    assert!(!r.busy());
-    assert_eq!(r.who_am_i(), Some(0x71));
+    back_on_the_bus(&mut r);
 }
 
 /// An MCU reset `after_ns` into a 14-byte burst read from ACCEL_XOUT_H
