@@ -5,31 +5,16 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod tim_support;
+
 use emulator::tim::{cr1, ocm, reg, GpTimer};
+use tim_support::{Rig, US};
 
-/// A 1 MHz kernel clock: one counter tick per µs at PSC = 0.
-const US: u64 = 1_000;
-
-struct Rig {
-    t: GpTimer,
-    now: u64,
-}
+// Most tests run the kernel clock at 1 MHz: one counter tick per `US` at PSC = 0.
 
 impl Rig {
-    fn new(hz: u32) -> Self {
-        Self {
-            t: GpTimer::new("TIM3", hz),
-            now: 0,
-        }
-    }
-    fn wr(&mut self, off: u32, v: u32) {
-        self.t
-            .write(off, v, self.now)
-            .expect("modelled register")
-            .expect("modelled feature");
-    }
-    fn rd(&mut self, off: u32) -> u32 {
-        self.t.read(off, self.now).expect("modelled register")
+    fn tim3(hz: u32) -> Self {
+        Self::new("TIM3", hz)
     }
     fn wait(&mut self, ns: u64) {
         self.now += ns;
@@ -49,13 +34,11 @@ impl Rig {
     }
     /// Channel 1 in PWM mode `mode` with preload, enabled, ARR `arr`.
     fn pwm(hz: u32, arr: u32, mode: u32) -> Self {
-        let mut r = Self::new(hz);
+        let mut r = Self::tim3(hz);
         r.wr(reg::ARR, arr);
         r.wr(reg::CCMR1, (mode << 4) | (1 << 3));
         r.wr(reg::CCER, 1);
-        r.wr(reg::EGR, 1);
-        r.wr(reg::SR, 0);
-        r.wr(reg::CR1, cr1::ARPE | cr1::CEN);
+        r.update_then_start(cr1::ARPE | cr1::CEN);
         r
     }
 }
@@ -63,7 +46,7 @@ impl Rig {
 #[test]
 fn counter_is_blocked_while_the_auto_reload_value_is_null() {
     // ARR resets to 0 (§15.4.12): CEN alone does not count.
-    let mut r = Rig::new(1_000_000);
+    let mut r = Rig::tim3(1_000_000);
     assert_eq!(r.rd(reg::ARR), 0);
     r.wr(reg::CR1, cr1::CEN);
     r.wait(100 * US);
@@ -76,7 +59,7 @@ fn counter_is_blocked_while_the_auto_reload_value_is_null() {
 #[test]
 fn counter_frequency_is_ck_psc_over_psc_plus_one_and_wraps_at_arr() {
     // 72 MHz, PSC = 71: 1 MHz; ARR = 2499: a 2.5 ms (400 Hz) period.
-    let mut r = Rig::new(72_000_000);
+    let mut r = Rig::tim3(72_000_000);
     r.wr(reg::PSC, 71);
     r.wr(reg::ARR, 2499);
     r.wr(reg::EGR, 1);
@@ -100,7 +83,7 @@ fn counter_frequency_is_ck_psc_over_psc_plus_one_and_wraps_at_arr() {
 #[test]
 fn prescaler_change_takes_effect_at_the_next_update_event() {
     // Figure 100: PSC is preloaded; the new ratio applies after the update.
-    let mut r = Rig::new(1_000_000);
+    let mut r = Rig::tim3(1_000_000);
     r.wr(reg::ARR, 99);
     r.wr(reg::CR1, cr1::CEN);
     r.wait(50 * US);
@@ -117,7 +100,7 @@ fn prescaler_change_takes_effect_at_the_next_update_event() {
 #[test]
 fn auto_reload_is_immediate_without_arpe_and_buffered_with_it() {
     // Figures 106 and 107.
-    let mut r = Rig::new(1_000_000);
+    let mut r = Rig::tim3(1_000_000);
     r.wr(reg::ARR, 0xFF);
     r.wr(reg::CR1, cr1::CEN);
     r.wait(0x30 * US);
@@ -125,7 +108,7 @@ fn auto_reload_is_immediate_without_arpe_and_buffered_with_it() {
     r.wait(7 * US);
     assert_eq!(r.rd(reg::CNT), 0, "ARPE = 0: overflow at the new ARR");
 
-    let mut r = Rig::new(1_000_000);
+    let mut r = Rig::tim3(1_000_000);
     r.wr(reg::ARR, 0xF5);
     r.wr(reg::CR1, cr1::CEN | cr1::ARPE);
     r.wait(0xF0 * US);
@@ -144,7 +127,7 @@ fn auto_reload_is_immediate_without_arpe_and_buffered_with_it() {
 
 #[test]
 fn ug_reinitialises_the_counter_and_urs_hides_it_from_uif() {
-    let mut r = Rig::new(1_000_000);
+    let mut r = Rig::tim3(1_000_000);
     r.wr(reg::ARR, 1000);
     r.wr(reg::CR1, cr1::CEN | cr1::URS);
     r.wait(300 * US);
@@ -157,7 +140,7 @@ fn ug_reinitialises_the_counter_and_urs_hides_it_from_uif() {
 
 #[test]
 fn udis_suppresses_update_events() {
-    let mut r = Rig::new(1_000_000);
+    let mut r = Rig::tim3(1_000_000);
     r.wr(reg::ARR, 99);
     r.wr(reg::CR1, cr1::CEN | cr1::ARPE | cr1::UDIS);
     r.wr(reg::ARR, 9);
@@ -197,7 +180,7 @@ fn pwm_mode_2_inverts_ocref_and_ccxp_inverts_the_output() {
 #[test]
 fn ccr_preload_applies_at_the_update_event_only_when_ocxpe_is_set() {
     // 400 Hz at 1 µs resolution: the ESC case.
-    let mut r = Rig::new(72_000_000);
+    let mut r = Rig::tim3(72_000_000);
     r.wr(reg::PSC, 71);
     r.wr(reg::ARR, 2499);
     r.wr(reg::CCMR1, (ocm::PWM1 << 4) | (1 << 3) | (ocm::PWM1 << 12));
@@ -246,7 +229,7 @@ fn features_outside_the_model_are_refused() {
 
 #[test]
 fn update_interrupt_line_follows_uie_and_uif() {
-    let mut r = Rig::new(1_000_000);
+    let mut r = Rig::tim3(1_000_000);
     r.wr(reg::ARR, 99);
     r.wr(reg::DIER, 1);
     r.wr(reg::CR1, cr1::CEN);

@@ -7,9 +7,11 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use emulator::tim::{cr1, reg, sr, GpTimer};
+mod tim_support;
 
-const US: u64 = 1_000;
+use emulator::tim::{cr1, reg, sr, GpTimer};
+use tim_support::{Rig, US};
+
 /// Channel 3 (index 2): TIM4_CH3 on PB8, the firmware's PPM input.
 const CH: usize = 2;
 /// CCMR2 for channel 3: CC3S = 01 (IC3 on TI3), IC3PSC in bits 3:2,
@@ -21,36 +23,17 @@ const CC3E: u32 = 1 << 8;
 const CC3P: u32 = 1 << 9;
 const CC3IE: u32 = 1 << 3;
 
-struct Rig {
-    t: GpTimer,
-    now: u64,
-}
-
 impl Rig {
     /// TIM4 at 72 MHz with PSC = 71 (1 MHz counter), ARR = 0xFFFF,
     /// channel 3 capturing rising edges, running from t = 0.
     fn capture_1mhz() -> Self {
-        let mut r = Self {
-            t: GpTimer::new("TIM4", 72_000_000),
-            now: 0,
-        };
+        let mut r = Self::new("TIM4", 72_000_000);
         r.wr(reg::PSC, 71);
         r.wr(reg::ARR, 0xFFFF);
         r.wr(reg::CCMR2, ccmr2_ic3(0));
         r.wr(reg::CCER, CC3E);
-        r.wr(reg::EGR, 1);
-        r.wr(reg::SR, 0);
-        r.wr(reg::CR1, cr1::CEN);
+        r.update_then_start(cr1::CEN);
         r
-    }
-    fn wr(&mut self, off: u32, v: u32) {
-        self.t
-            .write(off, v, self.now)
-            .expect("modelled register")
-            .expect("modelled feature");
-    }
-    fn rd(&mut self, off: u32) -> u32 {
-        self.t.read(off, self.now).expect("modelled register")
     }
     /// The input goes to `high` at `t_ns` (the rig's time follows).
     fn edge(&mut self, high: bool, t_ns: u64) {
@@ -258,9 +241,7 @@ fn filtered_rig(f: u32, ckd: u32) -> Rig {
     r.wr(reg::CCER, 0);
     r.wr(reg::CCMR2, ccmr2_ic3_filtered(f));
     r.wr(reg::CCER, CC3E);
-    r.wr(reg::EGR, 1);
-    r.wr(reg::SR, 0);
-    r.wr(reg::CR1, cr1::CEN | (ckd << 8));
+    r.update_then_start(cr1::CEN | (ckd << 8));
     r
 }
 
