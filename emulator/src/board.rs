@@ -419,6 +419,20 @@ impl Hw {
         (!on).then_some(name)
     }
 
+    /// Fails the run with [`BoardError::ClockDisabled`] if the peripheral at
+    /// `addr` is unclocked (`pc` 0 for an access by the DMA). Whether it did.
+    fn failed_on_unclocked(&mut self, addr: u32, pc: u32) -> bool {
+        let Some(peripheral) = self.unclocked(addr) else {
+            return false;
+        };
+        self.fail(BoardError::ClockDisabled {
+            peripheral,
+            addr,
+            pc,
+        });
+        true
+    }
+
     /// Word-register read (`None`: not modelled).
     fn periph_read(&mut self, a: u32) -> Option<u32> {
         self.periph_read_at(a, self.now_ns())
@@ -708,15 +722,9 @@ fn lanes(addr: u64, size: usize) -> (u32, u32, u32) {
 /// An access at `addr` to a peripheral whose clock is off: the run fails
 /// with [`BoardError::ClockDisabled`] and stops. Whether it did.
 fn stopped_on_unclocked(uc: &mut Unicorn<'_, Hw>, addr: u32, pc: u32) -> bool {
-    let hw = uc.get_data_mut();
-    let Some(p) = hw.unclocked(addr) else {
+    if !uc.get_data_mut().failed_on_unclocked(addr, pc) {
         return false;
-    };
-    hw.fail(BoardError::ClockDisabled {
-        peripheral: p,
-        addr,
-        pc,
-    });
+    }
     let _ = uc.emu_stop();
     true
 }
@@ -848,12 +856,7 @@ fn dma_read(uc: &mut Unicorn<'_, Hw>, addr: u32, bytes: u32, at_ns: u64) -> Opti
         DmaTarget::Periph => {
             let (a, shift, mask) = lanes(u64::from(addr), n);
             let hw = uc.get_data_mut();
-            if let Some(p) = hw.unclocked(addr) {
-                hw.fail(BoardError::ClockDisabled {
-                    peripheral: p,
-                    addr,
-                    pc: 0,
-                });
+            if hw.failed_on_unclocked(addr, 0) {
                 return Some(0);
             }
             match hw.periph_read_at(a, at_ns) {
@@ -882,13 +885,7 @@ fn dma_write(uc: &mut Unicorn<'_, Hw>, addr: u32, bytes: u32, v: u32, at_ns: u64
         DmaTarget::Periph => {
             let (a, shift, mask) = lanes(u64::from(addr), n);
             let hw = uc.get_data_mut();
-            if let Some(p) = hw.unclocked(addr) {
-                hw.fail(BoardError::ClockDisabled {
-                    peripheral: p,
-                    addr,
-                    pc: 0,
-                });
-            } else if !hw.periph_write_at(a, v << shift, mask, at_ns) {
+            if !hw.failed_on_unclocked(addr, 0) && !hw.periph_write_at(a, v << shift, mask, at_ns) {
                 hw.fail(BoardError::Unmodelled {
                     addr,
                     write: Some(v),
