@@ -27,6 +27,8 @@
 //! output channels, and ICx mapped on the neighbour's TIx or on TRC (CCxS
 //! = 10 or 11).
 
+// The offset, bit and mode tables below look alike because they transcribe
+// RM0008's tables, one constant a line.
 /// Register offsets (RM0008 §15.4.19, table 87).
 pub mod reg {
     /// Control register 1.

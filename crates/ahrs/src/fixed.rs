@@ -1172,6 +1172,8 @@ impl MadgwickFixed {
 
     /// Madgwick's 2010 filter exactly ([`Algorithm::Textbook`], as the f32 filter's):
     /// J_gᵀf_g + J_bᵀf_b normalised jointly, one fixed β, the raw gyro.
+    // `update_inner`'s arguments, as it hands the call over when the configured
+    // algorithm is `Algorithm::Textbook`.
     #[cfg(feature = "textbook")]
     fn update_textbook(
         &mut self,

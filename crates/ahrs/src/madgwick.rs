@@ -580,6 +580,8 @@ impl Madgwick {
     /// J_gᵀf_g + J_bᵀf_b (eqs. 25–26, 29–30, 45–46), normalised jointly, one fixed β, the
     /// raw gyro, no extensions (eqs. 42–44); only a step beyond ¼ rad of half angle per
     /// axis is clamped (`UpdateStatus::gyro_step_clamped`).
+    // `update_inner`'s arguments, as it hands the call over when the configured
+    // algorithm is `Algorithm::Textbook`.
     fn update_textbook(
         &mut self,
         gyro_rps: [f32; 3],
