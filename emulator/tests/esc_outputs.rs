@@ -489,17 +489,7 @@ fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
         "flight controller not ready at boot: {:?}",
         fc.map(|l| l.text)
     );
-    // The start-up gyro bias needs 1 s of stillness after the probe.
-    let mut t = b.now_ns();
-    let bias_ended = |b: &Board| {
-        !lines_with(b, "gyro bias: Done").is_empty()
-            || !lines_with(b, "gyro bias: GaveUp").is_empty()
-    };
-    while !bias_ended(&b) && t < 8 * S {
-        t += 100 * MS;
-        run_until(&mut b, t);
-    }
-    let bias_done = !lines_with(&b, "gyro bias: Done").is_empty();
+    let bias_done = wait_for_gyro_bias(&mut b);
 
     let up = stream_until(&mut b, &sticks(1500, false), "rc: link up", S);
     assert!(up.is_some(), "{}", tail(&b, 20));

@@ -200,15 +200,21 @@ fn spurious_berr_changes_nothing_else() {
     );
 }
 
-#[test]
-fn arbitration_loss() {
-    let mut r = Rig::new();
+/// Another master starts with the next transfer and wins arbitration:
+/// START, then `address`'s write byte on the wire against it.
+fn address_against_another_master(r: &mut Rig, address: u8) {
     r.i2c
         .bus()
         .inject(Fault::ArbitrationLoss { transactions: 1 });
     r.set_cr1(cr1::START);
     r.poll_sr1(sr1::SB, 100_000).unwrap();
-    r.wr(reg::DR, u16::from(MPU << 1));
+    r.wr(reg::DR, u16::from(address << 1));
+}
+
+#[test]
+fn arbitration_loss() {
+    let mut r = Rig::new();
+    address_against_another_master(&mut r, MPU);
     assert_eq!(r.poll_sr1(sr1::ARLO, 100_000), Some(9 * BIT_NS));
     assert_eq!(r.rd(reg::SR1) & (sr1::ADDR | sr1::AF), 0);
     assert_eq!(
@@ -225,12 +231,7 @@ fn arbitration_loss() {
 #[test]
 fn start_waits_for_the_other_master() {
     let mut r = Rig::new();
-    r.i2c
-        .bus()
-        .inject(Fault::ArbitrationLoss { transactions: 1 });
-    r.set_cr1(cr1::START);
-    r.poll_sr1(sr1::SB, 100_000).unwrap();
-    r.wr(reg::DR, u16::from(MS << 1));
+    address_against_another_master(&mut r, MS);
     r.poll_sr1(sr1::ARLO, 100_000).unwrap();
     let t_lost = r.t;
     r.set_cr1(cr1::START);

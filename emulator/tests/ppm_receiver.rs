@@ -294,16 +294,7 @@ fn ppm_arming_idle_and_failsafe_when_the_train_stops() {
     let Some(mut b) = ppm_board(true) else {
         return;
     };
-    let mut t = b.now_ns();
-    let bias_ended = |b: &Board| {
-        !lines_with(b, "gyro bias: Done").is_empty()
-            || !lines_with(b, "gyro bias: GaveUp").is_empty()
-    };
-    while !bias_ended(&b) && t < 8 * S {
-        t += 100 * MS;
-        run_until(&mut b, t);
-    }
-    if lines_with(&b, "gyro bias: Done").is_empty() {
+    if !wait_for_gyro_bias(&mut b) {
         println!("skipped: the start-up gyro bias gave up on the emulated board");
         return;
     }

@@ -134,6 +134,22 @@ pub fn assert_link_times_out(b: &mut Board) {
     );
 }
 
+/// Runs until the start-up gyro bias has ended (it needs 1 s of stillness
+/// after the probe), 8 s after power-on at the latest. Whether it ended
+/// `Done` (not `GaveUp`, nor still running).
+pub fn wait_for_gyro_bias(b: &mut Board) -> bool {
+    let ended = |b: &Board| {
+        !lines_with(b, "gyro bias: Done").is_empty()
+            || !lines_with(b, "gyro bias: GaveUp").is_empty()
+    };
+    let mut t = b.now_ns();
+    while !ended(b) && t < 8 * S {
+        t += 100 * MS;
+        run_until(b, t);
+    }
+    !lines_with(b, "gyro bias: Done").is_empty()
+}
+
 /// Asserts a line containing `pat` was logged.
 pub fn assert_logged(b: &Board, pat: &str) {
     assert!(
