@@ -8,7 +8,9 @@ use mpu9250::*;
 
 mod common;
 
-use common::{init_by_hand, init_for, readback_by_hand, sample_bytes, A, NACK};
+use common::{
+    init_by_hand, init_for, init_result, inited_with, readback_by_hand, sample_bytes, A, NACK,
+};
 
 /// The default-config init sequence, bytes written out by hand from the register map.
 fn default_init(a: u8) -> Vec<T> {
@@ -22,10 +24,7 @@ fn read_t(accel: [i16; 3], temp: i16, gyro: [i16; 3]) -> T {
 fn inited(extra: Vec<T>) -> (Mock, Mpu9250<Mock>) {
     let mut t = default_init(A);
     t.extend(extra);
-    let i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
-    imu.init(&mut NoopDelay::new(), &Config::default()).unwrap();
-    (i2c, imu)
+    inited_with(&t, &Config::default())
 }
 
 // ---------------------------------------------------------------- init
@@ -88,9 +87,7 @@ fn init_non_default_config_exact_bytes() {
                 .data_ready(false),
         );
     let t = init_by_hand(A, [0x09, 0x06, 0x18, 0x18, 0x08], [0xF0, 0x00]);
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
-    imu.init(&mut NoopDelay::new(), &c).unwrap();
+    let (mut i2c, imu) = inited_with(&t, &c);
     assert_eq!(c.output_data_rate_hz(), 100.0);
     assert_eq!(imu.scale().g_per_lsb, 1.0 / 2048.0);
     i2c.done();
@@ -169,25 +166,25 @@ fn invalid_config_no_bus_traffic() {
 #[test]
 fn wrong_chip_id() {
     for id in [0x00u8, 0xFF, 0x68, 0x48, 0x72] {
-        let mut i2c = Mock::new(&[T::write_read(A, vec![0x75], vec![id])]);
-        let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
         assert_eq!(
-            imu.init(&mut NoopDelay::new(), &Config::default()),
+            init_result(
+                &[T::write_read(A, vec![0x75], vec![id])],
+                &Config::default()
+            ),
             Err(Error::WrongChipId(id))
         );
-        i2c.done();
     }
 }
 
 #[test]
 fn mpu6500_is_its_own_error() {
-    let mut i2c = Mock::new(&[T::write_read(A, vec![0x75], vec![0x70])]);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
     assert_eq!(
-        imu.init(&mut NoopDelay::new(), &Config::default()),
+        init_result(
+            &[T::write_read(A, vec![0x75], vec![0x70])],
+            &Config::default()
+        ),
         Err(Error::Mpu6500Detected)
     );
-    i2c.done();
 }
 
 #[test]
@@ -235,13 +232,10 @@ fn reset_timeout_when_bit_never_clears() {
     for _ in 0..RESET_MAX_POLLS {
         t.push(T::write_read(A, vec![0x6B], vec![0x80]));
     }
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
     assert_eq!(
-        imu.init(&mut NoopDelay::new(), &Config::default()),
+        init_result(&t, &Config::default()),
         Err(Error::ResetTimeout)
     );
-    i2c.done();
 }
 
 #[test]
@@ -250,13 +244,10 @@ fn reset_timeout_when_chip_never_answers() {
     for _ in 0..RESET_MAX_POLLS {
         t.push(T::write_read(A, vec![0x6B], vec![0x00]).with_error(NACK));
     }
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
     assert_eq!(
-        imu.init(&mut NoopDelay::new(), &Config::default()),
+        init_result(&t, &Config::default()),
         Err(Error::ResetTimeout)
     );
-    i2c.done();
 }
 
 #[test]
@@ -485,9 +476,7 @@ fn bypass_keeps_interrupt_bits_and_survives_init() {
     // re-init with the interrupt config restored: INT_PIN_CFG = 0xA2 again
     t.extend(init_for(A, &c, true));
     t.push(T::write(A, vec![0x37, 0xA0]));
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
-    imu.init(&mut NoopDelay::new(), &c).unwrap();
+    let (mut i2c, mut imu) = inited_with(&t, &c);
     imu.set_bypass(true).unwrap();
     assert!(imu.bypass());
     imu.set_interrupts(InterruptConfig::disabled()).unwrap();

@@ -9,7 +9,7 @@ use mpu9250::*;
 
 mod common;
 
-use common::{init_for, sample_bytes, A, NACK};
+use common::{init_for, inited_with, sample_bytes, A, NACK};
 
 fn init_seq(c: &Config, bypass: bool) -> Vec<T> {
     init_for(A, c, bypass)
@@ -108,9 +108,7 @@ fn bus_error_in_burst_then_next_read_works() {
     t.push(burst([0, 0, 8192], 0, [0, 0, 0]));
     t.push(burst([1, 2, 3], 0, [4, 5, 6]).with_error(NACK));
     t.push(burst([-8192, 0, 0], 0, [0, 0, 0]));
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
-    imu.init(&mut NoopDelay::new(), &c).unwrap();
+    let (mut i2c, mut imu) = inited_with(&t, &c);
     assert_eq!(imu.read(), Err(Error::Bus(ErrorKind::ArbitrationLoss)));
     assert_eq!(imu.read().unwrap().accel_g, [0.0, 0.0, 1.0]);
     assert_eq!(imu.read_raw(), Err(Error::Bus(NACK)));
@@ -127,9 +125,7 @@ fn scale_through_read_at_16g_2000dps() {
         .gyro_range(GyroRange::Dps2000);
     let mut t = init_seq(&c, false);
     t.push(burst([2048, -4096, 32767], 3339, [164, -1640, -32768]));
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
-    imu.init(&mut NoopDelay::new(), &c).unwrap();
+    let (mut i2c, mut imu) = inited_with(&t, &c);
     let s = imu.read().unwrap();
     assert_eq!(s.accel_g[0], 1.0);
     assert_eq!(s.accel_g[1], -2.0);
@@ -164,9 +160,7 @@ fn data_ready_low_then_high() {
     t.push(T::write_read(A, vec![0x3A], vec![0x10]));
     t.push(T::write_read(A, vec![0x3A], vec![0x01]));
     t.push(T::write_read(A, vec![0x3A], vec![0x01]).with_error(NACK));
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
-    imu.init(&mut NoopDelay::new(), &c).unwrap();
+    let (mut i2c, mut imu) = inited_with(&t, &c);
     assert_eq!(imu.data_ready(), Ok(false));
     let st = imu.read_int_status().unwrap();
     assert!(st.fifo_overflow() && !st.data_ready());
@@ -198,9 +192,7 @@ fn calibration_bus_error_keeps_bias_then_recovers() {
     t.push(burst([0, 0, 8192], 0, [30, 30, 30]).with_error(NACK));
     t.push(burst([0, 0, 8192], 0, [-7, 8, 9]));
     t.push(burst([0, 0, 8192], 0, [-7, 8, 9]));
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
-    imu.init(&mut NoopDelay::new(), &c).unwrap();
+    let (mut i2c, mut imu) = inited_with(&t, &c);
     imu.set_gyro_bias([1, 2, 3]);
     let mut d = NoopDelay::new();
     assert_eq!(imu.calibrate_gyro_bias(&mut d, 2), Err(Error::Bus(NACK)));
@@ -220,9 +212,7 @@ fn calibration_and_bias_at_i16_extremes() {
         t.push(burst([0, 0, 8192], 0, [i16::MIN, i16::MAX, 0]));
     }
     t.push(burst([0, 0, 8192], 0, [i16::MAX, i16::MIN, 0]));
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
-    imu.init(&mut NoopDelay::new(), &c).unwrap();
+    let (mut i2c, mut imu) = inited_with(&t, &c);
     let b = imu.calibrate_gyro_bias(&mut NoopDelay::new(), 3).unwrap();
     assert_eq!(b, [i16::MIN, i16::MAX, 0]);
     let r = imu.read_raw_unbiased().unwrap();
@@ -237,9 +227,7 @@ fn moved_keeps_previous_bias() {
     let mut t = init_seq(&c, false);
     t.push(burst([0, 0, 8192], 0, [0, 0, 0]));
     t.push(burst([0, 0, 8192], 0, [500, 0, 0]));
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
-    imu.init(&mut NoopDelay::new(), &c).unwrap();
+    let (mut i2c, mut imu) = inited_with(&t, &c);
     imu.set_gyro_bias([4, 4, 4]);
     assert!(matches!(
         imu.calibrate_gyro_bias(&mut NoopDelay::new(), 2),
@@ -268,9 +256,7 @@ fn bypass_nack_is_detected_by_verify_config() {
         vec![0x00, 0x03, 0x10, 0x08, 0x03],
     ));
     t.push(T::write_read(A, vec![0x37], vec![0x00, 0x01]));
-    let mut i2c = Mock::new(&t);
-    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
-    imu.init(&mut NoopDelay::new(), &c).unwrap();
+    let (mut i2c, mut imu) = inited_with(&t, &c);
     assert_eq!(imu.set_bypass(true), Err(Error::Bus(NACK)));
     assert_eq!(
         imu.verify_config(),

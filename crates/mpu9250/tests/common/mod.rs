@@ -5,9 +5,10 @@
 // Shaped like the other drivers' tests/common on purpose: the crates share no test crate.
 
 use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource};
-use embedded_hal_mock::eh1::i2c::Transaction as I2cT;
+use embedded_hal_mock::eh1::delay::NoopDelay;
+use embedded_hal_mock::eh1::i2c::{Mock as I2cMock, Transaction as I2cT};
 use embedded_hal_mock::eh1::spi::Transaction as SpiT;
-use mpu9250::Config;
+use mpu9250::{Address, Config, Error, Mpu9250, Variant};
 
 /// Default 7-bit address (AD0 low).
 pub const A: u8 = 0x68;
@@ -125,6 +126,25 @@ pub fn sample_bytes(accel: [i16; 3], temp: i16, gyro: [i16; 3]) -> Vec<u8> {
 /// A sample burst read.
 pub fn sample_op(accel: [i16; 3], temp: i16, gyro: [i16; 3]) -> Op {
     Op::Read(0x3B, sample_bytes(accel, temp, gyro))
+}
+
+/// A driver at [`A`] on a mock bus that answers with `t` (its init sequence
+/// first), initialised with `config`; the mock is returned for `done()`.
+pub fn inited_with(t: &[I2cT], config: &Config) -> (I2cMock, Mpu9250<I2cMock>) {
+    let i2c = I2cMock::new(t);
+    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
+    imu.init(&mut NoopDelay::new(), config).unwrap();
+    (i2c, imu)
+}
+
+/// What `init` with `config` returns at [`A`] on a mock bus that answers with
+/// `t`; the test fails unless every transaction of `t` was used.
+pub fn init_result(t: &[I2cT], config: &Config) -> Result<Variant, Error<ErrorKind>> {
+    let mut i2c = I2cMock::new(t);
+    let mut imu = Mpu9250::new(i2c.clone(), Address::Ad0Low);
+    let result = imu.init(&mut NoopDelay::new(), config);
+    i2c.done();
+    result
 }
 
 /// The ops as I2C transactions at address [`A`].
