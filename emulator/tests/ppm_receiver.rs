@@ -113,6 +113,20 @@ impl Ppm {
         }
     }
 
+    /// Frames until `until_ns`, then asserts one TIM4 capture interrupt per
+    /// rising edge: nine a frame (more: spikes or noise were captured).
+    fn stream_counting_irqs(&mut self, b: &mut Board, channels_us: &[u64], until_ns: u64) {
+        let start = b.now_ns();
+        let irqs_before = b.exception_entries(emulator::TIM4_IRQ);
+        self.stream(b, channels_us, until_ns);
+        let sent_frames = (self.next_frame_ns - start) / FRAME_NS;
+        let irqs = b.exception_entries(emulator::TIM4_IRQ) - irqs_before;
+        assert!(
+            (9 * (sent_frames - 1)..=9 * sent_frames).contains(&irqs),
+            "{irqs} TIM4 interrupts for {sent_frames} frames"
+        );
+    }
+
     /// Frames until a line containing `pattern` appears after the start
     /// (returned) or `timeout_ns` passes.
     fn stream_until(
@@ -142,15 +156,7 @@ fn ppm_frames_reach_the_firmware_and_loss_is_detected() {
     };
     let mut ppm = Ppm::new(&b);
     let start = b.now_ns();
-    let irqs_before = b.exception_entries(emulator::TIM4_IRQ);
-    ppm.stream(&mut b, &EIGHT, start + 1_500 * MS);
-    // One TIM4 capture interrupt per rising edge: nine per frame.
-    let sent_frames = (ppm.next_frame_ns - start) / FRAME_NS;
-    let irqs = b.exception_entries(emulator::TIM4_IRQ) - irqs_before;
-    assert!(
-        (9 * (sent_frames - 1)..=9 * sent_frames).contains(&irqs),
-        "{irqs} TIM4 interrupts for {sent_frames} frames"
-    );
+    ppm.stream_counting_irqs(&mut b, &EIGHT, start + 1_500 * MS);
     assert_link_up_after(&b, start);
     let last = last_channel_line(&b, start);
     assert!(
@@ -236,14 +242,7 @@ fn short_spikes_on_the_ppm_line_are_filtered_out() {
     let mut ppm = Ppm::new(&b);
     ppm.spike_ns = Some(60);
     let start = b.now_ns();
-    let irqs_before = b.exception_entries(emulator::TIM4_IRQ);
-    ppm.stream(&mut b, &EIGHT, start + 1_100 * MS);
-    let sent_frames = (ppm.next_frame_ns - start) / FRAME_NS;
-    let irqs = b.exception_entries(emulator::TIM4_IRQ) - irqs_before;
-    assert!(
-        (9 * (sent_frames - 1)..=9 * sent_frames).contains(&irqs),
-        "{irqs} TIM4 interrupts for {sent_frames} frames: the spikes were captured"
-    );
+    ppm.stream_counting_irqs(&mut b, &EIGHT, start + 1_100 * MS);
     let last = last_channel_line(&b, start);
     assert!(
         last.contains("[1500, 1500, 1000, 1500, 2000, 1200, 1800, 1500]"),
