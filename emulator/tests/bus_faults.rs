@@ -142,8 +142,7 @@ fn transient_faults_in_flight_are_survived() {
             "SCL held low 5 ms",
             Box::new(|b| {
                 b.sim().inject(Fault::SclStuckLow);
-                let t = b.now_ns() + 5 * MS;
-                run_until(b, t);
+                run_for(b, 5 * MS);
                 b.sim().clear_faults();
             }),
         ),
@@ -153,8 +152,7 @@ fn transient_faults_in_flight_are_survived() {
     run_until(&mut b, 3 * S);
     for (name, f) in faults {
         f(&mut b);
-        let t = b.now_ns() + 1_500 * MS;
-        run_until(&mut b, t);
+        run_for(&mut b, 1_500 * MS);
         let n = imu_updates_during(&mut b, S);
         assert!(
             n >= 900,

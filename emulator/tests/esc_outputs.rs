@@ -54,8 +54,7 @@ fn measured_high_ns(b: &mut Board, port: usize, pin: u32) -> u64 {
         if b.pin_high(port, pin) {
             high += step;
         }
-        let t = b.now_ns() + step;
-        run_until(b, t);
+        run_for(b, step);
     }
     high
 }
@@ -160,8 +159,7 @@ fn stream(b: &mut Board, frame: &[u8], period_ns: u64, until_ns: u64) -> Vec<u64
             bytes: frame.to_vec(),
             baud: CRSF_BAUD,
         });
-        let t = b.now_ns() + period_ns;
-        run_until(b, t);
+        run_for(b, period_ns);
     }
     sent_at
 }
@@ -336,8 +334,7 @@ fn a_flash_erase_during_reception_is_counted_late_and_the_link_holds() {
             b.usart1_send_at(&frame, CRSF_BAUD, next);
             next += 2 * MS;
         }
-        let t = b.now_ns() + 2 * MS;
-        run_until(&mut b, t);
+        run_for(&mut b, 2 * MS);
         if saved_at.is_none() && !lines_with(&b, "calibration saved to flash").is_empty() {
             saved_at = Some(b.now_ns());
         }
@@ -411,8 +408,7 @@ fn a_torn_frame_ends_at_the_idle_line_and_back_to_back_frames_parse() {
         bytes: good[..10].to_vec(),
         baud: CRSF_BAUD,
     });
-    let t = b.now_ns() + 3 * MS;
-    run_until(&mut b, t);
+    run_for(&mut b, 3 * MS);
     let mut burst = good.repeat(10);
     burst.extend(link_stats_frame(87));
     sent_at.extend([b.now_ns(); 10]);
@@ -452,8 +448,7 @@ fn stream_until(b: &mut Board, frame: &[u8], pattern: &str, timeout_ns: u64) -> 
             bytes: frame.to_vec(),
             baud: CRSF_BAUD,
         });
-        let t = b.now_ns() + 4 * MS;
-        run_until(b, t);
+        run_for(b, 4 * MS);
         if let Some(l) = lines_after(b, start, pattern).first() {
             return Some(l.clone());
         }
@@ -535,8 +530,7 @@ fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
         tail(&b, 40)
     );
     assert!(disarmed.is_some(), "{}", tail(&b, 40));
-    let t = b.now_ns() + 10 * MS;
-    run_until(&mut b, t);
+    run_for(&mut b, 10 * MS);
     assert_off(&mut b, "after the failsafe disarm");
     for l in lines_with(&b, "flight") {
         println!("{l}");

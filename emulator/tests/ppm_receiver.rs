@@ -356,8 +356,7 @@ fn ppm_arming_idle_and_failsafe_when_the_train_stops() {
         (3_100..=3_300).contains(&disarm_ms),
         "disarmed after {disarm_ms} ms"
     );
-    let t = b.now_ns() + 10 * MS;
-    run_until(&mut b, t);
+    run_for(&mut b, 10 * MS);
     for ch in 0..4 {
         assert_eq!(
             b.esc_pwm_ns(ch),

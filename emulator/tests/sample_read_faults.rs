@@ -22,8 +22,7 @@ fn entries_during(b: &mut emulator::Board, ns: u64) -> [u64; 3] {
         [emulator::EXTI9_5, I2C1_EV, SAMPLE_DONE].map(|e| b.exception_entries(e))
     };
     let n0 = n(b);
-    let t = b.now_ns() + ns;
-    run_until(b, t);
+    run_for(b, ns);
     let n1 = n(b);
     [0, 1, 2].map(|i| n1[i] - n0[i])
 }
@@ -82,8 +81,7 @@ fn faults_in_the_middle_of_a_read_are_counted_and_survived() {
     run_until(&mut b, t);
     b.sim()
         .inject(Fault::BusErrorMidTransfer { after_bytes: 8 });
-    let t = b.now_ns() + 1_500 * MS;
-    run_until(&mut b, t);
+    run_for(&mut b, 1_500 * MS);
     assert_loop_runs(&mut b, "bus error in the data bytes");
 
     // A bus error on the register byte, after the address was
@@ -94,8 +92,7 @@ fn faults_in_the_middle_of_a_read_are_counted_and_survived() {
     run_until(&mut b, t);
     b.sim()
         .inject(Fault::BusErrorMidTransfer { after_bytes: 0 });
-    let t = b.now_ns() + 1_500 * MS;
-    run_until(&mut b, t);
+    run_for(&mut b, 1_500 * MS);
     let e1 = errors(&b);
     assert!(
         e1 > e0,
@@ -106,8 +103,7 @@ fn faults_in_the_middle_of_a_read_are_counted_and_survived() {
 
     // Arbitration lost by the next three transfers.
     b.sim().inject(Fault::ArbitrationLoss { transactions: 3 });
-    let t = b.now_ns() + 1_500 * MS;
-    run_until(&mut b, t);
+    run_for(&mut b, 1_500 * MS);
     assert!(
         errors(&b) > e1,
         "arbitration loss not counted\n{}",
@@ -120,11 +116,9 @@ fn faults_in_the_middle_of_a_read_are_counted_and_survived() {
     let e2 = errors(&b);
     into_next_read(&mut b, 150_000);
     b.sim().inject(Fault::SclStuckLow);
-    let t = b.now_ns() + 3 * MS;
-    run_until(&mut b, t);
+    run_for(&mut b, 3 * MS);
     b.sim().clear_faults();
-    let t = b.now_ns() + 1_500 * MS;
-    run_until(&mut b, t);
+    run_for(&mut b, 1_500 * MS);
     let e3 = health(&b, "mpu", "err").unwrap_or(0);
     assert!(
         errors(&b) > e2 && e3 > 0,
@@ -143,8 +137,7 @@ fn faults_in_the_middle_of_a_read_are_counted_and_survived() {
         address: 0x0C,
         transactions: Some(4),
     });
-    let t = b.now_ns() + 1_500 * MS;
-    run_until(&mut b, t);
+    run_for(&mut b, 1_500 * MS);
     let (m1, i1) = (
         health(&b, "mag", "err").unwrap_or(0),
         health(&b, "mpu", "err").unwrap_or(0),

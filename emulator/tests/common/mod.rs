@@ -60,6 +60,12 @@ pub fn run_until(b: &mut Board, t_ns: u64) {
     }
 }
 
+/// Runs `ns` more (simulated); a board error fails the test as in [`run_until`].
+pub fn run_for(b: &mut Board, ns: u64) {
+    let t = b.now_ns() + ns;
+    run_until(b, t);
+}
+
 /// The last `n` log lines and the board's events, for failure messages.
 pub fn tail(b: &Board, n: usize) -> String {
     let lines = b.log_lines();
