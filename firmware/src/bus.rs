@@ -642,10 +642,10 @@ pub fn start_sample(plan: &SamplePlan) -> bool {
             handler_cycles: 0,
         })
     };
-    if s.next_block(i2c) {
-        SAMPLE_STATE.store(RUNNING, Ordering::Release);
-        cr2_modify(i2c, CR2_ITEVTEN | CR2_ITERREN, CR2_ITBUFEN);
-    } else {
+    // RUNNING before the first START: a higher-priority task between the
+    // START and the store must not let the handler see an idle engine.
+    SAMPLE_STATE.store(RUNNING, Ordering::Release);
+    if !s.next_block(i2c) {
         finish();
     }
     true
@@ -733,7 +733,9 @@ impl SampleRead {
             self.left = usize::from(b.len);
             self.step = Step::WriteAddress;
             PROGRESS.store(DWT::cycle_count(), Ordering::Relaxed);
-            cr2_modify(i2c, 0, CR2_ITBUFEN);
+            // Every block enables the interrupts again: a SWRST after the
+            // previous block's STOP timed out (`configure`) cleared them.
+            cr2_modify(i2c, CR2_ITEVTEN | CR2_ITERREN, CR2_ITBUFEN);
             cr1_clear(i2c, CR1_POS);
             cr1_set(i2c, CR1_ACK | CR1_START);
             return true;
