@@ -257,6 +257,10 @@ pub struct I2c1 {
     /// While stuck: the line has been low since (its next rise unlocks it).
     seen_low_while_stuck: [bool; 2],
     spurious_berr: bool,
+    /// A transmitter's BTF stays set until the START or STOP requested on
+    /// it has gone out (RM0008 SR1.BTF: cleared by hardware after a start
+    /// or a stop condition in transmission).
+    btf_held: bool,
     /// Another master owns the bus (after arbitration loss) until then.
     other_master_until: Option<u64>,
 }
@@ -294,6 +298,7 @@ impl I2c1 {
             filter_stuck: [false; 2],
             seen_low_while_stuck: [false; 2],
             spurious_berr: false,
+            btf_held: false,
             other_master_until: None,
         };
         s.now_ns = s.bus.clock().now_ns();
@@ -466,6 +471,7 @@ impl I2c1 {
     }
 
     fn start_done(&mut self) {
+        self.btf_held = false;
         self.cr1 &= !cr1::START;
         self.msl = true;
         self.flags |= sr1::SB;
@@ -535,15 +541,16 @@ impl I2c1 {
         ) {
             return false;
         }
+        if self.cr1 & (cr1::STOP | cr1::START) == 0 {
+            return false;
+        }
+        self.btf_held = self.phase == Phase::TxStall;
         if self.cr1 & cr1::STOP != 0 {
             self.begin_stop();
-            true
-        } else if self.cr1 & cr1::START != 0 {
-            self.begin_start();
-            true
         } else {
-            false
+            self.begin_start();
         }
+        true
     }
 
     fn tx_next(&mut self) {
@@ -618,6 +625,7 @@ impl I2c1 {
     }
 
     fn stop_done(&mut self) {
+        self.btf_held = false;
         if self.pins_af() {
             self.bus.wire_stop();
         }
@@ -683,6 +691,7 @@ impl I2c1 {
         self.addr_armed = false;
         self.pe_off_pending = false;
         self.spurious_berr = false;
+        self.btf_held = false;
     }
 
     /// RCC APB1RSTR.I2C1RST: every register back to its reset value.
@@ -810,6 +819,7 @@ impl I2c1 {
         }
         let btf = match self.phase {
             Phase::TxStall => self.tra && self.msl,
+            Phase::Start { .. } | Phase::Stop { .. } if self.btf_held => true,
             _ => self.shift_rx.is_some(),
         };
         if btf {
@@ -971,6 +981,40 @@ impl I2c1 {
 mod tests {
     use super::*;
     use sim::{Fault, SimClock, SimConfig};
+
+    #[test]
+    fn btf_stays_set_until_the_repeated_start_has_gone_out() {
+        let bus = SimBus::new(
+            &SimClock::new(),
+            SimConfig {
+                bus_hz: None,
+                ..SimConfig::default()
+            },
+        );
+        let mut i2c = I2c1::new(bus);
+        let af = PinMode::AlternateOpenDrain;
+        i2c.set_pins(af, af, 0);
+        i2c.write(reg::CR2, 36 | cr2::ITEVTEN, 0);
+        i2c.write(reg::CCR, 0x801E, 0);
+        i2c.write(reg::CR1, cr1::PE | cr1::START, 0);
+        let bit = i2c.bit_ns();
+        let mut t = bit;
+        assert_ne!(i2c.read(reg::SR1, t) & sr1::SB, 0);
+        i2c.write(reg::DR, 0x68 << 1, t);
+        t += 9 * bit;
+        assert_ne!(i2c.read(reg::SR1, t) & sr1::ADDR, 0);
+        let _ = i2c.read(reg::SR2, t);
+        i2c.write(reg::DR, 0x75, t);
+        t += 9 * bit;
+        assert_ne!(i2c.read(reg::SR1, t) & sr1::BTF, 0);
+        i2c.write(reg::CR1, cr1::PE | cr1::START, t);
+        // The repeated START takes one SCL period; BTF (and its event
+        // interrupt) stays until it is on the wire.
+        assert_ne!(i2c.read(reg::SR1, t + bit - 1) & sr1::BTF, 0);
+        assert!(i2c.event_irq());
+        let sr1 = i2c.read(reg::SR1, t + bit);
+        assert_eq!(sr1 & (sr1::BTF | sr1::SB), sr1::SB, "sr1 {sr1:#x}");
+    }
 
     #[test]
     fn scl_held_low_mid_byte_stops_the_byte_and_its_flags() {
