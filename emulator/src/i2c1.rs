@@ -8,7 +8,8 @@
 //! FREQ = 36, CCR = 0x801E gives 2.5 µs per bit. A START takes one period,
 //! an address or data byte nine, a STOP one. Flags appear when the byte
 //! ends; the caller advances time with [`I2c1::advance`] (and every
-//! register access does).
+//! register access does). While another device holds SCL low, a START,
+//! STOP or byte on the wire stands still (clock synchronisation).
 //!
 //! Master sequences (RM0008 §26.3.3): START → SB (EV5), cleared by reading
 //! SR1 then writing the address to DR; ADDR (EV6) cleared by reading SR1
@@ -256,6 +257,10 @@ pub struct I2c1 {
     /// While stuck: the line has been low since (its next rise unlocks it).
     seen_low_while_stuck: [bool; 2],
     spurious_berr: bool,
+    /// A transmitter's BTF stays set until the START or STOP requested on
+    /// it has gone out (RM0008 SR1.BTF: cleared by hardware after a start
+    /// or a stop condition in transmission).
+    btf_held: bool,
     /// Another master owns the bus (after arbitration loss) until then.
     other_master_until: Option<u64>,
 }
@@ -293,6 +298,7 @@ impl I2c1 {
             filter_stuck: [false; 2],
             seen_low_while_stuck: [false; 2],
             spurious_berr: false,
+            btf_held: false,
             other_master_until: None,
         };
         s.now_ns = s.bus.clock().now_ns();
@@ -350,6 +356,7 @@ impl I2c1 {
 
     /// Bus progress up to `now_ns`.
     pub fn advance(&mut self, now_ns: u64) {
+        self.hold_while_scl_low(now_ns);
         // Events are processed in time order; each one can schedule the next.
         for _ in 0..10_000 {
             match self.next_event_ns() {
@@ -368,6 +375,29 @@ impl I2c1 {
         self.bus.clock().advance_to_ns(self.now_ns);
         self.sync_lines();
         self.try_start();
+    }
+
+    /// SCL held low by another device (a stuck line, a chip stretching):
+    /// the master's clock generator counts a high period only once it sees
+    /// SCL high (clock synchronisation, RM0008 §26.3.1; no timeout outside
+    /// SMBus), so a START, STOP or byte on the wire stands still for as
+    /// long as the line is held, and no flag comes. The line's level at the
+    /// start of the interval stands for all of it.
+    fn hold_while_scl_low(&mut self, now_ns: u64) {
+        if now_ns <= self.now_ns || !self.pins_af() || !self.bus.wire_scl_pulled_low() {
+            return;
+        }
+        let held = now_ns - self.now_ns;
+        match &mut self.phase {
+            Phase::Start { done } | Phase::Stop { done } => *done += held,
+            Phase::Address { start, done, .. }
+            | Phase::TxByte { start, done, .. }
+            | Phase::RxByte { start, done } => {
+                *start += held;
+                *done += held;
+            }
+            _ => {}
+        }
     }
 
     /// When the peripheral's state next changes by itself.
@@ -441,6 +471,7 @@ impl I2c1 {
     }
 
     fn start_done(&mut self) {
+        self.btf_held = false;
         self.cr1 &= !cr1::START;
         self.msl = true;
         self.flags |= sr1::SB;
@@ -510,15 +541,16 @@ impl I2c1 {
         ) {
             return false;
         }
+        if self.cr1 & (cr1::STOP | cr1::START) == 0 {
+            return false;
+        }
+        self.btf_held = self.phase == Phase::TxStall;
         if self.cr1 & cr1::STOP != 0 {
             self.begin_stop();
-            true
-        } else if self.cr1 & cr1::START != 0 {
-            self.begin_start();
-            true
         } else {
-            false
+            self.begin_start();
         }
+        true
     }
 
     fn tx_next(&mut self) {
@@ -593,6 +625,7 @@ impl I2c1 {
     }
 
     fn stop_done(&mut self) {
+        self.btf_held = false;
         if self.pins_af() {
             self.bus.wire_stop();
         }
@@ -658,6 +691,7 @@ impl I2c1 {
         self.addr_armed = false;
         self.pe_off_pending = false;
         self.spurious_berr = false;
+        self.btf_held = false;
     }
 
     /// RCC APB1RSTR.I2C1RST: every register back to its reset value.
@@ -785,6 +819,7 @@ impl I2c1 {
         }
         let btf = match self.phase {
             Phase::TxStall => self.tra && self.msl,
+            Phase::Start { .. } | Phase::Stop { .. } if self.btf_held => true,
             _ => self.shift_rx.is_some(),
         };
         if btf {
@@ -939,5 +974,81 @@ impl I2c1 {
             }
         }
         self.after_byte_requests();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sim::{Fault, SimClock, SimConfig};
+
+    #[test]
+    fn btf_stays_set_until_the_repeated_start_has_gone_out() {
+        let bus = SimBus::new(
+            &SimClock::new(),
+            SimConfig {
+                bus_hz: None,
+                ..SimConfig::default()
+            },
+        );
+        let mut i2c = I2c1::new(bus);
+        let af = PinMode::AlternateOpenDrain;
+        i2c.set_pins(af, af, 0);
+        i2c.write(reg::CR2, 36 | cr2::ITEVTEN, 0);
+        i2c.write(reg::CCR, 0x801E, 0);
+        i2c.write(reg::CR1, cr1::PE | cr1::START, 0);
+        let bit = i2c.bit_ns();
+        let mut t = bit;
+        assert_ne!(i2c.read(reg::SR1, t) & sr1::SB, 0);
+        i2c.write(reg::DR, 0x68 << 1, t);
+        t += 9 * bit;
+        assert_ne!(i2c.read(reg::SR1, t) & sr1::ADDR, 0);
+        let _ = i2c.read(reg::SR2, t);
+        i2c.write(reg::DR, 0x75, t);
+        t += 9 * bit;
+        assert_ne!(i2c.read(reg::SR1, t) & sr1::BTF, 0);
+        i2c.write(reg::CR1, cr1::PE | cr1::START, t);
+        // The repeated START takes one SCL period; BTF (and its event
+        // interrupt) stays until it is on the wire.
+        assert_ne!(i2c.read(reg::SR1, t + bit - 1) & sr1::BTF, 0);
+        assert!(i2c.event_irq());
+        let sr1 = i2c.read(reg::SR1, t + bit);
+        assert_eq!(sr1 & (sr1::BTF | sr1::SB), sr1::SB, "sr1 {sr1:#x}");
+    }
+
+    #[test]
+    fn scl_held_low_mid_byte_stops_the_byte_and_its_flags() {
+        let bus = SimBus::new(
+            &SimClock::new(),
+            SimConfig {
+                bus_hz: None,
+                ..SimConfig::default()
+            },
+        );
+        let mut i2c = I2c1::new(bus);
+        let af = PinMode::AlternateOpenDrain;
+        i2c.set_pins(af, af, 0);
+        i2c.write(reg::CR2, 36, 0);
+        i2c.write(reg::CCR, 0x801E, 0);
+        i2c.write(reg::CR1, cr1::PE | cr1::START, 0);
+        let bit = i2c.bit_ns();
+        let mut t = bit;
+        assert_ne!(i2c.read(reg::SR1, t) & sr1::SB, 0);
+        i2c.write(reg::DR, 0x68 << 1, t);
+        // Four bits into the address byte a chip holds SCL low for 1 ms.
+        t += 4 * bit;
+        i2c.advance(t);
+        i2c.bus().inject(Fault::SclStuckLow);
+        for _ in 0..100 {
+            t += 10_000;
+            let sr1 = i2c.read(reg::SR1, t);
+            assert_eq!(sr1 & (sr1::ADDR | sr1::AF | sr1::BERR), 0, "sr1 {sr1:#x}");
+        }
+        i2c.bus().clear_faults();
+        // The five bits left, then ADDR.
+        t += 5 * bit - 1;
+        assert_eq!(i2c.read(reg::SR1, t) & sr1::ADDR, 0);
+        t += 1;
+        assert_ne!(i2c.read(reg::SR1, t) & sr1::ADDR, 0);
     }
 }

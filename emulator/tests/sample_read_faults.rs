@@ -147,3 +147,73 @@ fn faults_in_the_middle_of_a_read_are_counted_and_survived() {
     assert_loop_runs(&mut b, "magnetometer NACKs");
     assert_no_reset(&b);
 }
+
+#[test]
+fn a_block_after_a_reset_in_the_handler_still_runs_on_the_interrupts() {
+    let Some(mut b) = board() else { return };
+    boot_ok(&mut b);
+    run_until(&mut b, 3 * S);
+    // Arbitration lost on the IMU block's address: no STOP of ours ends
+    // it within the handler's bounded wait, so the handler resets the
+    // cell (SWRST) before the next block. Every third sample for 30,
+    // so one of them (ten residues modulo the magnetometer's divider of
+    // 10) also reads the magnetometer after the reset.
+    let (m0, i0) = (
+        health(&b, "mag", "err").unwrap_or(0),
+        health(&b, "mpu", "err").unwrap_or(0),
+    );
+    for _ in 0..10 {
+        let t = b.sim().next_mpu_sample_ns() - 20_000;
+        run_until(&mut b, t);
+        b.sim().inject(Fault::ArbitrationLoss { transactions: 1 });
+        let t = b.sim().next_mpu_sample_ns() + 2 * MS + 500_000;
+        run_until(&mut b, t);
+    }
+    let t = b.now_ns() + 600 * MS;
+    run_until(&mut b, t);
+    let (m1, i1) = (
+        health(&b, "mag", "err").unwrap_or(0),
+        health(&b, "mpu", "err").unwrap_or(0),
+    );
+    assert!(i1 > i0, "arbitration losses not counted\n{}", tail(&b, 30));
+    assert_eq!(
+        m1,
+        m0,
+        "magnetometer blocks after a reset in the handler failed (timed out: no interrupts?)\n{}",
+        tail(&b, 30)
+    );
+    assert_loop_runs(&mut b, "arbitration loss before a magnetometer block");
+    assert_no_reset(&b);
+}
+
+#[test]
+fn scl_held_low_at_the_repeated_start_does_not_starve_the_mcu() {
+    let Some(mut b) = board() else { return };
+    boot_ok(&mut b);
+    run_until(&mut b, 3 * S);
+    // The next read's third event is the register byte's BTF, on which the
+    // handler requests the repeated START; hold SCL low right then.
+    let t0 = b.sim().next_mpu_sample_ns();
+    run_until(&mut b, t0);
+    let e0 = b.exception_entries(I2C1_EV);
+    let mut t = t0;
+    while b.exception_entries(I2C1_EV) < e0 + 3 {
+        assert!(t < t0 + 200_000, "no register-byte BTF\n{}", tail(&b, 20));
+        t += 200;
+        run_until(&mut b, t);
+    }
+    b.sim().inject(Fault::SclStuckLow);
+    // BTF stays set until the START is on the wire (RM0008 SR1.BTF): the
+    // read must end without the event interrupt starving every other task.
+    let [ready, events, _] = entries_during(&mut b, 20 * MS);
+    b.sim().clear_faults();
+    assert!(
+        ready >= 15 && events < 5_000,
+        "SCL held 20 ms at a repeated START: {ready} data-ready served, {events} I2C1 events\n{}",
+        tail(&b, 30)
+    );
+    let t = b.now_ns() + 1_500 * MS;
+    run_until(&mut b, t);
+    assert_loop_runs(&mut b, "SCL held low at a repeated START");
+    assert_no_reset(&b);
+}

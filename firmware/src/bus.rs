@@ -47,11 +47,12 @@
 //!   arbitration loss and overrun by the error interrupt ([`abort`], the
 //!   same [`BusError`]s, the read goes on with the next block); BUSY
 //!   before a START refuses the block and counts for [`take_busy_seen`];
-//!   a lone BERR is cleared. A read with no bus event for 100 µs (a stuck
+//!   a lone BERR is cleared. A read with no progress for 100 µs (a stuck
 //!   bus, a real BERR, a lost START) is ended with [`BusError::Timeout`]
-//!   by whoever looks next: the next data-ready (≤ 1 ms), a blocking
-//!   transfer's wait, or the service round (≤ 10 ms, when data-ready
-//!   stopped too). The results reach the same health counters, re-init
+//!   by whoever looks next: the handler itself when an event it does not
+//!   act on keeps firing (BTF while a held SCL delays the repeated START),
+//!   else the next data-ready (≤ 1 ms), a blocking transfer's wait, or the
+//!   service round (≤ 10 ms, when data-ready stopped too). The results reach the same health counters, re-init
 //!   triggers and bus recovery as the blocking reads'.
 //!
 //! Concurrency of the blocking transfers: all [`BusHandle`]s live in the
@@ -642,10 +643,10 @@ pub fn start_sample(plan: &SamplePlan) -> bool {
             handler_cycles: 0,
         })
     };
-    if s.next_block(i2c) {
-        SAMPLE_STATE.store(RUNNING, Ordering::Release);
-        cr2_modify(i2c, CR2_ITEVTEN | CR2_ITERREN, CR2_ITBUFEN);
-    } else {
+    // RUNNING before the first START: a higher-priority task between the
+    // START and the store must not let the handler see an idle engine.
+    SAMPLE_STATE.store(RUNNING, Ordering::Release);
+    if !s.next_block(i2c) {
         finish();
     }
     true
@@ -733,7 +734,9 @@ impl SampleRead {
             self.left = usize::from(b.len);
             self.step = Step::WriteAddress;
             PROGRESS.store(DWT::cycle_count(), Ordering::Relaxed);
-            cr2_modify(i2c, 0, CR2_ITBUFEN);
+            // Every block enables the interrupts again: a SWRST after the
+            // previous block's STOP timed out (`configure`) cleared them.
+            cr2_modify(i2c, CR2_ITEVTEN | CR2_ITERREN, CR2_ITBUFEN);
             cr1_clear(i2c, CR1_POS);
             cr1_set(i2c, CR1_ACK | CR1_START);
             return true;
@@ -768,8 +771,9 @@ impl SampleRead {
     /// One event (RM0008 §26.3.3, master receiver with the BTF endings:
     /// SCL is held low at every decision, so none depends on how soon the
     /// handler runs, except the single-byte ending's STOP, programmed in
-    /// the same handler run as the ADDR clear). `true` when the block ended.
-    fn on_event(&mut self, i2c: &pac::i2c1::RegisterBlock, sr1: u16) -> bool {
+    /// the same handler run as the ADDR clear). `Some(true)` when the block
+    /// ended, `None` for an event this step does not act on.
+    fn on_event(&mut self, i2c: &pac::i2c1::RegisterBlock, sr1: u16) -> Option<bool> {
         if sr1 & SB != 0 {
             // EV5: SR1 read, then the address byte in DR clears SB.
             let rw = u8::from(self.step == Step::ReadAddress);
@@ -777,7 +781,7 @@ impl SampleRead {
             #[allow(unsafe_code)]
             i2c.dr()
                 .write(|w| unsafe { w.bits(u16::from((self.cur.address << 1) | rw)) });
-            return false;
+            return Some(false);
         }
         if sr1 & ADDR != 0 {
             if self.step == Step::WriteAddress {
@@ -801,17 +805,17 @@ impl SampleRead {
                     cr2_modify(i2c, CR2_ITBUFEN, 0);
                 }
             }
-            return false;
+            return Some(false);
         }
         match self.step {
             Step::Register if sr1 & BTF != 0 => {
                 cr1_set(i2c, CR1_START);
                 self.step = Step::ReadAddress;
-                false
+                Some(false)
             }
             Step::Receive if self.left == 1 && sr1 & RXNE != 0 => {
                 self.put(read_dr(i2c));
-                true
+                Some(true)
             }
             Step::Receive if self.left > 3 && sr1 & RXNE != 0 => {
                 self.put(read_dr(i2c));
@@ -819,22 +823,22 @@ impl SampleRead {
                     // The last three bytes are taken on BTF.
                     cr2_modify(i2c, 0, CR2_ITBUFEN);
                 }
-                false
+                Some(false)
             }
             Step::Receive if self.left == 3 && sr1 & BTF != 0 => {
                 // EV7_1: N−2 in DR, N−1 in the shift register, SCL low.
                 cr1_clear(i2c, CR1_ACK);
                 self.put(read_dr(i2c));
-                false
+                Some(false)
             }
             Step::Receive if self.left == 2 && sr1 & BTF != 0 => {
                 // N−1 in DR, N (NACKed) in the shift register.
                 cr1_set(i2c, CR1_STOP);
                 self.put(read_dr(i2c));
                 self.put(read_dr(i2c));
-                true
+                Some(true)
             }
-            _ => false,
+            _ => None,
         }
     }
 
@@ -889,15 +893,31 @@ pub fn on_irq() {
             false
         }
     } else {
-        PROGRESS.store(t0, Ordering::Relaxed);
-        if s.on_event(i2c, sr1) {
-            if let Some(r) = s.results.get_mut(s.block) {
-                *r = Some(Ok(()));
+        match s.on_event(i2c, sr1) {
+            Some(done) => {
+                PROGRESS.store(t0, Ordering::Relaxed);
+                if done {
+                    if let Some(r) = s.results.get_mut(s.block) {
+                        *r = Some(Ok(()));
+                    }
+                    s.block += 1;
+                    s.after_block(i2c)
+                } else {
+                    false
+                }
             }
-            s.block += 1;
-            s.after_block(i2c)
-        } else {
-            false
+            // An event the step does not act on (a transmitter's BTF stays
+            // set until the repeated START is on the wire, which a slave
+            // holding SCL low delays without end) fires again at once, at
+            // the highest priority, so no lower-priority stall check can
+            // run: the handler ends the stalled read itself.
+            None if t0.wrapping_sub(PROGRESS.load(Ordering::Relaxed)) > timeout_cycles() => {
+                cr2_modify(i2c, 0, CR2_IRQS);
+                abort(i2c);
+                s.fail(BusError::Timeout);
+                true
+            }
+            None => false,
         }
     };
     s.handler_cycles = s
