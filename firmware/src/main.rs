@@ -609,6 +609,13 @@ mod app {
             if started {
                 p.running = Some(start);
             } else {
+                // A waiting sample that was never read gives this one its
+                // time step (the gyro integrates over both) and its
+                // magnetometer tick.
+                if let Some(old) = p.waiting {
+                    start.dt_cycles = start.dt_cycles.saturating_add(old.dt_cycles);
+                    start.read_mag |= old.read_mag;
+                }
                 p.waiting = Some(start);
             }
         });
