@@ -17,24 +17,32 @@ const fn crc8_byte(mut crc: u8) -> u8 {
     crc
 }
 
-const fn make_table() -> [u8; 256] {
-    let mut table = [0u8; 256];
+const fn make_tables() -> ([u8; 16], [u8; 16]) {
+    let mut high = [0u8; 16];
+    let mut low = [0u8; 16];
     let mut i = 0;
-    while i < 256 {
-        table[i] = crc8_byte(i as u8);
+    while i < 16 {
+        high[i] = crc8_byte((i as u8) << 4);
+        low[i] = crc8_byte(i as u8);
         i += 1;
     }
-    table
+    (high, low)
 }
 
-// A table costs 256 bytes of flash and saves the eight shift steps per byte
-// that a 420 kbaud receive interrupt would otherwise pay.
-static TABLE: [u8; 256] = make_table();
+// The CRC step is linear over GF(2), so the byte step of `crc ^ byte` is
+// the XOR of the steps of its two nibbles: two 16-entry tables (32 B)
+// give the same result as the usual 256-entry one for 224 B less flash,
+// at one more load and XOR per byte -- still far from the eight shift
+// steps per byte that a 420 kbaud receive interrupt should not pay.
+const TABLES: ([u8; 16], [u8; 16]) = make_tables();
+static HIGH_NIBBLE: [u8; 16] = TABLES.0;
+static LOW_NIBBLE: [u8; 16] = TABLES.1;
 
 /// Adds one byte to a running CRC-8/DVB-S2.
 #[inline]
 pub fn crc8_dvb_s2_update(crc: u8, byte: u8) -> u8 {
-    TABLE[usize::from(crc ^ byte)]
+    let x = crc ^ byte;
+    HIGH_NIBBLE[usize::from(x >> 4)] ^ LOW_NIBBLE[usize::from(x & 0x0f)]
 }
 
 /// CRC-8/DVB-S2 of `data` (initial value 0), as CRSF computes it over the
