@@ -446,10 +446,17 @@ fn cross30(a: [i32; 3], b: [i32; 3]) -> [i32; 3] {
     ]
 }
 
+/// 2^`e` as f32, exact, for `e` ≤ 127. Built from its exponent field rather than as
+/// `(1u64 << e) as f32`, which links the soft 64-bit shift and u64 → f32 routines into a
+/// firmware that has no other use for them.
+const fn pow2_f32(e: u32) -> f32 {
+    f32::from_bits((127 + e) << 23)
+}
+
 /// Convert an f32 to Q-format with `frac_bits` fractional bits (saturating; NaN → 0).
 #[must_use]
 pub fn float_to_q(x: f32, frac_bits: u32) -> i32 {
-    let v = x * (1u64 << frac_bits.min(62)) as f32;
+    let v = x * pow2_f32(frac_bits.min(62));
     if v.is_nan() {
         0
     } else {
@@ -538,11 +545,11 @@ fn inv_g_parts(g: f32) -> (i32, u32) {
         1.0
     };
     let mut e = 0u32;
-    while e < 40 && (1u64 << (e + 1)) as f32 <= g {
+    while e < 40 && pow2_f32(e + 1) <= g {
         e += 1;
     }
     let p = 27u32.saturating_sub(e);
-    let m = (1u64 << (58 - p)) as f32 / g;
+    let m = pow2_f32(58 - p) / g;
     (libm::roundf(m).min(i32::MAX as f32) as i32, p)
 }
 
@@ -1475,6 +1482,14 @@ fn quat_from_rows_q30(m: [[i32; 3]; 3]) -> [i32; 4] {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pow2_f32_is_the_integer_power_of_two() {
+        for e in 0..64u32 {
+            assert_eq!(pow2_f32(e), (1u64 << e) as f32, "2^{e}");
+        }
+        assert_eq!(pow2_f32(127), f32::MAX / (2.0 - f32::EPSILON));
+    }
 
     #[test]
     fn rsqrt_accuracy() {

@@ -730,7 +730,7 @@ mod backend {
                 gravity_norm: lsb_per_g,
                 ..cfg
             });
-            let k = gyro_rps_per_lsb * (1u64 << 36) as f32;
+            let k = gyro_rps_per_lsb * 68_719_476_736.0; // 2^36
             Self {
                 filter: MadgwickFixed::new(fixed),
                 gyro_k_q36: if k.is_finite() { k as i64 } else { 0 },
