@@ -182,8 +182,10 @@ pub struct Pipeline {
     /// Pressures summed in `p0_sum_pa`.
     p0_n: u16,
     vertical: VerticalEstimator,
-    /// Gyro counts → rad/s Q16, in Q16 (`rate_q16 = counts · k >> 16`).
-    gyro_rps_q16_per_lsb_q16: i64,
+    /// Gyro counts → rad/s Q16, in Q16 (`rate_q16 = counts · k >> 16`);
+    /// `new` refuses a scale at or above 2·10⁹, so it fits an `i32` (and
+    /// converts to f32 without the soft 64-bit conversion).
+    gyro_rps_q16_per_lsb_q16: i32,
     out: Outputs,
 }
 
@@ -246,7 +248,7 @@ impl Pipeline {
             p0_sum_pa: 0,
             p0_n: 0,
             vertical: VerticalEstimator::new(cfg.vertical)?,
-            gyro_rps_q16_per_lsb_q16: gyro_k as i64,
+            gyro_rps_q16_per_lsb_q16: gyro_k as i32,
             out: Outputs::default(),
             cfg,
         };
