@@ -620,7 +620,60 @@ fn correctness(elf: &Path) -> Result<CheckReport, String> {
     bench_lib::check::run(|name, v| {
         host.insert(name.to_string(), v);
     });
-    Ok(compare_results(&host, &target))
+    let mut report = compare_results(&host, &target);
+    let (mem_summary, mem_failures) = mem_results(&out);
+    report.summary.push_str(&mem_summary);
+    report.failures.extend(mem_failures);
+    Ok(report)
+}
+
+/// The entry points of `firmware/src/mem.rs` that `bench-check` must report.
+const MEM_ENTRIES: [&str; 6] = [
+    "__aeabi_memcpy",
+    "__aeabi_memcpy4",
+    "__aeabi_memcpy8",
+    "__aeabi_memclr",
+    "__aeabi_memclr4",
+    "__aeabi_memclr8",
+];
+
+/// `MEM <symbol> ok <calls>` / `MEM <symbol> FAIL ...` lines → a summary and
+/// the failures: every entry point must be reported, once, as ok.
+fn mem_results(out: &str) -> (String, Vec<String>) {
+    let mut seen: BTreeMap<&str, &str> = BTreeMap::new();
+    let mut failures = Vec::new();
+    for line in out.lines() {
+        let Some(rest) = line.strip_prefix("MEM ") else {
+            continue;
+        };
+        let (name, verdict) = rest.split_once(' ').unwrap_or((rest, ""));
+        if !MEM_ENTRIES.contains(&name) || seen.insert(name, verdict).is_some() {
+            failures.push(format!("mem routines: unexpected line {line:?}"));
+        }
+    }
+    let mut summary = String::from(
+        "\nfirmware/src/mem.rs on the emulated M3 (every n in 0..=67, byte variants at \
+         every source/destination offset 0..=3, the 4/8 variants at aligned offsets; \
+         the bytes around each range and the source checked untouched):\n",
+    );
+    for name in MEM_ENTRIES {
+        match seen.get(name) {
+            Some(v) if v.starts_with("ok ") => {
+                let _ = writeln!(summary, "- `{name}`: {} calls correct", &v[3..]);
+            }
+            Some(v) => {
+                failures.push(format!("mem routines: {name}: {v}"));
+                let _ = writeln!(summary, "- FAILED `{name}`: {v}");
+            }
+            None => {
+                failures.push(format!(
+                    "mem routines: {name} missing from the target's output"
+                ));
+                let _ = writeln!(summary, "- FAILED `{name}`: not reported");
+            }
+        }
+    }
+    (summary, failures)
 }
 
 /// The semihosting output of `bench-check` in QEMU (no trace).
@@ -1003,6 +1056,26 @@ mod tests {
         let r = compare_results(&host, &target);
         assert_eq!(r.failures.len(), 2, "{:?}", r.failures);
         assert!(parse_check_output("CHECK x i64 1 2 3 4\n").is_err());
+    }
+
+    #[test]
+    fn mem_lines_need_every_entry_point_ok() {
+        let all_ok: String = MEM_ENTRIES
+            .iter()
+            .map(|n| format!("MEM {n} ok 1088\n"))
+            .collect();
+        let (summary, failures) = mem_results(&all_ok);
+        assert!(failures.is_empty(), "{failures:?}");
+        assert!(summary.contains("`__aeabi_memclr8`: 1088 calls correct"));
+        let one_bad = all_ok.replace(
+            "MEM __aeabi_memcpy4 ok 1088",
+            "MEM __aeabi_memcpy4 FAIL n=5 src_offset=0 dest_offset=4 first_wrong_byte=25",
+        );
+        assert_eq!(mem_results(&one_bad).1.len(), 1);
+        let missing = all_ok.replace("MEM __aeabi_memclr ok 1088\n", "");
+        assert_eq!(mem_results(&missing).1.len(), 1);
+        let twice = format!("{all_ok}MEM __aeabi_memcpy ok 1088\n");
+        assert_eq!(mem_results(&twice).1.len(), 1);
     }
 
     #[test]
