@@ -400,7 +400,9 @@ pub fn save<S: CalibrationStore>(
     store.write(0, &image).map_err(SaveError::Storage)?;
     let mut back = [0u8; RECORD_LEN];
     store.read(0, &mut back).map_err(SaveError::Storage)?;
-    if back != image {
+    // A byte loop, not `back != image`: the array comparison links
+    // `memcmp` (116 B) into firmware that compares nothing else in bulk.
+    if back.iter().zip(&image).any(|(b, w)| b != w) {
         return Err(SaveError::VerifyFailed);
     }
     Ok(())
@@ -587,6 +589,51 @@ mod tests {
         save(&mut page, &rec).unwrap();
         assert_eq!(load(&mut page).record(), &rec);
         assert_eq!(page.erase_count, 2);
+    }
+
+    /// A page whose cell at `bad` reads back with one bit flipped (a worn
+    /// flash cell).
+    struct FlippedCell {
+        page: RamPage,
+        bad: usize,
+    }
+
+    impl CalibrationStore for FlippedCell {
+        type Error = RamPageError;
+        fn read(&mut self, offset: u32, buf: &mut [u8]) -> Result<(), RamPageError> {
+            self.page.read(offset, buf)?;
+            if let Some(b) = (self.bad.checked_sub(offset as usize)).and_then(|i| buf.get_mut(i)) {
+                *b ^= 0x10;
+            }
+            Ok(())
+        }
+        fn erase(&mut self) -> Result<(), RamPageError> {
+            self.page.erase()
+        }
+        fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), RamPageError> {
+            self.page.write(offset, data)
+        }
+    }
+
+    #[test]
+    fn a_read_back_differing_in_any_byte_is_a_verify_failure() {
+        for bad in [0, 1, RECORD_LEN / 2, RECORD_LEN - 1] {
+            let mut store = FlippedCell {
+                page: RamPage::default(),
+                bad,
+            };
+            assert_eq!(
+                save(&mut store, &sample()),
+                Err(SaveError::VerifyFailed),
+                "byte {bad}"
+            );
+        }
+        // A flipped cell past the record is not part of it.
+        let mut store = FlippedCell {
+            page: RamPage::default(),
+            bad: RECORD_LEN,
+        };
+        assert_eq!(save(&mut store, &sample()), Ok(()));
     }
 
     #[test]
