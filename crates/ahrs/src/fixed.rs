@@ -453,6 +453,35 @@ const fn pow2_f32(e: u32) -> f32 {
     f32::from_bits((127 + e) << 23)
 }
 
+/// `x as u64` (truncation toward zero; NaN and negatives → 0, ≥ 2^64 → `u64::MAX`) in
+/// 32-bit integer steps: the same result as the cast without linking the soft-float
+/// library's `f32 → u64`/`i64` conversions, which the firmware uses only at start-up.
+#[must_use]
+pub fn f32_to_u64(x: f32) -> u64 {
+    let bits = x.to_bits();
+    if x.is_nan() || bits >> 31 != 0 {
+        return 0;
+    }
+    // x = m · 2^(e − 23), 2^23 ≤ m < 2^24.
+    let e = (bits >> 23) as i32 - 127;
+    if e < 0 {
+        return 0;
+    }
+    if e >= 64 {
+        return u64::MAX;
+    }
+    let m = (bits & 0x7f_ffff) | 0x80_0000;
+    if e <= 23 {
+        return u64::from(m >> (23 - e));
+    }
+    let s = (e - 23) as u32; // 1..=40
+    if s >= 32 {
+        u64::from(m << (s - 32)) << 32
+    } else {
+        (u64::from(m >> (32 - s)) << 32) | u64::from(m << s)
+    }
+}
+
 /// Convert an f32 to Q-format with `frac_bits` fractional bits (saturating; NaN → 0).
 #[must_use]
 pub fn float_to_q(x: f32, frac_bits: u32) -> i32 {
@@ -560,7 +589,7 @@ fn s_to_q20(s: f32) -> i64 {
 fn sq_u64(x: f32) -> u64 {
     let v = x * x;
     if v.is_finite() && v > 0.0 {
-        v.min(1.8e19) as u64
+        f32_to_u64(v.min(1.8e19))
     } else {
         0
     }
@@ -1482,6 +1511,33 @@ fn quat_from_rows_q30(m: [[i32; 3]; 3]) -> [i32; 4] {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn f32_to_u64_is_the_cast() {
+        // Every 257th bit pattern (both signs, every exponent, NaNs and
+        // infinities), and the edges around 2^23, 2^32, 2^63 and 2^64.
+        let mut b: u32 = 0;
+        loop {
+            let x = f32::from_bits(b);
+            assert_eq!(f32_to_u64(x), x as u64, "{x:e} ({b:#x})");
+            match b.checked_add(257) {
+                Some(n) => b = n,
+                None => break,
+            }
+        }
+        for e in [23u32, 24, 31, 32, 33, 55, 63, 64] {
+            let p = pow2_f32(e);
+            for x in [
+                p,
+                f32::from_bits(p.to_bits() - 1),
+                f32::from_bits(p.to_bits() + 1),
+            ] {
+                assert_eq!(f32_to_u64(x), x as u64, "{x:e}");
+            }
+        }
+        assert_eq!(f32_to_u64(0.999_999_94), 0);
+        assert_eq!(f32_to_u64(-0.0), 0);
+    }
 
     #[test]
     fn pow2_f32_is_the_integer_power_of_two() {

@@ -735,9 +735,15 @@ mod backend {
             let k = gyro_rps_per_lsb * 68_719_476_736.0; // 2^36
             Self {
                 filter: MadgwickFixed::new(fixed),
-                gyro_k_q36: if k.is_finite() { k as i64 } else { 0 },
+                // k > 0: `Pipeline::new` refuses a scale that is not
+                // positive before it gets here.
+                gyro_k_q36: if k.is_finite() {
+                    fc_ahrs::fixed::f32_to_u64(k).min(i64::MAX as u64) as i64
+                } else {
+                    0
+                },
                 // 2^47 / cpu_hz (1.95e6 at 72 MHz), computed in f32 (init only).
-                dt_k: (140_737_488_355_328.0f32 / cpu_hz.max(1) as f32) as u64,
+                dt_k: fc_ahrs::fixed::f32_to_u64(140_737_488_355_328.0f32 / cpu_hz.max(1) as f32),
                 mag: [0; 3],
             }
         }
