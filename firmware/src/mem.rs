@@ -10,6 +10,9 @@
 //! `memcpy(dest r0, src r1, n r2)`, `memclr(dest r0, n r1)`, no result,
 //! r0–r3 and the flags clobbered; the `4`/`8` variants get 4-byte aligned
 //! pointers.
+//!
+//! `bench-check` includes this file and checks every entry point on the
+//! emulated Cortex-M3 (`cargo xtask bench`, `bench/src/mem_check.rs`).
 
 #![allow(unsafe_code)]
 
