@@ -1,7 +1,7 @@
 //! Flight-controller sensor app for the STM32F103C8 "Blue Pill": a thin RTIC
 //! 2 shell around the hardware-free logic in the `flight` crate.
 //!
-//! * Boot (`init`, a list of named steps): the watchdog first (a hang in
+//! * Boot (`init`, a list of named steps in `boot.rs`): the watchdog first (a hang in
 //!   boot resets), 72 MHz from the 8 MHz crystal or 64 MHz from HSI if it
 //!   does not start within 20 ms, DWT cycle counter, pins, I2C1 on PB6/PB7
 //!   at 400 kHz, a bus recovery before the first probe (a reset during a
@@ -103,6 +103,7 @@
 #![no_main]
 #![deny(unsafe_code)]
 
+mod boot;
 mod bus;
 mod clocks;
 mod config;
@@ -116,6 +117,7 @@ mod outputs;
 mod ppm;
 #[cfg_attr(feature = "ppm", allow(dead_code))]
 mod receiver;
+mod report;
 mod stack;
 mod store;
 mod watchdog;
@@ -168,37 +170,36 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
 // SPI, and USART1 is the receiver's own interrupt.
 #[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [SPI1, SPI2])]
 mod app {
+    use crate::boot::*;
     use crate::bus::{self, BusHandle};
     use crate::clocks::{self, Source};
-    use crate::config::{self, MagCal, ESC_PROTOCOL};
+    use crate::config::{self, MagCal};
     use crate::delay::{cpu_hz, AsmDelay};
     use crate::outputs::EscOutputs;
-    #[cfg(feature = "ppm")]
-    use crate::ppm::PpmInput;
     #[cfg(not(feature = "ppm"))]
-    use crate::receiver::{self, CrsfRx};
+    use crate::receiver;
     use crate::receiver::{Pilot, RING_BYTES};
+    use crate::report::{log_capabilities, log_pilot, log_status};
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
-    use control::esc::EscTimer;
     use cortex_m::peripheral::DWT;
-    use flight::boot::{AhrsMode, BiasStatus, Capabilities, StartupGyroBias};
+    use flight::boot::BiasStatus;
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
     use flight::flightctl::{
         quat_from_ahrs, AltitudeEstimate, Event as FlightEvent, Events, FlightController, Motors,
         PilotInput, SystemStatus, VehicleState,
     };
-    use flight::health::{HealthCounters, SensorState};
+    use flight::health::SensorState;
     use flight::motortest::MotorPosition;
-    use flight::pipeline::{Pipeline, PipelineConfig};
+    use flight::pipeline::Pipeline;
     use flight::sample::{SampleIn, SampleStep};
     use flight::schedule::{
         DtClock, LoopStats, MicrosClock, Periodic, SampleScheduler, WatchdogGate, IMU_RATE_HZ,
         MAG_DIVIDER,
     };
-    use flight::sensors::{Maintenance, Sensors, SensorsConfig};
-    use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome, SaveError};
+    use flight::sensors::{Maintenance, Sensors};
+    use flight::storage::{self, CalibrationRecord, SaveError};
     use rc_input::LinkStatus;
     use rtic::Mutex;
     use rtic_monotonics::fugit::ExtU32;
@@ -355,229 +356,6 @@ mod app {
                 ppm,
             },
         )
-    }
-
-    /// Boot step: the ESC outputs at the off pulse. The timer clock is
-    /// APB1 × 2 = SYSCLK (APB1 runs at SYSCLK / 2).
-    #[inline(never)]
-    fn start_outputs(tim: pac::TIM3) -> EscOutputs {
-        let timer =
-            match EscTimer::for_clock(ESC_PROTOCOL, ESC_PROTOCOL.default_rate_hz(), cpu_hz()) {
-                Ok(t) => t,
-                // Both protocols fit TIM3 at 64 and 72 MHz (control's tests);
-                // a failure here is a build configuration error.
-                Err(e) => defmt::panic!("ESC timer: {}", e),
-            };
-        let esc = EscOutputs::start(tim, timer);
-        // In 32-bit integers and f32: `EscTimer::period_ns`/`pulse_ns` divide
-        // in u64, which would link a ~0.9 KiB library routine for this line.
-        defmt::info!(
-            "outputs: {} on TIM3 CH1-4 (PA6 PA7 PB0 PB1), {=u32} Hz, off pulse {=f32} us",
-            ESC_PROTOCOL,
-            timer.tick_hz() / timer.period_ticks().max(1),
-            f32::from(timer.off_compare()) * 1.0e6 / timer.tick_hz().max(1) as f32
-        );
-        esc
-    }
-
-    /// Boot step: the flight controller (disarmed). Without one (an invalid
-    /// configuration) the motors stay off.
-    #[cfg(not(feature = "mag-ellipsoid"))]
-    #[inline(never)]
-    fn start_flight_controller() -> Option<FlightController> {
-        match FlightController::new(config::flight_config()) {
-            Ok(fc) => {
-                defmt::info!(
-                    "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}, motor-test channel {=u8}",
-                    config::channel_map().arm_channel() + 1,
-                    config::MODE_CHANNEL + 1,
-                    config::MOTOR_TEST_CHANNEL + 1
-                );
-                Some(fc)
-            }
-            Err(e) => {
-                defmt::error!("flight controller: {}; motors stay off", e);
-                None
-            }
-        }
-    }
-
-    /// The calibration build has no flight controller: the motors stay off.
-    #[cfg(feature = "mag-ellipsoid")]
-    fn start_flight_controller() -> Option<FlightController> {
-        defmt::warn!(
-            "flight controller: not built (mag-ellipsoid calibration build); motors stay off"
-        );
-        None
-    }
-
-    /// Boot step: the PPM receiver on PB8 (TIM4_CH3); TIM4's clock is
-    /// APB1 × 2 = SYSCLK, like TIM3's.
-    #[cfg(feature = "ppm")]
-    #[inline(never)]
-    fn start_ppm(tim: pac::TIM4) -> PpmInput {
-        let ppm = PpmInput::start(tim, cpu_hz());
-        defmt::info!(
-            "receiver: PPM on PB8 (TIM4_CH3 input capture, 5 V tolerant), rising edges, 1 us resolution, signal loss after {=u32} ms",
-            rc_input::PPM_TIMEOUT_US / 1_000
-        );
-        ppm
-    }
-
-    /// Boot step: the CRSF receiver on USART1 RX (PA10); APB2 runs at SYSCLK.
-    #[cfg(not(feature = "ppm"))]
-    #[inline(never)]
-    fn start_receiver(
-        usart: pac::USART1,
-        dma: pac::DMA1,
-        ring: &'static mut [u8; RING_BYTES],
-    ) -> CrsfRx {
-        let rx = CrsfRx::start(usart, dma, ring, cpu_hz());
-        defmt::info!(
-            "receiver: CRSF on USART1 RX (PA10), {=u32} baud, DMA1 channel 5 into a {=u16} B ring",
-            receiver::CRSF_BAUD,
-            RING_BYTES as u16
-        );
-        rx
-    }
-
-    /// Boot step: the boot line, with the clock source.
-    fn log_boot(source: Source) {
-        if source == Source::HsiFallback {
-            defmt::warn!(
-                "boot: 8 MHz crystal did not start within 20 ms; running on HSI at 64 MHz"
-            );
-        }
-        defmt::info!(
-            "boot: {=u32} MHz ({}), I2C1 400 kHz on PB6/PB7, MPU INT on PB5, AHRS: {=str}; a stuck I2C bus is recovered (SCL clocked, STOP, BUSY unlocked), a missing chip is re-probed every 1-32 s, a chip that returns is re-initialised and used",
-            cpu_hz() / 1_000_000,
-            source,
-            flight::pipeline::AHRS_KIND
-        );
-    }
-
-    /// Boot step: free the bus unconditionally (a reset in the middle of a
-    /// transfer leaves a slave driving SDA about as often as not).
-    fn recover_bus_at_boot() {
-        match bus::recover() {
-            Ok(r) if r.clocks > 0 => {
-                defmt::warn!(
-                    "I2C recovery at boot: SDA released after {=u8} SCL clock(s)",
-                    r.clocks
-                )
-            }
-            Ok(_) => {}
-            Err(e) => defmt::error!("I2C recovery at boot failed: {}", e),
-        }
-    }
-
-    /// Boot step: probe and configure the three chips.
-    // The boot steps stay out of line: inlined, their results are moved
-    // through init's frame once more each (0.1 KiB of flash).
-    #[inline(never)]
-    fn probe_sensors() -> Sensors<BusHandle> {
-        let (sensors, report) = Sensors::boot(
-            BusHandle,
-            BusHandle,
-            BusHandle,
-            &mut AsmDelay,
-            SensorsConfig::default(),
-        );
-        for r in [report.mpu, report.mag, report.baro] {
-            match r.status {
-                Ok(()) => defmt::info!("probe {}: ok ({=u8} attempt(s))", r.chip, r.attempts),
-                Err(f) => defmt::error!(
-                    "probe {}: FAILED after {=u8} attempt(s): {}; re-probed in the background",
-                    r.chip,
-                    r.attempts,
-                    f
-                ),
-            }
-        }
-        log_capabilities(&sensors.capabilities());
-        sensors
-    }
-
-    fn log_capabilities(caps: &Capabilities) {
-        defmt::info!(
-            "capabilities: AHRS {}, altitude {=bool}",
-            caps.ahrs,
-            caps.altitude
-        );
-        if caps.ahrs == AhrsMode::ImuOnly {
-            defmt::warn!("no magnetometer: heading drifts with the gyro");
-        }
-    }
-
-    /// Boot step: the calibration record from flash (defaults and the
-    /// reason if blank or corrupt).
-    #[inline(never)]
-    fn load_calibration(flash: &mut flash::Parts) -> CalibrationRecord {
-        match storage::load(&mut FlashPage::new(flash)) {
-            LoadOutcome::Loaded(r) => {
-                defmt::info!("calibration loaded from flash (parts {=u16:#x})", r.valid.0);
-                r
-            }
-            LoadOutcome::Defaults(r, LoadError::Decode(reason)) => {
-                defmt::warn!("calibration: using defaults ({})", reason);
-                r
-            }
-            LoadOutcome::Defaults(r, LoadError::Storage(_)) => {
-                defmt::warn!("calibration: using defaults (flash read error)");
-                r
-            }
-        }
-    }
-
-    /// Boot step: the processing pipeline for the chips found.
-    #[inline(never)]
-    fn build_pipeline(
-        sensors: &Sensors<BusHandle>,
-        caps: &Capabilities,
-        record: &CalibrationRecord,
-    ) -> Option<Pipeline> {
-        let scale = sensors.mpu_scale();
-        let cfg = PipelineConfig {
-            cpu_hz: cpu_hz(),
-            gyro_dps_per_lsb: scale.dps_per_lsb,
-            accel_g_per_lsb: scale.g_per_lsb,
-            mag_ut_per_lsb: sensors.mag_ut_per_lsb(),
-            ahrs_mode: caps.ahrs,
-            altitude: caps.altitude,
-            ..PipelineConfig::new()
-        };
-        let p = Pipeline::new(cfg, record).ok();
-        if p.is_none() {
-            defmt::error!("pipeline: invalid configuration; no processing");
-        }
-        p
-    }
-
-    /// Boot step: the start-up gyro bias (1 s still, up to 5 windows,
-    /// measured one sample at a time in `imu`).
-    #[inline(never)]
-    fn start_gyro_bias(sensors: &Sensors<BusHandle>) -> Option<StartupGyroBias> {
-        let scale = sensors.mpu_scale();
-        StartupGyroBias::new(
-            IMU_RATE_HZ,
-            1.0 / scale.dps_per_lsb,
-            1.0 / scale.g_per_lsb,
-            5,
-        )
-        .ok()
-    }
-
-    /// Boot step: the button held at reset starts the accelerometer
-    /// calibration.
-    #[inline(never)]
-    fn start_session(button: &PA0<Input<PullUp>>) -> CalSession<MagCal> {
-        // Let the internal pull-up charge the line (~100 µs) before sampling.
-        cortex_m::asm::delay(cpu_hz() / 10_000);
-        let session = CalSession::new(button.is_low());
-        if session.mode() == flight::calmode::Mode::AccelCal {
-            defmt::info!("button held at boot: accelerometer six-position calibration");
-        }
-        session
     }
 
     /// MPU-9250 data-ready (1 kHz): starts the sample's read on the I2C1
@@ -974,20 +752,6 @@ mod app {
         }
     }
 
-    fn log_health(name: &str, state: SensorState, c: &HealthCounters) {
-        defmt::info!(
-            "{=str}: {} ok={=u32} err={=u32} reinit={=u32} reset={=u32} ovf={=u32} notready={=u32}",
-            name,
-            state,
-            c.ok,
-            c.errors,
-            c.reinits,
-            c.resets_detected,
-            c.overflows,
-            c.not_ready
-        );
-    }
-
     /// 20 Hz: watchdog, button and calibration session, live log, LED.
     #[task(priority = 1, local = [led, button_pin, iwdg, flash, record],
            shared = [sensors, pipeline, stats, session, bias, pilot, clock])]
@@ -1101,117 +865,5 @@ mod app {
             Err(SaveError::Storage(_)) => defmt::error!("calibration save: flash error"),
         }
         pipeline.lock(|p| p.as_mut().map(|p| p.set_calibration(record)));
-    }
-
-    /// The receiver's link state on every change; channels and counters
-    /// every second while frames arrive.
-    fn log_pilot(
-        tick: u32,
-        last: LinkStatus,
-        pilot: &mut impl rtic::Mutex<T = Pilot>,
-        clock: &mut impl rtic::Mutex<T = MicrosClock>,
-    ) -> LinkStatus {
-        let now_us = clock.lock(|c| c.now_us(DWT::cycle_count()));
-        let (status, frame, stats, uart, lq) = pilot.lock(|p| {
-            (
-                p.status(now_us),
-                p.frame,
-                p.stats,
-                p.uart,
-                p.link_quality_pct,
-            )
-        });
-        if status != last {
-            match status {
-                LinkStatus::Ok => defmt::info!("rc: link up"),
-                other => defmt::warn!("rc: link lost ({})", other),
-            }
-        }
-        #[cfg(feature = "ppm")]
-        let _ = (stats, uart, lq);
-        #[cfg(feature = "ppm")]
-        if tick.is_multiple_of(20) && status == LinkStatus::Ok {
-            if let Some(f) = frame {
-                let c = f.channels();
-                let n = pilot.lock(|p| p.ppm);
-                defmt::info!(
-                    "rc: ch1-8 {} us | ppm frames {=u32} dropped {=u32} (bad_pulse {=u32} bad_count {=u32} unconfirmed {=u32}) overcapture {=u32}",
-                    c.get(..8).unwrap_or(c),
-                    n.decoder.frames,
-                    n.decoder.dropped(),
-                    n.decoder.bad_pulse,
-                    n.decoder.bad_count,
-                    n.decoder.unconfirmed,
-                    n.overcaptures
-                );
-            }
-        }
-        #[cfg(not(feature = "ppm"))]
-        if tick.is_multiple_of(20) && status == LinkStatus::Ok {
-            if let Some(f) = frame {
-                let c = f.channels();
-                defmt::info!(
-                    "rc: ch1-8 {} us | lq {} % | frames {=u32} crc_err {=u32} dropped {=u32} | uart ore {=u32} fe {=u32} late {=u32}",
-                    c.get(..8).unwrap_or(c),
-                    lq,
-                    stats.rc_frames,
-                    stats.crc_errors,
-                    stats.dropped(),
-                    uart.overruns,
-                    uart.framing,
-                    uart.late
-                );
-            }
-        }
-        status
-    }
-
-    /// The live log: attitude every call; loop timing, health, bus counters
-    /// and the gyro bias every second; the stack every 5 s.
-    fn log_status(
-        tick: u32,
-        sensors: &mut impl rtic::Mutex<T = Sensors<BusHandle>>,
-        pipeline: &mut impl rtic::Mutex<T = Option<Pipeline>>,
-        stats: &mut impl rtic::Mutex<T = LoopStats>,
-        bias: &mut impl rtic::Mutex<T = BiasStatus>,
-    ) {
-        if let Some(o) = pipeline.lock(|p| p.as_ref().map(|p| p.outputs())) {
-            defmt::info!(
-                "att r={=f32} p={=f32} y={=f32} deg | alt={=f32} m vz={=f32} m/s",
-                o.roll_deg,
-                o.pitch_deg,
-                o.yaw_deg,
-                o.altitude_m,
-                o.vertical_speed_mps
-            );
-        }
-        if tick.is_multiple_of(20) {
-            let r = stats.lock(|s| s.report(DWT::cycle_count()));
-            defmt::info!(
-                "loop: {=u32} runs, imu task mean {=u32} cyc worst {=u32} cyc, cpu {=u32}.{=u32}%",
-                r.runs,
-                r.mean_cycles,
-                r.worst_cycles,
-                r.load_permille / 10,
-                r.load_permille % 10
-            );
-            let (a, b, c, n) = sensors.lock(|s| {
-                (
-                    (s.mpu_health.state(), *s.mpu_health.counters()),
-                    (s.mag_health.state(), *s.mag_health.counters()),
-                    (s.baro_health.state(), *s.baro_health.counters()),
-                    s.bus_recoveries(),
-                )
-            });
-            log_health("mpu", a.0, &a.1);
-            log_health("mag", b.0, &b.1);
-            log_health("baro", c.0, &c.1);
-            let b = bias.lock(|b| *b);
-            defmt::info!("i2c recoveries: {=u32} | gyro bias: {}", n, b);
-        }
-        if tick.is_multiple_of(100) {
-            let (used, size) = stack::high_water();
-            defmt::info!("stack high-water {=usize} of {=usize} bytes", used, size);
-        }
     }
 }

@@ -1,0 +1,153 @@
+//! The live log's lines that read several resources: the receiver's link
+//! and channels, attitude, loop timing, sensor health, the stack. The
+//! tasks call them; they only lock, read and print.
+
+use crate::bus::BusHandle;
+use crate::receiver::Pilot;
+use crate::stack;
+use cortex_m::peripheral::DWT;
+use flight::boot::{AhrsMode, BiasStatus, Capabilities};
+use flight::health::{HealthCounters, SensorState};
+use flight::pipeline::Pipeline;
+use flight::schedule::{LoopStats, MicrosClock};
+use flight::sensors::Sensors;
+use rc_input::LinkStatus;
+
+/// The chips' capabilities (at boot and when a chip appears).
+pub fn log_capabilities(caps: &Capabilities) {
+    defmt::info!(
+        "capabilities: AHRS {}, altitude {=bool}",
+        caps.ahrs,
+        caps.altitude
+    );
+    if caps.ahrs == AhrsMode::ImuOnly {
+        defmt::warn!("no magnetometer: heading drifts with the gyro");
+    }
+}
+
+/// One chip's health line.
+pub fn log_health(name: &str, state: SensorState, c: &HealthCounters) {
+    defmt::info!(
+        "{=str}: {} ok={=u32} err={=u32} reinit={=u32} reset={=u32} ovf={=u32} notready={=u32}",
+        name,
+        state,
+        c.ok,
+        c.errors,
+        c.reinits,
+        c.resets_detected,
+        c.overflows,
+        c.not_ready
+    );
+}
+
+/// The receiver's link state on every change; channels and counters
+/// every second while frames arrive.
+pub fn log_pilot(
+    tick: u32,
+    last: LinkStatus,
+    pilot: &mut impl rtic::Mutex<T = Pilot>,
+    clock: &mut impl rtic::Mutex<T = MicrosClock>,
+) -> LinkStatus {
+    let now_us = clock.lock(|c| c.now_us(DWT::cycle_count()));
+    let (status, frame, stats, uart, lq) = pilot.lock(|p| {
+        (
+            p.status(now_us),
+            p.frame,
+            p.stats,
+            p.uart,
+            p.link_quality_pct,
+        )
+    });
+    if status != last {
+        match status {
+            LinkStatus::Ok => defmt::info!("rc: link up"),
+            other => defmt::warn!("rc: link lost ({})", other),
+        }
+    }
+    #[cfg(feature = "ppm")]
+    let _ = (stats, uart, lq);
+    #[cfg(feature = "ppm")]
+    if tick.is_multiple_of(20) && status == LinkStatus::Ok {
+        if let Some(f) = frame {
+            let c = f.channels();
+            let n = pilot.lock(|p| p.ppm);
+            defmt::info!(
+                "rc: ch1-8 {} us | ppm frames {=u32} dropped {=u32} (bad_pulse {=u32} bad_count {=u32} unconfirmed {=u32}) overcapture {=u32}",
+                c.get(..8).unwrap_or(c),
+                n.decoder.frames,
+                n.decoder.dropped(),
+                n.decoder.bad_pulse,
+                n.decoder.bad_count,
+                n.decoder.unconfirmed,
+                n.overcaptures
+            );
+        }
+    }
+    #[cfg(not(feature = "ppm"))]
+    if tick.is_multiple_of(20) && status == LinkStatus::Ok {
+        if let Some(f) = frame {
+            let c = f.channels();
+            defmt::info!(
+                "rc: ch1-8 {} us | lq {} % | frames {=u32} crc_err {=u32} dropped {=u32} | uart ore {=u32} fe {=u32} late {=u32}",
+                c.get(..8).unwrap_or(c),
+                lq,
+                stats.rc_frames,
+                stats.crc_errors,
+                stats.dropped(),
+                uart.overruns,
+                uart.framing,
+                uart.late
+            );
+        }
+    }
+    status
+}
+
+/// The live log: attitude every call; loop timing, health, bus counters
+/// and the gyro bias every second; the stack every 5 s.
+pub fn log_status(
+    tick: u32,
+    sensors: &mut impl rtic::Mutex<T = Sensors<BusHandle>>,
+    pipeline: &mut impl rtic::Mutex<T = Option<Pipeline>>,
+    stats: &mut impl rtic::Mutex<T = LoopStats>,
+    bias: &mut impl rtic::Mutex<T = BiasStatus>,
+) {
+    if let Some(o) = pipeline.lock(|p| p.as_ref().map(|p| p.outputs())) {
+        defmt::info!(
+            "att r={=f32} p={=f32} y={=f32} deg | alt={=f32} m vz={=f32} m/s",
+            o.roll_deg,
+            o.pitch_deg,
+            o.yaw_deg,
+            o.altitude_m,
+            o.vertical_speed_mps
+        );
+    }
+    if tick.is_multiple_of(20) {
+        let r = stats.lock(|s| s.report(DWT::cycle_count()));
+        defmt::info!(
+            "loop: {=u32} runs, imu task mean {=u32} cyc worst {=u32} cyc, cpu {=u32}.{=u32}%",
+            r.runs,
+            r.mean_cycles,
+            r.worst_cycles,
+            r.load_permille / 10,
+            r.load_permille % 10
+        );
+        let (a, b, c, n) = sensors.lock(|s| {
+            (
+                (s.mpu_health.state(), *s.mpu_health.counters()),
+                (s.mag_health.state(), *s.mag_health.counters()),
+                (s.baro_health.state(), *s.baro_health.counters()),
+                s.bus_recoveries(),
+            )
+        });
+        log_health("mpu", a.0, &a.1);
+        log_health("mag", b.0, &b.1);
+        log_health("baro", c.0, &c.1);
+        let b = bias.lock(|b| *b);
+        defmt::info!("i2c recoveries: {=u32} | gyro bias: {}", n, b);
+    }
+    if tick.is_multiple_of(100) {
+        let (used, size) = stack::high_water();
+        defmt::info!("stack high-water {=usize} of {=usize} bytes", used, size);
+    }
+}
