@@ -6,7 +6,7 @@
 
 use crate::bus::{self, BusHandle};
 use crate::clocks::Source;
-use crate::config::{MagCal, ESC_PROTOCOL};
+use crate::config::{MagCal, ESC_PROTOCOL, MOUNTING};
 use crate::delay::{cpu_hz, AsmDelay};
 use crate::outputs::EscOutputs;
 #[cfg(feature = "ppm")]
@@ -164,10 +164,11 @@ pub fn probe_sensors() -> Sensors<BusHandle> {
 }
 
 /// Boot step: the calibration record from flash (defaults and the
-/// reason if blank or corrupt).
+/// reason if blank or corrupt), with the board's mounting from
+/// `config.rs`.
 #[inline(never)]
 pub fn load_calibration(flash: &mut flash::Parts) -> CalibrationRecord {
-    match storage::load(&mut FlashPage::new(flash)) {
+    let mut record = match storage::load(&mut FlashPage::new(flash)) {
         LoadOutcome::Loaded(r) => {
             defmt::info!("calibration loaded from flash (parts {=u16:#x})", r.valid.0);
             r
@@ -180,7 +181,9 @@ pub fn load_calibration(flash: &mut flash::Parts) -> CalibrationRecord {
             defmt::warn!("calibration: using defaults (flash read error)");
             r
         }
-    }
+    };
+    record.mounting = MOUNTING;
+    record
 }
 
 /// Boot step: the processing pipeline for the chips found.
@@ -208,7 +211,7 @@ pub fn build_pipeline(
 }
 
 /// Boot step: the start-up gyro bias (1 s still, up to 5 windows,
-/// measured one sample at a time in `imu`).
+/// measured one sample at a time in `sample_done`).
 #[inline(never)]
 pub fn start_gyro_bias(sensors: &Sensors<BusHandle>) -> Option<StartupGyroBias> {
     let scale = sensors.mpu_scale();

@@ -30,6 +30,7 @@
 //! the stick and arm channels.
 
 use control::esc::EscProtocol;
+use flight::Mounting;
 #[cfg(not(feature = "mag-ellipsoid"))]
 use flight::{arming::SafetyConfig, flightctl::FlightConfig};
 use rc_input::ChannelMap;
@@ -62,6 +63,27 @@ const _: () = assert!(
     MODE_CHANNEL != MOTOR_TEST_CHANNEL && MODE_CHANNEL < 16 && MOTOR_TEST_CHANNEL < 16,
     "the mode and motor-test switches need two distinct channels of the 16"
 );
+
+/// How the MPU-9250 breakout sits on the frame (MPU axes → body FRD).
+/// The default: face up, its x arrow forward. Another orientation is a
+/// signed axis permutation, checked when the firmware compiles (a
+/// left-handed or repeated-axis map does not build); for the board face
+/// up with its x arrow pointing right:
+///
+/// ```ignore
+/// pub const MOUNTING: Mounting = match Mounting::new([
+///     AxisMap { source: 1, negate: false }, // forward = y_mpu
+///     AxisMap { source: 0, negate: false }, // right = x_mpu
+///     AxisMap { source: 2, negate: true },  // down = −z_mpu
+/// ]) {
+///     Ok(m) => m,
+///     Err(_) => panic!("MOUNTING is not a rotation"),
+/// };
+/// ```
+///
+/// It replaces the mounting of the calibration record at every boot (the
+/// calibrations are in the sensor's own axes, so they stay valid).
+pub const MOUNTING: Mounting = Mounting::FACE_UP_X_FORWARD;
 
 /// ESC protocol of the four outputs (TIM3 CH1-4): standard PWM
 /// 1000-2000 µs at 400 Hz, or OneShot125 (125-250 µs at 2 kHz) with

@@ -42,44 +42,67 @@ pub enum MountingError {
 
 impl Default for Mounting {
     fn default() -> Self {
-        Self {
-            axes: [
-                AxisMap {
-                    source: 0,
-                    negate: false,
-                },
-                AxisMap {
-                    source: 1,
-                    negate: true,
-                },
-                AxisMap {
-                    source: 2,
-                    negate: true,
-                },
-            ],
-        }
+        Self::FACE_UP_X_FORWARD
     }
 }
 
 impl Mounting {
+    /// The breakout face up with its x arrow forward: body = (x_mpu, −y_mpu,
+    /// −z_mpu). The default.
+    pub const FACE_UP_X_FORWARD: Self = Self {
+        axes: [
+            AxisMap {
+                source: 0,
+                negate: false,
+            },
+            AxisMap {
+                source: 1,
+                negate: true,
+            },
+            AxisMap {
+                source: 2,
+                negate: true,
+            },
+        ],
+    };
+
     /// Builds a mounting from three axis maps, checking that it is a proper
-    /// rotation (a permutation with determinant +1).
-    pub fn new(axes: [AxisMap; 3]) -> Result<Self, MountingError> {
+    /// rotation (a permutation with determinant +1). A `const fn`, so a
+    /// board's mounting can be checked when the firmware is compiled:
+    ///
+    /// ```
+    /// use flight::mounting::{AxisMap, Mounting};
+    /// // Face up, x arrow pointing right: forward = y_mpu, right = x_mpu,
+    /// // down = −z_mpu.
+    /// const M: Mounting = match Mounting::new([
+    ///     AxisMap { source: 1, negate: false },
+    ///     AxisMap { source: 0, negate: false },
+    ///     AxisMap { source: 2, negate: true },
+    /// ]) {
+    ///     Ok(m) => m,
+    ///     Err(_) => panic!("not a rotation"),
+    /// };
+    /// assert_eq!(M.apply_i32([0, 1, 0]), [1, 0, 0]); // y_mpu is forward
+    /// ```
+    pub const fn new(axes: [AxisMap; 3]) -> Result<Self, MountingError> {
         let mut seen = [false; 3];
-        for a in &axes {
-            let slot = seen
-                .get_mut(usize::from(a.source))
-                .ok_or(MountingError::AxisOutOfRange)?;
-            if *slot {
+        let mut i = 0;
+        while i < 3 {
+            let src = axes[i].source as usize;
+            if src >= 3 {
+                return Err(MountingError::AxisOutOfRange);
+            }
+            if seen[src] {
                 return Err(MountingError::RepeatedAxis);
             }
-            *slot = true;
+            seen[src] = true;
+            i += 1;
         }
         // Parity of the permutation: even permutations are cyclic shifts.
         let [a0, a1, a2] = axes;
         let even = (a1.source == (a0.source + 1) % 3) && (a2.source == (a1.source + 1) % 3);
-        let negations = u8::from(a0.negate) + u8::from(a1.negate) + u8::from(a2.negate);
-        let det_positive = even == (negations % 2 == 0);
+        let negations = a0.negate as u8 + a1.negate as u8 + a2.negate as u8;
+        let det_positive = even == negations.is_multiple_of(2);
         if !det_positive {
             return Err(MountingError::LeftHanded);
         }
