@@ -34,7 +34,7 @@
 //!   stack high-water mark over defmt-RTT; the PA0 button and the
 //!   calibration session; saving a calibration; the watchdog is fed only
 //!   while the IMU loop makes progress (or the MPU is out of the loop).
-//! * `raw_log` (priority 1, spawned by `imu` in raw-log mode, 100 Hz): prints
+//! * `raw_log` (priority 1, spawned by `sample_done` in raw-log mode, 100 Hz): prints
 //!   one raw-log row in `RAW_LOG_HEADER`'s column order.
 //!
 //! What the board does on a bad bus, and what the log says:
@@ -86,7 +86,7 @@
 //!
 //! Flash: 62,776 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
-//! static RAM 4.6 KiB; the `ppm` build (PPM instead of CRSF): 61,864 B.
+//! static RAM 4.8 KiB; the `ppm` build (PPM instead of CRSF): 61,864 B.
 //! The interrupt-driven sample read costs 1,780 B of it, and `mem.rs`'s
 //! 50 B of `__aeabi_memcpy*`/`__aeabi_memclr*` save 1,560 B over
 //! `compiler_builtins`' own.
