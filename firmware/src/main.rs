@@ -84,7 +84,7 @@
 //! ESC protocol, the motor-test command and the magnetometer calibration
 //! of the build are in `config.rs`.
 //!
-//! Flash: 62,776 B of the 63 KiB budget with the flight controller
+//! Flash: 62,812 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
 //! static RAM 4.8 KiB; the `ppm` build (PPM instead of CRSF): 61,864 B.
 //! The interrupt-driven sample read costs 1,780 B of it, and `mem.rs`'s
