@@ -18,6 +18,8 @@
 //! "idle until the next event".
 
 pub mod board;
+pub mod calpage;
+pub mod crsf;
 pub mod dma;
 pub mod elf;
 pub mod exceptions;
@@ -27,6 +29,7 @@ pub mod gpio;
 pub mod i2c1;
 pub mod iwdg;
 pub mod rcc;
+pub mod rig;
 pub mod rtt;
 pub mod scs;
 pub mod tim;

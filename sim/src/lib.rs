@@ -49,6 +49,7 @@ pub mod ms5611;
 pub mod physics;
 pub mod quad;
 pub mod rng;
+pub mod scenario;
 pub mod spi;
 pub mod wire;
 pub mod world;

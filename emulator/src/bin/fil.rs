@@ -4,7 +4,9 @@
 
 use clap::Parser;
 use emulator::i2c1::PeripheralFault;
-use emulator::{Board, BoardConfig, BoardFault, RttMode};
+use emulator::rig::{FlightRig, RigOptions};
+use emulator::{calpage, Board, BoardConfig, BoardError, BoardFault, RttMode};
+use sim::scenario::Scenario;
 use sim::{Chip, Fault, Trajectory};
 use std::io::Write;
 use std::path::PathBuf;
@@ -24,9 +26,16 @@ struct Args {
     /// Seed of the simulated sensor noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Simulated seconds to run.
-    #[arg(short, long, default_value_t = 5.0)]
-    seconds: f64,
+    /// Simulated seconds to run (default 5, or the scenario's length).
+    #[arg(short, long)]
+    seconds: Option<f64>,
+    /// Fly a closed-loop scenario instead of a trajectory: the firmware
+    /// flies the quad model from a scripted pilot's CRSF frames (the
+    /// scenarios of `cargo sim --scenario`), datasheet sensor errors,
+    /// calibrated board.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(Scenario::NAMES),
+          conflicts_with = "trajectory")]
+    scenario: Option<String>,
     /// Fault at a simulated time, `TIME:KIND[:ARG]` (repeatable; see below).
     #[arg(short, long = "fault", value_name = "TIME:KIND[:ARG]")]
     faults: Vec<String>,
@@ -173,26 +182,54 @@ fn ensure_elf(path: &std::path::Path, explicit: bool) -> Result<(), String> {
     }
 }
 
-fn run(args: Args) -> Result<(), String> {
-    if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 3600.0) {
-        return Err("--seconds must be in (0, 3600]".into());
+/// What `cargo fil` runs: the board on a trajectory, or the board in the
+/// flight rig.
+enum Runner {
+    Board(Box<Board>),
+    Rig(Box<FlightRig>),
+}
+
+impl Runner {
+    fn board(&self) -> &Board {
+        match self {
+            Self::Board(b) => b,
+            Self::Rig(r) => r.board(),
+        }
+    }
+
+    fn board_mut(&mut self) -> &mut Board {
+        match self {
+            Self::Board(b) => b,
+            Self::Rig(r) => r.board_mut(),
+        }
+    }
+
+    fn run_until_ns(&mut self, t: u64) -> Result<(), BoardError> {
+        match self {
+            Self::Board(b) => b.run_until_ns(t),
+            Self::Rig(r) => r.run_until_s(t as f64 * 1e-9),
+        }
+    }
+}
+
+fn checked_args(args: &Args) -> Result<(), String> {
+    if let Some(s) = args.seconds {
+        if !(s.is_finite() && s > 0.0 && s <= 3600.0) {
+            return Err("--seconds must be in (0, 3600]".into());
+        }
     }
     if !(30_000..=60_000).contains(&args.lsi_hz) {
         return Err("--lsi-hz must be within the datasheet's 30000–60000 Hz".into());
     }
+    Ok(())
+}
+
+fn board_runner(args: &Args, elf: &std::path::Path) -> Result<Runner, String> {
     let trajectory = Trajectory::from_name(&args.trajectory).ok_or(format!(
         "unknown trajectory `{}` (one of {})",
         args.trajectory,
         Trajectory::NAMES.join(", ")
     ))?;
-    let mut faults = args
-        .faults
-        .iter()
-        .map(|f| parse_fault(f))
-        .collect::<Result<Vec<_>, _>>()?;
-    faults.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let elf = args.elf.clone().unwrap_or_else(emulator::release_elf_path);
-    ensure_elf(&elf, args.elf.is_some())?;
     let mut config = BoardConfig {
         lsi_hz: args.lsi_hz,
         ..BoardConfig::default()
@@ -202,15 +239,53 @@ fn run(args: Args) -> Result<(), String> {
     if let Some(m) = &args.rtt_mode {
         config.rtt_mode = RttMode::from_name(m);
     }
-    let mut board = Board::from_elf(&elf, config).map_err(|e| e.to_string())?;
+    let board = Board::from_elf(elf, config).map_err(|e| e.to_string())?;
+    Ok(Runner::Board(Box::new(board)))
+}
+
+fn rig_runner(scenario: Scenario, args: &Args, elf: &std::path::Path) -> Result<Runner, String> {
+    let fw = emulator::Firmware::load(elf).map_err(|e| e.to_string())?;
+    let mut opts = RigOptions::new(scenario, args.seed);
+    opts.lsi_hz = Some(args.lsi_hz);
+    let errors = sim::SensorErrors::datasheet(opts.board_seed);
+    opts.flash = Some(calpage::with_record(
+        fw.flash,
+        &calpage::record_for(&errors),
+    ));
+    let rig = FlightRig::new(elf, &opts).map_err(|e| e.to_string())?;
+    Ok(Runner::Rig(Box::new(rig)))
+}
+
+fn run(args: Args) -> Result<(), String> {
+    checked_args(&args)?;
+    let scenario = match &args.scenario {
+        Some(n) => Some(Scenario::from_name(n).ok_or(format!("unknown scenario `{n}`"))?),
+        None => None,
+    };
+    let seconds = args
+        .seconds
+        .unwrap_or(scenario.map_or(5.0, |s| s.duration_s()));
+    let mut faults = args
+        .faults
+        .iter()
+        .map(|f| parse_fault(f))
+        .collect::<Result<Vec<_>, _>>()?;
+    faults.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let elf = args.elf.clone().unwrap_or_else(emulator::release_elf_path);
+    ensure_elf(&elf, args.elf.is_some())?;
+    let mut runner = match scenario {
+        Some(s) => rig_runner(s, &args, &elf)?,
+        None => board_runner(&args, &elf)?,
+    };
     let out = std::io::stdout();
     let mut out = out.lock();
-    let end_ns = (args.seconds * 1e9) as u64;
+    let end_ns = (seconds * 1e9) as u64;
     let (mut shown_lines, mut shown_events) = (0, 0);
     let mut pending = faults.into_iter().peekable();
     let mut t = 0;
     let result = loop {
         while let Some((_, a)) = pending.next_if(|(ft, _)| (*ft * 1e9) as u64 <= t) {
+            let board = runner.board_mut();
             match a {
                 Action::Sim(f) => board.sim().inject(f),
                 Action::Board(f) => board.apply(f),
@@ -219,7 +294,8 @@ fn run(args: Args) -> Result<(), String> {
         }
         let next_fault = pending.peek().map_or(end_ns, |(ft, _)| (*ft * 1e9) as u64);
         t = (t + 10_000_000).min(end_ns).min(next_fault.max(t + 1));
-        let r = board.run_until_ns(t);
+        let r = runner.run_until_ns(t);
+        let board = runner.board();
         let mut text = String::new();
         for l in &board.log_lines()[shown_lines..] {
             text.push_str(&format!("[{:>11.6}] {l}\n", l.host_time_ns as f64 * 1e-9));
@@ -251,7 +327,42 @@ fn run(args: Args) -> Result<(), String> {
             break Ok(());
         }
     };
+    if let (Ok(()), Runner::Rig(rig)) = (&result, &runner) {
+        print_flight_summary(&mut out, rig);
+    }
     result
+}
+
+/// The truth at the end of a rig flight, for people.
+fn print_flight_summary(out: &mut impl Write, rig: &FlightRig) {
+    let Some(last) = rig.samples().last() else {
+        return;
+    };
+    let max_h = rig
+        .samples()
+        .iter()
+        .map(|s| s.truth.height_m)
+        .fold(0.0, f64::max);
+    let p = last.truth.position_ned_m;
+    let pulses: Vec<String> = last
+        .pulse_us
+        .iter()
+        .map(|u| u.map_or("-".into(), |us| format!("{us:.0}")))
+        .collect();
+    let _ =
+        writeln!(
+        out,
+        "[emulator] flight: {} CRSF frames sent; end at {:.2} s: height {:.2} m (max {:.2} m), \
+         {:.2} m N {:.2} m E of take-off, {} ; pulses [{}] us",
+        rig.frames_sent(),
+        last.t_s,
+        last.truth.height_m,
+        max_h,
+        p[0],
+        p[1],
+        if last.quad.on_ground { "on the ground" } else { "in the air" },
+        pulses.join(", ")
+    );
 }
 
 fn main() -> ExitCode {

@@ -11,26 +11,15 @@
 
 use super::radio::Radio;
 use super::stack::{self, Stack};
-use control::shaping::Sticks;
 pub use flight::flightctl::FlightMode as Mode;
 use flight::flightctl::{PilotInput, VehicleState};
 use flight::storage::CalibrationRecord;
 use sim::quad::QuadState;
+pub use sim::scenario::*;
 use sim::{
     Environment, QuadLink, QuadParams, Quadcopter, Quat, SensorErrors, SimBus, SimClock, SimConfig,
     TruthSample,
 };
-
-/// What the pilot's radio delivers in one frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Pilot {
-    /// Sticks, normalised.
-    pub sticks: Sticks,
-    /// Arm switch.
-    pub arm: bool,
-    /// Mode switch.
-    pub mode: Mode,
-}
 
 /// What the flight controller is given at each IMU sample.
 #[derive(Clone, Copy, Debug)]
@@ -75,152 +64,6 @@ pub trait FlightControl {
     /// reason, failsafe phases, disarm causes), as log lines.
     fn drain_events(&mut self) -> Vec<String> {
         Vec::new()
-    }
-}
-
-/// The scripted flights.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Scenario {
-    /// Arm, climb in altitude hold to about 2 m, hover.
-    Takeoff,
-    /// After the take-off: roll, pitch and yaw stick steps in angle mode.
-    Steps,
-    /// After the take-off: a 2 m/s climb, then forward flight at 20°, in altitude hold.
-    AltHold,
-    /// After the take-off: the radio link is lost and stays lost.
-    LinkLoss,
-    /// After the take-off: motor 1 (rear right) stops for good, as a
-    /// burnt ESC or a lost propeller would.
-    MotorFailure,
-}
-
-/// Time the arm switch is flipped (s): after boot and the start-up gyro bias.
-pub const ARM_AT_S: f64 = 2.5;
-/// Take-off: climb stick from here...
-pub const CLIMB_FROM_S: f64 = 3.0;
-/// ...to here (then centred: hold).
-pub const CLIMB_TO_S: f64 = 6.0;
-/// Throttle stick during the take-off climb (altitude hold: 3/4 of the
-/// largest climb rate above the centre band).
-pub const CLIMB_STICK: f32 = 0.9;
-/// Stick steps: roll stick at 0.5 from here for [`STEP_HOLD_S`].
-pub const ROLL_STEP_S: f64 = 10.0;
-/// Pitch stick step start (s).
-pub const PITCH_STEP_S: f64 = 14.0;
-/// Yaw stick step start (s).
-pub const YAW_STEP_S: f64 = 18.0;
-/// How long each stick step is held (s).
-pub const STEP_HOLD_S: f64 = 2.0;
-/// Stick deflection of the steps.
-pub const STEP_STICK: f32 = 0.5;
-/// Altitude hold: full-up throttle from here for [`CLIMB2_HOLD_S`].
-pub const CLIMB2_S: f64 = 10.0;
-/// Length of the second climb (s).
-pub const CLIMB2_HOLD_S: f64 = 2.0;
-/// Altitude hold: forward stick from here for [`FORWARD_HOLD_S`].
-pub const FORWARD_S: f64 = 18.0;
-/// Length of the forward flight (s).
-pub const FORWARD_HOLD_S: f64 = 3.0;
-/// Forward stick (pitch) during the forward flight: 2/3 of 30° = 20°.
-pub const FORWARD_STICK: f32 = 0.667;
-/// The radio link is lost from here on (s).
-pub const LINK_LOSS_S: f64 = 10.0;
-/// Motor 1 (index 0) stops from here on (s).
-pub const MOTOR_FAILURE_S: f64 = 10.0;
-
-impl Scenario {
-    /// Names for the command line.
-    pub const NAMES: [&'static str; 5] = ["takeoff", "steps", "althold", "linkloss", "motorfail"];
-
-    /// By name.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Some(match name {
-            "takeoff" => Self::Takeoff,
-            "steps" => Self::Steps,
-            "althold" => Self::AltHold,
-            "linkloss" => Self::LinkLoss,
-            "motorfail" => Self::MotorFailure,
-            _ => return None,
-        })
-    }
-
-    /// Short name.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Self::Takeoff => "takeoff",
-            Self::Steps => "steps",
-            Self::AltHold => "althold",
-            Self::LinkLoss => "linkloss",
-            Self::MotorFailure => "motorfail",
-        }
-    }
-
-    /// Length of the scenario (s).
-    pub fn duration_s(&self) -> f64 {
-        match self {
-            Self::Takeoff => 20.0,
-            Self::Steps => 22.0,
-            Self::AltHold => 26.0,
-            Self::LinkLoss => 30.0,
-            Self::MotorFailure => 16.0,
-        }
-    }
-
-    /// Whether motor index `i` has failed at `t_s` (it then gets no power
-    /// whatever it is commanded).
-    pub fn motor_failed(&self, i: usize, t_s: f64) -> bool {
-        *self == Self::MotorFailure && i == 0 && t_s >= MOTOR_FAILURE_S
-    }
-
-    /// The radio frame at `t_s` (`None`: link lost).
-    pub fn pilot(&self, t_s: f64) -> Option<Pilot> {
-        if *self == Self::LinkLoss && t_s >= LINK_LOSS_S {
-            return None;
-        }
-        let mut sticks = Sticks {
-            roll: 0.0,
-            pitch: 0.0,
-            yaw: 0.0,
-            throttle: 0.5,
-        };
-        if t_s < CLIMB_FROM_S {
-            // Arming wants the throttle low; it is centred (hold) only once airborne is asked for.
-            sticks.throttle = 0.0;
-        } else if t_s < CLIMB_TO_S {
-            sticks.throttle = CLIMB_STICK;
-        }
-        let within = |t0: f64, len: f64| t_s >= t0 && t_s < t0 + len;
-        let mut mode = Mode::AltitudeHold;
-        match self {
-            Self::Steps => {
-                if within(ROLL_STEP_S, STEP_HOLD_S) {
-                    sticks.roll = STEP_STICK;
-                }
-                if within(PITCH_STEP_S, STEP_HOLD_S) {
-                    sticks.pitch = STEP_STICK;
-                }
-                if within(YAW_STEP_S, STEP_HOLD_S) {
-                    sticks.yaw = STEP_STICK;
-                }
-            }
-            Self::AltHold => {
-                if within(CLIMB2_S, CLIMB2_HOLD_S) {
-                    sticks.throttle = 1.0;
-                }
-                if within(FORWARD_S, FORWARD_HOLD_S) {
-                    sticks.pitch = FORWARD_STICK;
-                }
-            }
-            Self::Takeoff | Self::LinkLoss | Self::MotorFailure => {}
-        }
-        if t_s < ARM_AT_S {
-            mode = Mode::Angle;
-        }
-        Some(Pilot {
-            sticks,
-            arm: t_s >= ARM_AT_S,
-            mode,
-        })
     }
 }
 

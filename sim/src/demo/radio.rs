@@ -8,13 +8,13 @@
 //!
 //! Channel 6 selects the mode: low angle, middle altitude hold, high acro.
 
-use super::closed_loop::{Mode, Pilot};
+use super::closed_loop::Mode;
 use flight::flightctl::PilotInput;
 use rc_input::crsf::{encode_rc_channels, us_to_ticks, ADDRESS_FLIGHT_CONTROLLER, TICKS_MID};
 use rc_input::{ChannelMap, CrsfParser, Event, LinkMonitor, SwitchPosition, MAX_CHANNELS};
+use sim::scenario::Pilot;
 
-/// Frame period of the simulated transmitter (s): 250 Hz.
-pub const FRAME_PERIOD_S: f64 = 0.004;
+pub use sim::scenario::FRAME_PERIOD_S;
 /// Channel index (0-based) of the mode switch: channel 6.
 const MODE_CHANNEL: u8 = 5;
 
@@ -41,11 +41,6 @@ impl Default for Radio {
     }
 }
 
-fn us(x: f32) -> u16 {
-    // Sticks −1..1 (throttle 0..1 mapped by the caller) → 1000..2000 µs.
-    (1500.0 + 500.0 * x.clamp(-1.0, 1.0)).round() as u16
-}
-
 impl Radio {
     /// Frames the parser accepted so far.
     pub fn frames(&self) -> u32 {
@@ -60,19 +55,7 @@ impl Radio {
             self.next_frame_s += FRAME_PERIOD_S;
             let Some(p) = script else { continue };
             let mut ticks = [TICKS_MID; MAX_CHANNELS];
-            let s = p.sticks;
-            let channels = [
-                us(s.roll),
-                us(s.pitch),
-                us(2.0 * s.throttle - 1.0),
-                us(s.yaw),
-                if p.arm { 2000 } else { 1000 },
-                match p.mode {
-                    Mode::Angle => 1000,
-                    Mode::AltitudeHold => 1500,
-                    Mode::Acro => 2000,
-                },
-            ];
+            let channels = p.channels_us();
             for (t, c) in ticks.iter_mut().zip(channels) {
                 *t = us_to_ticks(c);
             }

@@ -1,0 +1,264 @@
+//! The scripted pilots of the closed-loop scenarios: what the pilot's
+//! transmitter sends at each instant (sticks, arm switch, mode switch, or
+//! nothing while the link is lost) and which motor fails when. One
+//! implementation for both rigs: the host simulator's `cargo sim
+//! --scenario` (the `flight` crate's host build) and the emulated board's
+//! flight in the loop (the real firmware ELF, `emulator::rig`).
+//!
+//! The pilot speaks in channels, as a transmitter does
+//! ([`Pilot::channels_us`]): AETR on channels 1–4, the arm switch on
+//! channel 5 (high = armed), the mode switch on channel 6 (low angle,
+//! middle altitude hold, high acro) — the firmware's default channel map.
+
+/// Sticks as the pilot holds them: roll, pitch, yaw −1..1 (+1 = right,
+/// forward, right), throttle 0..1.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sticks {
+    /// Roll stick, −1 (left) .. 1 (right).
+    pub roll: f32,
+    /// Pitch stick, −1 (back) .. 1 (forward, nose down).
+    pub pitch: f32,
+    /// Yaw stick, −1 (left) .. 1 (right).
+    pub yaw: f32,
+    /// Throttle stick, 0 (low) .. 1 (high).
+    pub throttle: f32,
+}
+
+/// The mode switch's three positions (channel 6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Low: angle (self-level).
+    Angle,
+    /// Middle: altitude hold.
+    AltitudeHold,
+    /// High: acro (rates).
+    Acro,
+}
+
+/// What the pilot's radio delivers in one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pilot {
+    /// Sticks, normalised.
+    pub sticks: Sticks,
+    /// Arm switch.
+    pub arm: bool,
+    /// Mode switch.
+    pub mode: Mode,
+}
+
+/// Frame period of the scripted transmitter (s): 250 Hz, ExpressLRS'
+/// common CRSF rate.
+pub const FRAME_PERIOD_S: f64 = 0.004;
+
+/// Pulse width (µs) of a stick at `x` in −1..1: 1000..2000 µs.
+fn stick_us(x: f32) -> u16 {
+    (1500.0 + 500.0 * x.clamp(-1.0, 1.0)).round() as u16
+}
+
+impl Pilot {
+    /// Channels 1–6 as pulse widths (µs, 1000..2000): roll, pitch,
+    /// throttle, yaw, arm switch (2000 = armed), mode switch (1000 angle,
+    /// 1500 altitude hold, 2000 acro).
+    pub fn channels_us(&self) -> [u16; 6] {
+        let s = self.sticks;
+        [
+            stick_us(s.roll),
+            stick_us(s.pitch),
+            stick_us(2.0 * s.throttle - 1.0),
+            stick_us(s.yaw),
+            if self.arm { 2000 } else { 1000 },
+            match self.mode {
+                Mode::Angle => 1000,
+                Mode::AltitudeHold => 1500,
+                Mode::Acro => 2000,
+            },
+        ]
+    }
+}
+
+/// The scripted flights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scenario {
+    /// Arm, climb in altitude hold to about 2 m, hover.
+    Takeoff,
+    /// After the take-off: roll, pitch and yaw stick steps in angle mode.
+    Steps,
+    /// After the take-off: a 2 m/s climb, then forward flight at 20°, in altitude hold.
+    AltHold,
+    /// After the take-off: the radio link is lost and stays lost.
+    LinkLoss,
+    /// After the take-off: motor 1 (rear right) stops for good, as a
+    /// burnt ESC or a lost propeller would.
+    MotorFailure,
+}
+
+/// Time the arm switch is flipped (s): after boot and the start-up gyro bias.
+pub const ARM_AT_S: f64 = 2.5;
+/// Take-off: climb stick from here...
+pub const CLIMB_FROM_S: f64 = 3.0;
+/// ...to here (then centred: hold).
+pub const CLIMB_TO_S: f64 = 6.0;
+/// Throttle stick during the take-off climb (altitude hold: 3/4 of the
+/// largest climb rate above the centre band).
+pub const CLIMB_STICK: f32 = 0.9;
+/// Stick steps: roll stick at 0.5 from here for [`STEP_HOLD_S`].
+pub const ROLL_STEP_S: f64 = 10.0;
+/// Pitch stick step start (s).
+pub const PITCH_STEP_S: f64 = 14.0;
+/// Yaw stick step start (s).
+pub const YAW_STEP_S: f64 = 18.0;
+/// How long each stick step is held (s).
+pub const STEP_HOLD_S: f64 = 2.0;
+/// Stick deflection of the steps.
+pub const STEP_STICK: f32 = 0.5;
+/// Altitude hold: full-up throttle from here for [`CLIMB2_HOLD_S`].
+pub const CLIMB2_S: f64 = 10.0;
+/// Length of the second climb (s).
+pub const CLIMB2_HOLD_S: f64 = 2.0;
+/// Altitude hold: forward stick from here for [`FORWARD_HOLD_S`].
+pub const FORWARD_S: f64 = 18.0;
+/// Length of the forward flight (s).
+pub const FORWARD_HOLD_S: f64 = 3.0;
+/// Forward stick (pitch) during the forward flight: 2/3 of 30° = 20°.
+pub const FORWARD_STICK: f32 = 0.667;
+/// The radio link is lost from here on (s).
+pub const LINK_LOSS_S: f64 = 10.0;
+/// Motor 1 (index 0) stops from here on (s).
+pub const MOTOR_FAILURE_S: f64 = 10.0;
+
+impl Scenario {
+    /// Names for the command line.
+    pub const NAMES: [&'static str; 5] = ["takeoff", "steps", "althold", "linkloss", "motorfail"];
+
+    /// By name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Some(match name {
+            "takeoff" => Self::Takeoff,
+            "steps" => Self::Steps,
+            "althold" => Self::AltHold,
+            "linkloss" => Self::LinkLoss,
+            "motorfail" => Self::MotorFailure,
+            _ => return None,
+        })
+    }
+
+    /// Short name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Takeoff => "takeoff",
+            Self::Steps => "steps",
+            Self::AltHold => "althold",
+            Self::LinkLoss => "linkloss",
+            Self::MotorFailure => "motorfail",
+        }
+    }
+
+    /// Length of the scenario (s).
+    pub fn duration_s(&self) -> f64 {
+        match self {
+            Self::Takeoff => 20.0,
+            Self::Steps => 22.0,
+            Self::AltHold => 26.0,
+            Self::LinkLoss => 30.0,
+            Self::MotorFailure => 16.0,
+        }
+    }
+
+    /// Whether motor index `i` has failed at `t_s` (it then gets no power
+    /// whatever it is commanded).
+    pub fn motor_failed(&self, i: usize, t_s: f64) -> bool {
+        *self == Self::MotorFailure && i == 0 && t_s >= MOTOR_FAILURE_S
+    }
+
+    /// The radio frame at `t_s` (`None`: link lost).
+    pub fn pilot(&self, t_s: f64) -> Option<Pilot> {
+        if *self == Self::LinkLoss && t_s >= LINK_LOSS_S {
+            return None;
+        }
+        let mut sticks = Sticks {
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: 0.0,
+            throttle: 0.5,
+        };
+        if t_s < CLIMB_FROM_S {
+            // Arming wants the throttle low; it is centred (hold) only once airborne is asked for.
+            sticks.throttle = 0.0;
+        } else if t_s < CLIMB_TO_S {
+            sticks.throttle = CLIMB_STICK;
+        }
+        let within = |t0: f64, len: f64| t_s >= t0 && t_s < t0 + len;
+        let mut mode = Mode::AltitudeHold;
+        match self {
+            Self::Steps => {
+                if within(ROLL_STEP_S, STEP_HOLD_S) {
+                    sticks.roll = STEP_STICK;
+                }
+                if within(PITCH_STEP_S, STEP_HOLD_S) {
+                    sticks.pitch = STEP_STICK;
+                }
+                if within(YAW_STEP_S, STEP_HOLD_S) {
+                    sticks.yaw = STEP_STICK;
+                }
+            }
+            Self::AltHold => {
+                if within(CLIMB2_S, CLIMB2_HOLD_S) {
+                    sticks.throttle = 1.0;
+                }
+                if within(FORWARD_S, FORWARD_HOLD_S) {
+                    sticks.pitch = FORWARD_STICK;
+                }
+            }
+            Self::Takeoff | Self::LinkLoss | Self::MotorFailure => {}
+        }
+        if t_s < ARM_AT_S {
+            mode = Mode::Angle;
+        }
+        Some(Pilot {
+            sticks,
+            arm: t_s >= ARM_AT_S,
+            mode,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_scenario_arms_after_the_start_up_and_names_round_trip() {
+        for name in Scenario::NAMES {
+            let s = Scenario::from_name(name).unwrap_or(Scenario::Takeoff);
+            assert_eq!(s.name(), name);
+            let before = s.pilot(ARM_AT_S - 0.01).map(|p| p.arm);
+            let after = s.pilot(ARM_AT_S).map(|p| p.arm);
+            assert_eq!((before, after), (Some(false), Some(true)), "{name}");
+            // Arming wants the throttle low.
+            assert_eq!(s.pilot(ARM_AT_S).map(|p| p.sticks.throttle), Some(0.0));
+        }
+    }
+
+    #[test]
+    fn channels_follow_the_default_map() {
+        let p = Pilot {
+            sticks: Sticks {
+                roll: 1.0,
+                pitch: -1.0,
+                yaw: 0.5,
+                throttle: 0.0,
+            },
+            arm: true,
+            mode: Mode::AltitudeHold,
+        };
+        assert_eq!(p.channels_us(), [2000, 1000, 1000, 1750, 2000, 1500]);
+    }
+
+    #[test]
+    fn the_link_loss_script_sends_nothing_after_the_loss() {
+        assert!(Scenario::LinkLoss.pilot(LINK_LOSS_S - 0.001).is_some());
+        assert!(Scenario::LinkLoss.pilot(LINK_LOSS_S).is_none());
+        assert!(Scenario::MotorFailure.motor_failed(0, MOTOR_FAILURE_S));
+        assert!(!Scenario::MotorFailure.motor_failed(1, MOTOR_FAILURE_S));
+    }
+}
