@@ -123,3 +123,259 @@ fn link_loss_in_flight_holds_descends_lands_and_turns_the_pins_off() {
     // Off for good once disarmed.
     assert!(after.iter().filter(|s| since(s) > off).all(pins_off));
 }
+
+// ---- Faults in the air -------------------------------------------------
+//
+// Each flies the take-off script (armed at 2.5 s, climbing to 6 s, then
+// holding its height in altitude hold), injects a fault at FAULT_AT_S in
+// the hover and judges what the motors and the craft then did, on the
+// model's truth and on the ESC pins.
+
+/// When the faults strike: hovering, 2 s after the climb.
+const FAULT_AT_S: f64 = 8.0;
+
+/// First time at or after `t0` when all four pins carry the off pulse.
+fn pins_off_at(r: &FlightRig, t0: f64) -> Option<f64> {
+    r.samples()
+        .iter()
+        .find(|s| s.t_s >= t0 && pins_off(s))
+        .map(|s| s.t_s)
+}
+
+/// A rig hovering at FAULT_AT_S.
+fn hovering(seed: u64) -> Option<FlightRig> {
+    let mut r = rig(Scenario::Takeoff, seed)?;
+    fly_until(&mut r, FAULT_AT_S);
+    let h = r.samples().last().unwrap().truth.height_m;
+    assert!(
+        h > 1.0,
+        "not hovering before the fault: {h} m\n{}",
+        tail(r.board(), 40)
+    );
+    Some(r)
+}
+
+fn mpu_address() -> u8 {
+    0x68
+}
+
+/// The sensor board loses power in the hover: no data-ready, every
+/// transfer to the MPU-9250 unanswered. The ESCs must not keep the last
+/// throttle: all four pins at the off pulse within 0.1 s, and the log
+/// says why.
+#[test]
+#[ignore = "known defect (issue 25 item 1): the outputs are written only when a sample completes"]
+fn imu_power_lost_in_the_hover_turns_the_motors_off() {
+    let Some(mut r) = hovering(1) else { return };
+    r.board_mut().apply(emulator::BoardFault::ImuIntStops);
+    r.board_mut().sim().inject(sim::Fault::Nack {
+        address: mpu_address(),
+        transactions: None,
+    });
+    fly_until(&mut r, FAULT_AT_S + 1.0);
+    let off = pins_off_at(&r, FAULT_AT_S).map(|t| t - FAULT_AT_S);
+    println!("fil imu lost: pins off after {off:?} s");
+    assert!(
+        off.is_some_and(|d| d <= 0.1),
+        "pins off after {off:?} s\n{}",
+        tail(r.board(), 30)
+    );
+}
+
+/// I2C noise in the hover: 30 ms of NACKs from the MPU-9250 (about 30
+/// failed samples). The craft must keep flying: no disarm, no chip reset,
+/// the height kept within 0.3 m.
+#[test]
+#[ignore = "known defect (issue 25 item 2): a short read outage resets the MPU and disarms"]
+fn a_30_ms_nack_burst_in_the_hover_is_bridged() {
+    let Some(mut r) = hovering(1) else { return };
+    let h0 = r.samples().last().unwrap().truth.height_m;
+    r.board_mut().sim().inject(sim::Fault::Nack {
+        address: mpu_address(),
+        transactions: Some(30),
+    });
+    fly_until(&mut r, FAULT_AT_S + 3.0);
+    let after = window(&r, FAULT_AT_S, FAULT_AT_S + 3.0);
+    let off = after.iter().any(pins_off);
+    let dh = after
+        .iter()
+        .map(|s| (s.truth.height_m - h0).abs())
+        .fold(0.0, f64::max);
+    println!("fil nack burst: motors off {off}, height deviation {dh:.2} m");
+    assert!(!off, "the motors stopped\n{}", tail(r.board(), 40));
+    assert!(dh < 0.3, "height deviation {dh} m");
+}
+
+/// The MPU-9250 resets itself in the hover (a brown-out on the sensor
+/// board): its registers are back at their defaults. The craft must keep
+/// flying: no disarm, the height kept within 0.5 m.
+#[test]
+#[ignore = "known defect (issue 25 item 2): the re-initialisation holds the sensors and the controller disarms"]
+fn an_mpu_reset_in_the_hover_is_flown_through() {
+    let Some(mut r) = hovering(1) else { return };
+    let h0 = r.samples().last().unwrap().truth.height_m;
+    r.board_mut()
+        .sim()
+        .inject(sim::Fault::ChipReset(sim::Chip::Mpu9250));
+    fly_until(&mut r, FAULT_AT_S + 3.0);
+    let after = window(&r, FAULT_AT_S, FAULT_AT_S + 3.0);
+    let off = after.iter().any(pins_off);
+    let dh = after
+        .iter()
+        .map(|s| (s.truth.height_m - h0).abs())
+        .fold(0.0, f64::max);
+    println!("fil mpu reset: motors off {off}, height deviation {dh:.2} m");
+    assert!(!off, "the motors stopped\n{}", tail(r.board(), 40));
+    assert!(dh < 0.5, "height deviation {dh} m");
+}
+
+/// The barometer stops answering in altitude hold: the controller falls
+/// back to angle mode with manual throttle (centred stick); it must not
+/// disarm, flip or tilt.
+#[test]
+fn the_barometer_lost_in_altitude_hold_keeps_the_craft_level_and_armed() {
+    let Some(mut r) = hovering(2) else { return };
+    r.board_mut().sim().inject(sim::Fault::Nack {
+        address: 0x77,
+        transactions: None,
+    });
+    fly_until(&mut r, FAULT_AT_S + 2.0);
+    let after = window(&r, FAULT_AT_S, FAULT_AT_S + 2.0);
+    let max_tilt = after.iter().map(tilt_deg).fold(0.0, f64::max);
+    println!("fil baro lost: max tilt {max_tilt:.1}°");
+    assert!(
+        !after.iter().any(pins_off),
+        "disarmed\n{}",
+        tail(r.board(), 40)
+    );
+    assert!(max_tilt < 10.0, "tilt {max_tilt}°");
+}
+
+/// A magnet rides past the sensor in the hover (60 µT peak over 2 s):
+/// attitude holds (heading may suffer; tilt must not).
+#[test]
+fn a_passing_magnet_does_not_tilt_the_craft() {
+    let Some(mut r) = hovering(3) else { return };
+    r.board_mut()
+        .sim()
+        .inject(sim::magnet_pass([40.0, -30.0, 30.0], FAULT_AT_S + 1.0, 1.0));
+    fly_until(&mut r, FAULT_AT_S + 2.5);
+    let after = window(&r, FAULT_AT_S, FAULT_AT_S + 2.5);
+    let max_tilt = after.iter().map(tilt_deg).fold(0.0, f64::max);
+    println!("fil magnet: max tilt {max_tilt:.1}°");
+    assert!(!after.iter().any(pins_off));
+    assert!(max_tilt < 10.0, "tilt {max_tilt}°");
+}
+
+/// A watchdog reset at 1.7 m (a firmware hang): the board reboots with
+/// the outputs at the off pulse and does not re-arm with the arm switch
+/// still on (a switch on at power-up never arms): the craft falls. That is
+/// the defined behaviour; the test pins it down.
+#[test]
+fn a_watchdog_reset_in_the_air_reboots_disarmed() {
+    let Some(mut r) = hovering(1) else { return };
+    r.board_mut()
+        .reset(emulator::ResetCause::Watchdog)
+        .expect("reset");
+    fly_until(&mut r, FAULT_AT_S + 3.0);
+    let off = pins_off_at(&r, FAULT_AT_S).map(|t| t - FAULT_AT_S);
+    println!("fil watchdog reset: off pulse after {off:?} s");
+    assert!(off.is_some_and(|d| d < 0.05), "off pulse after {off:?} s");
+    let later = window(&r, FAULT_AT_S + 0.05, FAULT_AT_S + 3.0);
+    assert!(later
+        .iter()
+        .all(|s| s.pulse_us.iter().all(|p| p.is_none_or(|us| us < 1005.0))));
+    assert!(r.samples().last().unwrap().quad.on_ground);
+}
+
+/// The clock corners: the LSI at both ends of its datasheet range (the
+/// watchdog's clock: 30 kHz makes it bite later, 60 kHz earlier) and the
+/// HSI fallback without a crystal (64 MHz): the take-off and hover as
+/// usual, without a reset.
+#[test]
+fn the_clock_corners_take_off_and_hover() {
+    let Some(path) = elf() else { return };
+    let fw = Firmware::load(&path).expect("ELF");
+    for (lsi_hz, hse) in [(30_000, true), (60_000, true), (40_000, false)] {
+        let mut opts = RigOptions::new(Scenario::Takeoff, 4);
+        opts.lsi_hz = Some(lsi_hz);
+        opts.hse_works = hse;
+        let errors = sim::SensorErrors::datasheet(opts.board_seed);
+        opts.flash = Some(calpage::with_record(
+            fw.flash.clone(),
+            &calpage::record_for(&errors),
+        ));
+        let mut r = FlightRig::new(&path, &opts).expect("rig");
+        fly_until(&mut r, 12.0);
+        let (mean, rms) = height_stats(&window(&r, 9.0, 12.0));
+        println!("fil clocks lsi {lsi_hz} Hz hse {hse}: hover {mean:.2} m, RMS {rms:.3} m");
+        assert!(
+            mean > 1.0 && rms < 0.15,
+            "lsi {lsi_hz} hse {hse}: {mean} m, {rms} m\n{}",
+            tail(r.board(), 30)
+        );
+        assert_no_reset(r.board());
+        if !hse {
+            assert_logged(r.board(), "64 MHz");
+        }
+    }
+}
+
+/// Angle-mode stick steps: half roll stick is 15° of roll, half pitch
+/// stick 15° nose down; the craft follows and comes back level.
+#[test]
+fn stick_steps_tilt_the_craft_and_it_levels_again() {
+    use sim::scenario::{PITCH_STEP_S, ROLL_STEP_S, STEP_HOLD_S};
+    let Some(mut r) = rig(Scenario::Steps, 1) else {
+        return;
+    };
+    fly_until(&mut r, PITCH_STEP_S + STEP_HOLD_S + 1.5);
+    let euler = |s: &RigSample| {
+        let q = s.truth.q_ned_from_body;
+        let right = q.rotate([0.0, 1.0, 0.0]);
+        let fwd = q.rotate([1.0, 0.0, 0.0]);
+        (right[2].asin().to_degrees(), -fwd[2].asin().to_degrees())
+    };
+    let roll_end = window(
+        &r,
+        ROLL_STEP_S + STEP_HOLD_S - 0.5,
+        ROLL_STEP_S + STEP_HOLD_S,
+    );
+    let roll = roll_end.iter().map(|s| euler(s).0).sum::<f64>() / roll_end.len() as f64;
+    let pitch_end = window(
+        &r,
+        PITCH_STEP_S + STEP_HOLD_S - 0.5,
+        PITCH_STEP_S + STEP_HOLD_S,
+    );
+    let pitch = pitch_end.iter().map(|s| euler(s).1).sum::<f64>() / pitch_end.len() as f64;
+    let level = window(
+        &r,
+        PITCH_STEP_S + STEP_HOLD_S + 1.0,
+        PITCH_STEP_S + STEP_HOLD_S + 1.5,
+    );
+    let tilt_after = level.iter().map(tilt_deg).fold(0.0, f64::max);
+    println!("fil steps seed 1: roll {roll:.1}°, pitch {pitch:.1}° at the ends of the holds; tilt 1 s after {tilt_after:.1}°");
+    assert!((roll - 15.0).abs() < 4.0, "roll {roll}°");
+    assert!((pitch + 15.0).abs() < 4.0, "pitch {pitch}°");
+    assert!(tilt_after < 6.0, "tilt {tilt_after}°");
+}
+
+/// A motor stops in the hover: three motors cannot hold a quad-X, the
+/// crash detector disarms (pins at the off pulse) within 2 s, and the
+/// craft ends on the ground.
+#[test]
+fn a_dead_motor_ends_in_a_disarm() {
+    use sim::scenario::MOTOR_FAILURE_S;
+    let Some(mut r) = rig(Scenario::MotorFailure, 1) else {
+        return;
+    };
+    fly_until(&mut r, Scenario::MotorFailure.duration_s());
+    let off = pins_off_at(&r, MOTOR_FAILURE_S).map(|t| t - MOTOR_FAILURE_S);
+    println!("fil motorfail seed 1: pins off after {off:?} s");
+    assert!(
+        off.is_some_and(|d| d < 2.0),
+        "pins off after {off:?} s\n{}",
+        tail(r.board(), 30)
+    );
+    assert!(r.samples().last().unwrap().quad.on_ground);
+}
