@@ -4,7 +4,7 @@
 
 use clap::Parser;
 use emulator::i2c1::PeripheralFault;
-use emulator::{Board, BoardConfig, BoardFault, RttMode};
+use emulator::{Board, BoardConfig, BoardFault, CycleModel, RttMode};
 use sim::{Chip, Fault, Trajectory};
 use std::io::Write;
 use std::path::PathBuf;
@@ -39,6 +39,14 @@ struct Args {
     /// Print the board's own events (resets, faults) between log lines.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     events: bool,
+    /// Cycle model: `typical`, or `pessimistic` (every cost at the top of
+    /// its range).
+    #[arg(long, default_value = "typical", value_parser = ["typical", "pessimistic"])]
+    cycle_model: String,
+    /// At the end, print instructions, CPU cycles and their ratio (CPI)
+    /// on stderr.
+    #[arg(long)]
+    cpi: bool,
 }
 
 const FAULT_HELP: &str = "Fault kinds (TIME in simulated seconds):
@@ -197,6 +205,9 @@ fn run(args: Args) -> Result<(), String> {
         lsi_hz: args.lsi_hz,
         ..BoardConfig::default()
     };
+    if args.cycle_model == "pessimistic" {
+        config.cycle_model = CycleModel::Pessimistic;
+    }
     config.sim.trajectory = trajectory;
     config.sim.seed = args.seed;
     if let Some(m) = &args.rtt_mode {
@@ -251,7 +262,26 @@ fn run(args: Args) -> Result<(), String> {
             break Ok(());
         }
     };
+    if args.cpi {
+        print_cpi(&board, &args.cycle_model);
+    }
     result
+}
+
+/// What the CPU executed over the run (sleep excluded) and its CPI.
+fn print_cpi(board: &Board, model: &str) {
+    let e = board.executed();
+    let per = |c: u64| c as f64 / e.instructions.max(1) as f64;
+    eprintln!(
+        "executed: {} instructions, {} CPU cycles, CPI {:.3} ({model} model; of it \
+         refills {:.3}, exceptions {:.3}, APB {:.3})",
+        e.instructions,
+        e.cycles,
+        per(e.cycles),
+        per(e.refill_cycles),
+        per(e.exception_cycles),
+        per(e.bus_cycles),
+    );
 }
 
 fn main() -> ExitCode {
