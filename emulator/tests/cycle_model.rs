@@ -149,6 +149,22 @@ fn a_taken_far_branch_pays_the_refill_and_the_wait_states() {
     assert_eq!(run_image(&fw0, CycleModel::Typical).cycles, 4 + 1 + 2 + 1);
 }
 
+/// A conditional branch not taken costs 1 and no refill: `cmp r0, r0`
+/// 1, `bne.w` to 0x200 1 (Z set: falls through), `adds r5, #1` 1; taken
+/// (`cmp r0, #1` with r0 = 0), the same program pays the refill P = 2 at
+/// 0 wait states and runs `adds` at 0x200 instead.
+#[test]
+fn a_conditional_branch_not_taken_pays_no_refill() {
+    // bne.w 0x200 at 0x102: T3, offset 0x200 - 0x106 = 0xFA (imm11 0x7D).
+    let bne_w = [0xF040, 0x807D];
+    let not_taken = [&[0x4280][..], &bne_w, &[ADDS_R5, IDLE]].concat();
+    let fw = image(&not_taken, &[], &[ADDS, IDLE]);
+    assert_eq!(run_image(&fw, CycleModel::Typical).cycles, 3);
+    let taken = [&[0x2801][..], &bne_w, &[ADDS_R5, IDLE]].concat();
+    let fw = image(&taken, &[], &[ADDS, IDLE]);
+    assert_eq!(run_image(&fw, CycleModel::Typical).cycles, 1 + 1 + 2 + 1);
+}
+
 /// `cortex_m::asm::delay`'s loop, `1: subs r0, #1; bne 1b`, ten passes
 /// from `movs r0, #10`, at 2 wait states: the first pass runs in the
 /// block after `movs` (1 + 1 + 1), the other nine each cost
