@@ -2,11 +2,16 @@
 //! models, the run loop (instruction-count slices with interrupts delivered
 //! between them), resets, RTT and the test/CLI API.
 //!
-//! Time: the board retires one instruction per 72 MHz cycle (13.9 ns), so
-//! simulated time, SysTick and DWT CYCCNT are instruction counts. A real
-//! Cortex-M3 with two flash wait states takes more cycles for the same
-//! code: logged cycle figures are lower bounds, CPU loads likewise.
+//! Time: `Hw::cycles` counts 72 MHz core cycles (13.9 ns) and is the one
+//! clock: simulated time, SysTick, DWT CYCCNT and every peripheral's event
+//! times follow it. Each translated block costs the cycles the model in
+//! [`crate::cycles`] gives its instructions (computed once per block), a
+//! block reached by a taken branch its pipeline refill and flash wait
+//! states, an exception its entry, tail-chain or return, an APB register
+//! access its bridge cycles ([`BoardConfig::cycle_model`] picks typical or
+//! pessimistic figures).
 
+use crate::cycles::{self, CycleModel, ExceptionStep};
 use crate::dma::{self, Dma};
 use crate::elf::{Firmware, FLASH_BASE, FLASH_SIZE};
 use crate::exceptions;
@@ -220,19 +225,43 @@ struct DrivenPin {
     edges: std::collections::VecDeque<(u64, bool)>,
 }
 
-/// A translated block's size in bytes, instruction count, and whether it
-/// is an idle loop.
+/// A translated block's size in bytes, instruction count, cycles (taken
+/// branch refill excluded), and whether it is an idle loop.
 #[derive(Clone, Copy, Debug, Default)]
 struct BlockInfo {
     size: u32,
     insns: u32,
+    cycles: u32,
     idle: bool,
+}
+
+/// What the CPU executed: instructions and the cycles they, the exception
+/// entries and returns and the register accesses took (sleep and flash
+/// programming stalls excluded), for the cycles per instruction.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Executed {
+    /// Instructions retired.
+    pub instructions: u64,
+    /// Core cycles they took, all of the parts below included.
+    pub cycles: u64,
+    /// Of which taken-branch refills and their flash wait states.
+    pub refill_cycles: u64,
+    /// Of which exception entries, tail-chains and returns.
+    pub exception_cycles: u64,
+    /// Of which APB bridge cycles.
+    pub bus_cycles: u64,
 }
 
 /// The state behind the CPU: every peripheral model and the board's wiring.
 pub struct Hw {
-    /// Instructions retired since power-on (the time base).
+    /// Core cycles since power-on (the time base).
     pub cycles: u64,
+    /// Instructions and the cycles they took since power-on.
+    pub executed: Executed,
+    cycle_model: CycleModel,
+    /// Where the last executed block falls through to (`None` after an
+    /// exception entry or return, which pay their own refill).
+    fall_through: Option<u32>,
     slice_end: u64,
     first_block: bool,
     exc_return: Option<u32>,
@@ -279,6 +308,55 @@ impl Hw {
         if self.error.is_none() {
             self.error = Some(e);
         }
+    }
+
+    /// Charges `n` cycles of CPU work (not sleep).
+    fn charge(&mut self, n: u32) {
+        self.cycles += u64::from(n);
+        self.executed.cycles += u64::from(n);
+    }
+
+    /// Charges an exception entry, late arrival, tail-chain or return;
+    /// the next block starts a new fetch stream (its refill is included).
+    pub(crate) fn charge_exception(&mut self, step: ExceptionStep) {
+        let ws = self.flash.wait_states();
+        let n = cycles::exception_cycles(self.cycle_model, step, ws);
+        self.charge(n);
+        self.executed.exception_cycles += u64::from(n);
+        self.fall_through = None;
+    }
+
+    /// Refill cycles when the block at `addr` was reached by a taken
+    /// branch (it does not start where the last block fell through).
+    fn refill_into(&self, addr: u32) -> u32 {
+        match self.fall_through {
+            Some(ft) if ft != addr => {
+                let in_flash = addr.wrapping_sub(FLASH_BASE) < FLASH_SIZE;
+                let ws = if in_flash {
+                    self.flash.wait_states()
+                } else {
+                    0
+                };
+                cycles::refill_cycles(self.cycle_model, ft, addr, ws)
+            }
+            _ => 0,
+        }
+    }
+
+    /// Bridge cycles of a CPU access to the register at `a` (APB1:
+    /// 0x4000_0000–0x4000_7FFF, APB2: 0x4001_0000–0x4001_7FFF; RM0008
+    /// §3.3 table 3); AHB registers and the PPB cost none.
+    fn charge_bus_access(&mut self, a: u32) {
+        let hclk = self.rcc.hclk_hz().max(1);
+        let pclk = match a {
+            0x4000_0000..=0x4000_7FFF => self.rcc.pclk1_hz(),
+            0x4001_0000..=0x4001_7FFF => self.rcc.pclk2_hz(),
+            _ => return,
+        };
+        let divider = (hclk / pclk.max(1)).max(1);
+        let n = cycles::apb_access_cycles(self.cycle_model, divider);
+        self.charge(n);
+        self.executed.bus_cycles += u64::from(n);
     }
 
     fn sync_clock(&self) {
@@ -740,6 +818,7 @@ fn mmio_read(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize) -> u64 {
         catch_up_usart1(uc, now);
     }
     let hw = uc.get_data_mut();
+    hw.charge_bus_access(a);
     match hw.periph_read(a) {
         Some(v) => u64::from((v & mask) >> shift),
         None => {
@@ -766,6 +845,7 @@ fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
         catch_up_usart1(uc, now);
     }
     let hw = uc.get_data_mut();
+    hw.charge_bus_access(a);
     let pend_before = hw.nvic.pending;
     hw.resched = true;
     if !hw.periph_write(a, (value as u32) << shift, mask) {
@@ -1007,6 +1087,8 @@ pub struct BoardConfig {
     pub flash: Option<Vec<u8>>,
     /// The HSE crystal oscillates.
     pub hse_works: bool,
+    /// Typical or pessimistic instruction, exception and bus timing.
+    pub cycle_model: CycleModel,
 }
 
 impl Default for BoardConfig {
@@ -1020,6 +1102,7 @@ impl Default for BoardConfig {
             rtt_mode: embed,
             flash: None,
             hse_works: true,
+            cycle_model: CycleModel::Typical,
         }
     }
 }
@@ -1092,6 +1175,9 @@ impl Board {
         rcc.hse_works = config.hse_works;
         let hw = Hw {
             cycles: 0,
+            executed: Executed::default(),
+            cycle_model: config.cycle_model,
+            fall_through: None,
             slice_end: 0,
             first_block: true,
             exc_return: None,
@@ -1223,22 +1309,30 @@ impl Board {
                 .get(slot)
                 .copied()
                 .filter(|b| b.size == size && b.insns > 0);
-            let (n, idle) = match known {
-                Some(b) => (b.insns, b.idle),
+            let b = match known {
+                Some(b) => b,
                 None => {
                     let code = uc.mem_read_as_vec(addr, size as usize).unwrap_or_default();
                     let (insns, idle) = scan_block(&code, addr as u32);
-                    if let Some(b) = uc.get_data_mut().blocks.get_mut(slot) {
-                        *b = BlockInfo { size, insns, idle };
+                    let model = uc.get_data().cycle_model;
+                    let cycles = cycles::block_cycles(&code, model);
+                    let b = BlockInfo {
+                        size,
+                        insns,
+                        cycles,
+                        idle,
+                    };
+                    if let Some(cached) = uc.get_data_mut().blocks.get_mut(slot) {
+                        *cached = b;
                     }
-                    (insns, idle)
+                    b
                 }
             };
             // A stop requested here takes effect before this block runs, so
             // a block is counted only when it will execute; the first block
             // of a slice always runs (progress).
             let hw = uc.get_data_mut();
-            if idle {
+            if b.idle {
                 // Nothing observable happens until the next event: sleep,
                 // unless a register access since the slice started may have
                 // scheduled an earlier one (then end the slice to recompute).
@@ -1248,12 +1342,17 @@ impl Board {
                 let _ = uc.emu_stop();
                 return;
             }
-            if !hw.first_block && hw.cycles + u64::from(n) > hw.slice_end {
+            let refill = hw.refill_into(addr as u32);
+            let cost = b.cycles + refill;
+            if !hw.first_block && hw.cycles + u64::from(cost) > hw.slice_end {
                 let _ = uc.emu_stop();
                 return;
             }
             hw.first_block = false;
-            hw.cycles += u64::from(n);
+            hw.charge(cost);
+            hw.executed.refill_cycles += u64::from(refill);
+            hw.executed.instructions += u64::from(b.insns);
+            hw.fall_through = Some(addr as u32 + size);
         })
         .map_err(uc_err)?;
         uc.add_intr_hook(|uc: &mut Unicorn<'_, Hw>, intno: u32| {
@@ -1305,6 +1404,7 @@ impl Board {
             hw.dma1 = Dma::new();
             hw.exc_return = None;
             hw.cpu_fault = None;
+            hw.fall_through = None;
             hw.stall_ns = 0;
             hw.code_changed = false;
             hw.dbgmcu_cr = 0;
@@ -1355,6 +1455,20 @@ impl Board {
     /// Simulated time since power-on (ns).
     pub fn now_ns(&self) -> u64 {
         self.uc.get_data().now_ns()
+    }
+
+    /// Instructions executed since power-on and the cycles they took
+    /// (their ratio is the cycle model's cycles per instruction).
+    pub fn executed(&self) -> Executed {
+        self.uc.get_data().executed
+    }
+
+    /// A word of the emulated memory (RAM or flash), as a debugger reads
+    /// it; `None` outside mapped memory.
+    pub fn read_word(&self, addr: u32) -> Option<u32> {
+        let mut b = [0u8; 4];
+        self.uc.mem_read(u64::from(addr), &mut b).ok()?;
+        Some(u32::from_le_bytes(b))
     }
 
     /// The simulator's bus (chips, world, truth, fault injection).

@@ -9,8 +9,14 @@
 //! the vector to PC. A jump to EXC_RETURN surfaces in unicorn as interrupt
 //! number 8 with nothing unstacked; [`exception_return`] then either
 //! tail-chains into the next pending exception or unstacks the frame.
+//!
+//! Each step charges its cycles (`crate::cycles::exception_cycles`): an
+//! entry 12, a tail-chain 6, a return 10, plus flash wait states; an entry
+//! taken in the same delivery as an earlier one is a late arrival that
+//! shares its stacking.
 
 use crate::board::{BoardError, Hw};
+use crate::cycles::ExceptionStep;
 use crate::scs::HARDFAULT;
 use unicorn_engine::{RegisterARM, Unicorn};
 
@@ -162,8 +168,10 @@ pub fn exception_return(uc: &mut Unicorn<'_, Hw>, exc_return: u32) -> Result<(),
     if let Some(n) = uc.get_data().nvic.deliverable(prio) {
         // Tail-chain: the frame stays, LR keeps this EXC_RETURN.
         set(uc, RegisterARM::LR, exc_return)?;
+        uc.get_data_mut().charge_exception(ExceptionStep::TailChain);
         return jump_to_handler(uc, n);
     }
+    uc.get_data_mut().charge_exception(ExceptionStep::Return);
     let sp = reg(uc, RegisterARM::SP);
     let mut f = [0u32; 8];
     for (i, w) in f.iter_mut().enumerate() {
@@ -193,13 +201,18 @@ pub fn exception_return(uc: &mut Unicorn<'_, Hw>, exc_return: u32) -> Result<(),
 /// Takes every exception that may run now (a later, higher-priority one
 /// pre-empts the entry of an earlier one, as a late arrival does).
 pub fn deliver(uc: &mut Unicorn<'_, Hw>) -> Result<(), BoardError> {
-    for _ in 0..crate::scs::EXCEPTIONS {
+    for i in 0..crate::scs::EXCEPTIONS {
         crate::board::refresh_irq_lines(uc.get_data_mut());
         let prio = execution_priority(uc);
-        match uc.get_data().nvic.deliverable(prio) {
-            Some(n) => enter(uc, n)?,
-            None => return Ok(()),
-        }
+        let Some(n) = uc.get_data().nvic.deliverable(prio) else {
+            return Ok(());
+        };
+        enter(uc, n)?;
+        uc.get_data_mut().charge_exception(if i == 0 {
+            ExceptionStep::Entry
+        } else {
+            ExceptionStep::LateArrival
+        });
     }
     Ok(())
 }
@@ -212,5 +225,6 @@ pub fn fault(uc: &mut Unicorn<'_, Hw>, pc: u32, hfsr: u32) -> Result<bool, Board
     }
     uc.get_data_mut().nvic.hfsr |= hfsr;
     enter_from(uc, HARDFAULT, pc)?;
+    uc.get_data_mut().charge_exception(ExceptionStep::Entry);
     Ok(true)
 }

@@ -57,6 +57,12 @@ pub struct Flash {
 }
 
 impl Flash {
+    /// FLASH_ACR.LATENCY: the wait states of a flash read (RM0008 §3.3.3;
+    /// values above 2 are reserved and read as given).
+    pub fn wait_states(&self) -> u32 {
+        self.acr & 7
+    }
+
     /// Flash with `image` after a reset (locked, ACR at reset value).
     pub fn new(image: Vec<u8>) -> Self {
         Self {

@@ -12,7 +12,9 @@
 //! the board with an error.
 //!
 //! Not modelled: the PLL/HSI clock before the switch (the CPU counts at
-//! 72 MHz from reset), instruction timing (one instruction per cycle),
+//! 72 MHz from reset), instruction timing beyond the per-block cycle
+//! model of `cycles` (no bus contention with DMA, no data-dependent
+//! multiply/divide times),
 //! the process stack, MPU/FPU (none on the M3 part used), DMA2, timers
 //! other than TIM3 and TIM4, USART transmit and USART2/3, ADC, sleep modes beyond
 //! "idle until the next event".
@@ -20,6 +22,7 @@
 pub mod board;
 pub mod calpage;
 pub mod crsf;
+pub mod cycles;
 pub mod dma;
 pub mod elf;
 pub mod exceptions;
@@ -36,9 +39,10 @@ pub mod tim;
 pub mod usart;
 
 pub use board::{
-    Board, BoardConfig, BoardError, BoardEvent, BoardFault, DMA1_CHANNEL5_IRQ, EXTI9_5, TIM3_IRQ,
-    TIM3_PINS, TIM4_IRQ, TIM4_PINS, USART1_IRQ,
+    Board, BoardConfig, BoardError, BoardEvent, BoardFault, Executed, DMA1_CHANNEL5_IRQ, EXTI9_5,
+    TIM3_IRQ, TIM3_PINS, TIM4_IRQ, TIM4_PINS, USART1_IRQ,
 };
+pub use cycles::CycleModel;
 pub use elf::{release_elf_path, Firmware};
 pub use rcc::ResetCause;
 pub use rtt::{LogLine, RttMode};

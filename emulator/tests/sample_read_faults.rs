@@ -169,7 +169,8 @@ fn a_block_after_a_reset_in_the_handler_still_runs_on_the_interrupts() {
         let t = b.sim().next_mpu_sample_ns() + 2 * MS + 500_000;
         run_until(&mut b, t);
     }
-    let t = b.now_ns() + 600 * MS;
+    // The health lines come once a second: run past the next one.
+    let t = b.now_ns() + 1_100 * MS;
     run_until(&mut b, t);
     let (m1, i1) = (
         health(&b, "mag", "err").unwrap_or(0),

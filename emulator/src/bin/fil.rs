@@ -5,7 +5,7 @@
 use clap::Parser;
 use emulator::i2c1::PeripheralFault;
 use emulator::rig::{FlightRig, RigOptions};
-use emulator::{calpage, Board, BoardConfig, BoardError, BoardFault, RttMode};
+use emulator::{calpage, Board, BoardConfig, BoardError, BoardFault, CycleModel, RttMode};
 use sim::scenario::Scenario;
 use sim::{Chip, Fault, Trajectory};
 use std::io::Write;
@@ -48,6 +48,14 @@ struct Args {
     /// Print the board's own events (resets, faults) between log lines.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     events: bool,
+    /// Cycle model: `typical`, or `pessimistic` (every cost at the top of
+    /// its range).
+    #[arg(long, default_value = "typical", value_parser = ["typical", "pessimistic"])]
+    cycle_model: String,
+    /// At the end, print instructions, CPU cycles and their ratio (CPI)
+    /// on stderr.
+    #[arg(long)]
+    cpi: bool,
 }
 
 const FAULT_HELP: &str = "Fault kinds (TIME in simulated seconds):
@@ -234,6 +242,9 @@ fn board_runner(args: &Args, elf: &std::path::Path) -> Result<Runner, String> {
         lsi_hz: args.lsi_hz,
         ..BoardConfig::default()
     };
+    if args.cycle_model == "pessimistic" {
+        config.cycle_model = CycleModel::Pessimistic;
+    }
     config.sim.trajectory = trajectory;
     config.sim.seed = args.seed;
     if let Some(m) = &args.rtt_mode {
@@ -247,6 +258,9 @@ fn rig_runner(scenario: Scenario, args: &Args, elf: &std::path::Path) -> Result<
     let fw = emulator::Firmware::load(elf).map_err(|e| e.to_string())?;
     let mut opts = RigOptions::new(scenario, args.seed);
     opts.lsi_hz = Some(args.lsi_hz);
+    if args.cycle_model == "pessimistic" {
+        opts.cycle_model = CycleModel::Pessimistic;
+    }
     let errors = sim::SensorErrors::datasheet(opts.board_seed);
     opts.flash = Some(calpage::with_record(
         fw.flash,
@@ -330,6 +344,9 @@ fn run(args: Args) -> Result<(), String> {
     if let (Ok(()), Runner::Rig(rig)) = (&result, &runner) {
         print_flight_summary(&mut out, rig);
     }
+    if args.cpi {
+        print_cpi(runner.board(), &args.cycle_model);
+    }
     result
 }
 
@@ -362,6 +379,22 @@ fn print_flight_summary(out: &mut impl Write, rig: &FlightRig) {
         p[1],
         if last.quad.on_ground { "on the ground" } else { "in the air" },
         pulses.join(", ")
+    );
+}
+
+/// What the CPU executed over the run (sleep excluded) and its CPI.
+fn print_cpi(board: &Board, model: &str) {
+    let e = board.executed();
+    let per = |c: u64| c as f64 / e.instructions.max(1) as f64;
+    eprintln!(
+        "executed: {} instructions, {} CPU cycles, CPI {:.3} ({model} model; of it \
+         refills {:.3}, exceptions {:.3}, APB {:.3})",
+        e.instructions,
+        e.cycles,
+        per(e.cycles),
+        per(e.refill_cycles),
+        per(e.exception_cycles),
+        per(e.bus_cycles),
     );
 }
 

@@ -1,6 +1,7 @@
 //! Shared set-up of the firmware-in-the-loop scenarios: the release ELF (or
 //! `FIL_ELF`), skipping when it is absent unless `FIL_REQUIRE_ELF=1`, and
-//! readers for the firmware's log lines.
+//! readers for the firmware's log lines. `FIL_CYCLE_MODEL=pessimistic`
+//! runs every scenario at the cycle model's pessimistic corner.
 #![allow(dead_code, clippy::panic, clippy::expect_used, clippy::unwrap_used)]
 
 use emulator::{Board, BoardConfig, ResetCause};
@@ -42,6 +43,9 @@ pub fn board_with(f: impl FnOnce(&mut BoardConfig)) -> Option<Board> {
         .and_then(|m| emulator::RttMode::from_name(&m))
     {
         config.rtt_mode = Some(m);
+    }
+    if std::env::var("FIL_CYCLE_MODEL").is_ok_and(|m| m == "pessimistic") {
+        config.cycle_model = emulator::CycleModel::Pessimistic;
     }
     f(&mut config);
     Some(Board::from_elf(&path, config).unwrap_or_else(|e| panic!("board: {e}")))
