@@ -210,8 +210,8 @@ pub fn build_pipeline(
     p
 }
 
-/// Boot step: the start-up gyro bias (1 s still, up to 5 windows,
-/// measured one sample at a time in `sample_done`).
+/// Boot step: the start-up gyro bias (1 s still, within the first 5 s of
+/// samples; measured one sample at a time in `sample_done`).
 #[inline(never)]
 pub fn start_gyro_bias(sensors: &Sensors<BusHandle>) -> Option<StartupGyroBias> {
     let scale = sensors.mpu_scale();

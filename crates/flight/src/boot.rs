@@ -172,20 +172,29 @@ pub enum BiasStatus {
     },
     /// Done: bias in gyro counts (MPU frame).
     Done([i16; 3]),
-    /// The board never held still for `max_attempts` windows: keep the
-    /// fallback bias (stored calibration or zero).
+    /// The board did not hold still for a whole window within
+    /// `max_attempts` windows' worth of samples: keep the fallback bias
+    /// (stored calibration or zero).
     GaveUp,
 }
 
 /// Start-up gyro bias from raw counts: wraps
 /// [`calibration::GyroBiasEstimator`], checking stillness of both gyro and
-/// accelerometer, and restarting (up to `max_attempts` windows) when the
-/// board moves.
+/// accelerometer, and restarting the window when the board moves.
+///
+/// The retry budget is time, not restarts: it gives up once a restarted
+/// window could no longer end within `max_attempts` windows' worth of
+/// samples. Motion restarts the window at nearly every sample while it
+/// lasts (each sample past the peak-to-peak limit is a restart), so a
+/// budget of restarts would be spent by a 10 ms knock.
 #[derive(Clone, Copy, Debug)]
 pub struct StartupGyroBias {
     est: GyroBiasEstimator,
     attempt: u8,
-    max_attempts: u8,
+    /// Samples pushed so far, in all windows.
+    pushed: u32,
+    /// Samples the measurement may take in all.
+    budget: u32,
     finished: Option<BiasStatus>,
 }
 
@@ -198,7 +207,8 @@ impl StartupGyroBias {
     /// A measurement over `samples` samples for a gyro with `lsb_per_dps`
     /// and an accelerometer with `lsb_per_g`: at most 3 °/s peak-to-peak
     /// and 0.3 °/s standard deviation on the gyro, 0.1 g peak-to-peak and
-    /// 0.02 g standard deviation on the accelerometer.
+    /// 0.02 g standard deviation on the accelerometer; within
+    /// `max_attempts × samples` samples in all.
     pub fn new(
         samples: u32,
         lsb_per_dps: f32,
@@ -216,7 +226,8 @@ impl StartupGyroBias {
         Ok(Self {
             est,
             attempt: 1,
-            max_attempts: max_attempts.max(1),
+            pushed: 0,
+            budget: samples.saturating_mul(u32::from(max_attempts.max(1))),
             finished: None,
         })
     }
@@ -226,6 +237,7 @@ impl StartupGyroBias {
         if let Some(done) = self.finished {
             return done;
         }
+        self.pushed = self.pushed.saturating_add(1);
         let g = gyro.map(f32::from);
         let a = accel.map(f32::from);
         match self.est.push_with_accel(g, a) {
@@ -252,7 +264,7 @@ impl StartupGyroBias {
     }
 
     fn restart(&mut self) -> BiasStatus {
-        if self.attempt >= self.max_attempts {
+        if self.pushed.saturating_add(self.est.config().samples) > self.budget {
             self.finished = Some(BiasStatus::GaveUp);
             return BiasStatus::GaveUp;
         }
@@ -378,11 +390,63 @@ mod tests {
             b.push([656, 0, 0], [0, 0, 8192]),
             BiasStatus::Moved { attempt: 1 }
         );
-        for _ in 0..10 {
+        for _ in 0..40 {
             b.push([0; 3], [0, 0, 8192]);
         }
-        // Picked up: accelerometer spread 0.2 g. Out of attempts.
+        // Picked up at sample 51 (accelerometer spread 0.2 g): a new window
+        // would end at 101, past the budget of 2 × 50. Out of time.
         assert_eq!(b.push([0; 3], [0, 1638, 8192]), BiasStatus::GaveUp);
         assert_eq!(b.push([0; 3], [0, 0, 8192]), BiasStatus::GaveUp);
+    }
+
+    /// One sample of a 0.2 s knock (peak 31 °/s, as a 2° roll bump) at
+    /// `i` ms into it, counts at ±1000 °/s, over ±3 counts of noise and a
+    /// 40-count bias.
+    fn knock(i: u32) -> [i16; 3] {
+        let tau = i as f32 / 200.0;
+        let rate = 31.0 * libm::sinf(2.0 * core::f32::consts::PI * tau);
+        [40 + (rate * 32.8) as i16 + (i % 7) as i16 - 3, -13, 7]
+    }
+
+    #[test]
+    fn gyro_bias_a_knock_costs_its_duration_not_the_budget() {
+        let mut b = StartupGyroBias::new(1000, 32.8, 8192.0, 5).unwrap();
+        for i in 0..500 {
+            b.push([40 + (i % 7) as i16 - 3, -13, 7], [0, 0, 8192]);
+        }
+        let mut restarts = 0;
+        for i in 0..200 {
+            if let BiasStatus::Moved { .. } = b.push(knock(i), [0, 0, 8192]) {
+                restarts += 1;
+            }
+        }
+        // Each sample past the limit restarted the window: far more
+        // restarts than the 5 windows the budget holds.
+        assert!(restarts > 5, "{restarts}");
+        let mut last = BiasStatus::GaveUp;
+        for i in 0..1000 {
+            last = b.push([40 + (i % 7) as i16 - 3, -13, 7], [0, 0, 8192]);
+        }
+        assert_eq!(last, BiasStatus::Done([40, -13, 7]));
+    }
+
+    #[test]
+    fn gyro_bias_motion_for_the_whole_budget_gives_up() {
+        let mut b = StartupGyroBias::new(1000, 32.8, 8192.0, 5).unwrap();
+        // A slow 2 °/s yaw swing (0.5 Hz) from power-up on.
+        let mut n = 0u32;
+        let status = loop {
+            let t = n as f32 * 1e-3;
+            let rate = 2.0 * libm::sinf(core::f32::consts::PI * t);
+            let s = b.push([(rate * 32.8) as i16, 0, 0], [0, 0, 8192]);
+            n += 1;
+            if s == BiasStatus::GaveUp || n > 10_000 {
+                break s;
+            }
+        };
+        assert_eq!(status, BiasStatus::GaveUp);
+        // Within the budget of 5 windows, at the last restart whose window
+        // could not have ended within it.
+        assert!((4_000..=5_000).contains(&n), "{n}");
     }
 }

@@ -280,7 +280,7 @@ impl Stack {
             ..PipelineConfig::new()
         };
         let pipeline = Pipeline::new(cfg, record).map_err(|e| format!("pipeline: {e:?}"))?;
-        // Start-up gyro bias: 1 s still, up to 5 windows (as the firmware).
+        // Start-up gyro bias: 1 s still within 5 s of samples (as the firmware).
         let bias = StartupGyroBias::new(
             IMU_RATE_HZ,
             1.0 / scale.dps_per_lsb,
