@@ -71,6 +71,8 @@ struct Flight {
     /// Flight-controller steps that left the motors off.
     motors_off: u32,
     lost_samples: u32,
+    /// Longest simulated bus time of one configuration check, ms.
+    longest_check_ms: f64,
 }
 
 fn now_ms(rig: &Rig) -> u64 {
@@ -109,6 +111,7 @@ impl Flight {
             events: Vec::new(),
             motors_off: 0,
             lost_samples: 0,
+            longest_check_ms: 0.0,
         };
         f.run(20);
         f.pilot.arm_switch = true;
@@ -183,7 +186,10 @@ impl Flight {
         self.next_service_ms = t + SERVICE_PERIOD_MS;
         if t >= self.next_check_ms {
             self.next_check_ms = t + CHECK_PERIOD_MS;
+            let t0 = self.rig.clock.now_ns();
             self.s.check_configs();
+            let held_ms = (self.rig.clock.now_ns() - t0) as f64 * 1e-6;
+            self.longest_check_ms = self.longest_check_ms.max(held_ms);
         }
         let t0 = self.rig.clock.now_ns();
         let step = self.s.maintain(t as u32, &mut self.rig.delay);
@@ -280,6 +286,12 @@ fn a_chip_reset_in_flight_is_confirmed_then_reset_stepwise_without_a_disarm() {
     for (t, m, held_ms) in &f.steps {
         assert!(*held_ms < 1.0, "{m:?} at {t} ms held {held_ms} ms");
     }
+    assert!(f.longest_check_ms < 1.0, "{} ms", f.longest_check_ms);
+    let longest = f.steps.iter().map(|s| s.2).fold(0.0, f64::max);
+    println!(
+        "longest MPU step {longest:.3} ms, configuration check {:.3} ms",
+        f.longest_check_ms
+    );
     let done = f
         .steps
         .iter()

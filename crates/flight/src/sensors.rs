@@ -717,7 +717,9 @@ impl<I: I2c> Sensors<I> {
 
     /// Runs the pending re-initialisations (blocking: chip resets take a
     /// few ms up to ~200 ms for a slow MPU-9250 reset). The MPU goes first
-    /// because the AK8963 is reached through its bypass.
+    /// because the AK8963 is reached through its bypass. For boot and the
+    /// host tools: it ignores [`set_armed`](Self::set_armed) and blocks, so
+    /// a board in flight uses [`maintain`](Self::maintain).
     pub fn service<D: DelayNs>(&mut self, delay: &mut D) -> ServiceReport {
         let mut report = ServiceReport::default();
         let [mpu_p, mag_p, baro_p] = self.reinit_pending;
@@ -920,7 +922,6 @@ impl<I: I2c> Sensors<I> {
             if !self.mpu_health.usable() {
                 return Some(Maintenance::Idle);
             }
-            self.mpu_gate.right_answer();
             let cfg = self.cfg.mpu;
             if self.mpu.start_reset(&cfg).is_err() {
                 return Some(self.mpu_reset_over(now_ms, false));
