@@ -384,3 +384,27 @@ fn the_policy_before_disarmed_on_the_same_faults() {
         "{d:?}"
     );
 }
+
+#[test]
+fn a_reset_asked_for_just_before_arming_waits_for_the_proof() {
+    let mut rig = Rig::new(SimConfig::default());
+    let (mut s, _) = e2e::boot_sensors(&mut rig);
+    rig.bus.inject(Fault::Nack {
+        address: MPU,
+        transactions: Some(5),
+    });
+    for _ in 0..5 {
+        rig.bus.advance_to_next_mpu_sample();
+        assert!(s.read_imu().is_none());
+    }
+    assert!(
+        s.service_due(),
+        "disarmed, five failed reads ask for a reset"
+    );
+    s.set_armed(true);
+    let step = s.maintain(now_ms(&rig) as u32, &mut rig.delay);
+    assert_eq!(step, Maintenance::Settled { ok: true });
+    assert_eq!(s.mpu_health.counters().reinits, 0);
+    rig.bus.advance_to_next_mpu_sample();
+    assert!(s.read_imu().is_some());
+}

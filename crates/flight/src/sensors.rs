@@ -806,6 +806,12 @@ impl<I: I2c> Sensors<I> {
     /// Tells the stack whether the craft is armed (see the module docs):
     /// call it every flight-controller step, or at least on every change.
     pub fn set_armed(&mut self, armed: bool) {
+        // A reset asked for on the ground, not yet begun: armed, it needs
+        // the proof first.
+        if armed && self.reinit_pending[0] {
+            self.reinit_pending[0] = false;
+            self.mpu_suspect = true;
+        }
         self.armed = armed;
     }
 
