@@ -26,9 +26,13 @@
 //! * `service` (priority 2, every ≤ 10 ms): the MS5611 schedule, the
 //!   configuration checks every 50 ms, and one step of
 //!   `Sensors::maintain`: a bus recovery when I2C1 saw BUSY while idle or
-//!   every chip fails, one chip's re-initialisation, the MPU's 100 ms
-//!   post-reset check, or the re-probe of a missing chip (back-off 1 s
-//!   doubling to 32 s). A stuck bus is recovered within 11 ms of the first
+//!   every chip fails, one step of the MPU's re-initialisation (none
+//!   waits: each holds `sensors` for less than a sample period) or another
+//!   chip's, the MPU's 100 ms post-reset check, the re-check of a suspect
+//!   MPU, or the re-probe of a missing chip (back-off 1 s doubling to
+//!   32 s). Armed (`Sensors::set_armed`, from `sample_done`), the MPU is
+//!   reset only once proven lost, and the other chips' re-initialisations
+//!   and the re-probes wait for the disarm. A stuck bus is recovered within 11 ms of the first
 //!   refused transfer.
 //! * `log` (priority 1, 20 Hz): attitude, altitude, health, loop timing,
 //!   stack high-water mark over defmt-RTT; the PA0 button and the
@@ -84,9 +88,9 @@
 //! ESC protocol, the motor-test command and the magnetometer calibration
 //! of the build are in `config.rs`.
 //!
-//! Flash: 62,812 B of the 63 KiB budget with the flight controller
+//! Flash: 63,840 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
-//! static RAM 4.8 KiB; the `ppm` build (PPM instead of CRSF): 61,904 B.
+//! static RAM 4.8 KiB; the `ppm` build (PPM instead of CRSF): 62,872 B.
 //! The interrupt-driven sample read costs 1,780 B of it, and `mem.rs`'s
 //! 50 B of `__aeabi_memcpy*`/`__aeabi_memclr*` save 1,560 B over
 //! `compiler_builtins`' own.
@@ -183,6 +187,7 @@ mod app {
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::Watchdog;
+    use core::sync::atomic::{AtomicBool, Ordering};
     use cortex_m::peripheral::DWT;
     use flight::boot::BiasStatus;
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
@@ -213,6 +218,10 @@ mod app {
     };
 
     systick_monotonic!(Mono, 1_000);
+
+    /// The flight controller is armed: written by `sample_done` after each
+    /// step, read by `service` for `Sensors::set_armed`.
+    static ARMED: AtomicBool = AtomicBool::new(false);
 
     /// Shortest watchdog timeout while booting (probing with retries and
     /// the MPU's power-up waits take ≤ 1.1 s), at the LSI's fastest 60 kHz.
@@ -433,6 +442,8 @@ mod app {
         }
         let motors = fly(&mut cx, start.now_us, mpu_ok, fresh);
         cx.local.esc.set(&motors);
+        let armed = cx.local.fc.as_ref().is_some_and(|fc| fc.is_armed());
+        ARMED.store(armed, Ordering::Relaxed);
         // The sample's CPU time wherever it was spent: starting the read,
         // the I2C1 handlers, and this task.
         let cycles = start
@@ -659,10 +670,11 @@ mod app {
         );
         loop {
             let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
-            let (m, deadline) = cx
-                .shared
-                .sensors
-                .lock(|s| (s.poll_baro(now_us), s.baro_deadline_us()));
+            let (m, deadline) = cx.shared.sensors.lock(|s| {
+                // Armed, the MPU is reset only once proven lost.
+                s.set_armed(ARMED.load(Ordering::Relaxed));
+                (s.poll_baro(now_us), s.baro_deadline_us())
+            });
             if let Some(m) = m {
                 cx.shared
                     .pipeline
@@ -703,7 +715,7 @@ mod app {
         pipeline: &mut impl rtic::Mutex<T = Option<Pipeline>>,
     ) {
         match step {
-            Maintenance::Idle => {}
+            Maintenance::Idle | Maintenance::MpuResetStep => {}
             Maintenance::RecoverBus => {
                 let (r, n) = sensors.lock(|s| {
                     let r = bus::recover();
@@ -726,10 +738,7 @@ mod app {
                 defmt::info!("re-init {}: {=bool}", chip, ok)
             }
             Maintenance::Settled { ok } => {
-                defmt::info!(
-                    "MPU-9250 post-reset check (WHO_AM_I, PWR_MGMT_1, config): {=bool}",
-                    ok
-                )
+                defmt::info!("MPU-9250 check (WHO_AM_I, PWR_MGMT_1, config): {=bool}", ok)
             }
             Maintenance::StillMissing { chip, retry_in_ms } => {
                 defmt::info!(

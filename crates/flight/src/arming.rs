@@ -315,7 +315,9 @@ pub struct SafetyConfig {
     pub althold_max_climb_mps: f32,
     /// Altitude hold: throttle-stick deadband around 0.5 (hold height).
     pub althold_deadband: f32,
-    /// Unusable attitude/gyro input for this long while armed: disarm, s.
+    /// Unusable attitude/gyro input for this long while armed: disarm, s
+    /// (0.25: the bridge of [`crate::flightctl`]'s "Sensor loss" rule,
+    /// longer than an MPU-9250 reset with its 100 ms settle).
     pub bad_input_disarm_s: f32,
 }
 
@@ -345,7 +347,7 @@ impl Default for SafetyConfig {
             motor_test_stick_tolerance: 0.1,
             althold_max_climb_mps: 1.0,
             althold_deadband: 0.1,
-            bad_input_disarm_s: 0.1,
+            bad_input_disarm_s: 0.25,
         }
     }
 }
