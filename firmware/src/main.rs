@@ -182,7 +182,7 @@ mod app {
     use crate::report::{log_capabilities, log_pilot, log_status};
     use crate::stack;
     use crate::store::FlashPage;
-    use crate::watchdog::Watchdog;
+    use crate::watchdog::{Watchdog, BOOT_MIN_TIMEOUT_MS, RUN_MIN_TIMEOUT_MS};
     use cortex_m::peripheral::DWT;
     use flight::boot::BiasStatus;
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
@@ -213,16 +213,6 @@ mod app {
     };
 
     systick_monotonic!(Mono, 1_000);
-
-    /// Shortest watchdog timeout while booting (probing with retries and
-    /// the MPU's power-up waits take ≤ 1.1 s), at the LSI's fastest 60 kHz.
-    const IWDG_BOOT_MIN_MS: u32 = 2_000;
-    /// Shortest watchdog timeout at run time, at the LSI's fastest 60 kHz
-    /// (at its slowest, 30 kHz, twice as long). Covers the 50 ms feed
-    /// period plus the longest block of the log task: one maintenance step
-    /// at priority 2 (≤ 200 ms if the MPU never leaves reset) and a flash
-    /// save (≤ 40 ms).
-    const IWDG_RUN_MIN_MS: u32 = 500;
 
     /// What the `imu` task knew when it started a sample's read, for the
     /// `sample_done` task that processes it.
@@ -280,11 +270,13 @@ mod app {
         stack::paint();
         let mut core = cx.core;
         let dp: pac::Peripherals = cx.device;
-        let mut iwdg = Watchdog::start(dp.IWDG, IWDG_BOOT_MIN_MS);
-        let mut flash = dp.FLASH.constrain();
-        let (mut rcc, source) = clocks::start(dp.RCC, &mut flash.acr);
+        let mut iwdg = Watchdog::start(dp.IWDG, BOOT_MIN_TIMEOUT_MS);
+        // CYCCNT first: every wait from the crystal's start-up on is
+        // measured on it (`delay.rs`).
         core.DCB.enable_trace();
         core.DWT.enable_cycle_counter();
+        let mut flash = dp.FLASH.constrain();
+        let (mut rcc, source) = clocks::start(dp.RCC, &mut flash.acr);
         // One constant per branch: SysTick's divisibility check folds away.
         match source {
             Source::Hse => Mono::start(core.SYST, crate::delay::CPU_HZ_HSE),
@@ -323,7 +315,7 @@ mod app {
         mpu_int.trigger_on_edge(&mut exti, Edge::Rising);
         mpu_int.enable_interrupt(&mut exti);
 
-        iwdg.set_timeout(IWDG_RUN_MIN_MS);
+        iwdg.set_timeout(RUN_MIN_TIMEOUT_MS);
         service::spawn().ok();
         log::spawn().ok();
         let now = DWT::cycle_count();
