@@ -16,6 +16,7 @@ use crate::receiver::{self, CrsfRx, RING_BYTES};
 use crate::report::log_capabilities;
 use crate::store::FlashPage;
 use control::esc::EscTimer;
+use embedded_hal::delay::DelayNs;
 use flight::boot::{Capabilities, StartupGyroBias};
 use flight::calmode::CalSession;
 use flight::flightctl::FlightController;
@@ -229,7 +230,7 @@ pub fn start_gyro_bias(sensors: &Sensors<BusHandle>) -> Option<StartupGyroBias> 
 #[inline(never)]
 pub fn start_session(button: &PA0<Input<PullUp>>) -> CalSession<MagCal> {
     // Let the internal pull-up charge the line (~100 µs) before sampling.
-    cortex_m::asm::delay(cpu_hz() / 10_000);
+    AsmDelay.delay_us(100);
     let session = CalSession::new(button.is_low());
     if session.mode() == flight::calmode::Mode::AccelCal {
         defmt::info!("button held at boot: accelerometer six-position calibration");

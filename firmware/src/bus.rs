@@ -31,6 +31,10 @@
 //!   byte ends (its workaround for interrupt-driven transfers). The
 //!   handler is one short step per event; every decision falls where SCL
 //!   is held low (ADDR, BTF), the endings are RM0008's for N = 1 and N ≥ 3.
+//!   The two windows the errata wants uninterrupted (ADDR clear → STOP for
+//!   N = 1; STOP → reading byte N−1 for N ≥ 3) run in a critical section:
+//!   SysTick (hardware priority 0) is above the handlers, and stays there
+//!   because the 1 kHz monotonic counts its ticks in that interrupt.
 //! * The last block's end pends [`SAMPLE_DONE_IRQ`]: `sample_done`
 //!   (priority 3) takes the bytes ([`take_sample`]) and `sensors` parses
 //!   them with the drivers' pure functions (`Sensors::finish_sample`),
@@ -793,9 +797,15 @@ impl SampleRead {
                 self.step = Step::Register;
             } else if self.left == 1 {
                 // EV6_3: NACK before the ADDR clear, STOP right after it.
+                // ES096 §2.13.2: from the ADDR clear the byte is on the
+                // wire, and STOP must be set before it ends; this handler's
+                // priority keeps every task out, the critical section also
+                // SysTick (hardware priority 0, above this one).
                 cr1_clear(i2c, CR1_ACK);
-                clear_addr(i2c);
-                cr1_set(i2c, CR1_STOP);
+                critical_section::with(|_| {
+                    clear_addr(i2c);
+                    cr1_set(i2c, CR1_STOP);
+                });
                 self.step = Step::Receive;
                 cr2_modify(i2c, CR2_ITBUFEN, 0);
             } else {
@@ -832,9 +842,20 @@ impl SampleRead {
                 Some(false)
             }
             Step::Receive if self.left == 2 && sr1 & BTF != 0 => {
-                // N−1 in DR, N (NACKed) in the shift register.
-                cr1_set(i2c, CR1_STOP);
-                self.put(read_dr(i2c));
+                // N−1 in DR, N (NACKed) in the shift register. ES096
+                // §2.13.2: setting STOP and reading byte N−1 must not be
+                // interrupted (else a byte more is clocked in, or the STOP
+                // comes a byte late). SysTick, the monotonic's tick at
+                // hardware priority 0, is the one exception above this
+                // handler; it stays there (the 1 kHz tick counts time in
+                // its interrupt: one held off for over 1 ms is time lost),
+                // so the window masks every interrupt instead, as the
+                // polled read's endings do: two register accesses, < 1 µs.
+                let n1 = critical_section::with(|_| {
+                    cr1_set(i2c, CR1_STOP);
+                    read_dr(i2c)
+                });
+                self.put(n1);
                 self.put(read_dr(i2c));
                 Some(true)
             }

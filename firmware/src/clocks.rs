@@ -2,14 +2,15 @@
 //! internal oscillator when the crystal does not start within a bounded
 //! time (a cracked crystal or a bad solder joint must not hang the boot).
 
+use cortex_m::peripheral::DWT;
 use stm32f1xx_hal::{flash::ACR, pac, rcc, rcc::RccExt};
 
 use crate::delay;
 
 /// Longest wait for HSERDY. The crystal oscillator typically starts in
 /// 2 ms (STM32F103x8 datasheet, t_SU(HSE)); ST's own start-up code gives
-/// up after a few ms. Counted in cycles of the 8 MHz HSI the core runs on
-/// at reset.
+/// up after a few ms. Measured on CYCCNT (started before this step) in
+/// cycles of the 8 MHz HSI the core runs on at reset.
 const HSE_TIMEOUT_HSI_CYCLES: u32 = 8_000_000 / 1_000 * 20;
 
 /// Which oscillator the PLL runs from.
@@ -25,11 +26,10 @@ pub enum Source {
 /// records the CPU clock for the delay and the timing code.
 pub fn start(rcc: pac::RCC, acr: &mut ACR) -> (rcc::Rcc, Source) {
     rcc.cr().modify(|_, w| w.hseon().set_bit());
-    let mut waited = 0u32;
-    while rcc.cr().read().hserdy().bit_is_clear() && waited < HSE_TIMEOUT_HSI_CYCLES {
-        cortex_m::asm::delay(800);
-        waited += 800;
-    }
+    let t0 = DWT::cycle_count();
+    while rcc.cr().read().hserdy().bit_is_clear()
+        && DWT::cycle_count().wrapping_sub(t0) < HSE_TIMEOUT_HSI_CYCLES
+    {}
     let hse_ok = rcc.cr().read().hserdy().bit_is_set();
     // The register values are written out (what `rcc::Config::hse(8 MHz)
     // .sysclk(72 MHz).pclk1(36 MHz)` computes) so the clock-tree search

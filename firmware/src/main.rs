@@ -37,7 +37,16 @@
 //! * `log` (priority 1, 20 Hz): attitude, altitude, health, loop timing,
 //!   stack high-water mark over defmt-RTT; the PA0 button and the
 //!   calibration session; saving a calibration; the watchdog is fed only
-//!   while the IMU loop makes progress (or the MPU is out of the loop).
+//!   while sample steps complete, or while the outputs are off, disarmed,
+//!   with the MPU out of the loop (`flight::outputguard`; the budgets are
+//!   in `watchdog.rs`).
+//! * `guard` (priority 4, every 5–6 ms): the output guard's check: no
+//!   sample step for 50 ms while the outputs run → the off pulse on all
+//!   four ESC outputs, "outputs: forced off: NoSamples" in the log, and the
+//!   flight controller disarmed (`NoImuSamples`) at the next sample. The
+//!   receiver's task does the same at once for the arm switch off while
+//!   armed ("outputs: forced off: ArmSwitchOff"), so neither needs a
+//!   sample to arrive.
 //! * `raw_log` (priority 1, spawned by `sample_done` in raw-log mode, 100 Hz): prints
 //!   one raw-log row in `RAW_LOG_HEADER`'s column order.
 //!
@@ -53,7 +62,9 @@
 //! * a chip that appears later: "... appeared", and the capabilities line
 //!   again; the AHRS switches to MARG / altitude comes on.
 //! * the IMU stops (INT line or the chip gone quiet while healthy): the
-//!   watchdog resets the board within 0.5–1 s (IWDG at LSI 60/30 kHz).
+//!   outputs go to the off pulse ≤ 60 ms after the last sample (when they
+//!   ran), and the watchdog resets the board within 0.5–1 s (IWDG at LSI
+//!   60/30 kHz).
 //!
 //! Button PA0 (to GND, internal pull-up): held at reset → accelerometer
 //! six-position calibration; long press (≥ 1.5 s) → magnetometer
@@ -88,9 +99,11 @@
 //! ESC protocol, the motor-test command and the magnetometer calibration
 //! of the build are in `config.rs`.
 //!
-//! Flash: 63,840 B of the 63 KiB budget with the flight controller
+//! Flash: 63,716 B of the 63 KiB budget with the flight controller
 //! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
-//! static RAM 4.8 KiB; the `ppm` build (PPM instead of CRSF): 62,872 B.
+//! static RAM 4.9 KiB; the `ppm` build (PPM instead of CRSF): 62,748 B.
+//! The output guard (its task, the guarded outputs, the watchdog rule)
+//! costs ≈ 0.9 KiB of it.
 //! The interrupt-driven sample read costs 1,780 B of it, and `mem.rs`'s
 //! 50 B of `__aeabi_memcpy*`/`__aeabi_memclr*` save 1,560 B over
 //! `compiler_builtins`' own.
@@ -170,23 +183,24 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
     }
 }
 
-// The software tasks run on SPI1 and SPI2's vectors: the app uses neither
-// SPI, and USART1 is the receiver's own interrupt.
-#[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [SPI1, SPI2])]
+// The software tasks run on SPI1, SPI2 and USART3's vectors (one per
+// priority: 1, 2 and the guard's 4): the app uses neither SPI nor USART3,
+// and USART1 is the receiver's own interrupt.
+#[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [SPI1, SPI2, USART3])]
 mod app {
     use crate::boot::*;
     use crate::bus::{self, BusHandle};
     use crate::clocks::{self, Source};
     use crate::config::{self, MagCal};
     use crate::delay::{cpu_hz, AsmDelay};
-    use crate::outputs::EscOutputs;
+    use crate::outputs::GuardedOutputs;
     #[cfg(not(feature = "ppm"))]
     use crate::receiver;
     use crate::receiver::{Pilot, RING_BYTES};
     use crate::report::{log_capabilities, log_pilot, log_status};
     use crate::stack;
     use crate::store::FlashPage;
-    use crate::watchdog::Watchdog;
+    use crate::watchdog::{Watchdog, BOOT_MIN_TIMEOUT_MS, RUN_MIN_TIMEOUT_MS};
     use core::sync::atomic::{AtomicBool, Ordering};
     use cortex_m::peripheral::DWT;
     use flight::boot::BiasStatus;
@@ -197,11 +211,11 @@ mod app {
     };
     use flight::health::SensorState;
     use flight::motortest::MotorPosition;
+    use flight::outputguard::{ForceOffReason, CHECK_PERIOD_US};
     use flight::pipeline::Pipeline;
     use flight::sample::{SampleIn, SampleStep};
     use flight::schedule::{
-        DtClock, LoopStats, MicrosClock, Periodic, SampleScheduler, WatchdogGate, IMU_RATE_HZ,
-        MAG_DIVIDER,
+        DtClock, LoopStats, MicrosClock, Periodic, SampleScheduler, IMU_RATE_HZ, MAG_DIVIDER,
     };
     use flight::sensors::{Maintenance, Sensors};
     use flight::storage::{self, CalibrationRecord, SaveError};
@@ -222,16 +236,6 @@ mod app {
     /// The flight controller is armed: written by `sample_done` after each
     /// step, read by `service` for `Sensors::set_armed`.
     static ARMED: AtomicBool = AtomicBool::new(false);
-
-    /// Shortest watchdog timeout while booting (probing with retries and
-    /// the MPU's power-up waits take ≤ 1.1 s), at the LSI's fastest 60 kHz.
-    const IWDG_BOOT_MIN_MS: u32 = 2_000;
-    /// Shortest watchdog timeout at run time, at the LSI's fastest 60 kHz
-    /// (at its slowest, 30 kHz, twice as long). Covers the 50 ms feed
-    /// period plus the longest block of the log task: one maintenance step
-    /// at priority 2 (≤ 200 ms if the MPU never leaves reset) and a flash
-    /// save (≤ 40 ms).
-    const IWDG_RUN_MIN_MS: u32 = 500;
 
     /// What the `imu` task knew when it started a sample's read, for the
     /// `sample_done` task that processes it.
@@ -262,6 +266,7 @@ mod app {
         session: CalSession<MagCal>,
         bias: BiasStatus,
         pilot: Pilot,
+        outputs: GuardedOutputs,
     }
 
     #[local]
@@ -274,7 +279,6 @@ mod app {
         record: CalibrationRecord,
         step: SampleStep,
         dt: DtClock,
-        esc: EscOutputs,
         fc: Option<FlightController>,
         // Full paths: RTIC's generated task contexts name these types
         // outside the cfg that removes their imports from the other build.
@@ -289,11 +293,13 @@ mod app {
         stack::paint();
         let mut core = cx.core;
         let dp: pac::Peripherals = cx.device;
-        let mut iwdg = Watchdog::start(dp.IWDG, IWDG_BOOT_MIN_MS);
-        let mut flash = dp.FLASH.constrain();
-        let (mut rcc, source) = clocks::start(dp.RCC, &mut flash.acr);
+        let mut iwdg = Watchdog::start(dp.IWDG, BOOT_MIN_TIMEOUT_MS);
+        // CYCCNT first: every wait from the crystal's start-up on is
+        // measured on it (`delay.rs`).
         core.DCB.enable_trace();
         core.DWT.enable_cycle_counter();
+        let mut flash = dp.FLASH.constrain();
+        let (mut rcc, source) = clocks::start(dp.RCC, &mut flash.acr);
         // One constant per branch: SysTick's divisibility check folds away.
         match source {
             Source::Hse => Mono::start(core.SYST, crate::delay::CPU_HZ_HSE),
@@ -332,21 +338,25 @@ mod app {
         mpu_int.trigger_on_edge(&mut exti, Edge::Rising);
         mpu_int.enable_interrupt(&mut exti);
 
-        iwdg.set_timeout(IWDG_RUN_MIN_MS);
+        iwdg.set_timeout(RUN_MIN_TIMEOUT_MS);
         service::spawn().ok();
         log::spawn().ok();
+        guard::spawn().ok();
         let now = DWT::cycle_count();
+        // Counted from when CYCCNT started, at reset.
+        let mut clock = MicrosClock::new(cpu_hz(), 0);
+        let outputs = GuardedOutputs::new(esc, clock.now_us(now));
         (
             Shared {
                 sensors,
                 started: SampleStarts::default(),
                 pipeline,
-                // Counted from when CYCCNT started, a few ms after reset.
-                clock: MicrosClock::new(cpu_hz(), 0),
+                clock,
                 stats: LoopStats::new(now),
                 session,
                 bias: BiasStatus::GaveUp,
                 pilot: Pilot::new(),
+                outputs,
             },
             Local {
                 led,
@@ -357,7 +367,6 @@ mod app {
                 record,
                 step: SampleStep::new(bias),
                 dt: DtClock::new(cpu_hz(), IMU_RATE_HZ),
-                esc,
                 fc: start_flight_controller(),
                 #[cfg(not(feature = "ppm"))]
                 rx,
@@ -410,10 +419,11 @@ mod app {
 
     /// The sample's read ended (pended by the I2C1 handlers, or at once
     /// when nothing was to be read): parse and book it, run the pipeline
-    /// and the flight controller, set the ESC outputs.
+    /// and the flight controller, set the ESC outputs (through the output
+    /// guard: a forced off first disarms the controller, and holds).
     #[task(binds = CAN_RX1, priority = 3,
-           local = [step, esc, fc],
-           shared = [sensors, pipeline, stats, session, bias, pilot, started])]
+           local = [step, fc],
+           shared = [sensors, pipeline, stats, session, bias, pilot, started, outputs])]
     fn sample_done(mut cx: sample_done::Context) {
         let t0 = DWT::cycle_count();
         let start = cx.shared.started.lock(|p| p.running.take());
@@ -440,10 +450,14 @@ mod app {
             };
             estimate(&mut cx, &input);
         }
-        let motors = fly(&mut cx, start.now_us, mpu_ok, fresh);
-        cx.local.esc.set(&motors);
-        let armed = cx.local.fc.as_ref().is_some_and(|fc| fc.is_armed());
+        let forced = cx.shared.outputs.lock(|o| o.take_forced());
+        let disarmed = forced.and_then(|f| cx.local.fc.as_mut()?.force_disarm(f.disarm_cause()));
+        let motors = fly(&mut cx, start.now_us, mpu_ok, fresh, disarmed);
+        let armed = cx.local.fc.as_ref().is_some_and(FlightController::is_armed);
         ARMED.store(armed, Ordering::Relaxed);
+        cx.shared
+            .outputs
+            .lock(|o| o.on_step(start.now_us, armed, &motors));
         // The sample's CPU time wherever it was spent: starting the read,
         // the I2C1 handlers, and this task.
         let cycles = start
@@ -512,16 +526,16 @@ mod app {
 
     /// One flight-controller step on the latest pilot input and estimate;
     /// the motor commands for the ESC timer (off without a controller or an
-    /// estimate).
-    fn fly(cx: &mut sample_done::Context, now_us: u32, mpu_ok: bool, fresh: bool) -> Motors {
-        let pilot = cx.shared.pilot.lock(|p| {
-            p.input(
-                now_us,
-                &config::channel_map(),
-                config::MODE_CHANNEL,
-                config::MOTOR_TEST_CHANNEL,
-            )
-        });
+    /// estimate). `disarmed`: the event of a disarm the output guard forced
+    /// before the step, logged with the step's.
+    fn fly(
+        cx: &mut sample_done::Context,
+        now_us: u32,
+        mpu_ok: bool,
+        fresh: bool,
+        disarmed: Option<FlightEvent>,
+    ) -> Motors {
+        let pilot = cx.shared.pilot.lock(|p| pilot_input(p, now_us));
         let status = SystemStatus {
             sensors_healthy: mpu_ok,
             gyro_bias_done: cx.shared.bias.lock(|b| matches!(b, BiasStatus::Done(_))),
@@ -547,10 +561,58 @@ mod app {
             let _ = (cx.local.fc.as_mut(), vehicle, status);
             None::<flight::flightctl::FlightOutput>
         };
-        if let Some(o) = out.filter(|o| !o.events.is_empty()) {
-            flight_log::spawn(o.events, pilot).ok();
+        if let Some(mut o) = out {
+            if let Some(e) = disarmed {
+                o.events.push(e);
+            }
+            if !o.events.is_empty() {
+                flight_log::spawn(o.events, pilot).ok();
+            }
         }
         out.map_or(Motors::Off, |o| o.motors)
+    }
+
+    /// The flight controller's view of the pilot at `now_us`.
+    fn pilot_input(p: &mut Pilot, now_us: u32) -> PilotInput {
+        p.input(
+            now_us,
+            &config::channel_map(),
+            config::MODE_CHANNEL,
+            config::MOTOR_TEST_CHANNEL,
+        )
+    }
+
+    /// A channel frame's arm switch and link to the output guard, which
+    /// forces the off pulse at once on the arm switch off while armed.
+    fn guard_pilot(outputs: &mut impl rtic::Mutex<T = GuardedOutputs>, pilot: &PilotInput) {
+        if let Some(r) = outputs.lock(|o| o.on_pilot(pilot.arm_switch, pilot.link_ok)) {
+            log_forced_off(r);
+        }
+    }
+
+    /// Says why the output guard forced the off pulse (the arm switch is
+    /// the pilot's normal disarm, seen by the receiver before a sample).
+    fn log_forced_off(r: ForceOffReason) {
+        match r {
+            ForceOffReason::NoSamples => defmt::error!("outputs: forced off: {}", r),
+            ForceOffReason::ArmSwitchOff => defmt::warn!("outputs: forced off: {}", r),
+        }
+    }
+
+    /// The output guard's periodic check (priority 4: above the sensor
+    /// tasks and the `sensors` lock's ceiling, so neither a blocking
+    /// maintenance step nor a stuck sample chain holds it up): the off
+    /// pulse when no sample step came for 50 ms while the outputs ran.
+    /// Every 5–6 ms (the 1 kHz monotonic's delay rounds up a tick).
+    #[task(priority = 4, shared = [clock, outputs])]
+    async fn guard(mut cx: guard::Context) {
+        loop {
+            let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
+            if let Some(r) = cx.shared.outputs.lock(|o| o.on_tick(now_us)) {
+                log_forced_off(r);
+            }
+            Mono::delay(ExtU32::millis(CHECK_PERIOD_US / 1_000)).await;
+        }
     }
 
     /// DMA1 channel 5: half or all of the receive ring written (priority
@@ -569,13 +631,23 @@ mod app {
     /// the DMA wrote since the last run into the CRSF parser, frames into
     /// the pilot state; an IDLE marks a frame boundary.
     #[cfg(not(feature = "ppm"))]
-    #[task(binds = USART1, priority = 4, local = [rx], shared = [clock, pilot])]
+    #[task(binds = USART1, priority = 4, local = [rx], shared = [clock, pilot, outputs])]
     fn crsf_rx(mut cx: crsf_rx::Context) {
         let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
         let rx = cx.local.rx;
         let pilot = &mut cx.shared.pilot;
-        rx.on_interrupt(|ev| pilot.lock(|p| p.on_event(ev, now_us)));
-        pilot.lock(|p| p.update_counters(rx.stats(), rx.errors()));
+        let mut channels = false;
+        rx.on_interrupt(|ev| {
+            channels |= matches!(ev, rc_input::Event::Channels(_));
+            pilot.lock(|p| p.on_event(ev, now_us))
+        });
+        let input = pilot.lock(|p| {
+            p.update_counters(rx.stats(), rx.errors());
+            channels.then(|| pilot_input(p, now_us))
+        });
+        if let Some(i) = input {
+            guard_pilot(&mut cx.shared.outputs, &i);
+        }
     }
 
     /// TIM4 capture on PB8 (priority 4, where `crsf_rx` is in the CRSF
@@ -588,17 +660,20 @@ mod app {
     /// peripherals are never clocked or given an interrupt enable, so they
     /// never pend.
     #[cfg(feature = "ppm")]
-    #[task(binds = TIM4, priority = 4, local = [ppm], shared = [clock, pilot])]
+    #[task(binds = TIM4, priority = 4, local = [ppm], shared = [clock, pilot, outputs])]
     fn ppm_rx(mut cx: ppm_rx::Context) {
         let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
         let frame = cx.local.ppm.on_interrupt(now_us);
         let counters = cx.local.ppm.counters();
-        cx.shared.pilot.lock(|p| {
-            if let Some(f) = frame {
-                p.on_event(rc_input::Event::Channels(f), now_us);
-            }
+        let input = cx.shared.pilot.lock(|p| {
             p.ppm = counters;
+            let f = frame?;
+            p.on_event(rc_input::Event::Channels(f), now_us);
+            Some(pilot_input(p, now_us))
         });
+        if let Some(i) = input {
+            guard_pilot(&mut cx.shared.outputs, &i);
+        }
     }
 
     /// The flight controller's view of the vehicle. Without a fresh sample
@@ -763,25 +838,27 @@ mod app {
 
     /// 20 Hz: watchdog, button and calibration session, live log, LED.
     #[task(priority = 1, local = [led, button_pin, iwdg, flash, record],
-           shared = [sensors, pipeline, stats, session, bias, pilot, clock])]
+           shared = [sensors, pipeline, stats, session, bias, pilot, clock, outputs])]
     async fn log(mut cx: log::Context) {
-        let mut gate = WatchdogGate::new();
         let mut link = LinkStatus::NeverReceived;
         let mut tick: u32 = 0;
         loop {
             tick = tick.wrapping_add(1);
-            // Fed while the IMU loop makes progress, or while the MPU is out
-            // of the loop (missing, failed, being re-initialised): then the
-            // service task is what keeps the board alive.
-            let samples = cx
-                .shared
-                .pipeline
-                .lock(|p| p.as_ref().map_or(0, |p| p.outputs().imu_samples));
+            // Fed while sample steps complete, or while the outputs are off
+            // and disarmed with the MPU out of the loop (missing, failed,
+            // being re-initialised: the service task keeps the board
+            // alive); never while they run without samples
+            // (`flight::outputguard`).
             let mpu_ok = cx
                 .shared
                 .sensors
                 .lock(|s| s.mpu_health.state() == SensorState::Ok);
-            if gate.should_feed(samples) || !mpu_ok {
+            let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
+            if cx
+                .shared
+                .outputs
+                .lock(|o| o.may_feed_watchdog(now_us, mpu_ok))
+            {
                 cx.local.iwdg.feed();
             }
 

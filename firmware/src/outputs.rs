@@ -7,10 +7,18 @@
 //! The "off" pulse is on the pins from the first boot step after the clock
 //! switch, before anything that can take time (sensor probing), and the
 //! panic and HardFault paths write it again (`force_off`).
+//!
+//! At run time every task writes the outputs through [`GuardedOutputs`]:
+//! the flight controller's motors after each sample step, and the off
+//! pulse `flight::outputguard` forces from the receiver's task (the arm
+//! switch off) and from the periodic guard task (no sample step for
+//! 50 ms), whatever the IMU does. The rules, their bounds and the
+//! watchdog's are in `flight::outputguard`.
 
 use control::esc::EscTimer;
 use core::sync::atomic::{AtomicU16, Ordering};
 use flight::flightctl::Motors;
+use flight::outputguard::{ForceOffReason, OutputGuard, OutputVerdict};
 use stm32f1xx_hal::pac;
 
 /// Compare value of the off pulse, published for the fault paths (0: the
@@ -87,6 +95,64 @@ impl EscOutputs {
                 self.write(c);
             }
         }
+    }
+}
+
+/// The ESC outputs behind the output guard: the one resource through
+/// which the tasks write them.
+pub struct GuardedOutputs {
+    esc: EscOutputs,
+    guard: OutputGuard,
+}
+
+impl GuardedOutputs {
+    /// The started outputs (at the off pulse), guarded from `now_us`.
+    pub fn new(esc: EscOutputs, now_us: u32) -> Self {
+        Self {
+            esc,
+            guard: OutputGuard::new(now_us),
+        }
+    }
+
+    /// Start of a sample step: the reason the outputs were forced off, if
+    /// the flight controller still has to be disarmed for it.
+    pub fn take_forced(&mut self) -> Option<ForceOffReason> {
+        self.guard.take_forced()
+    }
+
+    /// End of a sample step at `now_us`: the controller's motors, or the
+    /// off pulse while the guard holds them off.
+    pub fn on_step(&mut self, now_us: u32, armed: bool, motors: &Motors) {
+        let run = matches!(motors, Motors::Run(_));
+        match self.guard.on_step(now_us, armed, run) {
+            OutputVerdict::Run => self.esc.set(motors),
+            OutputVerdict::ForceOff(_) => self.esc.off(),
+        }
+    }
+
+    /// A receiver frame's arm switch and link state: the off pulse at once
+    /// if the guard says so (its reason returned, to log).
+    pub fn on_pilot(&mut self, arm_switch: bool, link_ok: bool) -> Option<ForceOffReason> {
+        let r = self.guard.on_pilot(arm_switch, link_ok);
+        if r.is_some() {
+            self.esc.off();
+        }
+        r
+    }
+
+    /// The periodic check at `now_us`: the off pulse if no sample step
+    /// came for too long while the outputs ran (its reason returned).
+    pub fn on_tick(&mut self, now_us: u32) -> Option<ForceOffReason> {
+        let r = self.guard.on_tick(now_us);
+        if r.is_some() {
+            self.esc.off();
+        }
+        r
+    }
+
+    /// Whether the watchdog may be fed (`flight::outputguard`).
+    pub fn may_feed_watchdog(&self, now_us: u32, mpu_in_loop: bool) -> bool {
+        self.guard.may_feed_watchdog(now_us, mpu_in_loop)
     }
 }
 

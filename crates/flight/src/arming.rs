@@ -119,6 +119,11 @@ pub enum DisarmCause {
     /// The attitude or gyro input stayed unusable for
     /// [`SafetyConfig::bad_input_disarm_s`].
     SensorFault,
+    /// No IMU sample reached the controller for
+    /// [`NO_SAMPLE_TIMEOUT_US`](crate::outputguard::NO_SAMPLE_TIMEOUT_US):
+    /// the outputs were forced off from outside the sample step
+    /// ([`crate::outputguard`]).
+    NoImuSamples,
 }
 
 /// Why a motor-test request was refused.

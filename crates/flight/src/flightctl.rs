@@ -766,6 +766,21 @@ impl FlightController {
         self.bad_input = Hold::default();
     }
 
+    /// Disarms now, from outside the sample step (the output guard forced
+    /// the outputs off: [`crate::outputguard`]); ends a motor test. The
+    /// event to report, `None` if already disarmed.
+    pub fn force_disarm(&mut self, cause: DisarmCause) -> Option<Event> {
+        if self.state == FlightState::Disarmed {
+            return None;
+        }
+        self.motor_test = None;
+        self.state = FlightState::Disarmed;
+        self.rate.clear();
+        self.alt_engaged = false;
+        self.last_motors = Motors::Off;
+        Some(Event::Disarmed(cause))
+    }
+
     fn disarm(&mut self, cause: DisarmCause, out: &mut FlightOutput) {
         self.state = FlightState::Disarmed;
         self.rate.clear();

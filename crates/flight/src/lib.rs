@@ -51,6 +51,7 @@ pub mod flightctl;
 pub mod health;
 pub mod motortest;
 pub mod mounting;
+pub mod outputguard;
 pub mod pipeline;
 pub mod sample;
 pub mod schedule;
