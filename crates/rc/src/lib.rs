@@ -22,7 +22,7 @@
 //!     Some(Event::LinkStatistics(stats)) => link.on_link_quality(stats.uplink_link_quality_pct),
 //!     None => {}
 //! }
-//! // Control loop:
+//! // Control loop (lost until frames have come for 0.5 s without a break):
 //! if link.is_lost(micros()) { /* failsafe */ }
 //! ```
 //!
@@ -40,7 +40,8 @@
 //!   deadband, reversing, normalised [`Sticks`], switch positions, the arm
 //!   switch; configuration is validated ([`ConfigError`]).
 //! * [`LinkMonitor`]: signal loss after a stated timeout or on a receiver's
-//!   0 % link quality.
+//!   0 % link quality; the link counts as up only after frames have come
+//!   without a break for a recovery window ([`LINK_RECOVERY_US`], 0.5 s).
 //!
 //! What it does not do: touch hardware (the firmware feeds bytes and
 //! capture intervals), expo/rates, arming decisions or failsafe actions.
@@ -63,6 +64,6 @@ pub use crc::{crc8_dvb_s2, crc8_dvb_s2_update, CRC8_DVB_S2_POLY};
 pub use crsf::{CrsfParser, CrsfStats, Event, LinkStatistics};
 pub use error::{ConfigError, MissingChannel};
 pub use frame::{RcFrame, MAX_CHANNELS};
-pub use link::{LinkMonitor, LinkStatus, CRSF_TIMEOUT_US, PPM_TIMEOUT_US};
+pub use link::{LinkMonitor, LinkStatus, CRSF_TIMEOUT_US, LINK_RECOVERY_US, PPM_TIMEOUT_US};
 pub use map::{Axis, ChannelMap, ChannelOrder, ChannelRange, Sticks, SwitchPosition};
 pub use ppm::{CaptureIntervals, PpmConfig, PpmDecoder, PpmStats};
