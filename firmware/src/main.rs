@@ -556,14 +556,14 @@ mod app {
     /// tasks so that the sample's processing never holds up emptying the
     /// ring: half the ring, 1.5 ms, is the latency it tolerates): the bytes
     /// the DMA wrote since the last run into the CRSF parser, frames into
-    /// the pilot state; an IDLE marks a frame boundary.
+    /// the pilot state (an IDLE is a handover, not a frame boundary).
     #[cfg(not(feature = "ppm"))]
     #[task(binds = USART1, priority = 4, local = [rx], shared = [clock, pilot])]
     fn crsf_rx(mut cx: crsf_rx::Context) {
         let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
         let rx = cx.local.rx;
         let pilot = &mut cx.shared.pilot;
-        rx.on_interrupt(|ev| pilot.lock(|p| p.on_event(ev, now_us)));
+        rx.on_interrupt(now_us, |ev| pilot.lock(|p| p.on_event(ev, now_us)));
         pilot.lock(|p| p.update_counters(rx.stats(), rx.errors()));
     }
 

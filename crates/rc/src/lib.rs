@@ -32,7 +32,8 @@
 //!   interrupt: address 0xC8/0xEE/0xEA, length 2..=62, CRC-8/DVB-S2,
 //!   RC_CHANNELS_PACKED (16 × 11 bit, converted to µs) and LINK_STATISTICS.
 //!   Garbage, CRC failures, bad lengths and unknown types are skipped and
-//!   counted ([`CrsfStats`]); an idle gap abandons a torn frame.
+//!   counted ([`CrsfStats`]); a frame not complete 1 750 µs after its first
+//!   byte is abandoned (pauses inside a frame are fine up to that).
 //! * [`PpmDecoder`]: PPM sum signal from timer input-capture intervals,
 //!   sync-gap detection, plausibility checks, and a frame is delivered only
 //!   when it confirms the channel count of the one before ([`PpmStats`]).
