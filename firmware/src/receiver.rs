@@ -30,6 +30,21 @@
 //! critical section stays well under the 1.13 ms of slack a channel
 //! frame has. A frame dropped for its time is counted (`dropped`), never
 //! misparsed. The link monitor gets the handover's wall-clock time.
+//!
+//! IDLE's clear sequence is an SR read followed by a DR read (RM0008
+//! §27.6.1), and the DMA owns DR. Assumption (not documented by ST): the
+//! USART sees bus accesses, not masters, so the DMA's read of DR after the
+//! handler's SR read completes the sequence as a CPU read would (the
+//! emulator's USART model does so). The handler reads DR only when the SR
+//! it just read shows IDLE without RXNE: with RXNE set a byte waits for the
+//! DMA, a CPU read would take it (RXNE clears and the DMA request with it),
+//! and the DMA's own read clears IDLE. If the assumption is wrong, IDLE
+//! stays set, the interrupt runs once more right away and then reads DR
+//! itself: one extra handover, no lost byte. What is left: a byte landing
+//! in DR between the SR and DR loads (five instructions apart in the
+//! release build, about 0.1 µs of the 23.8 µs byte time, and only when a
+//! new frame starts exactly one idle character after the last); it is
+//! then read by the CPU, not the DMA, and its frame fails its CRC.
 
 use control::shaping::Sticks;
 use core::sync::atomic::{compiler_fence, AtomicU32, Ordering};
@@ -49,6 +64,7 @@ const SR_FE: u16 = 1 << 1;
 const SR_NE: u16 = 1 << 2;
 const SR_ORE: u16 = 1 << 3;
 const SR_IDLE: u16 = 1 << 4;
+const SR_RXNE: u16 = 1 << 5;
 const CR1_RE: u16 = 1 << 2;
 const CR1_IDLEIE: u16 = 1 << 4;
 const CR1_UE: u16 = 1 << 13;
@@ -164,11 +180,12 @@ impl CrsfRx {
     /// USART1's interrupt at `now_us`: IDLE, or pended by
     /// [`on_dma_half_or_complete`]. Notes the error flags; on IDLE counts
     /// those of the burst and clears them with IDLE (SR then DR, RM0008
-    /// §27.6.1); hands the new bytes to the parser, each stamped with an
-    /// upper bound of its arrival time.
+    /// §27.6.1; no DR read while RXNE shows a byte waiting for the DMA: the
+    /// module documentation says why); hands the new bytes to the parser,
+    /// each stamped with an upper bound of its arrival time.
     pub fn on_interrupt(&mut self, now_us: u32, on_event: impl FnMut(Event)) {
         let sr = self.usart.sr().read().bits();
-        if sr & SR_IDLE != 0 {
+        if sr & (SR_IDLE | SR_RXNE) == SR_IDLE {
             let _ = self.usart.dr().read();
         }
         self.seen |= sr;
