@@ -170,11 +170,12 @@ fn ppm_frames_reach_the_firmware_and_loss_is_detected() {
     assert!(field(&last, "dropped ") <= 1, "{last}");
     assert_eq!(field(&last, "overcapture "), 0, "{last}");
     assert_link_times_out(&mut b);
-    // The receiver comes back after a pause of many counter wraps.
+    // The receiver comes back after a pause of many counter wraps: up
+    // after the 0.5 s recovery window.
     let back = b.now_ns() + 500 * MS;
     run_until(&mut b, back);
     let mut ppm = Ppm::new(&b);
-    let up = ppm.stream_until(&mut b, &EIGHT, "rc: link up", 500 * MS);
+    let up = ppm.stream_until(&mut b, &EIGHT, "rc: link up", S);
     assert!(up.is_some(), "{}", tail(&b, 20));
     assert_no_reset(&b);
 }
