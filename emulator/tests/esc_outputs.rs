@@ -215,9 +215,11 @@ fn corrupted_crsf_frames_are_dropped_and_counted() {
         "a frame with a bad CRC counted as a link\n{}",
         tail(&b, 20)
     );
-    // Then good frames: the counters show the earlier CRC errors.
+    // Then good frames: the counters show the earlier CRC errors (the link
+    // is up 0.5 s after the first good frame, the channel line comes once a
+    // second while it is up).
     let good = rc_frame([ticks(1500); 16]);
-    stream(&mut b, &good, 4 * MS, start + 1_600 * MS);
+    stream(&mut b, &good, 4 * MS, start + 2_100 * MS);
     let last = last_channel_line(&b, start);
     assert!(field(&last, "crc_err ") >= 100, "{last}");
 }
@@ -361,7 +363,7 @@ fn a_framing_error_before_a_half_ring_mark_is_counted() {
     let Some(mut b) = board() else { return };
     boot_ok(&mut b);
     let good = rc_frame([ticks(1500); 16]);
-    let up = stream_until(&mut b, &good, "rc: link up", 500 * MS);
+    let up = stream_until(&mut b, &good, "rc: link up", S);
     assert!(up.is_some(), "{}", tail(&b, 20));
     for _ in 0..3 {
         // One byte sent 30 % slow (outside the receiver's 3.75 %
@@ -639,4 +641,118 @@ fn motor_test_switch_spins_one_motor_per_flip() {
         println!("{l}");
     }
     assert_no_reset(&b);
+}
+
+/// One character (start, 8 data, stop bit) at 420 kbaud, ns.
+const CHAR_NS: u64 = 10 * S / CRSF_BAUD as u64;
+
+/// Channel frames every 4 ms, each sent in two pieces (13 + 13 bytes) with
+/// a pause between them: one character time and a bit (25 µs, the USART
+/// sees a whole idle character and raises IDLE inside the frame), 100 µs
+/// and 500 µs in turn. The parser accepts a frame that lasts at most
+/// 1 750 µs from its first byte to its last (this one: 619 µs + the
+/// pause), so every frame is parsed and none is dropped.
+#[test]
+fn crsf_frames_with_pauses_inside_them_are_parsed() {
+    let Some(mut b) = board() else { return };
+    boot_ok(&mut b);
+    let frame = sticks(1000, false);
+    let (head, rest) = frame.split_at(13);
+    let pauses_ns = [25_000, 100_000, 500_000];
+    let start = b.now_ns();
+    let mut next = start;
+    let mut sent_at = Vec::new();
+    while b.now_ns() < start + 1_300 * MS {
+        while next < b.now_ns() + 20 * MS {
+            let pause = pauses_ns[sent_at.len() % pauses_ns.len()];
+            b.usart1_send_at(head, CRSF_BAUD, next);
+            b.usart1_send_at(rest, CRSF_BAUD, next + 13 * CHAR_NS + pause);
+            sent_at.push(next);
+            next += 4 * MS;
+        }
+        run_for(&mut b, 4 * MS);
+    }
+    assert_link_up_after(&b, start);
+    let line = b
+        .log_lines()
+        .iter()
+        .rev()
+        .find(|l| l.text.contains("rc: ch1-8"))
+        .cloned()
+        .unwrap_or_else(|| panic!("no channel line\n{}", tail(&b, 20)));
+    // Every frame sent 10 ms before the line was read was parsed (the
+    // line's counters are read before it is encoded and reaches the host).
+    let done = sent_at
+        .iter()
+        .filter(|&&t| t + 10 * MS <= line.host_time_ns);
+    let begun = sent_at.iter().filter(|&&t| t <= line.host_time_ns);
+    let (done, begun) = (done.count() as u64, begun.count() as u64);
+    let frames = field(&line.text, "frames ");
+    assert!(
+        (done..=begun).contains(&frames),
+        "{done}..={begun}: {} (sent from {start} ns, line at {} ns)",
+        line.text,
+        line.host_time_ns
+    );
+    assert_eq!(field(&line.text, "dropped "), 0, "{}", line.text);
+    assert_eq!(field(&line.text, "crc_err "), 0, "{}", line.text);
+    assert!(lines_after(&b, start, "rc: link lost").is_empty());
+}
+
+/// The link comes back after a loss: for the recovery window (0.5 s of
+/// frames without a break) it does not count as up, so an arm-switch flip
+/// inside the window does not arm; "rc: link up" comes 0.5 s after the
+/// first frame, and a flip after it arms. The first link-up after boot
+/// waits the same 0.5 s.
+#[test]
+fn arming_waits_for_the_recovery_window_after_the_link_comes_back() {
+    let Some(mut b) = board_with(|c| c.sim.errors = sim::SensorErrors::ideal()) else {
+        return;
+    };
+    if !wait_for_gyro_bias(&mut b) {
+        println!("skipped: the start-up gyro bias gave up on the emulated board");
+        return;
+    }
+    let first = b.now_ns();
+    let up = stream_until(&mut b, &sticks(1000, false), "rc: link up", S);
+    assert!(up.is_some(), "{}", tail(&b, 20));
+    let up_at = lines_after(&b, first, "rc: link up");
+    assert_eq!(up_at.len(), 1);
+    let up_ns = up_time(&b, first);
+    assert!(
+        up_ns >= first + 500 * MS,
+        "up {} ms after the first frame",
+        (up_ns - first) / MS
+    );
+    assert_link_times_out(&mut b);
+
+    let back = b.now_ns();
+    stream_until(&mut b, &sticks(1000, false), "never", 250 * MS);
+    // An off -> on flip 250 ms into the window: refused (no arming).
+    stream_until(&mut b, &sticks(1000, true), "never", 150 * MS);
+    assert!(
+        lines_after(&b, back, "flight: ARMED").is_empty(),
+        "armed inside the recovery window\n{}",
+        tail(&b, 30)
+    );
+    assert!(lines_after(&b, back, "rc: link up").is_empty());
+    stream_until(&mut b, &sticks(1000, false), "never", 250 * MS);
+    let up_ns = up_time(&b, back);
+    assert!(
+        (back + 500 * MS..back + 600 * MS).contains(&up_ns),
+        "link up {} ms after the first frame",
+        (up_ns - back) / MS
+    );
+    let armed = stream_until(&mut b, &sticks(1000, true), "flight: ARMED", S);
+    assert!(armed.is_some(), "{}", tail(&b, 30));
+    assert_no_reset(&b);
+}
+
+/// When the first "rc: link up" after `t_ns` was logged.
+fn up_time(b: &Board, t_ns: u64) -> u64 {
+    b.log_lines()
+        .iter()
+        .find(|l| l.host_time_ns >= t_ns && l.text.contains("rc: link up"))
+        .map(|l| l.host_time_ns)
+        .unwrap_or_else(|| panic!("no link up\n{}", tail(b, 30)))
 }

@@ -170,11 +170,12 @@ fn ppm_frames_reach_the_firmware_and_loss_is_detected() {
     assert!(field(&last, "dropped ") <= 1, "{last}");
     assert_eq!(field(&last, "overcapture "), 0, "{last}");
     assert_link_times_out(&mut b);
-    // The receiver comes back after a pause of many counter wraps.
+    // The receiver comes back after a pause of many counter wraps: up
+    // after the 0.5 s recovery window.
     let back = b.now_ns() + 500 * MS;
     run_until(&mut b, back);
     let mut ppm = Ppm::new(&b);
-    let up = ppm.stream_until(&mut b, &EIGHT, "rc: link up", 500 * MS);
+    let up = ppm.stream_until(&mut b, &EIGHT, "rc: link up", S);
     assert!(up.is_some(), "{}", tail(&b, 20));
     assert_no_reset(&b);
 }
@@ -219,8 +220,10 @@ fn ppm_frames_with_a_wrong_count_or_pulse_are_dropped_and_counted() {
         "a bad frame counted as a link\n{}",
         tail(&b, 20)
     );
-    // Then good frames: the counters show the earlier drops.
-    ppm.stream(&mut b, &EIGHT, start + 1_700 * MS);
+    // Then good frames: the counters show the earlier drops (the link is
+    // up 0.5 s after the first good frame, the channel line comes once a
+    // second while it is up).
+    ppm.stream(&mut b, &EIGHT, start + 2_200 * MS);
     let last = last_channel_line(&b, start);
     assert!(field(&last, "bad_count ") >= 10, "{last}");
     assert!(field(&last, "bad_pulse ") >= 10, "{last}");

@@ -4,7 +4,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use emulator::usart::{cr1, reg, sr, Usart};
+use emulator::usart::{cr1, cr3, reg, sr, Usart};
 
 const PCLK2_HZ: u32 = 72_000_000;
 const CRSF_BAUD: u32 = 420_000;
@@ -192,4 +192,41 @@ fn features_outside_the_model_are_refused() {
     );
     assert!(matches!(u.write(reg::DR, 0x55, 0), Some(Err(_))));
     assert_eq!(u.read(0x1C, 0), None);
+}
+
+/// With the receiver's DMA (CR3.DMAR) the DMA reads DR. IDLE's clear
+/// sequence is "a read to the USART_SR register followed by a read to the
+/// USART_DR register" (RM0008 §27.6.1): the USART sees the bus access, not
+/// the master, so the DMA's DR read after the handler's SR read clears
+/// IDLE, and a DMA read with no SR read before it does not. (The firmware
+/// relies on this when it leaves DR to the DMA while RXNE is set.)
+#[test]
+fn the_dmas_dr_read_after_an_sr_read_clears_idle() {
+    let mut r = Rig::new(BRR_420K, RX_ON | cr1::IDLEIE);
+    r.wr(reg::CR3, cr3::DMAR);
+    r.u.inject(&[1], CRSF_BAUD, 0);
+    r.at(10 * BIT_NS);
+    assert!(r.u.rx_dma_request());
+    assert_eq!(r.u.dma_read_dr(r.now), 1);
+    r.at(25 * BIT_NS);
+    assert!(r.u.irq(), "IDLE one idle character after the stop bit");
+    // A byte the DMA takes with no SR read before it: IDLE stays.
+    r.u.inject(&[2], CRSF_BAUD, 25 * BIT_NS);
+    r.at(35 * BIT_NS);
+    assert!(r.u.rx_dma_request());
+    assert_eq!(r.u.dma_read_dr(r.now), 2);
+    assert!(r.u.irq(), "a DR read alone does not clear IDLE");
+    // The handler reads SR (IDLE set, no byte waiting), then a byte lands
+    // and the DMA, not the handler, reads DR: IDLE is cleared.
+    r.at(36 * BIT_NS);
+    assert_eq!(r.rd(reg::SR) & (sr::IDLE | sr::RXNE), sr::IDLE);
+    r.u.inject(&[3], CRSF_BAUD, 36 * BIT_NS);
+    r.at(46 * BIT_NS);
+    assert!(r.u.rx_dma_request());
+    assert_eq!(r.u.dma_read_dr(r.now), 3);
+    assert!(!r.u.irq(), "SR then the DMA's DR read cleared IDLE");
+    assert_eq!(r.u.counts(), (3, 0));
+    // And IDLE comes back one idle character after that byte.
+    r.at(57 * BIT_NS);
+    assert!(r.u.irq());
 }

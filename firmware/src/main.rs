@@ -629,7 +629,7 @@ mod app {
     /// tasks so that the sample's processing never holds up emptying the
     /// ring: half the ring, 1.5 ms, is the latency it tolerates): the bytes
     /// the DMA wrote since the last run into the CRSF parser, frames into
-    /// the pilot state; an IDLE marks a frame boundary.
+    /// the pilot state (an IDLE is a handover, not a frame boundary).
     #[cfg(not(feature = "ppm"))]
     #[task(binds = USART1, priority = 4, local = [rx], shared = [clock, pilot, outputs])]
     fn crsf_rx(mut cx: crsf_rx::Context) {
@@ -637,7 +637,7 @@ mod app {
         let rx = cx.local.rx;
         let pilot = &mut cx.shared.pilot;
         let mut channels = false;
-        rx.on_interrupt(|ev| {
+        rx.on_interrupt(now_us, |ev| {
             channels |= matches!(ev, rc_input::Event::Channels(_));
             pilot.lock(|p| p.on_event(ev, now_us))
         });

@@ -15,17 +15,36 @@
 //! half is the interrupt latency it tolerates: [`RING_BYTES`] = 128 gives
 //! 64 byte times, 1.52 ms, longer than any log line's critical section.
 //!
-//! Frame boundaries: the parser abandons a partial frame after an idle gap,
-//! which needs a time per byte. Bytes handed over in chunks have no such
-//! time (a chunk's drain time lags its bytes by the interrupt latency, and
-//! the two chunks of a frame split at a half-ring mark can be drained more
-//! than the gap apart), so the parser runs on a line clock that stands
-//! still while bytes arrive and jumps past the idle gap at each IDLE event
-//! (the USART saw a whole idle frame after a stop bit). If the IDLE
-//! interrupt is held off until the next frame has begun, that frame's first
-//! bytes fall before the boundary and it is dropped (counted, never
-//! misparsed); CRSF senders leave milliseconds between frames. The link
-//! monitor gets wall-clock times.
+//! Frame boundaries: the parser accepts a frame whose last byte arrived at
+//! most [`rc_input::crsf::DEFAULT_MAX_FRAME_TIME_US`] (1 750 µs) after its
+//! first, whatever the pauses inside it (a 26-byte channel frame may pause
+//! 1.13 ms in all), and abandons a candidate that takes longer. IDLE (one
+//! idle character, 23.8 µs, after a byte) is only a handover: a receiver
+//! that pauses mid-frame raises it without splitting the frame. Each byte
+//! is stamped with an upper bound of its arrival: the handover's time less
+//! one byte time ([`rc_input::crsf::BYTE_TIME_NS`]) for each byte the DMA
+//! wrote after it (each byte takes at least that on the wire). A span
+//! between two handovers therefore reads long by at most the second
+//! handover's latency, and short by the pauses inside one handover's
+//! bytes; at priority 4 the latency is a few µs, and a defmt line's
+//! critical section stays well under the 1.13 ms of slack a channel
+//! frame has. A frame dropped for its time is counted (`dropped`), never
+//! misparsed. The link monitor gets the handover's wall-clock time.
+//!
+//! IDLE's clear sequence is an SR read followed by a DR read (RM0008
+//! §27.6.1), and the DMA owns DR. Assumption (not documented by ST): the
+//! USART sees bus accesses, not masters, so the DMA's read of DR after the
+//! handler's SR read completes the sequence as a CPU read would (the
+//! emulator's USART model does so). The handler reads DR only when the SR
+//! it just read shows IDLE without RXNE: with RXNE set a byte waits for the
+//! DMA, a CPU read would take it (RXNE clears and the DMA request with it),
+//! and the DMA's own read clears IDLE. If the assumption is wrong, IDLE
+//! stays set, the interrupt runs once more right away and then reads DR
+//! itself: one extra handover, no lost byte. What is left: a byte landing
+//! in DR between the SR and DR loads (five instructions apart in the
+//! release build, about 0.1 µs of the 23.8 µs byte time, and only when a
+//! new frame starts exactly one idle character after the last); it is
+//! then read by the CPU, not the DMA, and its frame fails its CRC.
 
 use control::shaping::Sticks;
 use core::sync::atomic::{compiler_fence, AtomicU32, Ordering};
@@ -45,6 +64,7 @@ const SR_FE: u16 = 1 << 1;
 const SR_NE: u16 = 1 << 2;
 const SR_ORE: u16 = 1 << 3;
 const SR_IDLE: u16 = 1 << 4;
+const SR_RXNE: u16 = 1 << 5;
 const CR1_RE: u16 = 1 << 2;
 const CR1_IDLEIE: u16 = 1 << 4;
 const CR1_UE: u16 = 1 << 13;
@@ -91,7 +111,6 @@ pub struct CrsfRx {
     ring: &'static mut [u8; RING_BYTES],
     read_pos: usize,
     parser: CrsfParser,
-    line_us: u32,
     errors: UartErrors,
     /// SR bits (ORE/FE/NE among them) seen by the SR reads of this burst. A handover at a
     /// half-ring mark reads SR, and the DMA's next read of DR completes the
@@ -148,7 +167,6 @@ impl CrsfRx {
             ring,
             read_pos: 0,
             parser: CrsfParser::new(),
-            line_us: 0,
             seen: 0,
             errors: UartErrors {
                 overruns: 0,
@@ -159,33 +177,48 @@ impl CrsfRx {
         }
     }
 
-    /// USART1's interrupt: IDLE, or pended by [`on_dma_half_or_complete`].
-    /// Notes the error flags; on IDLE counts those of the burst and clears
-    /// them with IDLE (SR then DR, RM0008 §27.6.1); hands the new bytes to
-    /// the parser; after an IDLE, moves the parser's line clock past its
-    /// idle gap so the next byte starts a frame.
-    pub fn on_interrupt(&mut self, mut on_event: impl FnMut(Event)) {
+    /// USART1's interrupt at `now_us`: IDLE, or pended by
+    /// [`on_dma_half_or_complete`]. Notes the error flags; on IDLE counts
+    /// those of the burst and clears them with IDLE (SR then DR, RM0008
+    /// §27.6.1; no DR read while RXNE shows a byte waiting for the DMA: the
+    /// module documentation says why); hands the new bytes to the parser,
+    /// each stamped with an upper bound of its arrival time.
+    pub fn on_interrupt(&mut self, now_us: u32, on_event: impl FnMut(Event)) {
         let sr = self.usart.sr().read().bits();
-        self.seen |= sr;
-        let idle = sr & SR_IDLE != 0;
-        if idle {
+        if sr & (SR_IDLE | SR_RXNE) == SR_IDLE {
             let _ = self.usart.dr().read();
-            let sr = self.seen;
-            self.seen = 0;
-            for (flag, count) in [
-                (SR_ORE, &mut self.errors.overruns),
-                (SR_FE, &mut self.errors.framing),
-                (SR_NE, &mut self.errors.noise),
-            ] {
-                if sr & flag != 0 {
-                    *count = count.saturating_add(1);
-                }
+        }
+        self.seen |= sr;
+        if sr & SR_IDLE != 0 {
+            self.count_errors();
+        }
+        self.hand_over(now_us, on_event);
+    }
+
+    /// Counts the error flags the SR reads of the burst saw.
+    fn count_errors(&mut self) {
+        let sr = self.seen;
+        self.seen = 0;
+        for (flag, count) in [
+            (SR_ORE, &mut self.errors.overruns),
+            (SR_FE, &mut self.errors.framing),
+            (SR_NE, &mut self.errors.noise),
+        ] {
+            if sr & flag != 0 {
+                *count = count.saturating_add(1);
             }
         }
+    }
+
+    /// Hands the bytes the DMA wrote since the last handover to the
+    /// parser, the last stamped `now_us` and each earlier one a byte time
+    /// before the one after it.
+    fn hand_over(&mut self, now_us: u32, mut on_event: impl FnMut(Event)) {
         let left = self.dma.ch(CH5).ndtr().read().bits() as usize;
         let write_pos = RING_BYTES.wrapping_sub(left) & (RING_BYTES - 1);
         // The DMA's writes up to `write_pos` happened before CNDTR said so.
         compiler_fence(Ordering::Acquire);
+        let mut after = write_pos.wrapping_sub(self.read_pos) & (RING_BYTES - 1);
         while self.read_pos != write_pos {
             let i = self.read_pos & (RING_BYTES - 1);
             // SAFETY: `i` is inside the ring; a volatile read because the
@@ -193,14 +226,12 @@ impl CrsfRx {
             #[allow(unsafe_code)]
             let byte = unsafe { core::ptr::read_volatile(self.ring.as_ptr().add(i)) };
             self.read_pos = (i + 1) & (RING_BYTES - 1);
-            if let Some(ev) = self.parser.push(byte, self.line_us) {
+            after = after.saturating_sub(1);
+            // At most 127 byte times (3.0 ms) back: no overflow.
+            let back_us = after as u32 * rc_input::crsf::BYTE_TIME_NS / 1_000;
+            if let Some(ev) = self.parser.push(byte, now_us.wrapping_sub(back_us)) {
                 on_event(ev);
             }
-        }
-        if idle {
-            self.line_us = self
-                .line_us
-                .wrapping_add(rc_input::crsf::DEFAULT_IDLE_GAP_US + 1);
         }
     }
 

@@ -61,6 +61,10 @@ pub fn log_pilot(
     if status != last {
         match status {
             LinkStatus::Ok => defmt::info!("rc: link up"),
+            LinkStatus::Recovering => defmt::info!(
+                "rc: frames again, link up after {=u32} ms of them",
+                rc_input::LINK_RECOVERY_US / 1_000
+            ),
             other => defmt::warn!("rc: link lost ({})", other),
         }
     }

@@ -4,9 +4,9 @@
 //!
 //! `cargo run -p rc-input --example crsf_dump -- capture.bin` (`-` = stdin).
 //! A raw capture carries no byte times: bytes are stamped as if back to back
-//! (the idle-gap rule never fires inside the capture; the CRC resynchronises),
-//! and the end of the capture counts as an idle line, releasing any frame
-//! still held behind a false start. Exit status: 0 done, 1 the input could not be
+//! (every frame of at most 64 bytes then lasts less than the frame time; the
+//! CRC resynchronises), and the end of the capture counts as a long pause,
+//! releasing any frame still held behind a false start. Exit status: 0 done, 1 the input could not be
 //! read, 2 bad arguments.
 
 use std::io::{ErrorKind, Read, Write};
@@ -14,7 +14,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Parser;
-use rc_input::crsf::DEFAULT_IDLE_GAP_US;
+use rc_input::crsf::DEFAULT_MAX_FRAME_TIME_US;
 use rc_input::{CrsfParser, Event};
 
 /// One byte time at 420 kbaud 8N1, rounded up, µs.
@@ -54,7 +54,7 @@ fn main() -> ExitCode {
             }
         }
     }
-    let idle_us = t_us.wrapping_add(2 * DEFAULT_IDLE_GAP_US);
+    let idle_us = t_us.wrapping_add(2 * DEFAULT_MAX_FRAME_TIME_US);
     while let Some(event) = parser.poll(idle_us) {
         if let Err(code) = print(&mut out, &cli, bytes.len(), &event) {
             return code;

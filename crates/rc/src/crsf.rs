@@ -40,17 +40,24 @@ pub const RC_CHANNELS_PAYLOAD_BYTES: usize = 22;
 /// Payload bytes of [`FRAME_TYPE_LINK_STATISTICS`].
 pub const LINK_STATISTICS_PAYLOAD_BYTES: usize = 10;
 
-/// Default idle time after which a partly received frame is abandoned and
-/// the next byte is taken as the start of a new frame, µs.
+/// Time on the wire of one byte at [`CRSF_BAUD`] (start, 8 data, stop
+/// bit), ns: 23 809 (23.8 µs).
+pub const BYTE_TIME_NS: u32 = (10_000_000_000 / CRSF_BAUD as u64) as u32;
+
+/// Default longest time from a frame's first byte to its last, µs: a
+/// candidate frame not complete by then is abandoned, and its later bytes
+/// are searched for a new frame start.
 ///
-/// Bytes of one frame follow each other every 23.8 µs (10 bits at
-/// 420 kbaud) and receivers leave the line idle between frames. 1 ms is
-/// over 40 byte times, so interrupt latency from higher-priority tasks does
-/// not split a real frame, yet a frame torn by noise or a receiver reboot is
-/// dropped before the next one (ExpressLRS sends every 2 to 20 ms at
-/// 500..50 Hz; at 1000 Hz the idle gap is shorter than this and the CRC
-/// check alone resynchronises).
-pub const DEFAULT_IDLE_GAP_US: u32 = 1_000;
+/// Betaflight's `CRSF_TIME_NEEDED_PER_FRAME_US`. The largest frame, 64
+/// bytes, takes 1 524 µs on the wire, so pauses inside a frame may add up
+/// to 226 µs for a 64-byte frame, 1 131 µs for a 26-byte channel frame
+/// (619 µs on the wire) and 1 417 µs for a 14-byte link statistics frame:
+/// a receiver that pauses for a few byte times mid-frame, or a DMA
+/// handover split, does not lose the frame. A frame torn by noise or a
+/// receiver reboot is dropped before the next one at up to 500 Hz
+/// (ExpressLRS sends every 2 to 20 ms at 500..50 Hz); at 1000 Hz the next
+/// frame begins within the limit, and the CRC check alone resynchronises.
+pub const DEFAULT_MAX_FRAME_TIME_US: u32 = 1_750;
 
 /// Channel value at the low stick end, CRSF ticks (988 µs).
 pub const TICKS_MIN: u16 = 172;
@@ -273,9 +280,9 @@ pub struct CrsfStats {
     pub bad_length: u32,
     /// Frames of a known type whose payload had the wrong size.
     pub bad_payload_length: u32,
-    /// Partial frames (or false starts) abandoned because the line went
-    /// idle before they were complete.
-    pub idle_resyncs: u32,
+    /// Partial frames (or false starts) abandoned because their last byte
+    /// had not arrived within the frame time of their first.
+    pub frame_timeouts: u32,
     /// Bytes skipped while looking for an address byte.
     pub skipped_bytes: u32,
 }
@@ -289,16 +296,17 @@ impl CrsfStats {
         crc_errors: 0,
         bad_length: 0,
         bad_payload_length: 0,
-        idle_resyncs: 0,
+        frame_timeouts: 0,
         skipped_bytes: 0,
     };
 
-    /// Frames dropped for any reason (CRC, length, payload size, idle gap).
+    /// Frames dropped for any reason (CRC, length, payload size, frame
+    /// time).
     pub fn dropped(&self) -> u32 {
         self.crc_errors
             .saturating_add(self.bad_length)
             .saturating_add(self.bad_payload_length)
-            .saturating_add(self.idle_resyncs)
+            .saturating_add(self.frame_timeouts)
     }
 }
 
@@ -324,8 +332,12 @@ pub fn is_address(byte: u8) -> bool {
 /// is still found. The cost of that search is bounded by the buffer: at
 /// most 64 candidate starts, each checked once.
 ///
-/// Time is an argument (`now_us`, a wrapping µs counter), which keeps the
-/// parser pure and testable.
+/// Each byte is stamped with its arrival time (`now_us`, a wrapping µs
+/// counter), which keeps the parser pure and testable. A frame is accepted
+/// when its last byte arrived at most the frame time (default
+/// [`DEFAULT_MAX_FRAME_TIME_US`], 1 750 µs) after its first, whatever the
+/// pauses between its bytes; a candidate still incomplete that long after
+/// its first byte is abandoned (counted in [`CrsfStats::frame_timeouts`]).
 ///
 /// ```
 /// use rc_input::crsf::{encode_rc_channels, CrsfParser, Event, ADDRESS_FLIGHT_CONTROLLER};
@@ -341,12 +353,11 @@ pub fn is_address(byte: u8) -> bool {
 #[derive(Debug, Clone)]
 pub struct CrsfParser {
     buf: [u8; MAX_FRAME_BYTES],
+    /// When each byte in `buf` arrived, µs.
+    arrived_us: [u32; MAX_FRAME_BYTES],
     start: usize,
     end: usize,
-    /// Buffer index of the first byte after an idle gap: no frame spans it.
-    barrier: Option<usize>,
-    last_byte_us: Option<u32>,
-    idle_gap_us: u32,
+    max_frame_time_us: u32,
     stats: CrsfStats,
 }
 
@@ -357,26 +368,25 @@ impl Default for CrsfParser {
 }
 
 impl CrsfParser {
-    /// A parser with the default idle gap ([`DEFAULT_IDLE_GAP_US`]).
+    /// A parser with the default frame time
+    /// ([`DEFAULT_MAX_FRAME_TIME_US`]).
     pub const fn new() -> Self {
-        Self::with_idle_gap_us(DEFAULT_IDLE_GAP_US)
+        Self::with_max_frame_time_us(DEFAULT_MAX_FRAME_TIME_US)
     }
 
-    /// A parser that abandons a partial frame when no byte arrived for more
-    /// than `idle_gap_us`. `u32::MAX` disables the idle rule (for bytes with
-    /// no arrival times, e.g. a file). A caller draining a DMA buffer can
-    /// keep the rule by stamping each chunk with the time it was drained
-    /// (while its interrupt latency stays well under the gap), or by
-    /// stamping bytes with a line clock that jumps past the gap at each
-    /// idle-line event, as the firmware does.
-    pub const fn with_idle_gap_us(idle_gap_us: u32) -> Self {
+    /// A parser that abandons a candidate frame whose last byte has not
+    /// arrived `max_frame_time_us` after its first. `u32::MAX` disables the
+    /// rule (for bytes with no arrival times, e.g. a file). A caller
+    /// draining a DMA buffer stamps each byte with an upper bound of its
+    /// arrival: the drain time less one byte time per byte that came after
+    /// it, as the firmware does.
+    pub const fn with_max_frame_time_us(max_frame_time_us: u32) -> Self {
         Self {
             buf: [0; MAX_FRAME_BYTES],
+            arrived_us: [0; MAX_FRAME_BYTES],
             start: 0,
             end: 0,
-            barrier: None,
-            last_byte_us: None,
-            idle_gap_us,
+            max_frame_time_us,
             stats: CrsfStats::ZERO,
         }
     }
@@ -396,78 +406,79 @@ impl CrsfParser {
     pub fn clear(&mut self) {
         self.start = 0;
         self.end = 0;
-        self.barrier = None;
     }
 
     /// Feeds one received byte, stamped with the time it arrived (µs,
     /// wrapping). Returns the decoded content when the byte completes a
     /// valid frame.
     ///
-    /// A byte that arrives more than the idle gap after the previous one
-    /// starts a new frame: no frame is assembled across the gap. Frames
-    /// already complete in the buffer at that point are still delivered.
-    /// One call returns at most one event; if the buffer holds more (only
-    /// after garbage announced a long frame that swallowed real ones), the
-    /// following calls return them.
+    /// A candidate frame whose bytes would span more than the frame time
+    /// is abandoned and its later bytes are searched again; frames already
+    /// complete in the buffer are still delivered. One call returns at most
+    /// one event; if the buffer holds more (only after garbage announced a
+    /// long frame that swallowed real ones), the following calls return
+    /// them.
     pub fn push(&mut self, byte: u8, now_us: u32) -> Option<Event> {
-        self.mark_idle_gap(now_us);
-        self.last_byte_us = Some(now_us);
-        self.append(byte);
-        self.scan()
+        self.append(byte, now_us);
+        self.scan(now_us)
     }
 
     /// Delivers frames that are complete in the buffer but wait behind a
-    /// false start, once the line has been idle for the idle gap. Call it
-    /// from a periodic task so that the last frames before a pause are not
-    /// held until the next byte; it returns at most one event per call.
+    /// false start, once the false start's frame time has passed at
+    /// `now_us`. Call it from a periodic task so that the last frames before
+    /// a pause are not held until the next byte; it returns at most one
+    /// event per call.
     pub fn poll(&mut self, now_us: u32) -> Option<Event> {
-        self.mark_idle_gap(now_us);
-        self.scan()
+        self.scan(now_us)
     }
 
-    fn mark_idle_gap(&mut self, now_us: u32) {
-        if let Some(last) = self.last_byte_us {
-            // An earlier barrier still ahead of `start` is kept: the frames
-            // before it are not finished, and one barrier is all there is.
-            let idle = now_us.wrapping_sub(last) > self.idle_gap_us;
-            if idle && self.end > self.start && self.barrier.is_none() {
-                self.barrier = Some(self.end);
-            }
-        }
+    /// Whether more than the frame time lies between `first_us` and
+    /// `last_us`. A `last_us` before `first_us` (by less than half the
+    /// counter's range) is no time at all.
+    fn too_slow(&self, first_us: u32, last_us: u32) -> bool {
+        let span = last_us.wrapping_sub(first_us);
+        span > self.max_frame_time_us && span <= u32::MAX / 2
     }
 
-    fn append(&mut self, byte: u8) {
-        if self.end >= self.buf.len() {
-            if self.start == 0 {
-                // Unreachable: a 64-byte candidate is complete and resolved
-                // by scan(). Dropping its first byte keeps the invariant
-                // without a panic path.
-                self.start = 1;
-                bump(&mut self.stats.skipped_bytes);
-            }
-            // Forwards, one byte at a time (the destination is below the
-            // source): `copy_within` would link the general `memmove`,
-            // 1.6 KiB of flash on a Cortex-M3, for at most 63 bytes once
-            // per frame.
-            let mut i = 0;
-            while let Some(&b) = self
-                .buf
-                .get(self.start + i)
-                .filter(|_| self.start + i < self.end)
-            {
-                if let Some(d) = self.buf.get_mut(i) {
-                    *d = b;
-                }
-                i += 1;
-            }
-            self.end -= self.start;
-            self.barrier = self.barrier.map(|b| b.saturating_sub(self.start));
-            self.start = 0;
+    fn append(&mut self, byte: u8, now_us: u32) {
+        if self.end >= MAX_FRAME_BYTES {
+            self.compact();
         }
-        if let Some(slot) = self.buf.get_mut(self.end) {
+        if let (Some(slot), Some(at)) = (
+            self.buf.get_mut(self.end),
+            self.arrived_us.get_mut(self.end),
+        ) {
             *slot = byte;
+            *at = now_us;
             self.end += 1;
         }
+    }
+
+    /// Moves the pending bytes and their times to the front of the buffer.
+    fn compact(&mut self) {
+        if self.start == 0 {
+            // Unreachable: a 64-byte candidate is complete and resolved by
+            // scan(). Dropping its first byte keeps the invariant without a
+            // panic path.
+            self.start = 1;
+            bump(&mut self.stats.skipped_bytes);
+        }
+        // Forwards, one byte at a time (the destination is below the
+        // source): `copy_within` would link the general `memmove`, 1.6 KiB
+        // of flash on a Cortex-M3, for at most 63 bytes once per frame.
+        let mut i = 0;
+        while self.start + i < self.end {
+            let from = self.start + i;
+            if let (Some(&b), Some(&t)) = (self.buf.get(from), self.arrived_us.get(from)) {
+                if let (Some(d), Some(dt)) = (self.buf.get_mut(i), self.arrived_us.get_mut(i)) {
+                    *d = b;
+                    *dt = t;
+                }
+            }
+            i += 1;
+        }
+        self.end -= self.start;
+        self.start = 0;
     }
 
     /// Resolves buffered candidates until one yields an event or more bytes
@@ -476,11 +487,8 @@ impl CrsfParser {
     // every by-value return of the 36-byte event is otherwise a memcpy
     // (measured: a third of the cost of the byte that completes a frame).
     #[inline(always)]
-    fn scan(&mut self) -> Option<Event> {
+    fn scan(&mut self, now_us: u32) -> Option<Event> {
         loop {
-            if self.barrier.is_some_and(|b| self.start >= b) {
-                self.barrier = None;
-            }
             let pending = self.buf.get(self.start..self.end).unwrap_or(&[]);
             let Some(&address) = pending.first() else {
                 self.clear();
@@ -503,9 +511,17 @@ impl CrsfParser {
                 // Only the address byte so far: the length byte must follow.
                 None => 2,
             };
-            if self.barrier.is_some_and(|b| self.start + total > b) {
-                // Torn by an idle gap: the bytes after it belong to a new frame.
-                bump(&mut self.stats.idle_resyncs);
+            // Complete: its last byte's time; else the time now, and the
+            // candidate waits while that is within the frame time.
+            let complete = pending.len() >= total;
+            let first_us = self.arrived_us.get(self.start).copied().unwrap_or(now_us);
+            let last_us = match self.arrived_us.get(self.start + total - 1) {
+                Some(&t) if complete => t,
+                _ => now_us,
+            };
+            if self.too_slow(first_us, last_us) {
+                // Too slow for one frame: the later bytes start a new one.
+                bump(&mut self.stats.frame_timeouts);
                 self.start += 1;
                 continue;
             }

@@ -22,7 +22,7 @@
 //!     Some(Event::LinkStatistics(stats)) => link.on_link_quality(stats.uplink_link_quality_pct),
 //!     None => {}
 //! }
-//! // Control loop:
+//! // Control loop (lost until frames have come for 0.5 s without a break):
 //! if link.is_lost(micros()) { /* failsafe */ }
 //! ```
 //!
@@ -32,7 +32,8 @@
 //!   interrupt: address 0xC8/0xEE/0xEA, length 2..=62, CRC-8/DVB-S2,
 //!   RC_CHANNELS_PACKED (16 × 11 bit, converted to µs) and LINK_STATISTICS.
 //!   Garbage, CRC failures, bad lengths and unknown types are skipped and
-//!   counted ([`CrsfStats`]); an idle gap abandons a torn frame.
+//!   counted ([`CrsfStats`]); a frame not complete 1 750 µs after its first
+//!   byte is abandoned (pauses inside a frame are fine up to that).
 //! * [`PpmDecoder`]: PPM sum signal from timer input-capture intervals,
 //!   sync-gap detection, plausibility checks, and a frame is delivered only
 //!   when it confirms the channel count of the one before ([`PpmStats`]).
@@ -40,7 +41,8 @@
 //!   deadband, reversing, normalised [`Sticks`], switch positions, the arm
 //!   switch; configuration is validated ([`ConfigError`]).
 //! * [`LinkMonitor`]: signal loss after a stated timeout or on a receiver's
-//!   0 % link quality.
+//!   0 % link quality; the link counts as up only after frames have come
+//!   without a break for a recovery window ([`LINK_RECOVERY_US`], 0.5 s).
 //!
 //! What it does not do: touch hardware (the firmware feeds bytes and
 //! capture intervals), expo/rates, arming decisions or failsafe actions.
@@ -63,6 +65,6 @@ pub use crc::{crc8_dvb_s2, crc8_dvb_s2_update, CRC8_DVB_S2_POLY};
 pub use crsf::{CrsfParser, CrsfStats, Event, LinkStatistics};
 pub use error::{ConfigError, MissingChannel};
 pub use frame::{RcFrame, MAX_CHANNELS};
-pub use link::{LinkMonitor, LinkStatus, CRSF_TIMEOUT_US, PPM_TIMEOUT_US};
+pub use link::{LinkMonitor, LinkStatus, CRSF_TIMEOUT_US, LINK_RECOVERY_US, PPM_TIMEOUT_US};
 pub use map::{Axis, ChannelMap, ChannelOrder, ChannelRange, Sticks, SwitchPosition};
 pub use ppm::{CaptureIntervals, PpmConfig, PpmDecoder, PpmStats};

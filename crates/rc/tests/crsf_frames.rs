@@ -196,41 +196,134 @@ fn shortest_legal_frame_is_accepted() {
 }
 
 #[test]
-fn idle_gap_abandons_a_torn_frame() {
+fn a_torn_frame_is_abandoned_when_the_next_frame_starts_after_the_frame_time() {
     let mut parser = CrsfParser::new();
     let (events, t) = feed(&mut parser, &ADV_RC_CENTRED[..13], 0);
     assert!(events.is_empty());
-    // 1.5 ms of silence, then a whole frame: the first half is discarded
-    // instead of being completed by the new frame's bytes.
+    // 1.5 ms of silence, then a whole frame beginning 1.81 ms after the torn
+    // one: the first half is discarded instead of being completed by the
+    // new frame's bytes.
     let (events, _) = feed(&mut parser, &ADV_LINK_STATISTICS, t + 1_500);
     assert_eq!(events.len(), 1);
     assert!(matches!(events[0], Event::LinkStatistics(_)));
-    assert_eq!(parser.stats().idle_resyncs, 1);
+    assert_eq!(parser.stats().frame_timeouts, 1);
+    assert_eq!(parser.stats().crc_errors, 0);
 }
 
 #[test]
-fn idle_gap_resync_works_across_timer_wrap() {
+fn frame_time_resync_works_across_timer_wrap() {
     let mut parser = CrsfParser::new();
     let t0 = u32::MAX - 100;
     let (_, t) = feed(&mut parser, &ADV_RC_CENTRED[..10], t0);
     let (events, _) = feed(&mut parser, &ADV_RC_CENTRED, t.wrapping_add(5_000));
     assert_eq!(events.len(), 1);
-    assert_eq!(parser.stats().idle_resyncs, 1);
+    assert_eq!(parser.stats().frame_timeouts, 1);
 }
 
 #[test]
-fn a_pause_shorter_than_the_gap_does_not_split_a_frame() {
+fn a_pause_inside_the_frame_time_does_not_split_a_frame() {
     let mut parser = CrsfParser::new();
     let (_, t) = feed(&mut parser, &ADV_RC_CENTRED[..13], u32::MAX - 200);
     // Interrupt latency of 900 µs mid-frame, across the timer wrap.
     let (events, _) = feed(&mut parser, &ADV_RC_CENTRED[13..], t.wrapping_add(900));
     assert_eq!(events.len(), 1);
-    assert_eq!(parser.stats().idle_resyncs, 0);
+    assert_eq!(parser.stats().frame_timeouts, 0);
+}
+
+/// Feeds `frame` one byte time apart, with the pauses `(i, µs)` before
+/// byte `i`; returns the events and the last byte's time.
+fn feed_with_pauses(
+    parser: &mut CrsfParser,
+    frame: &[u8],
+    t0_us: u32,
+    pauses: &[(usize, u32)],
+) -> (Vec<Event>, u32) {
+    let mut t = t0_us;
+    let mut events = Vec::new();
+    for (i, &b) in frame.iter().enumerate() {
+        if i > 0 {
+            t += BYTE_US;
+        }
+        t += pauses
+            .iter()
+            .filter(|&&(at, _)| at == i)
+            .map(|&(_, p)| p)
+            .sum::<u32>();
+        events.extend(parser.push(b, t));
+    }
+    (events, t)
 }
 
 #[test]
-fn without_the_idle_rule_a_torn_frame_is_caught_by_the_crc() {
-    let mut parser = CrsfParser::with_idle_gap_us(u32::MAX);
+fn frames_with_pauses_inside_them_are_parsed() {
+    // One character time (23.8 µs at 420 kbaud: the USART's IDLE fires),
+    // 100 µs and 500 µs, alone and all in one frame.
+    let cases: [&[(usize, u32)]; 4] = [
+        &[(13, 24)],
+        &[(5, 100)],
+        &[(20, 500)],
+        &[(2, 24), (9, 100), (17, 500), (25, 24)],
+    ];
+    for pauses in cases {
+        let mut parser = CrsfParser::new();
+        let (events, _) = feed_with_pauses(&mut parser, &ADV_RC_CENTRED, 10_000, pauses);
+        assert_eq!(events.len(), 1, "pauses {pauses:?}");
+        assert_eq!(channels(&events[0]), [1500; 16]);
+        assert_eq!(parser.stats().dropped(), 0, "pauses {pauses:?}");
+    }
+}
+
+#[test]
+fn a_frame_may_last_exactly_the_frame_time_and_no_longer() {
+    // 26 bytes: 25 byte times from the first to the last, plus one pause.
+    let limit = rc_input::crsf::DEFAULT_MAX_FRAME_TIME_US;
+    let pause = limit - 25 * BYTE_US;
+    let mut parser = CrsfParser::new();
+    let (events, last) = feed_with_pauses(&mut parser, &ADV_RC_CENTRED, 0, &[(13, pause)]);
+    assert_eq!(last, limit);
+    assert_eq!(events.len(), 1);
+    let mut parser = CrsfParser::new();
+    let (events, last) = feed_with_pauses(&mut parser, &ADV_RC_CENTRED, 0, &[(13, pause + 1)]);
+    assert_eq!(last, limit + 1);
+    assert!(events.is_empty());
+    assert_eq!(parser.stats().frame_timeouts, 1);
+}
+
+#[test]
+fn a_frame_spanning_more_than_the_frame_time_is_dropped_and_the_next_parsed() {
+    let mut parser = CrsfParser::new();
+    // 1.2 ms in the middle: 1 800 µs from the first byte to the last.
+    let (events, last) = feed_with_pauses(&mut parser, &ADV_RC_CENTRED, 0, &[(13, 1_200)]);
+    assert_eq!(last, 1_800);
+    assert!(events.is_empty());
+    assert!(parser.stats().frame_timeouts >= 1);
+    assert_eq!(parser.stats().rc_frames, 0);
+    // The next frame 4 ms later (250 Hz) is parsed.
+    let (events, _) = feed(&mut parser, &ADV_LINK_STATISTICS, 4_000);
+    assert_eq!(events.len(), 1);
+    assert!(matches!(events[0], Event::LinkStatistics(_)));
+}
+
+#[test]
+fn garbage_then_a_frame_resynchronises() {
+    // Noise with a false start announcing 62 bytes, then a frame at once
+    // (as at 1000 Hz: no pause) and one 2 ms later.
+    let noise = [0x13, 0xC8, 0x3E, 0x77, 0xEE, 0x05, 0x00, 0xEA];
+    let mut parser = CrsfParser::new();
+    let (mut events, t) = feed(&mut parser, &[&noise[..], &ADV_RC_CENTRED].concat(), 0);
+    let (more, _) = feed(&mut parser, &ADV_LINK_STATISTICS, t + 2_000);
+    events.extend(more);
+    while let Some(e) = parser.poll(t + 10_000) {
+        events.push(e);
+    }
+    assert_eq!(events.len(), 2, "{events:?}");
+    assert_eq!(channels(&events[0]), [1500; 16]);
+    assert!(matches!(events[1], Event::LinkStatistics(_)));
+}
+
+#[test]
+fn without_the_frame_time_rule_a_torn_frame_is_caught_by_the_crc() {
+    let mut parser = CrsfParser::with_max_frame_time_us(u32::MAX);
     let stream = [&ADV_RC_CENTRED[..13], &ADV_RC_CENTRED[..]].concat();
     let (events, _) = feed(&mut parser, &stream, 0);
     // The torn frame swallows the start of the next one, fails its CRC,
@@ -255,16 +348,19 @@ fn false_start_in_garbage_does_not_hide_the_frames_behind_it() {
         events.is_empty(),
         "the false start is still waiting for bytes"
     );
-    // Once the line is idle the false start is abandoned and both frames
-    // come out, one per call.
-    assert!(parser.poll(t + 500).is_none(), "not idle long enough yet");
+    // Once the false start's frame time (from its first byte, 24 µs) has
+    // passed, it is abandoned and both frames come out, one per call.
+    assert!(
+        parser.poll(t + 500).is_none(),
+        "its frame time is not over yet"
+    );
     assert!(matches!(
         parser.poll(t + 1_500),
         Some(Event::LinkStatistics(_))
     ));
     assert!(matches!(parser.poll(t + 1_600), Some(Event::Channels(_))));
     assert_eq!(parser.poll(t + 1_700), None);
-    assert_eq!(parser.stats().idle_resyncs, 1);
+    assert_eq!(parser.stats().frame_timeouts, 1);
 }
 
 #[test]
@@ -273,7 +369,7 @@ fn frames_behind_a_false_start_come_out_when_the_next_burst_starts() {
     let mut parser = CrsfParser::new();
     let (events, t) = feed(&mut parser, &stream, 0);
     assert!(events.is_empty());
-    // The next frame after an idle gap: the first push delivers the
+    // The next frame after the false start's frame time: the first push delivers the
     // buffered link statistics, the frame itself still completes.
     let (events, _) = feed(&mut parser, &ADV_RC_CENTRED, t + 2_000);
     assert_eq!(events.len(), 2);
@@ -283,7 +379,7 @@ fn frames_behind_a_false_start_come_out_when_the_next_burst_starts() {
 
 #[test]
 fn a_false_start_completed_by_later_bytes_is_searched_again() {
-    // No idle gap at all: the false start is resolved by its CRC after 64
+    // No frame-time rule at all: the false start is resolved by its CRC after 64
     // bytes, and the frames inside it are found by searching again.
     let stream = [
         &[0xC8, 0x3E][..],
@@ -292,7 +388,7 @@ fn a_false_start_completed_by_later_bytes_is_searched_again() {
         &ADV_RC_CENTRED,
     ]
     .concat();
-    let mut parser = CrsfParser::with_idle_gap_us(u32::MAX);
+    let mut parser = CrsfParser::with_max_frame_time_us(u32::MAX);
     let (mut events, t) = feed(&mut parser, &stream, 0);
     while let Some(e) = parser.poll(t) {
         events.push(e);
@@ -316,9 +412,9 @@ fn ticks_conversion_matches_the_specification_range() {
 }
 
 #[test]
-fn two_idle_gaps_before_the_held_frames_are_out() {
-    // A false start holds two link-statistics frames; the line goes idle
-    // twice before they are all delivered.
+fn two_pauses_before_the_held_frames_are_out() {
+    // A false start holds two link-statistics frames; the line pauses for
+    // longer than the frame time twice before they are all delivered.
     let stream = [
         &[0xC8, 0x3E][..],
         &ADV_LINK_STATISTICS,

@@ -10,7 +10,7 @@ use common::BYTE_US;
 use proptest::prelude::*;
 use rc_input::crsf::{
     encode_link_statistics, encode_rc_channels, is_address, pack_channels, ticks_to_us,
-    unpack_channels, us_to_ticks, DEFAULT_IDLE_GAP_US,
+    unpack_channels, us_to_ticks, DEFAULT_MAX_FRAME_TIME_US,
 };
 use rc_input::{CrsfParser, Event, LinkStatistics, RcFrame};
 
@@ -61,7 +61,7 @@ fn run(parser: &mut CrsfParser, timed: &[(u8, u32)]) -> Vec<Event> {
         .iter()
         .filter_map(|&(b, t)| parser.push(b, t))
         .collect();
-    let end = timed.last().map_or(0, |&(_, t)| t) + 2 * DEFAULT_IDLE_GAP_US;
+    let end = timed.last().map_or(0, |&(_, t)| t) + 2 * DEFAULT_MAX_FRAME_TIME_US;
     while let Some(e) = parser.poll(end) {
         events.push(e);
     }
@@ -96,7 +96,7 @@ proptest! {
         input in prop::collection::vec((any::<u8>(), any::<u32>()), 0..600),
         gap in any::<u32>(),
     ) {
-        let mut parser = CrsfParser::with_idle_gap_us(gap);
+        let mut parser = CrsfParser::with_max_frame_time_us(gap);
         let mut t = 0u32;
         let mut events = 0u32;
         for (b, dt) in input {
@@ -121,10 +121,10 @@ proptest! {
     }
 
     #[test]
-    fn frames_after_an_idle_gap_are_found_whatever_came_before(
+    fn frames_after_a_pause_longer_than_the_frame_time_are_found_whatever_came_before(
         parts in prop::collection::vec((nasty_garbage(80), frame()), 1..10),
         t0 in any::<u32>(),
-        gap_us in (DEFAULT_IDLE_GAP_US + 1)..20_000,
+        gap_us in (DEFAULT_MAX_FRAME_TIME_US + 1)..20_000,
     ) {
         let mut timed = Vec::new();
         let mut expected = Vec::new();
@@ -157,7 +157,7 @@ proptest! {
         let (mut bytes, expected) = interleave(parts);
         // 64 idle-line bytes complete any false start still pending.
         bytes.extend([0u8; 64]);
-        let mut parser = CrsfParser::with_idle_gap_us(u32::MAX);
+        let mut parser = CrsfParser::with_max_frame_time_us(u32::MAX);
         let events: Vec<Event> = bytes.iter().filter_map(|&b| parser.push(b, 0)).collect();
         let mut matched = 0;
         for e in &events {
@@ -180,7 +180,7 @@ proptest! {
         parts in prop::collection::vec((nasty_garbage(20), frame()), 1..8),
         cuts in prop::collection::vec(1usize..40, 1..60),
     ) {
-        // Frames with idle gaps between them, as a receiver sends them.
+        // Frames with pauses between them, as a receiver sends them.
         let mut bursts: Vec<Vec<u8>> = Vec::new();
         for (garbage, (f, _)) in parts {
             bursts.push([garbage, f].concat());
@@ -196,7 +196,9 @@ proptest! {
                 a.extend(per_byte.push(byte, t + i as u32 * BYTE_US));
             }
             // The same burst drained in chunks (e.g. from DMA), every byte
-            // of a chunk stamped with the chunk's arrival time.
+            // of a chunk stamped with the chunk's arrival time (later than
+            // the byte's own: a candidate's span can only look shorter, and
+            // no candidate of at most 64 bytes in one burst is too slow).
             let mut rest = &burst[..];
             let mut tc = t;
             while !rest.is_empty() {
@@ -208,11 +210,36 @@ proptest! {
                 }
                 rest = tail;
             }
-            t += burst.len() as u32 * BYTE_US + 2 * DEFAULT_IDLE_GAP_US;
+            t += burst.len() as u32 * BYTE_US + 2 * DEFAULT_MAX_FRAME_TIME_US;
         }
         while let Some(e) = per_byte.poll(t) { a.push(e); }
         while let Some(e) = chunked.poll(t) { b.push(e); }
         prop_assert_eq!(a, b);
+    }
+
+    #[test]
+    fn a_frame_is_parsed_with_any_pauses_while_it_lasts_at_most_the_frame_time(
+        (f, e) in frame(),
+        pauses in prop::collection::vec(0u32..90, 64),
+        t0 in any::<u32>(),
+    ) {
+        let mut timed = Vec::new();
+        let mut span = 0u32;
+        for (i, (&b, &p)) in f.iter().zip(&pauses).enumerate() {
+            if i > 0 {
+                span += BYTE_US + p;
+            }
+            timed.push((b, t0.wrapping_add(span)));
+        }
+        let mut parser = CrsfParser::new();
+        let events = run(&mut parser, &timed);
+        if span <= DEFAULT_MAX_FRAME_TIME_US {
+            prop_assert_eq!(events, vec![e]);
+            prop_assert_eq!(parser.stats().dropped(), 0);
+        } else {
+            prop_assert!(!events.contains(&e), "span {} µs: {:?}", span, events);
+            prop_assert!(parser.stats().frame_timeouts >= 1);
+        }
     }
 
     #[test]
