@@ -52,7 +52,9 @@
 //! < 0.15, every rate < 20 °/s and, when known, |vertical speed| < 0.3 m/s
 //! for 2 s, after having taken off); no take-off within 5 s of arming;
 //! unusable attitude/gyro for 0.1 s (single bad samples keep the last motor
-//! commands). The motors are [`Motors::Off`] whenever disarmed.
+//! commands); runaway take-off (torque ≥ 0.6 while turning for 75 ms before
+//! 0.5 s of normal flight, [`crate::runaway`]). The motors are
+//! [`Motors::Off`] whenever disarmed.
 //!
 //! **Pilot signal loss** while armed: level hold (tilt 0, yaw rate 0) for
 //! [`SafetyConfig::failsafe_hold_s`] (1 s) at the current height with
@@ -92,6 +94,7 @@ use control::shaping::{StickShaping, Sticks, SticksConfig};
 
 use crate::motortest::{MotorTestSwitch, SwitchRequest};
 use crate::pipeline::Pipeline;
+use crate::runaway::RunawayCheck;
 
 pub use crate::arming::{
     ArmBlockers, ArmRefusal, DisarmCause, Event, Events, MotorTestEnd, MotorTestRefusal,
@@ -451,6 +454,7 @@ pub struct FlightController {
     crash_rate: Hold,
     landed: Hold,
     bad_input: Hold,
+    runaway: RunawayCheck,
     motor_test: Option<MotorTestRun>,
     /// A calibration was running at the last step (refuses the motor test).
     calibrating: bool,
@@ -500,6 +504,7 @@ impl FlightController {
             crash_rate: Hold::default(),
             landed: Hold::default(),
             bad_input: Hold::default(),
+            runaway: RunawayCheck::new(s),
             motor_test: None,
             calibrating: false,
             test_switch: MotorTestSwitch::new(),
@@ -740,6 +745,7 @@ impl FlightController {
         self.crash_rate = Hold::default();
         self.landed = Hold::default();
         self.bad_input = Hold::default();
+        self.runaway.restart();
     }
 
     fn disarm(&mut self, cause: DisarmCause, out: &mut FlightOutput) {
@@ -874,6 +880,9 @@ impl FlightController {
         out.collective = collective;
         out.mix = mix;
         out.motors = motors;
+        if self.runaway.update(dt_us, &torque, g, collective) {
+            return self.disarm(DisarmCause::RunawayTakeoff, out);
+        }
 
         self.safety_checks(dt_us, cos_t, self_level, collective, vehicle, alt, out);
     }
