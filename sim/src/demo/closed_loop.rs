@@ -92,6 +92,13 @@ pub enum Scenario {
     /// After the take-off: motor 1 (rear right) stops for good, as a
     /// burnt ESC or a lost propeller would.
     MotorFailure,
+    /// The take-off with the ESC signal wires of motors 1 and 2 (rear
+    /// right, front right) swapped at the flight controller.
+    Swapped,
+    /// The take-off with motor 1 (rear right, CW) turning the wrong way
+    /// and its propeller at [`REVERSED_PROP_FRACTION`] of the thrust
+    /// ([`QuadParams::with_reversed_motor`]).
+    ReversedProp,
 }
 
 /// Time the arm switch is flipped (s): after boot and the start-up gyro bias.
@@ -127,10 +134,23 @@ pub const FORWARD_STICK: f32 = 0.667;
 pub const LINK_LOSS_S: f64 = 10.0;
 /// Motor 1 (index 0) stops from here on (s).
 pub const MOTOR_FAILURE_S: f64 = 10.0;
+/// Thrust of the wrongly turning motor's propeller in
+/// [`Scenario::ReversedProp`], as a fraction of a correct one's: an
+/// assumption (a propeller running with its airfoil backwards), not a
+/// measurement.
+pub const REVERSED_PROP_FRACTION: f64 = 0.7;
 
 impl Scenario {
     /// Names for the command line.
-    pub const NAMES: [&'static str; 5] = ["takeoff", "steps", "althold", "linkloss", "motorfail"];
+    pub const NAMES: [&'static str; 7] = [
+        "takeoff",
+        "steps",
+        "althold",
+        "linkloss",
+        "motorfail",
+        "swapped",
+        "reversedprop",
+    ];
 
     /// By name.
     pub fn from_name(name: &str) -> Option<Self> {
@@ -140,6 +160,8 @@ impl Scenario {
             "althold" => Self::AltHold,
             "linkloss" => Self::LinkLoss,
             "motorfail" => Self::MotorFailure,
+            "swapped" => Self::Swapped,
+            "reversedprop" => Self::ReversedProp,
             _ => return None,
         })
     }
@@ -152,6 +174,8 @@ impl Scenario {
             Self::AltHold => "althold",
             Self::LinkLoss => "linkloss",
             Self::MotorFailure => "motorfail",
+            Self::Swapped => "swapped",
+            Self::ReversedProp => "reversedprop",
         }
     }
 
@@ -163,6 +187,18 @@ impl Scenario {
             Self::AltHold => 26.0,
             Self::LinkLoss => 30.0,
             Self::MotorFailure => 16.0,
+            Self::Swapped | Self::ReversedProp => 8.0,
+        }
+    }
+
+    /// The airframe as built: the 250-class quad, with the scenario's
+    /// wiring error.
+    pub fn airframe(&self) -> QuadParams {
+        let quad = QuadParams::class_250();
+        match self {
+            Self::Swapped => quad.with_swapped_esc_signals(0, 1),
+            Self::ReversedProp => quad.with_reversed_motor(0, REVERSED_PROP_FRACTION),
+            _ => quad,
         }
     }
 
@@ -211,7 +247,11 @@ impl Scenario {
                     sticks.pitch = FORWARD_STICK;
                 }
             }
-            Self::Takeoff | Self::LinkLoss | Self::MotorFailure => {}
+            Self::Takeoff
+            | Self::LinkLoss
+            | Self::MotorFailure
+            | Self::Swapped
+            | Self::ReversedProp => {}
         }
         if t_s < ARM_AT_S {
             mode = Mode::Angle;
@@ -244,14 +284,15 @@ pub struct ClosedLoopOptions {
 }
 
 impl ClosedLoopOptions {
-    /// A scenario with the 250-class airframe, 400 Hz ESCs and seeds `seed`.
+    /// A scenario with the 250-class airframe (with the scenario's wiring
+    /// error, [`Scenario::airframe`]), 400 Hz ESCs and seeds `seed`.
     pub fn new(scenario: Scenario, seed: u64) -> Self {
         Self {
             scenario,
             seed,
             board_seed: seed,
             duration_s: None,
-            airframe: QuadParams::class_250(),
+            airframe: scenario.airframe(),
             esc_rate_hz: 400.0,
             mag_dance_s: 30.0,
         }
@@ -425,7 +466,7 @@ mod tests {
     //! expects of a well-behaved flight controller.
 
     use super::*;
-    use crate::demo::figures::{figures, Figures};
+    use crate::demo::figures::{figures, Figures, RunawayFigures};
     use crate::demo::flight_fc::FirmwareFc;
     use flight::flightctl::FlightConfig;
 
@@ -580,6 +621,67 @@ mod tests {
             .iter()
             .all(|s| !s.out.armed && s.out.motors == [0.0; 4]));
         assert!(after.last().unwrap().quad.on_ground);
+    }
+
+    /// A take-off with a wiring error ends in the runaway-takeoff disarm:
+    /// within 1.5 s of the take-off throttle (the climb stick at
+    /// [`CLIMB_FROM_S`]; altitude hold spins the motors up to lift-off in
+    /// about 1 s of it) and 0.25 s of lift-off, before 30° of tilt or
+    /// 0.5 m of height, and the motors stay off. `runaway_time_s` at 60 s
+    /// stands for the code without the check: the same take-off then flips
+    /// or spins on.
+    fn wiring_error_disarms_at_take_off(scenario: Scenario) -> Figures {
+        let (log, f) = flown(scenario, 1);
+        let r = f.runaway.unwrap();
+        let (lift_off, disarmed) = (r.lift_off_s.unwrap(), r.disarmed_s.unwrap());
+        assert!(disarmed < 1.5 && disarmed - lift_off < 0.25, "{r:?}");
+        assert!(r.max_tilt_deg < 30.0 && r.max_height_m < 0.5, "{r:?}");
+        assert!(r.off_after, "{r:?}");
+        let first_disarm = log.events.iter().find(|(_, e)| e.starts_with("Disarmed"));
+        assert_eq!(
+            first_disarm.map(|(_, e)| e.as_str()),
+            Some("Disarmed(RunawayTakeoff)")
+        );
+        f
+    }
+
+    /// The same take-off with the runaway check held off.
+    fn without_the_check(scenario: Scenario) -> RunawayFigures {
+        let mut cfg = FlightConfig::default();
+        cfg.safety.runaway_time_s = 60.0;
+        let mut fc = FirmwareFc::new(cfg).unwrap();
+        let mut o = ClosedLoopOptions::new(scenario, 1);
+        o.mag_dance_s = 20.0;
+        let log = fly(&o, &mut fc).unwrap();
+        for (t, e) in &log.events {
+            println!("{} without the check: t {t:.3} s {e}", scenario.name());
+        }
+        let r = figures(&log).runaway.unwrap();
+        println!("{} without the check: {r:?}", scenario.name());
+        r
+    }
+
+    #[test]
+    fn swapped_esc_signals_disarm_as_a_runaway_takeoff() {
+        wiring_error_disarms_at_take_off(Scenario::Swapped);
+        // Without the check: pitch and yaw commands are crossed, the craft
+        // tumbles until the crash-rate check cuts it, above 0.5 m.
+        let old = without_the_check(Scenario::Swapped);
+        assert!(old.max_tilt_deg > 60.0 && old.max_height_m > 0.5, "{old:?}");
+    }
+
+    #[test]
+    fn a_reversed_motor_disarms_as_a_runaway_takeoff() {
+        wiring_error_disarms_at_take_off(Scenario::ReversedProp);
+        // Without the check: three propellers' reaction torque one way, one
+        // the other, the yaw loop saturated: the craft climbs away spinning
+        // at about 75 °/s, far below the crash rate, and nothing disarms.
+        let old = without_the_check(Scenario::ReversedProp);
+        assert!(old.disarmed_s.is_none(), "{old:?}");
+        assert!(
+            old.max_yaw_rate_dps > 60.0 && old.max_height_m > 1.0,
+            "{old:?}"
+        );
     }
 
     #[test]
