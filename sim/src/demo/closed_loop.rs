@@ -626,7 +626,7 @@ mod tests {
     /// A take-off with a wiring error ends in the runaway-takeoff disarm:
     /// within 1.5 s of the take-off throttle (the climb stick at
     /// [`CLIMB_FROM_S`]; altitude hold spins the motors up to lift-off in
-    /// about 1 s of it) and 0.25 s of lift-off, before 30° of tilt or
+    /// about 1 s of it) and 0.3 s of lift-off, before 30° of tilt or
     /// 0.5 m of height, and the motors stay off. `runaway_time_s` at 60 s
     /// stands for the code without the check: the same take-off then flips
     /// or spins on.
@@ -634,7 +634,7 @@ mod tests {
         let (log, f) = flown(scenario, 1);
         let r = f.runaway.unwrap();
         let (lift_off, disarmed) = (r.lift_off_s.unwrap(), r.disarmed_s.unwrap());
-        assert!(disarmed < 1.5 && disarmed - lift_off < 0.25, "{r:?}");
+        assert!(disarmed < 1.5 && disarmed - lift_off < 0.3, "{r:?}");
         assert!(r.max_tilt_deg < 30.0 && r.max_height_m < 0.5, "{r:?}");
         assert!(r.off_after, "{r:?}");
         let first_disarm = log.events.iter().find(|(_, e)| e.starts_with("Disarmed"));
@@ -665,7 +665,9 @@ mod tests {
     fn swapped_esc_signals_disarm_as_a_runaway_takeoff() {
         wiring_error_disarms_at_take_off(Scenario::Swapped);
         // Without the check: pitch and yaw commands are crossed, the craft
-        // tumbles until the crash-rate check cuts it, above 0.5 m.
+        // tumbles until the crash-rate check cuts it, above 0.5 m (seed 1:
+        // 2.0 s after the take-off throttle, 70° of tilt, 0.88 m up, yawing
+        // at 1,400 °/s).
         let old = without_the_check(Scenario::Swapped);
         assert!(old.max_tilt_deg > 60.0 && old.max_height_m > 0.5, "{old:?}");
     }
@@ -675,7 +677,8 @@ mod tests {
         wiring_error_disarms_at_take_off(Scenario::ReversedProp);
         // Without the check: three propellers' reaction torque one way, one
         // the other, the yaw loop saturated: the craft climbs away spinning
-        // at about 75 °/s, far below the crash rate, and nothing disarms.
+        // at about 75 °/s, far below the crash rate, and nothing disarms
+        // (seed 1: 4.9 m up at the end of the 8 s flight).
         let old = without_the_check(Scenario::ReversedProp);
         assert!(old.disarmed_s.is_none(), "{old:?}");
         assert!(
