@@ -505,6 +505,12 @@ mod tests {
             let end = log.samples.last().unwrap();
             assert!(end.out.armed && end.truth.height_m > 1.5, "{end:?}");
             assert!(f.max_attitude_error_deg < 3.0, "{f:?}");
+            // The runaway check's 0.5 s of calm flight cannot be earned on
+            // the ground: the motors spin up to lift-off in less.
+            let r = f.runaway.unwrap();
+            let off_s = f64::from(FlightConfig::default().safety.runaway_off_time_s);
+            assert!(r.ground_spin_up_s < 0.8 * off_s, "{r:?}");
+            assert!(r.disarmed_s.is_none(), "{r:?}");
         }
     }
 

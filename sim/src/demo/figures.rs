@@ -216,8 +216,8 @@ pub fn motor_failure(samples: &[Sample]) -> Option<MotorFailureFigures> {
     })
 }
 
-/// A take-off with a wiring error, from the take-off throttle
-/// ([`CLIMB_FROM_S`]) on.
+/// A take-off (with or without a wiring error), from the take-off
+/// throttle ([`CLIMB_FROM_S`]) on.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RunawayFigures {
     /// Time from the take-off throttle until the controller disarmed (s).
@@ -225,6 +225,11 @@ pub struct RunawayFigures {
     /// Time from the take-off throttle until the body first left the
     /// ground (s).
     pub lift_off_s: Option<f64>,
+    /// Time on the ground, armed, before lift-off with the mean motor
+    /// command at or above the runaway check's switch-off collective (0.2,
+    /// the [`SafetyConfig`](flight::arming::SafetyConfig) default), s: the
+    /// most calm time the check can count before the craft flies.
+    pub ground_spin_up_s: f64,
     /// Largest tilt until then, or to the end (°).
     pub max_tilt_deg: f64,
     /// Largest height until then, or to the end (m).
@@ -252,6 +257,7 @@ pub fn runaway(samples: &[Sample]) -> Option<RunawayFigures> {
             .iter()
             .find(|s| !s.quad.on_ground)
             .map(|s| s.t_s - s0.t_s),
+        ground_spin_up_s: ground_spin_up_s(samples),
         max_tilt_deg: max(&tilt_deg),
         max_height_m: max(&|s| s.truth.height_m),
         max_yaw_rate_dps: max(&|s| s.truth.omega_body_rps[2].abs().to_degrees()),
@@ -263,6 +269,24 @@ pub fn runaway(samples: &[Sample]) -> Option<RunawayFigures> {
                 .all(|s| !s.out.armed && s.out.motors == [0.0; 4])
         }),
     })
+}
+
+/// See [`RunawayFigures::ground_spin_up_s`]: the sample periods on the
+/// ground, armed, before the first lift-off, with the mean motor command at
+/// or above the check's switch-off collective.
+fn ground_spin_up_s(samples: &[Sample]) -> f64 {
+    let collective = f64::from(flight::arming::SafetyConfig::default().runaway_off_collective_min);
+    let spun_up = |s: &Sample| {
+        s.out.armed && s.out.motors.iter().map(|m| f64::from(*m)).sum::<f64>() >= 4.0 * collective
+    };
+    samples
+        .windows(2)
+        .take_while(|w| w.iter().all(|s| s.quad.on_ground))
+        .filter_map(|w| match w {
+            [a, b] if spun_up(b) => Some(b.t_s - a.t_s),
+            _ => None,
+        })
+        .sum()
 }
 
 /// Every figure of a flight.
@@ -286,7 +310,7 @@ pub struct Figures {
     pub link_loss: Option<LinkLossFigures>,
     /// Motor failure.
     pub motor_failure: Option<MotorFailureFigures>,
-    /// A take-off with a wiring error.
+    /// The take-off (with or without a wiring error).
     pub runaway: Option<RunawayFigures>,
     /// Battery voltage at the end (V).
     pub battery_end_v: f64,
@@ -358,8 +382,7 @@ pub fn figures(log: &FlightLog) -> Figures {
         }
         Scenario::LinkLoss => f.link_loss = link_loss(s),
         Scenario::MotorFailure => f.motor_failure = motor_failure(s),
-        Scenario::Swapped | Scenario::ReversedProp => f.runaway = runaway(s),
-        Scenario::Takeoff => {}
+        Scenario::Swapped | Scenario::ReversedProp | Scenario::Takeoff => f.runaway = runaway(s),
     }
     f
 }
@@ -428,8 +451,9 @@ impl Figures {
         }
         if let Some(r) = self.runaway {
             out.push(format!(
-                "wiring error: lift-off {}, disarmed {} after the take-off throttle; until then tilt up to {:.0}°, height {:.2} m, yaw rate {:.0} °/s, body rate {:.0} °/s; motors off after: {}",
+                "take-off: lift-off {} ({:.2} s of it on the ground at a mean motor command ≥ 0.2), disarmed {} after the take-off throttle; until then tilt up to {:.0}°, height {:.2} m, yaw rate {:.0} °/s, body rate {:.0} °/s; motors off after: {}",
                 opt(r.lift_off_s, "s"),
+                r.ground_spin_up_s,
                 opt(r.disarmed_s, "s"),
                 r.max_tilt_deg,
                 r.max_height_m,
