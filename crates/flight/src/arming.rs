@@ -480,7 +480,7 @@ impl SafetyConfig {
             && within(self.runaway_rate_roll_pitch_dps, 1.0, 500.0)
             && within(self.runaway_rate_yaw_dps, 1.0, 500.0)
             && within(self.runaway_off_collective_min, 0.0, 1.0)
-            && within(self.runaway_off_torque_max, 0.0, self.runaway_torque_min)
+            // NaN fails both comparisons.
             && self.runaway_off_torque_max > 0.0
             && self.runaway_off_torque_max < self.runaway_torque_min
     }

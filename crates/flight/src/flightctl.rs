@@ -880,9 +880,6 @@ impl FlightController {
         out.collective = collective;
         out.mix = mix;
         out.motors = motors;
-        if self.runaway.update(dt_us, &torque, g, collective) {
-            return self.disarm(DisarmCause::RunawayTakeoff, out);
-        }
 
         self.safety_checks(dt_us, cos_t, self_level, collective, vehicle, alt, out);
     }
@@ -1048,6 +1045,9 @@ impl FlightController {
         let s = self.cfg.safety;
         let g = &vehicle.gyro;
         let max_rate = g.roll_rps.abs().max(g.pitch_rps.abs()).max(g.yaw_rps.abs());
+        if self.runaway.update(dt_us, &out.torque, g, collective) {
+            return self.disarm(DisarmCause::RunawayTakeoff, out);
+        }
         if self.crash_tilt.update(
             self_level && cos_tilt < self.lim.crash_cos_tilt,
             dt_us,
