@@ -242,6 +242,23 @@ pub struct RunawayFigures {
     pub off_after: bool,
 }
 
+impl RunawayFigures {
+    /// The figures as a report line.
+    pub fn line(&self) -> String {
+        format!(
+            "take-off: lift-off {} ({:.2} s of it on the ground at a mean motor command ≥ 0.2), disarmed {} after the take-off throttle; until then tilt up to {:.0}°, height {:.2} m, yaw rate {:.0} °/s, body rate {:.0} °/s; motors off after: {}",
+            opt(self.lift_off_s, "s"),
+            self.ground_spin_up_s,
+            opt(self.disarmed_s, "s"),
+            self.max_tilt_deg,
+            self.max_height_m,
+            self.max_yaw_rate_dps,
+            self.max_rate_dps,
+            self.off_after
+        )
+    }
+}
+
 /// The runaway figures (`None` if the flight ended before the take-off
 /// throttle).
 pub fn runaway(samples: &[Sample]) -> Option<RunawayFigures> {
@@ -449,19 +466,7 @@ impl Figures {
                 m.max_rate_dps
             ));
         }
-        if let Some(r) = self.runaway {
-            out.push(format!(
-                "take-off: lift-off {} ({:.2} s of it on the ground at a mean motor command ≥ 0.2), disarmed {} after the take-off throttle; until then tilt up to {:.0}°, height {:.2} m, yaw rate {:.0} °/s, body rate {:.0} °/s; motors off after: {}",
-                opt(r.lift_off_s, "s"),
-                r.ground_spin_up_s,
-                opt(r.disarmed_s, "s"),
-                r.max_tilt_deg,
-                r.max_height_m,
-                r.max_yaw_rate_dps,
-                r.max_rate_dps,
-                r.off_after
-            ));
-        }
+        out.extend(self.runaway.map(|r| r.line()));
         out.push(format!(
             "attitude estimate vs truth in the air: max error {:.2}°; battery {:.2} V at the end",
             self.max_attitude_error_deg, self.battery_end_v
