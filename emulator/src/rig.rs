@@ -139,14 +139,15 @@ pub struct RigOptions {
 }
 
 impl RigOptions {
-    /// `scenario` on the 250-class airframe with datasheet sensor errors
+    /// `scenario` on its airframe (the 250-class quad, with the
+    /// scenario's wiring error if it has one) with datasheet sensor errors
     /// from `seed`.
     pub fn new(scenario: Scenario, seed: u64) -> Self {
         Self {
             scenario,
             seed,
             board_seed: seed,
-            airframe: QuadParams::class_250(),
+            airframe: scenario.airframe(),
             errors: None,
             flash: None,
             lsi_hz: None,

@@ -12,6 +12,10 @@
 //!   `ω_ss = command · ω_max · V / V_nominal` reached with a first-order lag
 //!   (time constant `tau_s`); thrust `k_f ω²` along −z body, reaction torque
 //!   `k_m ω²` about z opposite to the propeller's spin;
+//! * wiring errors, as a builder makes them: an ESC's signal wire on
+//!   another motor's output ([`MotorParams::esc_input`]), a motor turning
+//!   the wrong way with a propeller that pushes air down at a fraction of
+//!   the thrust ([`QuadParams::with_reversed_motor`]);
 //! * drag: linear (rotor drag) plus quadratic (form drag) on the velocity
 //!   relative to still air, per body axis; linear angular damping;
 //! * battery: open-circuit voltage falling with the charge drawn, sag
@@ -57,13 +61,21 @@ impl Spin {
     }
 }
 
-/// One motor with its propeller.
+/// One motor with its propeller, as built (wiring errors included).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotorParams {
     /// Position of the rotor hub in the body frame (FRD, m from the centre of mass).
     pub position_body_m: Vec3,
     /// Propeller spin direction.
     pub spin: Spin,
+    /// Which of the four commands (the flight controller's motor order)
+    /// this motor's ESC receives: its own index when the ESC's signal wire
+    /// is on the right output (see [`QuadParams::with_swapped_esc_signals`]).
+    pub esc_input: usize,
+    /// Thrust and drag torque as a fraction of a correct propeller's, in
+    /// `(0, 1]`: 1 for a propeller that matches its motor (see
+    /// [`QuadParams::with_reversed_motor`]).
+    pub prop_fraction: f64,
 }
 
 /// The propulsion common to all four motors.
@@ -195,18 +207,26 @@ impl QuadParams {
                 MotorParams {
                     position_body_m: [-a, a, 0.0],
                     spin: Spin::Clockwise,
+                    esc_input: 0,
+                    prop_fraction: 1.0,
                 },
                 MotorParams {
                     position_body_m: [a, a, 0.0],
                     spin: Spin::CounterClockwise,
+                    esc_input: 1,
+                    prop_fraction: 1.0,
                 },
                 MotorParams {
                     position_body_m: [-a, -a, 0.0],
                     spin: Spin::CounterClockwise,
+                    esc_input: 2,
+                    prop_fraction: 1.0,
                 },
                 MotorParams {
                     position_body_m: [a, -a, 0.0],
                     spin: Spin::Clockwise,
+                    esc_input: 3,
+                    prop_fraction: 1.0,
                 },
             ],
             propulsion: PropulsionParams {
@@ -236,6 +256,40 @@ impl QuadParams {
     pub fn weight_n(&self) -> f64 {
         self.mass_kg * G0_MPS2
     }
+
+    /// The ESC signal wires of motor indices `a` and `b` swapped at the
+    /// flight controller: each motor gets the other's command (indices
+    /// out of range change nothing).
+    pub fn with_swapped_esc_signals(mut self, a: usize, b: usize) -> Self {
+        let ia = self.motors.get(a).map(|m| m.esc_input);
+        let ib = self.motors.get(b).map(|m| m.esc_input);
+        if let (Some(ia), Some(ib)) = (ia, ib) {
+            for (i, input) in [(a, ib), (b, ia)] {
+                if let Some(m) = self.motors.get_mut(i) {
+                    m.esc_input = input;
+                }
+            }
+        }
+        self
+    }
+
+    /// Motor index `i` turns against its design direction (two of its
+    /// phase wires swapped, or a motor for the other hand) and carries a
+    /// propeller that still pushes air down, but mounted the wrong way
+    /// (its airfoil running backwards): the model keeps it simple, the
+    /// reaction torque takes the actual spin's sign and thrust and drag
+    /// torque are `fraction` of a correct propeller's (clamped to `(0, 1]`
+    /// by validation). A propeller pushing air up is not modelled.
+    pub fn with_reversed_motor(mut self, i: usize, fraction: f64) -> Self {
+        if let Some(m) = self.motors.get_mut(i) {
+            m.spin = match m.spin {
+                Spin::Clockwise => Spin::CounterClockwise,
+                Spin::CounterClockwise => Spin::Clockwise,
+            };
+            m.prop_fraction = fraction;
+        }
+        self
+    }
 }
 
 /// Which [`QuadParams`] field is out of its physical range.
@@ -247,6 +301,8 @@ pub enum QuadParamsError {
     Inertia,
     /// A motor position not finite.
     MotorPosition,
+    /// A motor's `esc_input` not 0..=3 or its `prop_fraction` not in `(0, 1]`.
+    MotorWiring,
     /// A propulsion figure not finite and > 0, or `efficiency` above 1.
     Propulsion,
     /// A battery figure out of range (no cells, capacity ≤ 0, negative
@@ -281,6 +337,13 @@ impl QuadParams {
             .all(|m| m.position_body_m.iter().all(|x| x.is_finite()))
         {
             return Err(QuadParamsError::MotorPosition);
+        }
+        if !self
+            .motors
+            .iter()
+            .all(|m| m.esc_input < 4 && pos(m.prop_fraction) && m.prop_fraction <= 1.0)
+        {
+            return Err(QuadParamsError::MotorWiring);
         }
         let p = &self.propulsion;
         let prop = [
@@ -406,7 +469,8 @@ impl Quadcopter {
     /// Thrust of motor `i` now (N); 0 for an index out of range.
     pub fn thrust_n(&self, i: usize) -> f64 {
         let w = self.state.rotor_rps.get(i).copied().unwrap_or(0.0);
-        self.params.propulsion.k_f_n_per_rps2 * w * w
+        let f = self.params.motors.get(i).map_or(0.0, |m| m.prop_fraction);
+        f * self.params.propulsion.k_f_n_per_rps2 * w * w
     }
 
     /// Total thrust now (N).
@@ -448,12 +512,13 @@ impl Quadcopter {
         let mut torque = [0.0; 3];
         let mut shaft_w = 0.0;
         for (i, m) in p.motors.iter().enumerate() {
+            let command = commands.get(m.esc_input).copied().unwrap_or(0.0);
             let target =
-                commands[i] * p.propulsion.omega_max_rps * (v / p.propulsion.v_nominal_v).max(0.0);
+                command * p.propulsion.omega_max_rps * (v / p.propulsion.v_nominal_v).max(0.0);
             let w = s.rotor_rps[i] + (target - s.rotor_rps[i]) * alpha;
             s.rotor_rps[i] = w;
-            let thrust = p.propulsion.k_f_n_per_rps2 * w * w;
-            let q = p.propulsion.k_m_nm_per_rps2 * w * w;
+            let thrust = m.prop_fraction * p.propulsion.k_f_n_per_rps2 * w * w;
+            let q = m.prop_fraction * p.propulsion.k_m_nm_per_rps2 * w * w;
             thrust_total += thrust;
             // Thrust along −z at the hub: r × (0, 0, −T).
             torque = math::add(torque, math::cross(m.position_body_m, [0.0, 0.0, -thrust]));

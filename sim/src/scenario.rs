@@ -46,6 +46,8 @@ pub struct Pilot {
     pub mode: Mode,
 }
 
+use crate::quad::QuadParams;
+
 /// Frame period of the scripted transmitter (s): 250 Hz, ExpressLRS'
 /// common CRSF rate.
 pub const FRAME_PERIOD_S: f64 = 0.004;
@@ -90,6 +92,13 @@ pub enum Scenario {
     /// After the take-off: motor 1 (rear right) stops for good, as a
     /// burnt ESC or a lost propeller would.
     MotorFailure,
+    /// The take-off with the ESC signal wires of motors 1 and 2 (rear
+    /// right, front right) swapped at the flight controller.
+    Swapped,
+    /// The take-off with motor 1 (rear right, CW) turning the wrong way
+    /// and its propeller at [`REVERSED_PROP_FRACTION`] of the thrust
+    /// ([`QuadParams::with_reversed_motor`]).
+    ReversedProp,
 }
 
 /// Time the arm switch is flipped (s): after boot and the start-up gyro bias.
@@ -125,10 +134,23 @@ pub const FORWARD_STICK: f32 = 0.667;
 pub const LINK_LOSS_S: f64 = 10.0;
 /// Motor 1 (index 0) stops from here on (s).
 pub const MOTOR_FAILURE_S: f64 = 10.0;
+/// Thrust of the wrongly turning motor's propeller in
+/// [`Scenario::ReversedProp`], as a fraction of a correct one's: an
+/// assumption (a propeller running with its airfoil backwards), not a
+/// measurement.
+pub const REVERSED_PROP_FRACTION: f64 = 0.7;
 
 impl Scenario {
     /// Names for the command line.
-    pub const NAMES: [&'static str; 5] = ["takeoff", "steps", "althold", "linkloss", "motorfail"];
+    pub const NAMES: [&'static str; 7] = [
+        "takeoff",
+        "steps",
+        "althold",
+        "linkloss",
+        "motorfail",
+        "swapped",
+        "reversedprop",
+    ];
 
     /// By name.
     pub fn from_name(name: &str) -> Option<Self> {
@@ -138,6 +160,8 @@ impl Scenario {
             "althold" => Self::AltHold,
             "linkloss" => Self::LinkLoss,
             "motorfail" => Self::MotorFailure,
+            "swapped" => Self::Swapped,
+            "reversedprop" => Self::ReversedProp,
             _ => return None,
         })
     }
@@ -150,6 +174,8 @@ impl Scenario {
             Self::AltHold => "althold",
             Self::LinkLoss => "linkloss",
             Self::MotorFailure => "motorfail",
+            Self::Swapped => "swapped",
+            Self::ReversedProp => "reversedprop",
         }
     }
 
@@ -161,6 +187,18 @@ impl Scenario {
             Self::AltHold => 26.0,
             Self::LinkLoss => 30.0,
             Self::MotorFailure => 16.0,
+            Self::Swapped | Self::ReversedProp => 8.0,
+        }
+    }
+
+    /// The airframe as built: the 250-class quad, with the scenario's
+    /// wiring error.
+    pub fn airframe(&self) -> QuadParams {
+        let quad = QuadParams::class_250();
+        match self {
+            Self::Swapped => quad.with_swapped_esc_signals(0, 1),
+            Self::ReversedProp => quad.with_reversed_motor(0, REVERSED_PROP_FRACTION),
+            _ => quad,
         }
     }
 
@@ -209,7 +247,11 @@ impl Scenario {
                     sticks.pitch = FORWARD_STICK;
                 }
             }
-            Self::Takeoff | Self::LinkLoss | Self::MotorFailure => {}
+            Self::Takeoff
+            | Self::LinkLoss
+            | Self::MotorFailure
+            | Self::Swapped
+            | Self::ReversedProp => {}
         }
         if t_s < ARM_AT_S {
             mode = Mode::Angle;

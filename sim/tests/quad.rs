@@ -176,6 +176,48 @@ fn speeding_up_the_counter_clockwise_props_yaws_the_nose_right() {
     assert!(q.truth().q_ned_from_body.to_euler()[0].abs() < 1e-3);
 }
 
+/// The quad hovering as [`airborne`] with `params`.
+fn airborne_with(params: QuadParams) -> Quadcopter {
+    let s = *airborne().state();
+    let mut q = Quadcopter::new(params).unwrap();
+    q.set_state(s);
+    q
+}
+
+#[test]
+fn swapped_esc_signals_drive_each_motor_with_the_others_command() {
+    // Motors 1 and 2 (rear right, front right) swapped: the command meant
+    // for the front right spins the rear right.
+    let mut q = airborne_with(QuadParams::class_250().with_swapped_esc_signals(0, 1));
+    let c = q.command_for_thrust(q.params().weight_n() / 4.0);
+    // "More thrust at the front" as the controller means it.
+    let cmd = [c - 0.05, c + 0.05, c - 0.05, c + 0.05];
+    q.advance_to(0.2, cmd);
+    let w = q.truth().omega_body_rps;
+    // The right side's pitch torque turns round and cancels the left
+    // side's; the rear-right CW and front-right CCW speed changes add up
+    // to a yaw torque (nose left) instead.
+    assert!(w[2] < -0.1, "{w:?}");
+    assert!(w[1].abs() < 0.05 * w[2].abs(), "{w:?}");
+    assert!(q.state().rotor_rps[0] > q.state().rotor_rps[1]);
+}
+
+#[test]
+fn a_reversed_motor_yaws_the_other_way_with_a_fraction_of_the_thrust() {
+    let rev = QuadParams::class_250().with_reversed_motor(0, 0.5);
+    assert_eq!(rev.motors[0].spin, Spin::CounterClockwise);
+    let mut q = airborne_with(rev);
+    let c = q.command_for_thrust(q.params().weight_n() / 4.0);
+    // Thrust: half of a correct propeller's at the same rotor speed.
+    let good = airborne();
+    assert!((q.thrust_n(0) - 0.5 * good.thrust_n(0)).abs() < 1e-12);
+    q.advance_to(0.3, [c; 4]);
+    let w = q.truth().omega_body_rps;
+    // Three propellers' reaction torque yaws the nose right; the weak
+    // rear-right one rolls right (right side down) and pitches up.
+    assert!(w[2] > 0.1 && w[0] > 0.5 && w[1] > 0.5, "{w:?}");
+}
+
 #[test]
 fn battery_sag_lowers_thrust_at_the_same_command() {
     let fresh = QuadParams::class_250();
@@ -295,13 +337,15 @@ fn unphysical_parameters_are_refused_by_name() {
     let ok = QuadParams::class_250();
     assert_eq!(ok.validate(), Ok(()));
     type Break = fn(&mut QuadParams);
-    let cases: [(Break, E); 7] = [
+    let cases: [(Break, E); 9] = [
         (|p| p.mass_kg = 0.0, E::Mass),
         (|p| p.inertia_kgm2[2] = f64::NAN, E::Inertia),
         (
             |p| p.motors[1].position_body_m[0] = f64::INFINITY,
             E::MotorPosition,
         ),
+        (|p| p.motors[2].esc_input = 4, E::MotorWiring),
+        (|p| p.motors[3].prop_fraction = 0.0, E::MotorWiring),
         (|p| p.propulsion.tau_s = 0.0, E::Propulsion),
         (|p| p.propulsion.efficiency = 1.5, E::Propulsion),
         (|p| p.battery.used_at_start_ah = 2.0, E::Battery),

@@ -124,6 +124,12 @@ pub enum DisarmCause {
     /// the outputs were forced off from outside the sample step
     /// ([`crate::outputguard`]).
     NoImuSamples,
+    /// Runaway take-off: the rate loop's torque command at or beyond
+    /// [`SafetyConfig::runaway_torque_min`] while turning, for
+    /// [`SafetyConfig::runaway_time_s`], before normal flight switched the
+    /// check off (rule in [`crate::runaway`]). Check the motor order, the
+    /// motors' directions and the propellers.
+    RunawayTakeoff,
 }
 
 /// Why a motor-test request was refused.
@@ -324,6 +330,25 @@ pub struct SafetyConfig {
     /// (0.25: the bridge of [`crate::flightctl`]'s "Sensor loss" rule,
     /// longer than an MPU-9250 reset with its 100 ms settle).
     pub bad_input_disarm_s: f32,
+    /// Runaway take-off: torque command (any axis, ±1 = the mixer's full
+    /// authority) counted as pushing hard, 0.2..=1 (see [`crate::runaway`]).
+    pub runaway_torque_min: f32,
+    /// Runaway take-off: roll or pitch rate above which the craft counts as
+    /// turning, °/s, 1..=500.
+    pub runaway_rate_roll_pitch_dps: f32,
+    /// Runaway take-off: yaw rate above which the craft counts as turning,
+    /// °/s, 1..=500.
+    pub runaway_rate_yaw_dps: f32,
+    /// Runaway take-off: time both must hold without a break to disarm, s.
+    pub runaway_time_s: f32,
+    /// Runaway take-off: lowest collective counted as normal flight, 0..=1.
+    pub runaway_off_collective_min: f32,
+    /// Runaway take-off: every torque command below this counts as normal
+    /// flight, above 0 and below `runaway_torque_min`.
+    pub runaway_off_torque_max: f32,
+    /// Runaway take-off: normal flight since arming that switches the check
+    /// off until the next arming, s.
+    pub runaway_off_time_s: f32,
 }
 
 impl Default for SafetyConfig {
@@ -331,7 +356,10 @@ impl Default for SafetyConfig {
     /// 950 °/s (±1000 °/s gyro) for 0.3 s; landed after 2 s of collective
     /// < 0.15, rates < 20 °/s, |v| < 0.3 m/s; no-take-off disarm after 5 s;
     /// failsafe hold 1 s then descend at 0.5 m/s; motor test at 8 % for at
-    /// most 5 s, ended by a 0.1 stick movement.
+    /// most 5 s, ended by a 0.1 stick movement; runaway take-off: torque
+    /// ≥ 0.6 while turning faster than 15 °/s (roll, pitch) or 50 °/s (yaw)
+    /// for 75 ms, switched off by 0.5 s of collective ≥ 0.2 with every
+    /// torque < 0.1.
     fn default() -> Self {
         Self {
             arm_throttle_max: 0.05,
@@ -353,6 +381,13 @@ impl Default for SafetyConfig {
             althold_max_climb_mps: 1.0,
             althold_deadband: 0.1,
             bad_input_disarm_s: 0.25,
+            runaway_torque_min: 0.6,
+            runaway_rate_roll_pitch_dps: 15.0,
+            runaway_rate_yaw_dps: 50.0,
+            runaway_time_s: 0.075,
+            runaway_off_collective_min: 0.2,
+            runaway_off_torque_max: 0.1,
+            runaway_off_time_s: 0.5,
         }
     }
 }
@@ -379,6 +414,8 @@ pub enum SafetyField {
     MotorTest,
     /// `althold_max_climb_mps` or `althold_deadband`.
     AltitudeHold,
+    /// A `runaway_*` limit (the times are [`SafetyField::Time`]).
+    Runaway,
 }
 
 fn within(x: f32, lo: f32, hi: f32) -> bool {
@@ -419,6 +456,8 @@ impl SafetyConfig {
             self.failsafe_hold_s,
             self.motor_test_max_s,
             self.bad_input_disarm_s,
+            self.runaway_time_s,
+            self.runaway_off_time_s,
         ];
         check(
             times.iter().all(|t| within(*t, 0.0, 60.0) && *t > 0.0),
@@ -438,7 +477,19 @@ impl SafetyConfig {
                 && self.althold_max_climb_mps > 0.0
                 && within(self.althold_deadband, 0.0, 0.3),
             SafetyField::AltitudeHold,
-        )
+        )?;
+        check(self.runaway_limits_ok(), SafetyField::Runaway)
+    }
+
+    /// The `runaway_*` limits other than the times.
+    fn runaway_limits_ok(&self) -> bool {
+        within(self.runaway_torque_min, 0.2, 1.0)
+            && within(self.runaway_rate_roll_pitch_dps, 1.0, 500.0)
+            && within(self.runaway_rate_yaw_dps, 1.0, 500.0)
+            && within(self.runaway_off_collective_min, 0.0, 1.0)
+            // NaN fails both comparisons.
+            && self.runaway_off_torque_max > 0.0
+            && self.runaway_off_torque_max < self.runaway_torque_min
     }
 
     /// `cos(arm_max_tilt)`: the body-down · earth-down threshold.

@@ -52,8 +52,9 @@
 //! < 0.15, every rate < 20 °/s and, when known, |vertical speed| < 0.3 m/s
 //! for 2 s, after having taken off); no take-off within 5 s of arming;
 //! unusable attitude/gyro for [`SafetyConfig::bad_input_disarm_s`]
-//! (0.25 s, bridged until then: below). The motors are [`Motors::Off`]
-//! whenever disarmed.
+//! (0.25 s, bridged until then: below); runaway take-off (torque ≥ 0.6
+//! while turning for 75 ms before 0.5 s of normal flight,
+//! [`crate::runaway`]). The motors are [`Motors::Off`] whenever disarmed.
 //!
 //! **Sensor loss** while armed (attitude or gyro not finite: the sample
 //! was lost, the MPU-9250 is being re-initialised or settling): the last
@@ -109,6 +110,7 @@ use control::shaping::{StickShaping, Sticks, SticksConfig};
 
 use crate::motortest::{MotorTestSwitch, SwitchRequest};
 use crate::pipeline::Pipeline;
+use crate::runaway::RunawayCheck;
 
 pub use crate::arming::{
     ArmBlockers, ArmRefusal, DisarmCause, Event, Events, MotorTestEnd, MotorTestRefusal,
@@ -475,6 +477,7 @@ pub struct FlightController {
     crash_rate: Hold,
     landed: Hold,
     bad_input: Hold,
+    runaway: RunawayCheck,
     motor_test: Option<MotorTestRun>,
     /// A calibration was running at the last step (refuses the motor test).
     calibrating: bool,
@@ -524,6 +527,7 @@ impl FlightController {
             crash_rate: Hold::default(),
             landed: Hold::default(),
             bad_input: Hold::default(),
+            runaway: RunawayCheck::new(s),
             motor_test: None,
             calibrating: false,
             test_switch: MotorTestSwitch::new(),
@@ -764,6 +768,7 @@ impl FlightController {
         self.crash_rate = Hold::default();
         self.landed = Hold::default();
         self.bad_input = Hold::default();
+        self.runaway.restart();
     }
 
     /// Disarms now, from outside the sample step (the output guard forced
@@ -1091,6 +1096,9 @@ impl FlightController {
         let s = self.cfg.safety;
         let g = &vehicle.gyro;
         let max_rate = g.roll_rps.abs().max(g.pitch_rps.abs()).max(g.yaw_rps.abs());
+        if self.runaway.update(dt_us, &out.torque, g, collective) {
+            return self.disarm(DisarmCause::RunawayTakeoff, out);
+        }
         if self.crash_tilt.update(
             self_level && cos_tilt < self.lim.crash_cos_tilt,
             dt_us,

@@ -23,6 +23,7 @@
 //! | [`flightctl`] | [`flightctl::FlightController`]: pilot input + attitude + gyro + time → 4 motor commands, state, events (modes, arming, crash/landing disarm, failsafe, motor test) |
 //! | [`motortest`] | the motor-test switch: off → on flips while disarmed spin motors 1, 2, 3, 4 in turn |
 //! | [`arming`] | arming refusals, disarm causes, events and the safety limits |
+//! | [`runaway`] | runaway-takeoff check: saturated rate loop while turning, before normal flight |
 //! | [`angles`] | integer Euler angles and the down axis from the Q30 quaternion |
 //!
 //! ```
@@ -53,6 +54,7 @@ pub mod motortest;
 pub mod mounting;
 pub mod outputguard;
 pub mod pipeline;
+pub mod runaway;
 pub mod sample;
 pub mod schedule;
 pub mod sensors;

@@ -87,14 +87,15 @@ pub struct ClosedLoopOptions {
 }
 
 impl ClosedLoopOptions {
-    /// A scenario with the 250-class airframe, 400 Hz ESCs and seeds `seed`.
+    /// A scenario with the 250-class airframe (with the scenario's wiring
+    /// error, [`Scenario::airframe`]), 400 Hz ESCs and seeds `seed`.
     pub fn new(scenario: Scenario, seed: u64) -> Self {
         Self {
             scenario,
             seed,
             board_seed: seed,
             duration_s: None,
-            airframe: QuadParams::class_250(),
+            airframe: scenario.airframe(),
             esc_rate_hz: 400.0,
             mag_dance_s: 30.0,
         }
@@ -268,7 +269,7 @@ mod tests {
     //! expects of a well-behaved flight controller.
 
     use super::*;
-    use crate::demo::figures::{figures, Figures};
+    use crate::demo::figures::{figures, Figures, RunawayFigures};
     use crate::demo::flight_fc::FirmwareFc;
     use flight::flightctl::FlightConfig;
 
@@ -307,6 +308,12 @@ mod tests {
             let end = log.samples.last().unwrap();
             assert!(end.out.armed && end.truth.height_m > 1.5, "{end:?}");
             assert!(f.max_attitude_error_deg < 3.0, "{f:?}");
+            // The runaway check's 0.5 s of calm flight cannot be earned on
+            // the ground: the motors spin up to lift-off in less.
+            let r = f.runaway.unwrap();
+            let off_s = f64::from(FlightConfig::default().safety.runaway_off_time_s);
+            assert!(r.ground_spin_up_s < 0.8 * off_s, "{r:?}");
+            assert!(r.disarmed_s.is_none(), "{r:?}");
         }
     }
 
@@ -423,6 +430,70 @@ mod tests {
             .iter()
             .all(|s| !s.out.armed && s.out.motors == [0.0; 4]));
         assert!(after.last().unwrap().quad.on_ground);
+    }
+
+    /// A take-off with a wiring error ends in the runaway-takeoff disarm:
+    /// within 1.5 s of the take-off throttle (the climb stick at
+    /// [`CLIMB_FROM_S`]; altitude hold spins the motors up to lift-off in
+    /// about 1 s of it) and 0.3 s of lift-off, before 30° of tilt or
+    /// 0.5 m of height, and the motors stay off. `runaway_time_s` at 60 s
+    /// stands for the code without the check: the same take-off then flips
+    /// or spins on.
+    fn wiring_error_disarms_at_take_off(scenario: Scenario) -> Figures {
+        let (log, f) = flown(scenario, 1);
+        let r = f.runaway.unwrap();
+        let (lift_off, disarmed) = (r.lift_off_s.unwrap(), r.disarmed_s.unwrap());
+        assert!(disarmed < 1.5 && disarmed - lift_off < 0.3, "{r:?}");
+        assert!(r.max_tilt_deg < 30.0 && r.max_height_m < 0.5, "{r:?}");
+        assert!(r.off_after, "{r:?}");
+        let first_disarm = log.events.iter().find(|(_, e)| e.starts_with("Disarmed"));
+        assert_eq!(
+            first_disarm.map(|(_, e)| e.as_str()),
+            Some("Disarmed(RunawayTakeoff)")
+        );
+        f
+    }
+
+    /// The same take-off with the runaway check held off.
+    fn without_the_check(scenario: Scenario) -> RunawayFigures {
+        let mut cfg = FlightConfig::default();
+        cfg.safety.runaway_time_s = 60.0;
+        let mut fc = FirmwareFc::new(cfg).unwrap();
+        let mut o = ClosedLoopOptions::new(scenario, 1);
+        o.mag_dance_s = 20.0;
+        let log = fly(&o, &mut fc).unwrap();
+        for (t, e) in &log.events {
+            println!("{} without the check: t {t:.3} s {e}", scenario.name());
+        }
+        let r = figures(&log).runaway.unwrap();
+        println!("{} without the check: {r:?}", scenario.name());
+        r
+    }
+
+    #[test]
+    fn swapped_esc_signals_disarm_as_a_runaway_takeoff() {
+        wiring_error_disarms_at_take_off(Scenario::Swapped);
+        // Without the check: pitch and yaw commands are crossed, the craft
+        // tumbles until the crash-rate check cuts it, above 0.5 m (seed 1:
+        // 2.0 s after the take-off throttle, 70° of tilt, 0.88 m up, yawing
+        // at 1,400 °/s).
+        let old = without_the_check(Scenario::Swapped);
+        assert!(old.max_tilt_deg > 60.0 && old.max_height_m > 0.5, "{old:?}");
+    }
+
+    #[test]
+    fn a_reversed_motor_disarms_as_a_runaway_takeoff() {
+        wiring_error_disarms_at_take_off(Scenario::ReversedProp);
+        // Without the check: three propellers' reaction torque one way, one
+        // the other, the yaw loop saturated: the craft climbs away spinning
+        // at about 75 °/s, far below the crash rate, and nothing disarms
+        // (seed 1: 4.9 m up at the end of the 8 s flight).
+        let old = without_the_check(Scenario::ReversedProp);
+        assert!(old.disarmed_s.is_none(), "{old:?}");
+        assert!(
+            old.max_yaw_rate_dps > 60.0 && old.max_height_m > 1.0,
+            "{old:?}"
+        );
     }
 
     #[test]

@@ -2,8 +2,8 @@
 //! truth (the model's motion), against what the controller aimed at.
 
 use super::closed_loop::{
-    FlightLog, Sample, Scenario, CLIMB2_HOLD_S, CLIMB2_S, CLIMB_TO_S, FORWARD_HOLD_S, FORWARD_S,
-    LINK_LOSS_S, MOTOR_FAILURE_S, PITCH_STEP_S, ROLL_STEP_S, STEP_HOLD_S, YAW_STEP_S,
+    FlightLog, Sample, Scenario, CLIMB2_HOLD_S, CLIMB2_S, CLIMB_FROM_S, CLIMB_TO_S, FORWARD_HOLD_S,
+    FORWARD_S, LINK_LOSS_S, MOTOR_FAILURE_S, PITCH_STEP_S, ROLL_STEP_S, STEP_HOLD_S, YAW_STEP_S,
 };
 
 /// A step response.
@@ -216,6 +216,96 @@ pub fn motor_failure(samples: &[Sample]) -> Option<MotorFailureFigures> {
     })
 }
 
+/// A take-off (with or without a wiring error), from the take-off
+/// throttle ([`CLIMB_FROM_S`]) on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunawayFigures {
+    /// Time from the take-off throttle until the controller disarmed (s).
+    pub disarmed_s: Option<f64>,
+    /// Time from the take-off throttle until the body first left the
+    /// ground (s).
+    pub lift_off_s: Option<f64>,
+    /// Time on the ground, armed, before lift-off with the mean motor
+    /// command at or above the runaway check's switch-off collective (0.2,
+    /// the [`SafetyConfig`](flight::arming::SafetyConfig) default), s: the
+    /// most calm time the check can count before the craft flies.
+    pub ground_spin_up_s: f64,
+    /// Largest tilt until then, or to the end (°).
+    pub max_tilt_deg: f64,
+    /// Largest height until then, or to the end (m).
+    pub max_height_m: f64,
+    /// Largest |yaw rate| until then, or to the end (°/s).
+    pub max_yaw_rate_dps: f64,
+    /// Largest |body rate| until then, or to the end (°/s).
+    pub max_rate_dps: f64,
+    /// Every sample from the disarm on has the motors off and disarmed.
+    pub off_after: bool,
+}
+
+impl RunawayFigures {
+    /// The figures as a report line.
+    pub fn line(&self) -> String {
+        format!(
+            "take-off: lift-off {} ({:.2} s of it on the ground at a mean motor command ≥ 0.2), disarmed {} after the take-off throttle; until then tilt up to {:.0}°, height {:.2} m, yaw rate {:.0} °/s, body rate {:.0} °/s; motors off after: {}",
+            opt(self.lift_off_s, "s"),
+            self.ground_spin_up_s,
+            opt(self.disarmed_s, "s"),
+            self.max_tilt_deg,
+            self.max_height_m,
+            self.max_yaw_rate_dps,
+            self.max_rate_dps,
+            self.off_after
+        )
+    }
+}
+
+/// The runaway figures (`None` if the flight ended before the take-off
+/// throttle).
+pub fn runaway(samples: &[Sample]) -> Option<RunawayFigures> {
+    let i0 = samples.iter().position(|s| s.t_s >= CLIMB_FROM_S)?;
+    let after = samples.get(i0..)?;
+    let s0 = after.first()?;
+    let disarm = after.iter().position(|s| !s.out.armed);
+    let flying = after.get(..disarm.unwrap_or(after.len()))?;
+    let max = |f: &dyn Fn(&Sample) -> f64| flying.iter().map(f).fold(0.0, f64::max);
+    Some(RunawayFigures {
+        disarmed_s: disarm.and_then(|i| after.get(i)).map(|s| s.t_s - s0.t_s),
+        lift_off_s: after
+            .iter()
+            .find(|s| !s.quad.on_ground)
+            .map(|s| s.t_s - s0.t_s),
+        ground_spin_up_s: ground_spin_up_s(samples),
+        max_tilt_deg: max(&tilt_deg),
+        max_height_m: max(&|s| s.truth.height_m),
+        max_yaw_rate_dps: max(&|s| s.truth.omega_body_rps[2].abs().to_degrees()),
+        max_rate_dps: max(&|s| sim::math::norm(s.truth.omega_body_rps).to_degrees()),
+        off_after: disarm.is_some_and(|i| {
+            after
+                .iter()
+                .skip(i)
+                .all(|s| !s.out.armed && s.out.motors == [0.0; 4])
+        }),
+    })
+}
+
+/// See [`RunawayFigures::ground_spin_up_s`]: the sample periods on the
+/// ground, armed, before the first lift-off, with the mean motor command at
+/// or above the check's switch-off collective.
+fn ground_spin_up_s(samples: &[Sample]) -> f64 {
+    let collective = f64::from(flight::arming::SafetyConfig::default().runaway_off_collective_min);
+    let spun_up = |s: &Sample| {
+        s.out.armed && s.out.motors.iter().map(|m| f64::from(*m)).sum::<f64>() >= 4.0 * collective
+    };
+    samples
+        .windows(2)
+        .take_while(|w| w.iter().all(|s| s.quad.on_ground))
+        .filter_map(|w| match w {
+            [a, b] if spun_up(b) => Some(b.t_s - a.t_s),
+            _ => None,
+        })
+        .sum()
+}
+
 /// Every figure of a flight.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Figures {
@@ -237,6 +327,8 @@ pub struct Figures {
     pub link_loss: Option<LinkLossFigures>,
     /// Motor failure.
     pub motor_failure: Option<MotorFailureFigures>,
+    /// The take-off (with or without a wiring error).
+    pub runaway: Option<RunawayFigures>,
     /// Battery voltage at the end (V).
     pub battery_end_v: f64,
 }
@@ -250,6 +342,7 @@ pub fn figures(log: &FlightLog) -> Figures {
         Scenario::AltHold => CLIMB2_S,
         Scenario::LinkLoss => LINK_LOSS_S,
         Scenario::MotorFailure => MOTOR_FAILURE_S,
+        Scenario::Swapped | Scenario::ReversedProp => CLIMB_TO_S,
     };
     let mut f = Figures {
         hover: height_hold(s, CLIMB_TO_S + 3.0, hover_end),
@@ -306,7 +399,7 @@ pub fn figures(log: &FlightLog) -> Figures {
         }
         Scenario::LinkLoss => f.link_loss = link_loss(s),
         Scenario::MotorFailure => f.motor_failure = motor_failure(s),
-        Scenario::Takeoff => {}
+        Scenario::Swapped | Scenario::ReversedProp | Scenario::Takeoff => f.runaway = runaway(s),
     }
     f
 }
@@ -373,6 +466,7 @@ impl Figures {
                 m.max_rate_dps
             ));
         }
+        out.extend(self.runaway.map(|r| r.line()));
         out.push(format!(
             "attitude estimate vs truth in the air: max error {:.2}°; battery {:.2} V at the end",
             self.max_attitude_error_deg, self.battery_end_v

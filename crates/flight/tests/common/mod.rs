@@ -136,11 +136,12 @@ impl Rig {
         assert_eq!(self.fc.state(), FlightState::Armed);
     }
 
-    /// Armed and flying at hover throttle for a while.
+    /// Armed and flying at hover throttle, calm, for long enough (0.6 s)
+    /// that the runaway-takeoff check has switched off (0.5 s).
     pub fn take_off(&mut self) {
         self.arm();
         self.pilot.sticks.throttle = 0.5;
-        let ev = self.run_ms(200);
+        let ev = self.run_ms(600);
         assert!(ev.is_empty(), "{ev:?}");
     }
 
