@@ -511,6 +511,11 @@ mod app {
                 config::MOTOR_TEST_CHANNEL,
             )
         });
+        let state = cx.shared.pipeline.lock(|p| {
+            p.as_ref()
+                .map(|p| (vehicle_state(p, fresh), p.accel_calibrated()))
+        });
+        let vehicle = state.map(|(v, _)| v);
         let status = SystemStatus {
             sensors_healthy: mpu_ok,
             gyro_bias_done: cx.shared.bias.lock(|b| matches!(b, BiasStatus::Done(_))),
@@ -520,11 +525,8 @@ mod app {
                     flight::calmode::Mode::MagCal | flight::calmode::Mode::AccelCal
                 )
             }),
+            accel_calibrated: state.is_some_and(|(_, cal)| cal),
         };
-        let vehicle = cx
-            .shared
-            .pipeline
-            .lock(|p| p.as_ref().map(|p| vehicle_state(p, fresh)));
         #[cfg(not(feature = "mag-ellipsoid"))]
         let out = match (cx.local.fc.as_mut(), vehicle) {
             (Some(fc), Some(v)) => Some(fc.step(now_us, &pilot, &status, &v)),

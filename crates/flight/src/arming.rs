@@ -38,11 +38,16 @@ pub enum ArmRefusal {
     /// The motor-test switch is on (bench mode, props off): turn it off
     /// first (see [`crate::motortest`]).
     MotorTestSwitchOn,
+    /// Angle or altitude-hold mode selected without an accelerometer
+    /// calibration: the MPU-9250's zero-g offset (±60–80 mg per axis) would
+    /// level the craft 3–5° off and make it drift. Calibrate (six-position)
+    /// or arm in acro.
+    AccelNotCalibrated,
 }
 
 impl ArmRefusal {
     /// Every refusal, in checking order.
-    pub const ALL: [Self; 9] = [
+    pub const ALL: [Self; 10] = [
         Self::LinkLost,
         Self::CalibrationRunning,
         Self::SensorsUnhealthy,
@@ -52,6 +57,7 @@ impl ArmRefusal {
         Self::ThrottleNotLow,
         Self::MotorTestActive,
         Self::MotorTestSwitchOn,
+        Self::AccelNotCalibrated,
     ];
 
     const fn bit(self) -> u16 {
@@ -167,6 +173,7 @@ impl core::fmt::Display for ArmRefusal {
             Self::ThrottleNotLow => "throttle not low",
             Self::MotorTestActive => "motor test running",
             Self::MotorTestSwitchOn => "motor-test switch on",
+            Self::AccelNotCalibrated => "accelerometer not calibrated (self-levelling mode)",
         })
     }
 }

@@ -11,7 +11,12 @@
 //! let pipeline = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
 //! let esc = EscTimer::for_clock(EscProtocol::Pwm, 400, 72_000_000).unwrap();
 //! let mut fc = FlightController::new(FlightConfig::default()).unwrap();
-//! let status = SystemStatus { sensors_healthy: true, gyro_bias_done: true, calibration_running: false };
+//! let status = SystemStatus {
+//!     sensors_healthy: true,
+//!     gyro_bias_done: true,
+//!     calibration_running: false,
+//!     accel_calibrated: true,
+//! };
 //! let mut pilot = PilotInput { link_ok: true, ..Default::default() };
 //! let vehicle = VehicleState::from_pipeline(&pipeline);
 //! let out = fc.step(1_000, &pilot, &status, &vehicle);       // switch off
@@ -30,7 +35,13 @@
 //! [`ArmRefusal`]s applies: link up, no calibration running, sensors
 //! healthy, gyro bias measured, attitude usable, tilt ≤
 //! [`SafetyConfig::arm_max_tilt_deg`] (25°), throttle stick ≤
-//! [`SafetyConfig::arm_throttle_max`], no motor test. A refusal is reported
+//! [`SafetyConfig::arm_throttle_max`], no motor test, and in angle and
+//! altitude-hold mode an applied accelerometer calibration
+//! ([`SystemStatus::accel_calibrated`]; the MPU-9250's zero-g offset of
+//! ±60–80 mg per axis is 3–5° of false level and a steady drift; acro, which
+//! never uses the level reference, arms without it; once armed, switching
+//! to a self-levelling mode is not refused, and the failsafe levels on the
+//! uncalibrated reference). A refusal is reported
 //! once as [`Event::ArmRefused`] with its first reason; the switch must go
 //! off and on again. Armed, the motors run at least at the mixer's idle.
 //!
@@ -174,6 +185,9 @@ pub struct SystemStatus {
     pub gyro_bias_done: bool,
     /// A calibration mode is running.
     pub calibration_running: bool,
+    /// The accelerometer calibration (six-position fit) is applied: the
+    /// pipeline's [`Pipeline::accel_calibrated`]. Without it only acro arms.
+    pub accel_calibrated: bool,
 }
 
 /// Vertical state from the estimator.
@@ -561,6 +575,9 @@ impl FlightController {
         }
         if pilot.motor_test_switch {
             b.insert(ArmRefusal::MotorTestSwitchOn);
+        }
+        if !status.accel_calibrated && pilot.mode != FlightMode::Acro {
+            b.insert(ArmRefusal::AccelNotCalibrated);
         }
         b
     }

@@ -79,7 +79,7 @@ fn refusal_after(setup: impl FnOnce(&mut Rig)) -> (Rig, Vec<Event>) {
 
 #[test]
 fn each_refusal_is_named() {
-    let cases: [(ArmRefusal, Setup); 6] = [
+    let cases: [(ArmRefusal, Setup); 7] = [
         (ArmRefusal::CalibrationRunning, |r| {
             r.status.calibration_running = true
         }),
@@ -98,12 +98,68 @@ fn each_refusal_is_named() {
         (ArmRefusal::ThrottleNotLow, |r| {
             r.pilot.sticks.throttle = 0.1
         }),
+        (ArmRefusal::AccelNotCalibrated, |r| {
+            r.status.accel_calibrated = false
+        }),
     ];
     for (reason, setup) in cases {
         let (r, ev) = refusal_after(setup);
         assert_eq!(ev, vec![Event::ArmRefused(reason)], "{reason:?}");
         assert_eq!(r.fc.state(), FlightState::Disarmed);
     }
+}
+
+#[test]
+fn self_levelling_modes_refuse_to_arm_without_accel_calibration_acro_arms() {
+    for (mode, arms) in [
+        (FlightMode::Angle, false),
+        (FlightMode::AltitudeHold, false),
+        (FlightMode::Acro, true),
+    ] {
+        let (r, ev) = refusal_after(|r| {
+            r.status.accel_calibrated = false;
+            r.pilot.mode = mode;
+        });
+        let blockers = r.fc.arm_blockers(&r.pilot, &r.status, &r.vehicle);
+        if arms {
+            assert_eq!(ev, vec![Event::Armed], "{mode:?}");
+            assert!(blockers.is_empty(), "{mode:?}: {blockers:?}");
+        } else {
+            assert_eq!(
+                ev,
+                vec![Event::ArmRefused(ArmRefusal::AccelNotCalibrated)],
+                "{mode:?}"
+            );
+            assert!(blockers.contains(ArmRefusal::AccelNotCalibrated));
+            assert_eq!(r.fc.state(), FlightState::Disarmed);
+        }
+    }
+}
+
+#[test]
+fn the_pipeline_reports_whether_its_record_holds_an_accel_calibration() {
+    use flight::pipeline::{Pipeline, PipelineConfig};
+    use flight::storage::{CalibrationRecord, ValidParts};
+    // A blank flash page loads the defaults: no fitted accelerometer.
+    let mut p = Pipeline::new(PipelineConfig::new(), &CalibrationRecord::default()).unwrap();
+    assert!(!p.accel_calibrated());
+    // Only the magnetometer fitted: still not.
+    let mag_only = CalibrationRecord {
+        valid: ValidParts(ValidParts::MAG),
+        ..CalibrationRecord::default()
+    };
+    p.set_calibration(&mag_only);
+    assert!(!p.accel_calibrated());
+    // The six-position fit saved (what the calibration mode sets).
+    let fitted = CalibrationRecord {
+        valid: ValidParts(ValidParts::ACCEL | ValidParts::MAG),
+        accel_offset_g: [0.07, -0.06, 0.08],
+        ..CalibrationRecord::default()
+    };
+    p.set_calibration(&fitted);
+    assert!(p.accel_calibrated());
+    let p = Pipeline::new(PipelineConfig::new(), &fitted).unwrap();
+    assert!(p.accel_calibrated());
 }
 
 #[test]
