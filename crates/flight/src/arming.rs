@@ -112,15 +112,18 @@ pub enum DisarmCause {
     /// A body rate at or beyond [`SafetyConfig::crash_rate_dps`] for
     /// [`SafetyConfig::crash_rate_time_s`] (gyro saturated: tumbling).
     CrashRate,
-    /// Landing detected: collective low, no rotation, no vertical speed for
-    /// [`SafetyConfig::land_time_s`] after having taken off.
+    /// Landing detected: collective low, no rotation and no vertical speed
+    /// (without an altitude estimate: the throttle stick at its minimum)
+    /// for [`SafetyConfig::land_time_s`] after having taken off.
     Landed,
     /// Armed but never took off within [`SafetyConfig::idle_disarm_s`].
     NoTakeOff,
     /// Pilot link lost without an altitude estimate: disarmed after the
     /// level hold of [`SafetyConfig::failsafe_hold_s`].
     FailsafeNoAltitude,
-    /// Pilot link lost: the failsafe descent ended in a detected landing.
+    /// Pilot link lost: the failsafe descent ended in a detected landing
+    /// (or, having lost its altitude estimate, its collective ramped to
+    /// zero with no rotation for [`SafetyConfig::land_time_s`]).
     FailsafeLanded,
     /// The attitude or gyro input stayed unusable for
     /// [`SafetyConfig::bad_input_disarm_s`].

@@ -59,9 +59,11 @@
 //!
 //! **Disarm** ([`DisarmCause`]): arm switch off; crash (tilt > 70° for
 //! 0.5 s in a self-levelling mode or failsafe — acro may fly inverted — or
-//! any body rate ≥ 950 °/s for 0.3 s in any mode); landing (collective
-//! < 0.15, every rate < 20 °/s and, when known, |vertical speed| < 0.3 m/s
-//! for 2 s, after having taken off); no take-off within 5 s of arming;
+//! any body rate ≥ 950 °/s for 0.3 s in any mode); landing (after having
+//! taken off, for 2 s: collective < 0.15, every rate < 20 °/s, and with an
+//! altitude estimate |vertical speed| < 0.3 m/s, without one the throttle
+//! stick ≤ [`SafetyConfig::arm_throttle_max`] (5 %); see "Landing
+//! detection" below); no take-off within 5 s of arming;
 //! unusable attitude/gyro for 0.1 s (single bad samples keep the last motor
 //! commands). The motors are [`Motors::Off`] whenever disarmed.
 //!
@@ -73,7 +75,9 @@
 //! detector disarms ([`DisarmCause::FailsafeLanded`]); without altitude a
 //! disarm ([`DisarmCause::FailsafeNoAltitude`]). Should the altitude
 //! estimate fail during the descent, the collective ramps down at
-//! [`FAILSAFE_BLIND_RAMP_PER_S`] until the landing detector disarms. If the link returns during
+//! [`FAILSAFE_BLIND_RAMP_PER_S`] to zero, and the disarm
+//! ([`DisarmCause::FailsafeLanded`]) follows 2 s at zero without rotation.
+//! If the link returns during
 //! the failsafe, the pilot has control again (and the arm switch decides).
 //!
 //! **Motor test** (props off!): each off → on flip of the motor-test switch
@@ -87,6 +91,29 @@
 //! or (when the switch started it) the switch going off end it. A refused
 //! flip is reported as [`Event::MotorTestRefused`] with its reason, and
 //! arming is refused while the switch is on.
+//!
+//! # Landing detection
+//!
+//! A craft descending steadily at low throttle and a craft standing on the
+//! ground both measure about 1 g of specific force and no rotation: the
+//! accelerometer and gyro alone cannot tell them apart, and neither can a
+//! low collective (the descent is what a low collective makes). The
+//! detector therefore needs evidence that only a landed craft shows:
+//!
+//! * **with an altitude estimate** (barometer): |vertical speed| < 0.3 m/s
+//!   with the collective < 0.15 and every rate < 20 °/s, for 2 s. At a
+//!   collective that low the thrust is a fraction of the weight, so a craft
+//!   in the air sinks faster than 0.3 m/s within a fraction of a second;
+//! * **without one**, under pilot control: the pilot's throttle stick at
+//!   its minimum (≤ [`SafetyConfig::arm_throttle_max`], 5 %) with the same
+//!   collective and rate limits, for 2 s. A pilot holding zero throttle
+//!   commands idle anyway; a descent flown with any throttle above that
+//!   never disarms, however slow or fast;
+//! * **without one, in a failsafe**: no landing disarm but the failsafe's
+//!   own: the level hold disarms after 1 s
+//!   ([`DisarmCause::FailsafeNoAltitude`]), and a descent that lost its
+//!   altitude estimate ramps its collective to zero, then disarms after
+//!   2 s at zero without rotation.
 //!
 //! # Time
 //!
@@ -458,6 +485,9 @@ pub struct FlightController {
     alt_fallback: bool,
     alt_target_m: f32,
     last_collective: f32,
+    /// This step's throttle stick at or below
+    /// [`SafetyConfig::arm_throttle_max`] (pilot control only).
+    stick_at_min: bool,
     last_motors: Motors,
     armed_us: u32,
     failsafe_us: u32,
@@ -507,6 +537,7 @@ impl FlightController {
             alt_fallback: false,
             alt_target_m: 0.0,
             last_collective: 0.0,
+            stick_at_min: false,
             last_motors: Motors::Off,
             armed_us: 0,
             failsafe_us: 0,
@@ -751,6 +782,7 @@ impl FlightController {
         self.took_off = false;
         self.alt_engaged = false;
         self.last_collective = 0.0;
+        self.stick_at_min = false;
         self.armed_us = 0;
         self.failsafe_us = 0;
         self.crash_tilt = Hold::default();
@@ -983,6 +1015,7 @@ impl FlightController {
         }
         self.alt_fallback = fallback;
         out.mode = mode;
+        self.stick_at_min = self.throttle_low(pilot);
         let s = &pilot.sticks;
         if self.shaped.sticks != *s {
             self.shaped = Shaped::new(&self.shaping, s);
@@ -1074,12 +1107,8 @@ impl FlightController {
         if !low {
             self.took_off = true;
         }
-        let still = max_rate < self.lim.land_rate_rps
-            && alt.is_none_or(|a| a.vertical_speed_mps.abs() < s.land_vertical_speed_max_mps);
-        if self
-            .landed
-            .update(self.took_off && low && still, dt_us, self.lim.land_us)
-        {
+        let landed = self.took_off && low && self.looks_landed(max_rate, collective, alt);
+        if self.landed.update(landed, dt_us, self.lim.land_us) {
             let cause = if matches!(self.state, FlightState::Failsafe(_)) {
                 DisarmCause::FailsafeLanded
             } else {
@@ -1090,6 +1119,29 @@ impl FlightController {
         if !self.took_off && self.armed_us >= self.lim.idle_disarm_us {
             self.disarm(DisarmCause::NoTakeOff, out);
         }
+    }
+}
+
+impl FlightController {
+    /// With the collective already low: whether this step shows a landed
+    /// craft rather than a descending one (the rule and its reasons are in
+    /// the module docs' "Landing detection"). No rotation, and: with an
+    /// altitude estimate, no vertical speed; without one, under pilot
+    /// control the throttle stick at its minimum, in a failsafe the blind
+    /// descent's collective ramped to zero.
+    fn looks_landed(
+        &self,
+        max_rate_rps: f32,
+        collective: f32,
+        alt: Option<AltitudeEstimate>,
+    ) -> bool {
+        let no_rotation = max_rate_rps < self.lim.land_rate_rps;
+        let no_descent = match alt {
+            Some(a) => a.vertical_speed_mps.abs() < self.cfg.safety.land_vertical_speed_max_mps,
+            None if matches!(self.state, FlightState::Failsafe(_)) => collective <= 0.0,
+            None => self.stick_at_min,
+        };
+        no_rotation && no_descent
     }
 }
 

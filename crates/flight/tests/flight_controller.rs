@@ -280,6 +280,120 @@ fn no_landing_while_rotating_or_sinking() {
     r.expect_event_within(Event::Disarmed(DisarmCause::Landed), 2_100);
 }
 
+// ---- landing detection: descents and landings, with and without barometer --
+
+/// Taken off and hovering at `height_m` (with a barometer: the estimate
+/// follows the flight; without: none), then the pilot's throttle stick at
+/// `stick`, level, still, sinking at `sink_mps` until the ground; the
+/// craft stays on the ground from there. Runs `ms`; returns the time of
+/// touchdown and of a disarm (ms from the start of the descent).
+fn descend(
+    baro: bool,
+    height_m: f32,
+    stick: f32,
+    sink_mps: f32,
+    ms: u32,
+) -> (Option<u32>, Option<(u32, Event)>) {
+    let mut r = Rig::new();
+    let est = |h: f32, v: f32| if baro { altitude(h, v) } else { None };
+    r.vehicle.altitude = est(height_m, 0.0);
+    r.take_off();
+    r.pilot.sticks.throttle = stick;
+    let (mut h, mut touchdown) = (height_m, None);
+    for t in 1..=ms {
+        h = (h - sink_mps * 1e-3).max(0.0);
+        let v = if h > 0.0 { -sink_mps } else { 0.0 };
+        if h == 0.0 && touchdown.is_none() {
+            touchdown = Some(t);
+        }
+        r.vehicle.altitude = est(h, v);
+        let out = r.step();
+        let disarm = out.events.iter().find(|e| matches!(e, Event::Disarmed(_)));
+        if let Some(e) = disarm {
+            return (touchdown, Some((t, e)));
+        }
+    }
+    (touchdown, None)
+}
+
+#[test]
+fn slow_low_throttle_descent_never_disarms_with_or_without_barometer() {
+    // Stick 12 %: a collective under the landing threshold (0.15), no
+    // rotation, 1 g of specific force, what a landed craft also shows.
+    // 0.4 m/s from 20 m: 10 s in the air, five times the detector's hold.
+    for baro in [false, true] {
+        let (touchdown, disarm) = descend(baro, 20.0, 0.12, 0.4, 10_000);
+        assert_eq!(touchdown, None);
+        assert_eq!(disarm, None, "baro {baro}: disarmed in the air");
+    }
+}
+
+#[test]
+fn fast_descent_never_disarms_in_the_air_with_or_without_barometer() {
+    // Without a barometer: the stick just above its minimum (6 %); with
+    // one, even the stick at zero: 4 m/s from 50 m is 12.5 s in the air.
+    for (baro, stick) in [(false, 0.06), (true, 0.0)] {
+        let (touchdown, disarm) = descend(baro, 50.0, stick, 4.0, 12_000);
+        assert_eq!(touchdown, None);
+        assert_eq!(disarm, None, "baro {baro}: disarmed in the air");
+    }
+}
+
+#[test]
+fn real_landing_disarms_two_seconds_after_touchdown_with_barometer() {
+    // Sinking at 0.5 m/s from 1 m at 12 % stick: on the ground after 2 s,
+    // disarmed 2 s later without the stick at its minimum.
+    let (touchdown, disarm) = descend(true, 1.0, 0.12, 0.5, 10_000);
+    let touchdown = touchdown.expect("touched down");
+    let (t, e) = disarm.expect("disarmed");
+    assert_eq!(e, Event::Disarmed(DisarmCause::Landed));
+    assert!((1_999..=2_001).contains(&touchdown), "{touchdown}");
+    assert!(
+        (touchdown + 1_990..=touchdown + 2_010).contains(&t),
+        "disarmed {} ms after touchdown",
+        t - touchdown
+    );
+}
+
+#[test]
+fn real_landing_without_barometer_disarms_on_the_stick_at_minimum() {
+    // On the ground at 12 % stick: no disarm (the controller cannot see
+    // the ground). The pilot pulls the stick to zero: 2 s later, disarmed.
+    let mut r = Rig::new();
+    r.take_off();
+    r.pilot.sticks.throttle = 0.12;
+    assert!(r.run_ms(5_000).is_empty());
+    assert!(r.fc.is_armed());
+    r.pilot.sticks.throttle = 0.05;
+    r.expect_event_after(Event::Disarmed(DisarmCause::Landed), 5_000, 1_999..=2_001);
+}
+
+#[test]
+fn blind_failsafe_descent_disarms_only_after_its_ramp_reaches_zero() {
+    let mut r = Rig::new();
+    r.vehicle.altitude = altitude(5.0, 0.0);
+    r.take_off();
+    r.pilot.link_ok = false;
+    r.expect_event_within(Event::FailsafeDescent, 1_100);
+    r.vehicle.altitude = None; // the barometer fails, the craft still sinks
+    let mut at_zero = None;
+    for t in 1..=20_000u32 {
+        let out = r.step();
+        if out.collective <= 0.0 && at_zero.is_none() {
+            at_zero = Some(t);
+        }
+        if out.events.iter().any(|e| matches!(e, Event::Disarmed(_))) {
+            let z = at_zero.expect("disarmed before the ramp reached zero");
+            assert!(out
+                .events
+                .contains(Event::Disarmed(DisarmCause::FailsafeLanded)));
+            assert!((z + 1_999..=z + 2_001).contains(&t), "{t} ms, zero at {z}");
+            return;
+        }
+    }
+    panic!("no disarm");
+}
+
 #[test]
 fn no_take_off_disarms_after_five_seconds() {
     let mut r = Rig::new();
