@@ -313,6 +313,10 @@ pub struct SafetyConfig {
     pub failsafe_hold_s: f32,
     /// Failsafe descent speed, m/s, > 0.
     pub failsafe_descent_mps: f32,
+    /// Highest collective of the failsafe's level hold without an altitude
+    /// estimate: the bound on the hover estimate it flies at
+    /// (above `land_collective_max`, ≤ 1).
+    pub failsafe_collective_max: f32,
     /// Motor-test command, 0..=0.2.
     pub motor_test_command: f32,
     /// Longest motor test, s.
@@ -333,7 +337,8 @@ impl Default for SafetyConfig {
     /// Arm below 5 % throttle and 25° tilt; crash beyond 70° for 0.5 s or
     /// 950 °/s (±1000 °/s gyro) for 0.3 s; landed after 2 s of collective
     /// < 0.15, rates < 20 °/s, |v| < 0.3 m/s; no-take-off disarm after 5 s;
-    /// failsafe hold 1 s then descend at 0.5 m/s; motor test at 8 % for at
+    /// failsafe hold 1 s (without altitude at most the hover estimate,
+    /// ≤ 0.6) then descend at 0.5 m/s; motor test at 8 % for at
     /// most 5 s, ended by a 0.1 stick movement.
     fn default() -> Self {
         Self {
@@ -350,6 +355,7 @@ impl Default for SafetyConfig {
             idle_disarm_s: 5.0,
             failsafe_hold_s: 1.0,
             failsafe_descent_mps: 0.5,
+            failsafe_collective_max: 0.6,
             motor_test_command: 0.08,
             motor_test_max_s: 5.0,
             motor_test_stick_tolerance: 0.1,
@@ -378,6 +384,8 @@ pub enum SafetyField {
     Time,
     /// `failsafe_descent_mps` not in (0, 3].
     FailsafeDescent,
+    /// `failsafe_collective_max` not in (`land_collective_max`, 1].
+    FailsafeCollective,
     /// `motor_test_command` or `motor_test_stick_tolerance`.
     MotorTest,
     /// `althold_max_climb_mps` or `althold_deadband`.
@@ -430,6 +438,11 @@ impl SafetyConfig {
         check(
             within(self.failsafe_descent_mps, 0.0, 3.0) && self.failsafe_descent_mps > 0.0,
             SafetyField::FailsafeDescent,
+        )?;
+        check(
+            within(self.failsafe_collective_max, 0.0, 1.0)
+                && self.failsafe_collective_max > self.land_collective_max,
+            SafetyField::FailsafeCollective,
         )?;
         check(
             within(self.motor_test_command, 0.0, 0.2)

@@ -70,7 +70,9 @@
 //! **Pilot signal loss** while armed: level hold (tilt 0, yaw rate 0) for
 //! [`SafetyConfig::failsafe_hold_s`] (1 s) at the current height with
 //! altitude hold if an altitude estimate exists, else at the last
-//! collective; then, with altitude, a descent at
+//! collective but never above the hover estimate (see "Hover estimate"
+//! below; a link lost in a full-throttle climb does not keep full power);
+//! then, with altitude, a descent at
 //! [`SafetyConfig::failsafe_descent_mps`] (0.5 m/s) until the landing
 //! detector disarms ([`DisarmCause::FailsafeLanded`]); without altitude a
 //! disarm ([`DisarmCause::FailsafeNoAltitude`]). Should the altitude
@@ -115,6 +117,18 @@
 //!   altitude estimate ramps its collective to zero, then disarms after
 //!   2 s at zero without rotation.
 //!
+//! # Hover estimate
+//!
+//! The collective low-passed with a time constant of [`HOVER_TAU_S`]
+//! (1.5 s) while the pilot flies (armed, taken off, no failsafe) within 15°
+//! of level ([`HOVER_LEVEL_COS_TILT`]), seeded by the first such step
+//! ([`FlightController::hover_collective`]). The failsafe's level hold
+//! without altitude flies at the lower of the last collective and this
+//! estimate bounded between [`SafetyConfig::land_collective_max`] (0.15)
+//! and [`SafetyConfig::failsafe_collective_max`] (0.6): about a hover when
+//! the link is lost in a hover, at most 0.6 when it is lost in a climb
+//! (a full-throttle second moves the estimate about halfway up).
+//!
 //! # Time
 //!
 //! `now_us` is a free-running, wrapping microsecond clock (e.g.
@@ -143,6 +157,13 @@ pub const MAX_DT_US: u32 = 20_000;
 /// Collective ramp-down per second in a failsafe descent that lost its
 /// altitude estimate (hover at ~0.5 reaches the landing threshold in ~7 s).
 pub const FAILSAFE_BLIND_RAMP_PER_S: f32 = 0.05;
+/// Time constant of the hover-collective estimate's low-pass, s: long
+/// enough that a manoeuvre of a second or two moves it by less than half
+/// its excursion, short enough to follow the battery's sag.
+pub const HOVER_TAU_S: f32 = 1.5;
+/// Cosine of the largest tilt at which the collective counts towards the
+/// hover estimate (15°: tilted, a hover needs `1/cos` more, here ≤ 3.5 %).
+pub const HOVER_LEVEL_COS_TILT: f32 = 0.966;
 /// Step assumed for the first call, µs (the 1 kHz IMU period).
 pub const FIRST_DT_US: u32 = 1_000;
 
@@ -485,6 +506,9 @@ pub struct FlightController {
     alt_fallback: bool,
     alt_target_m: f32,
     last_collective: f32,
+    /// The collective low-passed while flying near level under pilot
+    /// control (`None` until the first such step after arming).
+    hover_collective: Option<f32>,
     /// This step's throttle stick at or below
     /// [`SafetyConfig::arm_throttle_max`] (pilot control only).
     stick_at_min: bool,
@@ -537,6 +561,7 @@ impl FlightController {
             alt_fallback: false,
             alt_target_m: 0.0,
             last_collective: 0.0,
+            hover_collective: None,
             stick_at_min: false,
             last_motors: Motors::Off,
             armed_us: 0,
@@ -782,6 +807,7 @@ impl FlightController {
         self.took_off = false;
         self.alt_engaged = false;
         self.last_collective = 0.0;
+        self.hover_collective = None;
         self.stick_at_min = false;
         self.armed_us = 0;
         self.failsafe_us = 0;
@@ -925,6 +951,7 @@ impl FlightController {
         out.motors = motors;
 
         self.safety_checks(dt_us, cos_t, self_level, collective, vehicle, alt, out);
+        self.track_hover(dt_s, cos_t, collective);
     }
 
     /// Rate setpoint, collective and whether the mode self-levels; `None`
@@ -989,7 +1016,8 @@ impl FlightController {
             None if phase == FailsafePhase::Descend => {
                 (self.last_collective - FAILSAFE_BLIND_RAMP_PER_S * dt_s).max(0.0)
             }
-            None => self.last_collective,
+            // Level hold without altitude: never more than a hover.
+            None => self.last_collective.min(self.hover_estimate()),
         };
         Some((rate_sp, collective, true))
     }
@@ -1142,6 +1170,37 @@ impl FlightController {
             None => self.stick_at_min,
         };
         no_rotation && no_descent
+    }
+
+    /// Low-passes the collective over [`HOVER_TAU_S`] while the pilot flies
+    /// (armed, taken off, no failsafe) within 15° of level; the first such
+    /// step seeds it.
+    fn track_hover(&mut self, dt_s: f32, cos_tilt: f32, collective: f32) {
+        let pilot_flying = self.state == FlightState::Armed && self.took_off;
+        if !pilot_flying || cos_tilt < HOVER_LEVEL_COS_TILT || !collective.is_finite() {
+            return;
+        }
+        self.hover_collective = Some(match self.hover_collective {
+            None => collective,
+            Some(h) => h + (collective - h) * dt_s / (HOVER_TAU_S + dt_s),
+        });
+    }
+
+    /// The collective a level hold without altitude may use at most: the
+    /// hover estimate bounded between [`SafetyConfig::land_collective_max`]
+    /// and [`SafetyConfig::failsafe_collective_max`] (the lower bound when
+    /// there is no estimate yet).
+    fn hover_estimate(&self) -> f32 {
+        let s = &self.cfg.safety;
+        let h = self.hover_collective.unwrap_or(s.land_collective_max);
+        // max/min, not clamp (see `altitude_collective`).
+        h.max(s.land_collective_max).min(s.failsafe_collective_max)
+    }
+
+    /// The hover-collective estimate so far (`None` before the first step
+    /// flown near level after take-off), unclamped.
+    pub fn hover_collective(&self) -> Option<f32> {
+        self.hover_collective
     }
 }
 

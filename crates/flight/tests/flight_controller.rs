@@ -445,6 +445,84 @@ fn link_loss_without_altitude_holds_level_then_disarms() {
     );
 }
 
+/// Taken off, the pilot flies `stick(t_ms)` for `ms`, level, no barometer;
+/// then the link is lost. Returns the rig after the first failsafe step
+/// and the collectives of the whole level hold.
+fn lose_link_after(stick: impl Fn(u32) -> f32, ms: u32) -> (Rig, Vec<f32>) {
+    let mut r = Rig::new();
+    r.take_off();
+    for t in 0..ms {
+        r.pilot.sticks.throttle = stick(t);
+        r.step();
+    }
+    r.pilot.link_ok = false;
+    let mut hold = Vec::new();
+    for _ in 0..995 {
+        let out = r.step();
+        assert_eq!(out.state, FlightState::Failsafe(FailsafePhase::Hold));
+        hold.push(out.collective);
+    }
+    r.expect_event_within(Event::Disarmed(DisarmCause::FailsafeNoAltitude), 10);
+    (r, hold)
+}
+
+#[test]
+fn link_lost_in_a_full_throttle_climb_without_barometer_holds_at_most_a_hover() {
+    // 5 s hovering at 0.45, then 2 s of full throttle, level.
+    let (r, hold) = lose_link_after(|t| if t < 5_000 { 0.45 } else { 1.0 }, 7_000);
+    let est = r.fc.hover_collective().unwrap();
+    // The estimate moved most of the way up in 2 s (1 − e^(−2/1.5) = 0.74).
+    assert!((0.8..0.9).contains(&est), "hover estimate {est}");
+    let max = FlightConfig::default().safety.failsafe_collective_max;
+    for c in &hold {
+        assert!(*c <= max + 1e-6 && *c <= est, "collective {c} in the hold");
+    }
+    assert!((hold[0] - 0.6).abs() < 1e-6, "{}", hold[0]);
+}
+
+#[test]
+fn link_lost_in_a_hover_without_barometer_holds_about_the_hover_collective() {
+    // Hovering at 0.42 with the pilot's ±0.05 corrections at 2 Hz; the link
+    // goes at a correction's peak (stick 0.47).
+    let stick = |t: u32| 0.42 + 0.05 * (2.0 * core::f32::consts::PI * 2.0 * t as f32 * 1e-3).sin();
+    let (_, hold) = lose_link_after(stick, 5_125);
+    for c in &hold {
+        assert!((c - 0.42).abs() < 0.01, "collective {c}, hover 0.42");
+    }
+}
+
+#[test]
+fn the_hover_estimate_ignores_banked_flight_and_the_ground() {
+    let mut r = Rig::new();
+    r.arm();
+    r.run_ms(500); // on the ground at idle: nothing to learn
+    assert_eq!(r.fc.hover_collective(), None);
+    r.pilot.sticks.throttle = 0.5;
+    r.run_ms(3_000);
+    let level = r.fc.hover_collective().unwrap();
+    assert!((level - 0.5).abs() < 1e-3, "{level}");
+    // A 30° banked turn at 0.8: the collective a tilted hover needs.
+    r.vehicle.attitude = tilted_deg(30.0);
+    r.pilot.sticks.throttle = 0.8;
+    r.run_ms(2_000);
+    assert_eq!(r.fc.hover_collective(), Some(level));
+}
+
+#[test]
+fn failsafe_collective_max_is_validated() {
+    let mut cfg = FlightConfig::default();
+    for bad in [0.1, 0.15, 1.1, f32::NAN] {
+        cfg.safety.failsafe_collective_max = bad;
+        assert_eq!(
+            FlightController::new(cfg).err(),
+            Some(FlightConfigError::Safety(SafetyField::FailsafeCollective)),
+            "{bad}"
+        );
+    }
+    cfg.safety.failsafe_collective_max = 0.6;
+    assert!(FlightController::new(cfg).is_ok());
+}
+
 #[test]
 fn link_loss_with_altitude_holds_descends_and_lands() {
     let mut r = Rig::new();
