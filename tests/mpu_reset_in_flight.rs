@@ -187,6 +187,7 @@ impl Flight {
             sensors_healthy: true,
             gyro_bias_done: true,
             calibration_running: false,
+            accel_calibrated: true,
         };
         let out = self.fc.step(now_us, &self.pilot, &status, &vehicle);
         let t = now_ms(&self.rig);

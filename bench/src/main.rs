@@ -253,6 +253,7 @@ mod suite {
                 sensors_healthy: true,
                 gyro_bias_done: true,
                 calibration_running: false,
+                accel_calibrated: true,
             };
             let mut pilot = PilotInput {
                 sticks: Sticks::default(),

@@ -461,19 +461,31 @@ fn stream_until(b: &mut Board, frame: &[u8], pattern: &str, timeout_ns: u64) -> 
 /// Sticks centred, throttle at `throttle_us`, arm switch (channel 5) on or
 /// off, mode switch (channel 6) low: angle mode.
 fn sticks(throttle_us: i32, arm: bool) -> Vec<u8> {
+    sticks_in_mode(throttle_us, arm, 1000)
+}
+
+/// As [`sticks`], mode switch (channel 6) high: acro, the one mode that
+/// arms without an accelerometer calibration (the emulated flash page is
+/// blank).
+fn acro_sticks(throttle_us: i32, arm: bool) -> Vec<u8> {
+    sticks_in_mode(throttle_us, arm, 2000)
+}
+
+fn sticks_in_mode(throttle_us: i32, arm: bool, mode_us: i32) -> Vec<u8> {
     let mut ch = [ticks(1500); 16];
     ch[2] = ticks(throttle_us);
     ch[4] = ticks(if arm { 2000 } else { 1000 });
-    ch[5] = ticks(1000);
+    ch[5] = ticks(mode_us);
     rc_frame(ch)
 }
 
 /// Arming on the real firmware with a board's datasheet sensor errors
 /// (noise, gyro bias, scale errors): the start-up gyro bias completes,
-/// arming is refused with the throttle high (reason in the log), armed with
-/// the throttle low and the switch, idle pulses while armed, and on signal
-/// loss failsafe, disarm and the off pulse. The firmware must report a
-/// ready flight controller at boot.
+/// arming is refused with the throttle high (reason in the log), refused in
+/// angle mode without an accelerometer calibration, armed in acro with the
+/// throttle low and the switch, idle pulses while armed, and on signal loss
+/// failsafe, disarm and the off pulse. The firmware must report a ready
+/// flight controller at boot.
 #[test]
 fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
     let Some(mut b) = board_with(|c| c.sim.errors = sim::SensorErrors::datasheet(1)) else {
@@ -499,10 +511,21 @@ fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
     );
     assert_off(&mut b, "after the refusal");
 
+    // Throttle low in angle mode: refused, the flash page holds no
+    // accelerometer calibration. Acro arms.
     stream_until(&mut b, &sticks(1000, false), "never", 300 * MS);
-    let armed = stream_until(&mut b, &sticks(1000, true), "flight: ARMED", S);
+    let refused = stream_until(&mut b, &sticks(1000, true), "flight: arm refused", S);
+    assert!(
+        refused
+            .as_ref()
+            .is_some_and(|l| l.contains("AccelNotCalibrated")),
+        "{refused:?}\n{}",
+        tail(&b, 30)
+    );
+    stream_until(&mut b, &acro_sticks(1000, false), "never", 300 * MS);
+    let armed = stream_until(&mut b, &acro_sticks(1000, true), "flight: ARMED", S);
     assert!(armed.is_some(), "{}", tail(&b, 30));
-    stream_until(&mut b, &sticks(1000, true), "never", 100 * MS);
+    stream_until(&mut b, &acro_sticks(1000, true), "never", 100 * MS);
     for (ch, o) in outputs(&mut b).into_iter().enumerate() {
         let (period, high) = o.unwrap_or_else(|| panic!("channel {ch} silent"));
         let (period_ns, off_ns) = protocol(&b);

@@ -265,13 +265,15 @@ fn short_spikes_on_the_ppm_line_are_filtered_out() {
 }
 
 /// Sticks centred, throttle at `throttle_us`, arm switch (channel 5) on or
-/// off, mode switch (channel 6) low: angle mode; motor-test switch
-/// (channel 7) off.
+/// off, mode switch (channel 6) high: acro (the emulated flash page holds
+/// no accelerometer calibration, and only acro arms without one; the
+/// failsafe flies level whatever the mode); motor-test switch (channel 7)
+/// off.
 fn sticks(throttle_us: u64, arm: bool) -> [u64; 8] {
     let mut ch = [1_500; 8];
     ch[2] = throttle_us;
     ch[4] = if arm { 2_000 } else { 1_000 };
-    ch[5] = 1_000;
+    ch[5] = 2_000;
     ch[6] = 1_000;
     ch
 }

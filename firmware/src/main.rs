@@ -536,6 +536,11 @@ mod app {
         disarmed: Option<FlightEvent>,
     ) -> Motors {
         let pilot = cx.shared.pilot.lock(|p| pilot_input(p, now_us));
+        let state = cx.shared.pipeline.lock(|p| {
+            p.as_ref()
+                .map(|p| (vehicle_state(p, fresh), p.accel_calibrated()))
+        });
+        let vehicle = state.map(|(v, _)| v);
         let status = SystemStatus {
             sensors_healthy: mpu_ok,
             gyro_bias_done: cx.shared.bias.lock(|b| matches!(b, BiasStatus::Done(_))),
@@ -545,11 +550,8 @@ mod app {
                     flight::calmode::Mode::MagCal | flight::calmode::Mode::AccelCal
                 )
             }),
+            accel_calibrated: state.is_some_and(|(_, cal)| cal),
         };
-        let vehicle = cx
-            .shared
-            .pipeline
-            .lock(|p| p.as_ref().map(|p| vehicle_state(p, fresh)));
         #[cfg(not(feature = "mag-ellipsoid"))]
         let out = match (cx.local.fc.as_mut(), vehicle) {
             (Some(fc), Some(v)) => Some(fc.step(now_us, &pilot, &status, &v)),

@@ -38,11 +38,16 @@ pub enum ArmRefusal {
     /// The motor-test switch is on (bench mode, props off): turn it off
     /// first (see [`crate::motortest`]).
     MotorTestSwitchOn,
+    /// Angle or altitude-hold mode selected without an accelerometer
+    /// calibration: the MPU-9250's zero-g offset (±60–80 mg per axis) would
+    /// level the craft 3–5° off and make it drift. Calibrate (six-position)
+    /// or arm in acro.
+    AccelNotCalibrated,
 }
 
 impl ArmRefusal {
     /// Every refusal, in checking order.
-    pub const ALL: [Self; 9] = [
+    pub const ALL: [Self; 10] = [
         Self::LinkLost,
         Self::CalibrationRunning,
         Self::SensorsUnhealthy,
@@ -52,6 +57,7 @@ impl ArmRefusal {
         Self::ThrottleNotLow,
         Self::MotorTestActive,
         Self::MotorTestSwitchOn,
+        Self::AccelNotCalibrated,
     ];
 
     const fn bit(self) -> u16 {
@@ -106,15 +112,18 @@ pub enum DisarmCause {
     /// A body rate at or beyond [`SafetyConfig::crash_rate_dps`] for
     /// [`SafetyConfig::crash_rate_time_s`] (gyro saturated: tumbling).
     CrashRate,
-    /// Landing detected: collective low, no rotation, no vertical speed for
-    /// [`SafetyConfig::land_time_s`] after having taken off.
+    /// Landing detected: collective low, no rotation and no vertical speed
+    /// (without an altitude estimate: the throttle stick at its minimum)
+    /// for [`SafetyConfig::land_time_s`] after having taken off.
     Landed,
     /// Armed but never took off within [`SafetyConfig::idle_disarm_s`].
     NoTakeOff,
     /// Pilot link lost without an altitude estimate: disarmed after the
     /// level hold of [`SafetyConfig::failsafe_hold_s`].
     FailsafeNoAltitude,
-    /// Pilot link lost: the failsafe descent ended in a detected landing.
+    /// Pilot link lost: the failsafe descent ended in a detected landing
+    /// (or, having lost its altitude estimate, its collective ramped to
+    /// zero with no rotation for [`SafetyConfig::land_time_s`]).
     FailsafeLanded,
     /// The attitude or gyro input stayed unusable for
     /// [`SafetyConfig::bad_input_disarm_s`].
@@ -178,6 +187,7 @@ impl core::fmt::Display for ArmRefusal {
             Self::ThrottleNotLow => "throttle not low",
             Self::MotorTestActive => "motor test running",
             Self::MotorTestSwitchOn => "motor-test switch on",
+            Self::AccelNotCalibrated => "accelerometer not calibrated (self-levelling mode)",
         })
     }
 }
@@ -314,6 +324,10 @@ pub struct SafetyConfig {
     pub failsafe_hold_s: f32,
     /// Failsafe descent speed, m/s, > 0.
     pub failsafe_descent_mps: f32,
+    /// Highest collective of the failsafe's level hold without an altitude
+    /// estimate: the bound on the hover estimate it flies at
+    /// (above `land_collective_max`, ≤ 1).
+    pub failsafe_collective_max: f32,
     /// Motor-test command, 0..=0.2.
     pub motor_test_command: f32,
     /// Longest motor test, s.
@@ -355,7 +369,8 @@ impl Default for SafetyConfig {
     /// Arm below 5 % throttle and 25° tilt; crash beyond 70° for 0.5 s or
     /// 950 °/s (±1000 °/s gyro) for 0.3 s; landed after 2 s of collective
     /// < 0.15, rates < 20 °/s, |v| < 0.3 m/s; no-take-off disarm after 5 s;
-    /// failsafe hold 1 s then descend at 0.5 m/s; motor test at 8 % for at
+    /// failsafe hold 1 s (without altitude at most the hover estimate,
+    /// ≤ 0.6) then descend at 0.5 m/s; motor test at 8 % for at
     /// most 5 s, ended by a 0.1 stick movement; runaway take-off: torque
     /// ≥ 0.6 while turning faster than 15 °/s (roll, pitch) or 50 °/s (yaw)
     /// for 75 ms, switched off by 0.5 s of collective ≥ 0.2 with every
@@ -375,6 +390,7 @@ impl Default for SafetyConfig {
             idle_disarm_s: 5.0,
             failsafe_hold_s: 1.0,
             failsafe_descent_mps: 0.5,
+            failsafe_collective_max: 0.6,
             motor_test_command: 0.08,
             motor_test_max_s: 5.0,
             motor_test_stick_tolerance: 0.1,
@@ -410,6 +426,8 @@ pub enum SafetyField {
     Time,
     /// `failsafe_descent_mps` not in (0, 3].
     FailsafeDescent,
+    /// `failsafe_collective_max` not in (`land_collective_max`, 1].
+    FailsafeCollective,
     /// `motor_test_command` or `motor_test_stick_tolerance`.
     MotorTest,
     /// `althold_max_climb_mps` or `althold_deadband`.
@@ -466,6 +484,11 @@ impl SafetyConfig {
         check(
             within(self.failsafe_descent_mps, 0.0, 3.0) && self.failsafe_descent_mps > 0.0,
             SafetyField::FailsafeDescent,
+        )?;
+        check(
+            within(self.failsafe_collective_max, 0.0, 1.0)
+                && self.failsafe_collective_max > self.land_collective_max,
+            SafetyField::FailsafeCollective,
         )?;
         check(
             within(self.motor_test_command, 0.0, 0.2)

@@ -11,7 +11,12 @@
 //! let pipeline = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
 //! let esc = EscTimer::for_clock(EscProtocol::Pwm, 400, 72_000_000).unwrap();
 //! let mut fc = FlightController::new(FlightConfig::default()).unwrap();
-//! let status = SystemStatus { sensors_healthy: true, gyro_bias_done: true, calibration_running: false };
+//! let status = SystemStatus {
+//!     sensors_healthy: true,
+//!     gyro_bias_done: true,
+//!     calibration_running: false,
+//!     accel_calibrated: true,
+//! };
 //! let mut pilot = PilotInput { link_ok: true, ..Default::default() };
 //! let vehicle = VehicleState::from_pipeline(&pipeline);
 //! let out = fc.step(1_000, &pilot, &status, &vehicle);       // switch off
@@ -30,7 +35,13 @@
 //! [`ArmRefusal`]s applies: link up, no calibration running, sensors
 //! healthy, gyro bias measured, attitude usable, tilt ≤
 //! [`SafetyConfig::arm_max_tilt_deg`] (25°), throttle stick ≤
-//! [`SafetyConfig::arm_throttle_max`], no motor test. A refusal is reported
+//! [`SafetyConfig::arm_throttle_max`], no motor test, and in angle and
+//! altitude-hold mode an applied accelerometer calibration
+//! ([`SystemStatus::accel_calibrated`]; the MPU-9250's zero-g offset of
+//! ±60–80 mg per axis is 3–5° of false level and a steady drift; acro, which
+//! never uses the level reference, arms without it; once armed, switching
+//! to a self-levelling mode is not refused, and the failsafe levels on the
+//! uncalibrated reference). A refusal is reported
 //! once as [`Event::ArmRefused`] with its first reason; the switch must go
 //! off and on again. Armed, the motors run at least at the mixer's idle.
 //!
@@ -48,9 +59,11 @@
 //!
 //! **Disarm** ([`DisarmCause`]): arm switch off; crash (tilt > 70° for
 //! 0.5 s in a self-levelling mode or failsafe — acro may fly inverted — or
-//! any body rate ≥ 950 °/s for 0.3 s in any mode); landing (collective
-//! < 0.15, every rate < 20 °/s and, when known, |vertical speed| < 0.3 m/s
-//! for 2 s, after having taken off); no take-off within 5 s of arming;
+//! any body rate ≥ 950 °/s for 0.3 s in any mode); landing (after having
+//! taken off, for 2 s: collective < 0.15, every rate < 20 °/s, and with an
+//! altitude estimate |vertical speed| < 0.3 m/s, without one the throttle
+//! stick ≤ [`SafetyConfig::arm_throttle_max`] (5 %); see "Landing
+//! detection" below); no take-off within 5 s of arming;
 //! unusable attitude/gyro for [`SafetyConfig::bad_input_disarm_s`]
 //! (0.25 s, bridged until then: below); runaway take-off (torque ≥ 0.6
 //! while turning for 75 ms before 0.5 s of normal flight,
@@ -75,12 +88,16 @@
 //! **Pilot signal loss** while armed: level hold (tilt 0, yaw rate 0) for
 //! [`SafetyConfig::failsafe_hold_s`] (1 s) at the current height with
 //! altitude hold if an altitude estimate exists, else at the last
-//! collective; then, with altitude, a descent at
+//! collective but never above the hover estimate (see "Hover estimate"
+//! below; a link lost in a full-throttle climb does not keep full power);
+//! then, with altitude, a descent at
 //! [`SafetyConfig::failsafe_descent_mps`] (0.5 m/s) until the landing
 //! detector disarms ([`DisarmCause::FailsafeLanded`]); without altitude a
 //! disarm ([`DisarmCause::FailsafeNoAltitude`]). Should the altitude
 //! estimate fail during the descent, the collective ramps down at
-//! [`FAILSAFE_BLIND_RAMP_PER_S`] until the landing detector disarms. If the link returns during
+//! [`FAILSAFE_BLIND_RAMP_PER_S`] to zero, and the disarm
+//! ([`DisarmCause::FailsafeLanded`]) follows 2 s at zero without rotation.
+//! If the link returns during
 //! the failsafe, the pilot has control again (and the arm switch decides).
 //!
 //! **Motor test** (props off!): each off → on flip of the motor-test switch
@@ -94,6 +111,41 @@
 //! or (when the switch started it) the switch going off end it. A refused
 //! flip is reported as [`Event::MotorTestRefused`] with its reason, and
 //! arming is refused while the switch is on.
+//!
+//! # Landing detection
+//!
+//! A craft descending steadily at low throttle and a craft standing on the
+//! ground both measure about 1 g of specific force and no rotation: the
+//! accelerometer and gyro alone cannot tell them apart, and neither can a
+//! low collective (the descent is what a low collective makes). The
+//! detector therefore needs evidence that only a landed craft shows:
+//!
+//! * **with an altitude estimate** (barometer): |vertical speed| < 0.3 m/s
+//!   with the collective < 0.15 and every rate < 20 °/s, for 2 s. At a
+//!   collective that low the thrust is a fraction of the weight, so a craft
+//!   in the air sinks faster than 0.3 m/s within a fraction of a second;
+//! * **without one**, under pilot control: the pilot's throttle stick at
+//!   its minimum (≤ [`SafetyConfig::arm_throttle_max`], 5 %) with the same
+//!   collective and rate limits, for 2 s. A pilot holding zero throttle
+//!   commands idle anyway; a descent flown with any throttle above that
+//!   never disarms, however slow or fast;
+//! * **without one, in a failsafe**: no landing disarm but the failsafe's
+//!   own: the level hold disarms after 1 s
+//!   ([`DisarmCause::FailsafeNoAltitude`]), and a descent that lost its
+//!   altitude estimate ramps its collective to zero, then disarms after
+//!   2 s at zero without rotation.
+//!
+//! # Hover estimate
+//!
+//! The collective low-passed with a time constant of [`HOVER_TAU_S`]
+//! (1.5 s) while the pilot flies (armed, taken off, no failsafe) within 15°
+//! of level ([`HOVER_LEVEL_COS_TILT`]), seeded by the first such step
+//! ([`FlightController::hover_collective`]). The failsafe's level hold
+//! without altitude flies at the lower of the last collective and this
+//! estimate bounded between [`SafetyConfig::land_collective_max`] (0.15)
+//! and [`SafetyConfig::failsafe_collective_max`] (0.6): about a hover when
+//! the link is lost in a hover, at most 0.6 when it is lost in a climb
+//! (a full-throttle second moves the estimate about halfway up).
 //!
 //! # Time
 //!
@@ -131,6 +183,13 @@ pub const FAILSAFE_BLIND_RAMP_PER_S: f32 = 0.05;
 /// 0.5 N thrust differential (10 % of a 0.5 kg quad's hover thrust) on a
 /// 250-class quad (≈ 2·10⁻³ kg·m², 0.09 m lever) builds ≈ 13 °/s.
 pub const BAD_INPUT_HOLD_US: u32 = 10_000;
+/// Time constant of the hover-collective estimate's low-pass, s: long
+/// enough that a manoeuvre of a second or two moves it by less than half
+/// its excursion, short enough to follow the battery's sag.
+pub const HOVER_TAU_S: f32 = 1.5;
+/// Cosine of the largest tilt at which the collective counts towards the
+/// hover estimate (15°: tilted, a hover needs `1/cos` more, here ≤ 3.5 %).
+pub const HOVER_LEVEL_COS_TILT: f32 = 0.966;
 /// Step assumed for the first call, µs (the 1 kHz IMU period).
 pub const FIRST_DT_US: u32 = 1_000;
 
@@ -200,6 +259,9 @@ pub struct SystemStatus {
     pub gyro_bias_done: bool,
     /// A calibration mode is running.
     pub calibration_running: bool,
+    /// The accelerometer calibration (six-position fit) is applied: the
+    /// pipeline's [`Pipeline::accel_calibrated`]. Without it only acro arms.
+    pub accel_calibrated: bool,
 }
 
 /// Vertical state from the estimator.
@@ -470,6 +532,12 @@ pub struct FlightController {
     alt_fallback: bool,
     alt_target_m: f32,
     last_collective: f32,
+    /// The collective low-passed while flying near level under pilot
+    /// control (`None` until the first such step after arming).
+    hover_collective: Option<f32>,
+    /// This step's throttle stick at or below
+    /// [`SafetyConfig::arm_throttle_max`] (pilot control only).
+    stick_at_min: bool,
     last_motors: Motors,
     armed_us: u32,
     failsafe_us: u32,
@@ -520,6 +588,8 @@ impl FlightController {
             alt_fallback: false,
             alt_target_m: 0.0,
             last_collective: 0.0,
+            hover_collective: None,
+            stick_at_min: false,
             last_motors: Motors::Off,
             armed_us: 0,
             failsafe_us: 0,
@@ -589,6 +659,9 @@ impl FlightController {
         }
         if pilot.motor_test_switch {
             b.insert(ArmRefusal::MotorTestSwitchOn);
+        }
+        if !status.accel_calibrated && pilot.mode != FlightMode::Acro {
+            b.insert(ArmRefusal::AccelNotCalibrated);
         }
         b
     }
@@ -762,6 +835,8 @@ impl FlightController {
         self.took_off = false;
         self.alt_engaged = false;
         self.last_collective = 0.0;
+        self.hover_collective = None;
+        self.stick_at_min = false;
         self.armed_us = 0;
         self.failsafe_us = 0;
         self.crash_tilt = Hold::default();
@@ -914,6 +989,7 @@ impl FlightController {
         out.motors = motors;
 
         self.safety_checks(dt_us, cos_t, self_level, collective, vehicle, alt, out);
+        self.track_hover(dt_s, cos_t, collective);
     }
 
     /// Flies a step without usable attitude/gyro ("Sensor loss" in the
@@ -997,7 +1073,8 @@ impl FlightController {
             None if phase == FailsafePhase::Descend => {
                 (self.last_collective - FAILSAFE_BLIND_RAMP_PER_S * dt_s).max(0.0)
             }
-            None => self.last_collective,
+            // Level hold without altitude: never more than a hover.
+            None => self.last_collective.min(self.hover_estimate()),
         };
         Some((rate_sp, collective, true))
     }
@@ -1023,6 +1100,7 @@ impl FlightController {
         }
         self.alt_fallback = fallback;
         out.mode = mode;
+        self.stick_at_min = self.throttle_low(pilot);
         let s = &pilot.sticks;
         if self.shaped.sticks != *s {
             self.shaped = Shaped::new(&self.shaping, s);
@@ -1117,12 +1195,8 @@ impl FlightController {
         if !low {
             self.took_off = true;
         }
-        let still = max_rate < self.lim.land_rate_rps
-            && alt.is_none_or(|a| a.vertical_speed_mps.abs() < s.land_vertical_speed_max_mps);
-        if self
-            .landed
-            .update(self.took_off && low && still, dt_us, self.lim.land_us)
-        {
+        let landed = self.took_off && low && self.looks_landed(max_rate, collective, alt);
+        if self.landed.update(landed, dt_us, self.lim.land_us) {
             let cause = if matches!(self.state, FlightState::Failsafe(_)) {
                 DisarmCause::FailsafeLanded
             } else {
@@ -1133,6 +1207,60 @@ impl FlightController {
         if !self.took_off && self.armed_us >= self.lim.idle_disarm_us {
             self.disarm(DisarmCause::NoTakeOff, out);
         }
+    }
+}
+
+impl FlightController {
+    /// With the collective already low: whether this step shows a landed
+    /// craft rather than a descending one (the rule and its reasons are in
+    /// the module docs' "Landing detection"). No rotation, and: with an
+    /// altitude estimate, no vertical speed; without one, under pilot
+    /// control the throttle stick at its minimum, in a failsafe the blind
+    /// descent's collective ramped to zero.
+    fn looks_landed(
+        &self,
+        max_rate_rps: f32,
+        collective: f32,
+        alt: Option<AltitudeEstimate>,
+    ) -> bool {
+        let no_rotation = max_rate_rps < self.lim.land_rate_rps;
+        let no_descent = match alt {
+            Some(a) => a.vertical_speed_mps.abs() < self.cfg.safety.land_vertical_speed_max_mps,
+            None if matches!(self.state, FlightState::Failsafe(_)) => collective <= 0.0,
+            None => self.stick_at_min,
+        };
+        no_rotation && no_descent
+    }
+
+    /// Low-passes the collective over [`HOVER_TAU_S`] while the pilot flies
+    /// (armed, taken off, no failsafe) within 15° of level; the first such
+    /// step seeds it.
+    fn track_hover(&mut self, dt_s: f32, cos_tilt: f32, collective: f32) {
+        let pilot_flying = self.state == FlightState::Armed && self.took_off;
+        if !pilot_flying || cos_tilt < HOVER_LEVEL_COS_TILT || !collective.is_finite() {
+            return;
+        }
+        self.hover_collective = Some(match self.hover_collective {
+            None => collective,
+            Some(h) => h + (collective - h) * dt_s / (HOVER_TAU_S + dt_s),
+        });
+    }
+
+    /// The collective a level hold without altitude may use at most: the
+    /// hover estimate bounded between [`SafetyConfig::land_collective_max`]
+    /// and [`SafetyConfig::failsafe_collective_max`] (the lower bound when
+    /// there is no estimate yet).
+    fn hover_estimate(&self) -> f32 {
+        let s = &self.cfg.safety;
+        let h = self.hover_collective.unwrap_or(s.land_collective_max);
+        // max/min, not clamp (see `altitude_collective`).
+        h.max(s.land_collective_max).min(s.failsafe_collective_max)
+    }
+
+    /// The hover-collective estimate so far (`None` before the first step
+    /// flown near level after take-off), unclamped.
+    pub fn hover_collective(&self) -> Option<f32> {
+        self.hover_collective
     }
 }
 

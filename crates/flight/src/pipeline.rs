@@ -161,6 +161,8 @@ pub struct Pipeline {
     gyro_bias: [i32; 3],
     accel_offset: [i32; 3],
     accel_scale_q14: [i32; 3],
+    /// The record in use holds a fitted accelerometer calibration.
+    accel_calibrated: bool,
     mag_offset_ut: [f32; 3],
     mag_soft: [[f32; 3]; 3],
     /// AK8963 counts → body frame, 1/16 µT (everything folded together).
@@ -232,6 +234,7 @@ impl Pipeline {
             gyro_bias: [0; 3],
             accel_offset: [0; 3],
             accel_scale_q14: [0; 3],
+            accel_calibrated: false,
             mag_offset_ut: cal.mag_offset_ut,
             mag_soft: cal.mag_soft_iron,
             mag_q16,
@@ -273,11 +276,19 @@ impl Pipeline {
         self.mount = AxisPick::new(&cal.mounting);
         self.accel_offset = cal.accel_offset_g.map(|o| round_i32(o * lsb_per_g));
         self.accel_scale_q14 = cal.accel_scale.map(|s| round_i32(s * 16_384.0));
+        self.accel_calibrated = cal.valid.has(ValidParts::ACCEL);
         self.mag_offset_ut = cal.mag_offset_ut;
         self.mag_soft = cal.mag_soft_iron;
         if let Ok(m) = mag_counts_to_body_q16(&self.cfg, cal) {
             self.mag_q16 = m;
         }
+    }
+
+    /// The accelerometer correction in use was fitted (the record's
+    /// [`ValidParts::ACCEL`]), not the identity default: what the flight
+    /// controller's self-levelling modes need to arm.
+    pub fn accel_calibrated(&self) -> bool {
+        self.accel_calibrated
     }
 
     /// The gyro bias in use, counts (MPU frame).

@@ -79,7 +79,7 @@ fn refusal_after(setup: impl FnOnce(&mut Rig)) -> (Rig, Vec<Event>) {
 
 #[test]
 fn each_refusal_is_named() {
-    let cases: [(ArmRefusal, Setup); 6] = [
+    let cases: [(ArmRefusal, Setup); 7] = [
         (ArmRefusal::CalibrationRunning, |r| {
             r.status.calibration_running = true
         }),
@@ -98,12 +98,68 @@ fn each_refusal_is_named() {
         (ArmRefusal::ThrottleNotLow, |r| {
             r.pilot.sticks.throttle = 0.1
         }),
+        (ArmRefusal::AccelNotCalibrated, |r| {
+            r.status.accel_calibrated = false
+        }),
     ];
     for (reason, setup) in cases {
         let (r, ev) = refusal_after(setup);
         assert_eq!(ev, vec![Event::ArmRefused(reason)], "{reason:?}");
         assert_eq!(r.fc.state(), FlightState::Disarmed);
     }
+}
+
+#[test]
+fn self_levelling_modes_refuse_to_arm_without_accel_calibration_acro_arms() {
+    for (mode, arms) in [
+        (FlightMode::Angle, false),
+        (FlightMode::AltitudeHold, false),
+        (FlightMode::Acro, true),
+    ] {
+        let (r, ev) = refusal_after(|r| {
+            r.status.accel_calibrated = false;
+            r.pilot.mode = mode;
+        });
+        let blockers = r.fc.arm_blockers(&r.pilot, &r.status, &r.vehicle);
+        if arms {
+            assert_eq!(ev, vec![Event::Armed], "{mode:?}");
+            assert!(blockers.is_empty(), "{mode:?}: {blockers:?}");
+        } else {
+            assert_eq!(
+                ev,
+                vec![Event::ArmRefused(ArmRefusal::AccelNotCalibrated)],
+                "{mode:?}"
+            );
+            assert!(blockers.contains(ArmRefusal::AccelNotCalibrated));
+            assert_eq!(r.fc.state(), FlightState::Disarmed);
+        }
+    }
+}
+
+#[test]
+fn the_pipeline_reports_whether_its_record_holds_an_accel_calibration() {
+    use flight::pipeline::{Pipeline, PipelineConfig};
+    use flight::storage::{CalibrationRecord, ValidParts};
+    // A blank flash page loads the defaults: no fitted accelerometer.
+    let mut p = Pipeline::new(PipelineConfig::new(), &CalibrationRecord::default()).unwrap();
+    assert!(!p.accel_calibrated());
+    // Only the magnetometer fitted: still not.
+    let mag_only = CalibrationRecord {
+        valid: ValidParts(ValidParts::MAG),
+        ..CalibrationRecord::default()
+    };
+    p.set_calibration(&mag_only);
+    assert!(!p.accel_calibrated());
+    // The six-position fit saved (what the calibration mode sets).
+    let fitted = CalibrationRecord {
+        valid: ValidParts(ValidParts::ACCEL | ValidParts::MAG),
+        accel_offset_g: [0.07, -0.06, 0.08],
+        ..CalibrationRecord::default()
+    };
+    p.set_calibration(&fitted);
+    assert!(p.accel_calibrated());
+    let p = Pipeline::new(PipelineConfig::new(), &fitted).unwrap();
+    assert!(p.accel_calibrated());
 }
 
 #[test]
@@ -224,6 +280,120 @@ fn no_landing_while_rotating_or_sinking() {
     r.expect_event_within(Event::Disarmed(DisarmCause::Landed), 2_100);
 }
 
+// ---- landing detection: descents and landings, with and without barometer --
+
+/// Taken off and hovering at `height_m` (with a barometer: the estimate
+/// follows the flight; without: none), then the pilot's throttle stick at
+/// `stick`, level, still, sinking at `sink_mps` until the ground; the
+/// craft stays on the ground from there. Runs `ms`; returns the time of
+/// touchdown and of a disarm (ms from the start of the descent).
+fn descend(
+    baro: bool,
+    height_m: f32,
+    stick: f32,
+    sink_mps: f32,
+    ms: u32,
+) -> (Option<u32>, Option<(u32, Event)>) {
+    let mut r = Rig::new();
+    let est = |h: f32, v: f32| if baro { altitude(h, v) } else { None };
+    r.vehicle.altitude = est(height_m, 0.0);
+    r.take_off();
+    r.pilot.sticks.throttle = stick;
+    let (mut h, mut touchdown) = (height_m, None);
+    for t in 1..=ms {
+        h = (h - sink_mps * 1e-3).max(0.0);
+        let v = if h > 0.0 { -sink_mps } else { 0.0 };
+        if h == 0.0 && touchdown.is_none() {
+            touchdown = Some(t);
+        }
+        r.vehicle.altitude = est(h, v);
+        let out = r.step();
+        let disarm = out.events.iter().find(|e| matches!(e, Event::Disarmed(_)));
+        if let Some(e) = disarm {
+            return (touchdown, Some((t, e)));
+        }
+    }
+    (touchdown, None)
+}
+
+#[test]
+fn slow_low_throttle_descent_never_disarms_with_or_without_barometer() {
+    // Stick 12 %: a collective under the landing threshold (0.15), no
+    // rotation, 1 g of specific force, what a landed craft also shows.
+    // 0.4 m/s from 20 m: 10 s in the air, five times the detector's hold.
+    for baro in [false, true] {
+        let (touchdown, disarm) = descend(baro, 20.0, 0.12, 0.4, 10_000);
+        assert_eq!(touchdown, None);
+        assert_eq!(disarm, None, "baro {baro}: disarmed in the air");
+    }
+}
+
+#[test]
+fn fast_descent_never_disarms_in_the_air_with_or_without_barometer() {
+    // Without a barometer: the stick just above its minimum (6 %); with
+    // one, even the stick at zero: 4 m/s from 50 m is 12.5 s in the air.
+    for (baro, stick) in [(false, 0.06), (true, 0.0)] {
+        let (touchdown, disarm) = descend(baro, 50.0, stick, 4.0, 12_000);
+        assert_eq!(touchdown, None);
+        assert_eq!(disarm, None, "baro {baro}: disarmed in the air");
+    }
+}
+
+#[test]
+fn real_landing_disarms_two_seconds_after_touchdown_with_barometer() {
+    // Sinking at 0.5 m/s from 1 m at 12 % stick: on the ground after 2 s,
+    // disarmed 2 s later without the stick at its minimum.
+    let (touchdown, disarm) = descend(true, 1.0, 0.12, 0.5, 10_000);
+    let touchdown = touchdown.expect("touched down");
+    let (t, e) = disarm.expect("disarmed");
+    assert_eq!(e, Event::Disarmed(DisarmCause::Landed));
+    assert!((1_999..=2_001).contains(&touchdown), "{touchdown}");
+    assert!(
+        (touchdown + 1_990..=touchdown + 2_010).contains(&t),
+        "disarmed {} ms after touchdown",
+        t - touchdown
+    );
+}
+
+#[test]
+fn real_landing_without_barometer_disarms_on_the_stick_at_minimum() {
+    // On the ground at 12 % stick: no disarm (the controller cannot see
+    // the ground). The pilot pulls the stick to zero: 2 s later, disarmed.
+    let mut r = Rig::new();
+    r.take_off();
+    r.pilot.sticks.throttle = 0.12;
+    assert!(r.run_ms(5_000).is_empty());
+    assert!(r.fc.is_armed());
+    r.pilot.sticks.throttle = 0.05;
+    r.expect_event_after(Event::Disarmed(DisarmCause::Landed), 5_000, 1_999..=2_001);
+}
+
+#[test]
+fn blind_failsafe_descent_disarms_only_after_its_ramp_reaches_zero() {
+    let mut r = Rig::new();
+    r.vehicle.altitude = altitude(5.0, 0.0);
+    r.take_off();
+    r.pilot.link_ok = false;
+    r.expect_event_within(Event::FailsafeDescent, 1_100);
+    r.vehicle.altitude = None; // the barometer fails, the craft still sinks
+    let mut at_zero = None;
+    for t in 1..=20_000u32 {
+        let out = r.step();
+        if out.collective <= 0.0 && at_zero.is_none() {
+            at_zero = Some(t);
+        }
+        if out.events.iter().any(|e| matches!(e, Event::Disarmed(_))) {
+            let z = at_zero.expect("disarmed before the ramp reached zero");
+            assert!(out
+                .events
+                .contains(Event::Disarmed(DisarmCause::FailsafeLanded)));
+            assert!((z + 1_999..=z + 2_001).contains(&t), "{t} ms, zero at {z}");
+            return;
+        }
+    }
+    panic!("no disarm");
+}
+
 #[test]
 fn no_take_off_disarms_after_five_seconds() {
     let mut r = Rig::new();
@@ -330,6 +500,84 @@ fn link_loss_without_altitude_holds_level_then_disarms() {
         2_000,
         998..=1_000,
     );
+}
+
+/// Taken off, the pilot flies `stick(t_ms)` for `ms`, level, no barometer;
+/// then the link is lost. Returns the rig after the first failsafe step
+/// and the collectives of the whole level hold.
+fn lose_link_after(stick: impl Fn(u32) -> f32, ms: u32) -> (Rig, Vec<f32>) {
+    let mut r = Rig::new();
+    r.take_off();
+    for t in 0..ms {
+        r.pilot.sticks.throttle = stick(t);
+        r.step();
+    }
+    r.pilot.link_ok = false;
+    let mut hold = Vec::new();
+    for _ in 0..995 {
+        let out = r.step();
+        assert_eq!(out.state, FlightState::Failsafe(FailsafePhase::Hold));
+        hold.push(out.collective);
+    }
+    r.expect_event_within(Event::Disarmed(DisarmCause::FailsafeNoAltitude), 10);
+    (r, hold)
+}
+
+#[test]
+fn link_lost_in_a_full_throttle_climb_without_barometer_holds_at_most_a_hover() {
+    // 5 s hovering at 0.45, then 2 s of full throttle, level.
+    let (r, hold) = lose_link_after(|t| if t < 5_000 { 0.45 } else { 1.0 }, 7_000);
+    let est = r.fc.hover_collective().unwrap();
+    // The estimate moved most of the way up in 2 s (1 − e^(−2/1.5) = 0.74).
+    assert!((0.8..0.9).contains(&est), "hover estimate {est}");
+    let max = FlightConfig::default().safety.failsafe_collective_max;
+    for c in &hold {
+        assert!(*c <= max + 1e-6 && *c <= est, "collective {c} in the hold");
+    }
+    assert!((hold[0] - 0.6).abs() < 1e-6, "{}", hold[0]);
+}
+
+#[test]
+fn link_lost_in_a_hover_without_barometer_holds_about_the_hover_collective() {
+    // Hovering at 0.42 with the pilot's ±0.05 corrections at 2 Hz; the link
+    // goes at a correction's peak (stick 0.47).
+    let stick = |t: u32| 0.42 + 0.05 * (2.0 * core::f32::consts::PI * 2.0 * t as f32 * 1e-3).sin();
+    let (_, hold) = lose_link_after(stick, 5_125);
+    for c in &hold {
+        assert!((c - 0.42).abs() < 0.01, "collective {c}, hover 0.42");
+    }
+}
+
+#[test]
+fn the_hover_estimate_ignores_banked_flight_and_the_ground() {
+    let mut r = Rig::new();
+    r.arm();
+    r.run_ms(500); // on the ground at idle: nothing to learn
+    assert_eq!(r.fc.hover_collective(), None);
+    r.pilot.sticks.throttle = 0.5;
+    r.run_ms(3_000);
+    let level = r.fc.hover_collective().unwrap();
+    assert!((level - 0.5).abs() < 1e-3, "{level}");
+    // A 30° banked turn at 0.8: the collective a tilted hover needs.
+    r.vehicle.attitude = tilted_deg(30.0);
+    r.pilot.sticks.throttle = 0.8;
+    r.run_ms(2_000);
+    assert_eq!(r.fc.hover_collective(), Some(level));
+}
+
+#[test]
+fn failsafe_collective_max_is_validated() {
+    let mut cfg = FlightConfig::default();
+    for bad in [0.1, 0.15, 1.1, f32::NAN] {
+        cfg.safety.failsafe_collective_max = bad;
+        assert_eq!(
+            FlightController::new(cfg).err(),
+            Some(FlightConfigError::Safety(SafetyField::FailsafeCollective)),
+            "{bad}"
+        );
+    }
+    cfg.safety.failsafe_collective_max = 0.6;
+    assert!(FlightController::new(cfg).is_ok());
 }
 
 #[test]

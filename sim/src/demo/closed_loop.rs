@@ -33,6 +33,9 @@ pub struct ControlInput {
     pub vehicle: VehicleState,
     /// The start-up gyro bias is measured.
     pub gyro_bias_done: bool,
+    /// The pipeline applies a fitted accelerometer calibration (the
+    /// ground calibration's record).
+    pub accel_calibrated: bool,
     /// The pilot input as the firmware's receiver code delivers it.
     pub pilot: PilotInput,
 }
@@ -187,6 +190,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
             sensors_healthy: true,
             vehicle: VehicleState::from_pipeline(stack.pipeline()),
             gyro_bias_done: stack.gyro_bias_rps().is_some(),
+            accel_calibrated: stack.pipeline().accel_calibrated(),
             pilot: radio.poll(now_s, now_us, pilot),
         };
         out = fc.step(&input)?;

@@ -38,6 +38,7 @@ impl FlightControl for FirmwareFc {
             sensors_healthy: input.sensors_healthy,
             gyro_bias_done: input.gyro_bias_done,
             calibration_running: false,
+            accel_calibrated: input.accel_calibrated,
         };
         let out = self
             .fc

@@ -27,12 +27,14 @@ pub struct Rig {
     pub last: Option<FlightOutput>,
 }
 
-/// Sensors healthy, gyro bias done, no calibration running: ready to arm.
+/// Sensors healthy, gyro bias done, accelerometer calibrated, no
+/// calibration running: ready to arm.
 pub fn ready_status() -> SystemStatus {
     SystemStatus {
         sensors_healthy: true,
         gyro_bias_done: true,
         calibration_running: false,
+        accel_calibrated: true,
     }
 }
 
