@@ -79,6 +79,7 @@ impl AltitudeHoldConfig {
     /// Checks the configuration: [`Error::NegativeGain`],
     /// [`Error::InvalidParameter`] (speed limits), [`Error::InvalidLimits`]
     /// (hover throttle outside the output limits), or the PID's errors.
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         check_gain(self.height_kp)?;
         check_positive(self.max_climb_mps)?;
@@ -111,6 +112,7 @@ pub struct AltitudeHold {
 
 impl AltitudeHold {
     /// Creates the controller. Errors: see [`AltitudeHoldConfig::validate`].
+    #[inline(always)]
     pub fn new(cfg: AltitudeHoldConfig) -> Result<Self, Error> {
         cfg.validate()?;
         Ok(Self {
@@ -188,6 +190,7 @@ pub struct AxisConfig {
 
 impl AxisConfig {
     /// Checks the axis: [`Error::NegativeGain`], [`Error::InvalidParameter`], PID errors.
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         check_gain(self.angle_kp)?;
         check_positive(self.max_rate_rps)?;
@@ -233,6 +236,7 @@ impl Default for AttitudeConfig {
 
 impl AttitudeConfig {
     /// Checks all three axes.
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         self.roll.validate()?;
         self.pitch.validate()?;

@@ -217,6 +217,7 @@ impl Default for RateConfig {
 
 impl RateConfig {
     /// Checks the three PIDs.
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         self.roll.validate()?;
         self.pitch.validate()?;
@@ -235,6 +236,7 @@ pub struct RateController {
 
 impl RateController {
     /// Creates the loop. Errors: see [`RateConfig::validate`].
+    #[inline(always)]
     pub fn new(cfg: RateConfig) -> Result<Self, Error> {
         cfg.validate()?;
         Ok(Self {
@@ -328,6 +330,7 @@ impl Default for LevelConfig {
 
 impl LevelConfig {
     /// Checks: [`Error::InvalidParameter`].
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         check_positive(self.kp_per_s)?;
         check_positive(self.max_rate_rps)
@@ -343,6 +346,7 @@ pub struct LevelController {
 
 impl LevelController {
     /// Validates the configuration.
+    #[inline(always)]
     pub fn new(cfg: LevelConfig) -> Result<Self, Error> {
         cfg.validate()?;
         Ok(Self { cfg })
@@ -399,6 +403,7 @@ impl TiltQuat {
     pub const LEVEL: Self = Self(Quat::IDENTITY);
 
     /// From roll and pitch, rad. Errors: [`Error::NonFinite`].
+    #[inline(always)]
     pub fn new(tilt: &TiltSetpoint) -> Result<Self, Error> {
         finite(tilt.roll_rad)?;
         finite(tilt.pitch_rad)?;

@@ -93,6 +93,7 @@ impl Default for MixerConfig {
 
 impl MixerConfig {
     /// Checks the idle: [`Error::InvalidParameter`] unless in `[0, 0.3]`.
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         if self.idle.is_finite() && (0.0..=0.3).contains(&self.idle) {
             Ok(())
@@ -133,6 +134,7 @@ pub struct Mixer {
 
 impl Mixer {
     /// Validates the configuration. Errors: [`Error::InvalidParameter`].
+    #[inline(always)]
     pub fn new(cfg: MixerConfig) -> Result<Self, Error> {
         cfg.validate()?;
         Ok(Self { cfg })

@@ -142,6 +142,7 @@ impl PidConfig {
     /// ([`Error::NegativeGain`]), limits finite with `min <= max`
     /// ([`Error::InvalidLimits`]), cut-off finite and `>= 0`
     /// ([`Error::InvalidParameter`]).
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         check_gain(self.kp)?;
         check_gain(self.ki)?;
@@ -187,6 +188,7 @@ impl Pid {
     /// Creates a controller with zero integral (or the integral limit
     /// nearest to zero if 0 is outside the limits) and no measurement history.
     /// Errors: see [`PidConfig::validate`].
+    #[inline(always)]
     pub fn new(cfg: PidConfig) -> Result<Self, Error> {
         cfg.validate()?;
         Ok(Self {

@@ -80,6 +80,7 @@ pub struct AxisRates {
 
 impl AxisRates {
     /// Checks the axis: [`Error::InvalidParameter`] when out of range.
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         let ok = in_range(self.max_rate_dps, 0.0, 2000.0)
             && self.max_rate_dps > 0.0
@@ -123,6 +124,7 @@ impl ThrottleCurve {
     };
 
     /// Checks the curve: [`Error::InvalidParameter`] when out of range.
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         if in_range(self.mid, 0.05, 0.95) && in_range(self.expo, 0.0, 1.0) {
             Ok(())
@@ -186,6 +188,7 @@ impl Default for SticksConfig {
 
 impl SticksConfig {
     /// Checks everything: [`Error::InvalidParameter`].
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), Error> {
         self.roll.validate()?;
         self.pitch.validate()?;
@@ -221,6 +224,7 @@ pub struct StickShaping {
 
 impl StickShaping {
     /// Validates the configuration. Errors: [`Error::InvalidParameter`].
+    #[inline(always)]
     pub fn new(cfg: SticksConfig) -> Result<Self, Error> {
         cfg.validate()?;
         Ok(Self { cfg })

@@ -436,12 +436,14 @@ pub enum SafetyField {
     Runaway,
 }
 
+#[inline(always)]
 fn within(x: f32, lo: f32, hi: f32) -> bool {
     x.is_finite() && x >= lo && x <= hi
 }
 
 impl SafetyConfig {
     /// Checks every field; the error names the first bad one.
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), SafetyField> {
         let check = |ok: bool, f: SafetyField| if ok { Ok(()) } else { Err(f) };
         check(
@@ -505,6 +507,7 @@ impl SafetyConfig {
     }
 
     /// The `runaway_*` limits other than the times.
+    #[inline(always)]
     fn runaway_limits_ok(&self) -> bool {
         within(self.runaway_torque_min, 0.2, 1.0)
             && within(self.runaway_rate_roll_pitch_dps, 1.0, 500.0)

@@ -82,6 +82,7 @@ fn us(s: f32) -> u32 {
 impl RunawayCheck {
     /// Active, with the limits of `s` (validated by
     /// [`SafetyConfig::validate`]).
+    #[inline(always)]
     pub fn new(s: &SafetyConfig) -> Self {
         Self {
             torque_min: mag(s.runaway_torque_min),
