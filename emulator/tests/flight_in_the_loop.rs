@@ -386,3 +386,96 @@ fn a_dead_motor_ends_in_a_disarm() {
     );
     assert!(r.samples().last().unwrap().quad.on_ground);
 }
+
+/// Wiring errors at take-off (a motor's ESC signal on the wrong output, a
+/// motor turning the wrong way): the runaway take-off check disarms before
+/// the craft flips or climbs away; the pins are at the off pulse from then
+/// on.
+#[test]
+fn wiring_errors_at_take_off_end_in_a_runaway_disarm() {
+    for scenario in [Scenario::Swapped, Scenario::ReversedProp] {
+        let Some(mut r) = rig(scenario, 1) else {
+            return;
+        };
+        fly_until(&mut r, scenario.duration_s());
+        let flying = r.samples().iter().filter(|s| !s.quad.on_ground);
+        let max_h = flying.clone().map(|s| s.truth.height_m).fold(0.0, f64::max);
+        let max_tilt = flying.map(tilt_deg).fold(0.0, f64::max);
+        let off = pins_off_at(&r, ARM_AT_S + 0.5);
+        println!(
+            "fil {}: runaway disarm, pins off at {off:?} s, max height {max_h:.2} m, max tilt {max_tilt:.0}°",
+            scenario.name()
+        );
+        assert_logged(r.board(), "RunawayTakeoff");
+        assert!(max_h < 0.5 && max_tilt < 45.0, "{max_h} m {max_tilt}°");
+        let t = off.expect("pins never off");
+        assert!(window(&r, t, scenario.duration_s()).iter().all(pins_off));
+    }
+}
+
+/// The link lost 0.5 s into a full-throttle climb (angle mode): the
+/// failsafe's altitude hold stops the climb, then descends, lands and
+/// disarms; never above a hover's power for long, never tilting.
+#[test]
+fn a_link_lost_in_a_full_throttle_climb_stops_the_climb_and_lands() {
+    use sim::scenario::CLIMB_LOSS_S;
+    let Some(mut r) = rig(Scenario::ClimbLinkLoss, 1) else {
+        return;
+    };
+    fly_until(&mut r, Scenario::ClimbLinkLoss.duration_s());
+    let at_loss = window(&r, CLIMB_LOSS_S - 0.01, CLIMB_LOSS_S);
+    let h0 = at_loss.last().unwrap().truth.height_m;
+    let v0 = -at_loss.last().unwrap().truth.velocity_ned_mps[2];
+    let coast_m = v0 * v0 / (2.0 * sim::physics::G0_MPS2);
+    let after = window(&r, CLIMB_LOSS_S, Scenario::ClimbLinkLoss.duration_s());
+    let max_h = after.iter().map(|s| s.truth.height_m).fold(0.0, f64::max);
+    let max_tilt = after
+        .iter()
+        .filter(|s| !s.quad.on_ground)
+        .map(tilt_deg)
+        .fold(0.0, f64::max);
+    let landed = after
+        .iter()
+        .find(|s| s.truth.height_m < 0.02)
+        .map(|s| s.t_s - CLIMB_LOSS_S);
+    let off = pins_off_at(&r, CLIMB_LOSS_S).map(|t| t - CLIMB_LOSS_S);
+    println!("fil climbloss: {h0:.2} m and {v0:.1} m/s up at the loss, max {max_h:.2} m (coasting {coast_m:.2} m), landed +{landed:?} s, off +{off:?} s, tilt {max_tilt:.1}°");
+    assert!(
+        max_h - h0 < 2.0 * coast_m + 0.5,
+        "climbed on to {max_h} m from {h0} m"
+    );
+    assert!(
+        landed.is_some() && off.is_some_and(|o| o >= landed.unwrap()),
+        "{landed:?} {off:?}"
+    );
+    assert!(max_tilt < 10.0, "tilt {max_tilt}°");
+}
+
+/// A flapping link (100 ms of frames, 100 ms without, for 3 s): the
+/// failsafe holds through it and control comes back only after 0.5 s of
+/// steady frames (the log's `rc: link up` after the flapping ends); the
+/// craft stays in the air and armed.
+#[test]
+fn a_flapping_link_gives_control_back_only_when_steady() {
+    use sim::scenario::{FLAP_HOLD_S, FLAP_S};
+    let Some(mut r) = rig(Scenario::Flapping, 1) else {
+        return;
+    };
+    fly_until(&mut r, FLAP_S + FLAP_HOLD_S + 2.0);
+    let end = ((FLAP_S + FLAP_HOLD_S) * 1e9) as u64;
+    let ups: Vec<String> = lines_after(r.board(), (FLAP_S * 1e9) as u64, "rc: link up");
+    let ups_after: Vec<String> = lines_after(r.board(), end, "rc: link up");
+    println!(
+        "fil flapping: link up lines during/after: {} / {}",
+        ups.len() - ups_after.len(),
+        ups_after.len()
+    );
+    assert_eq!(
+        ups.len(),
+        ups_after.len(),
+        "control came back while flapping"
+    );
+    assert_eq!(ups_after.len(), 1, "{}", tail(r.board(), 40));
+    let after = window(&r, FLAP_S, FLAP_S + FLAP_HOLD_S + 2.0);
+    assert!(after.iter().all(|s| !pins_off(s) && !s.quad.on_ground));
+}

@@ -228,7 +228,6 @@ mod app {
 
     systick_monotonic!(Mono, 1_000);
 
-
     /// What the `imu` task knew when it started a sample's read, for the
     /// `sample_done` task that processes it.
     #[derive(Clone, Copy)]

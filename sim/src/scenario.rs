@@ -99,6 +99,14 @@ pub enum Scenario {
     /// and its propeller at [`REVERSED_PROP_FRACTION`] of the thrust
     /// ([`QuadParams::with_reversed_motor`]).
     ReversedProp,
+    /// After the take-off: angle mode with full throttle from
+    /// [`CLIMB_LOSS_THROTTLE_S`], and the link lost 0.5 s into that climb,
+    /// for good.
+    ClimbLinkLoss,
+    /// After the take-off: the link flaps (100 ms of frames, 100 ms
+    /// without) for [`FLAP_HOLD_S`] from [`FLAP_S`], then comes back
+    /// steadily.
+    Flapping,
 }
 
 /// Time the arm switch is flipped (s): after boot and the start-up gyro bias.
@@ -134,6 +142,17 @@ pub const FORWARD_STICK: f32 = 0.667;
 pub const LINK_LOSS_S: f64 = 10.0;
 /// Motor 1 (index 0) stops from here on (s).
 pub const MOTOR_FAILURE_S: f64 = 10.0;
+/// Climb-then-loss: full throttle (angle mode) from here (s)...
+pub const CLIMB_LOSS_THROTTLE_S: f64 = 10.0;
+/// ...and the link lost from here on (s).
+pub const CLIMB_LOSS_S: f64 = 10.5;
+/// Flapping link: from here (s)...
+pub const FLAP_S: f64 = 10.0;
+/// ...for this long (s), 100 ms of frames then 100 ms without.
+pub const FLAP_HOLD_S: f64 = 3.0;
+/// Half period of the flapping (s).
+pub const FLAP_HALF_PERIOD_S: f64 = 0.1;
+
 /// Thrust of the wrongly turning motor's propeller in
 /// [`Scenario::ReversedProp`], as a fraction of a correct one's: an
 /// assumption (a propeller running with its airfoil backwards), not a
@@ -142,7 +161,7 @@ pub const REVERSED_PROP_FRACTION: f64 = 0.7;
 
 impl Scenario {
     /// Names for the command line.
-    pub const NAMES: [&'static str; 7] = [
+    pub const NAMES: [&'static str; 9] = [
         "takeoff",
         "steps",
         "althold",
@@ -150,6 +169,8 @@ impl Scenario {
         "motorfail",
         "swapped",
         "reversedprop",
+        "climbloss",
+        "flapping",
     ];
 
     /// By name.
@@ -162,6 +183,8 @@ impl Scenario {
             "motorfail" => Self::MotorFailure,
             "swapped" => Self::Swapped,
             "reversedprop" => Self::ReversedProp,
+            "climbloss" => Self::ClimbLinkLoss,
+            "flapping" => Self::Flapping,
             _ => return None,
         })
     }
@@ -176,6 +199,8 @@ impl Scenario {
             Self::MotorFailure => "motorfail",
             Self::Swapped => "swapped",
             Self::ReversedProp => "reversedprop",
+            Self::ClimbLinkLoss => "climbloss",
+            Self::Flapping => "flapping",
         }
     }
 
@@ -188,6 +213,8 @@ impl Scenario {
             Self::LinkLoss => 30.0,
             Self::MotorFailure => 16.0,
             Self::Swapped | Self::ReversedProp => 8.0,
+            Self::ClimbLinkLoss => 26.0,
+            Self::Flapping => 18.0,
         }
     }
 
@@ -208,9 +235,23 @@ impl Scenario {
         *self == Self::MotorFailure && i == 0 && t_s >= MOTOR_FAILURE_S
     }
 
+    /// Whether the script's link is down at `t_s`.
+    pub fn link_down(&self, t_s: f64) -> bool {
+        match self {
+            Self::LinkLoss => t_s >= LINK_LOSS_S,
+            Self::ClimbLinkLoss => t_s >= CLIMB_LOSS_S,
+            Self::Flapping => {
+                let since = t_s - FLAP_S;
+                (0.0..FLAP_HOLD_S).contains(&since)
+                    && (since / FLAP_HALF_PERIOD_S).floor() as i64 % 2 == 1
+            }
+            _ => false,
+        }
+    }
+
     /// The radio frame at `t_s` (`None`: link lost).
     pub fn pilot(&self, t_s: f64) -> Option<Pilot> {
-        if *self == Self::LinkLoss && t_s >= LINK_LOSS_S {
+        if self.link_down(t_s) {
             return None;
         }
         let mut sticks = Sticks {
@@ -247,11 +288,18 @@ impl Scenario {
                     sticks.pitch = FORWARD_STICK;
                 }
             }
+            Self::ClimbLinkLoss => {
+                if t_s >= CLIMB_LOSS_THROTTLE_S {
+                    sticks.throttle = 1.0;
+                    mode = Mode::Angle;
+                }
+            }
             Self::Takeoff
             | Self::LinkLoss
             | Self::MotorFailure
             | Self::Swapped
-            | Self::ReversedProp => {}
+            | Self::ReversedProp
+            | Self::Flapping => {}
         }
         if t_s < ARM_AT_S {
             mode = Mode::Angle;
@@ -300,6 +348,12 @@ mod tests {
     fn the_link_loss_script_sends_nothing_after_the_loss() {
         assert!(Scenario::LinkLoss.pilot(LINK_LOSS_S - 0.001).is_some());
         assert!(Scenario::LinkLoss.pilot(LINK_LOSS_S).is_none());
+        assert!(Scenario::Flapping.pilot(FLAP_S + 0.05).is_some());
+        assert!(Scenario::Flapping.pilot(FLAP_S + 0.15).is_none());
+        assert!(Scenario::Flapping
+            .pilot(FLAP_S + FLAP_HOLD_S + 0.15)
+            .is_some());
+        assert!(Scenario::ClimbLinkLoss.pilot(CLIMB_LOSS_S).is_none());
         assert!(Scenario::MotorFailure.motor_failed(0, MOTOR_FAILURE_S));
         assert!(!Scenario::MotorFailure.motor_failed(1, MOTOR_FAILURE_S));
     }

@@ -501,6 +501,54 @@ mod tests {
     }
 
     #[test]
+    fn a_link_lost_in_a_full_throttle_climb_stops_the_climb_and_lands() {
+        let (log, f) = flown(Scenario::ClimbLinkLoss, 1);
+        let l = f.link_loss.unwrap();
+        // The least a climb at v can coast: v²/2g with the motors off.
+        let at_loss = log.samples.iter().find(|s| s.t_s >= CLIMB_LOSS_S).unwrap();
+        let v0 = -at_loss.truth.velocity_ned_mps[2];
+        let coast_m = v0 * v0 / (2.0 * sim::physics::G0_MPS2);
+        let (peak_t, max_after) = log
+            .samples
+            .iter()
+            .filter(|s| s.t_s >= CLIMB_LOSS_S)
+            .map(|s| (s.t_s, s.truth.height_m))
+            .fold((0.0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+        let over = max_after - l.height_at_loss_m;
+        println!(
+            "climbloss: {v0:.1} m/s up at the loss, overshoot {over:.2} m (coasting {coast_m:.2} m), peak at +{:.2} s; {l:?}",
+            peak_t - CLIMB_LOSS_S
+        );
+        // Altitude hold from the height of the loss stops the climb within
+        // twice what coasting would take, and in under 3 s.
+        assert!(over < 2.0 * coast_m + 0.5, "{over} {coast_m}");
+        assert!(peak_t - CLIMB_LOSS_S < 3.0);
+        assert!(l.landed_s.is_some() && l.disarmed_s.is_some(), "{l:?}");
+        assert!(l.max_tilt_deg < 10.0, "{l:?}");
+    }
+
+    #[test]
+    fn a_flapping_link_keeps_the_failsafe_until_it_is_steady() {
+        let (log, _) = flown(Scenario::Flapping, 1);
+        let flap_end = FLAP_S + FLAP_HOLD_S;
+        let during = log
+            .samples
+            .iter()
+            .filter(|s| s.t_s >= FLAP_S + 0.25 && s.t_s < flap_end);
+        // The first loss is declared after the 100 ms timeout... and the
+        // 100 ms gaps never let 0.5 s of steady frames build up.
+        assert!(during.clone().all(|s| s.out.failsafe || !s.out.armed));
+        let back = log
+            .samples
+            .iter()
+            .find(|s| s.t_s >= flap_end && !s.out.failsafe)
+            .map(|s| s.t_s - flap_end);
+        println!("flapping: control back {back:?} s after the link steadied");
+        assert!(back.is_some_and(|b| (0.45..0.7).contains(&b)), "{back:?}");
+        assert!(log.samples.iter().all(|s| s.quad.on_ground || s.out.armed));
+    }
+
+    #[test]
     fn the_plot_is_written() {
         let (log, _) = flown(Scenario::Steps, 1);
         for ext in ["png", "svg"] {

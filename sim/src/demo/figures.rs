@@ -343,6 +343,8 @@ pub fn figures(log: &FlightLog) -> Figures {
         Scenario::LinkLoss => LINK_LOSS_S,
         Scenario::MotorFailure => MOTOR_FAILURE_S,
         Scenario::Swapped | Scenario::ReversedProp => CLIMB_TO_S,
+        Scenario::ClimbLinkLoss => sim::scenario::CLIMB_LOSS_THROTTLE_S,
+        Scenario::Flapping => sim::scenario::FLAP_S,
     };
     let mut f = Figures {
         hover: height_hold(s, CLIMB_TO_S + 3.0, hover_end),
@@ -397,7 +399,9 @@ pub fn figures(log: &FlightLog) -> Figures {
             });
             f.forward_hold = height_hold(s, FORWARD_S, FORWARD_S + FORWARD_HOLD_S + 3.0);
         }
-        Scenario::LinkLoss => f.link_loss = link_loss(s),
+        Scenario::LinkLoss | Scenario::ClimbLinkLoss | Scenario::Flapping => {
+            f.link_loss = link_loss(s)
+        }
         Scenario::MotorFailure => f.motor_failure = motor_failure(s),
         Scenario::Swapped | Scenario::ReversedProp | Scenario::Takeoff => f.runaway = runaway(s),
     }
