@@ -174,7 +174,6 @@ fn mpu_address() -> u8 {
 /// throttle: all four pins at the off pulse within 0.1 s, and the log
 /// says why.
 #[test]
-#[ignore = "known defect (issue 25 item 1): the outputs are written only when a sample completes"]
 fn imu_power_lost_in_the_hover_turns_the_motors_off() {
     let Some(mut r) = hovering(1) else { return };
     r.board_mut().apply(emulator::BoardFault::ImuIntStops);
@@ -219,7 +218,7 @@ fn a_30_ms_nack_burst_in_the_hover_is_bridged() {
 /// board): its registers are back at their defaults. The craft must keep
 /// flying: no disarm, the height kept within 0.5 m.
 #[test]
-#[ignore = "known defect (issue 25 item 2): the re-initialisation holds the sensors and the controller disarms"]
+#[ignore = "known defect (issue 25 item 2): the in-flight re-initialisation stops the samples past the output guard's 50 ms and the motors go off"]
 fn an_mpu_reset_in_the_hover_is_flown_through() {
     let Some(mut r) = hovering(1) else { return };
     let h0 = r.samples().last().unwrap().truth.height_m;
