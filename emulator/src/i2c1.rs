@@ -28,6 +28,15 @@
 //! moment writes STOP = 1 again, a second STOP (the manual's warning),
 //! which fires right after the next START.
 //!
+//! Errata ES096 §2.13 "Wrong data read into data register" (master
+//! receiver, the N = 2 and N > 2 endings): with byte N−1 in DR and byte N
+//! in the shift register, software must read byte N−1 between setting
+//! STOP and the STOP condition on the bus (one SCL period when SCL is held
+//! low on BTF; the end of byte N plus one period when STOP is set while
+//! byte N is still arriving). Late, byte N is shifted one bit left and
+//! the last DR read returns it so: a handler preempted inside that window
+//! reads a wrong last byte, as the silicon does.
+//!
 //! BUSY (SR2): set when the peripheral sees SDA or SCL low, cleared when it
 //! sees a STOP, and set for the master's own transfers. The peripheral sees
 //! the pins through its analog filter whatever their GPIO mode, so a chip
@@ -626,6 +635,7 @@ impl I2c1 {
 
     fn stop_done(&mut self) {
         self.btf_held = false;
+        self.corrupt_unread_last_byte();
         if self.pins_af() {
             self.bus.wire_stop();
         }
@@ -640,6 +650,20 @@ impl I2c1 {
         }
         self.sync_lines();
         self.try_start();
+    }
+
+    /// Errata ES096 §2.13 "Wrong data read into data register": in master
+    /// receiver mode, closing with STOP while byte N−1 waits in DR and
+    /// byte N in the shift register (BTF), byte N is shifted one bit to
+    /// the left when the STOP condition reaches the bus before software
+    /// has read byte N−1; reading byte N then returns the wrong value.
+    /// The bit shifted in is taken as 0 (the errata does not say).
+    fn corrupt_unread_last_byte(&mut self) {
+        if self.dr_rx.is_some() {
+            if let Some(n) = self.shift_rx.as_mut() {
+                *n <<= 1;
+            }
+        }
     }
 
     /// The wire loses the master mid-transfer: a chip shifting out a read
