@@ -211,6 +211,11 @@ pub enum BoardFault {
     /// A fault of the I2C1 peripheral itself (errata BUSY lock-up of the
     /// analog filter, spurious BERR).
     I2c(crate::i2c1::PeripheralFault),
+    /// SysTick (hardware priority 0, above every configurable priority) is
+    /// pended by the next write that sets I2C1 CR1.STOP while the receiver
+    /// holds SCL low on BTF: an interrupt arriving inside ES096's
+    /// "set STOP … read byte N−1" window, which must not be interrupted.
+    SysTickInStopWindow,
 }
 
 /// A waveform driven onto a GPIO pin from outside the board (a receiver's
@@ -297,6 +302,8 @@ pub struct Hw {
     last_poll: Option<(u32, u16, u64)>,
     /// A register access in this slice may have moved the next event.
     resched: bool,
+    /// [`BoardFault::SysTickInStopWindow`] armed.
+    systick_in_stop_window: bool,
 }
 
 impl Hw {
@@ -617,6 +624,7 @@ impl Hw {
                         "I2C1 DMA requests (CR2.DMAEN) not modelled".into(),
                     ));
                 }
+                self.pend_in_stop_window(a - 0x4000_5400, value);
                 self.i2c.write(a - 0x4000_5400, value, now);
                 true
             }
@@ -745,6 +753,22 @@ impl Hw {
                 }
             }
             FlashEffect::BusError(e) => self.fail(BoardError::FlashBusError(e)),
+        }
+    }
+}
+
+impl Hw {
+    /// [`BoardFault::SysTickInStopWindow`]: a CR1 write that sets STOP
+    /// with the receiver on BTF pends SysTick (once).
+    fn pend_in_stop_window(&mut self, off: u32, value: u16) {
+        use crate::i2c1::{cr1, reg};
+        if self.systick_in_stop_window
+            && off == reg::CR1
+            && value & cr1::STOP != 0
+            && self.i2c.receiver_on_btf()
+        {
+            self.systick_in_stop_window = false;
+            self.nvic.pending[SYSTICK] = true;
         }
     }
 }
@@ -1209,6 +1233,7 @@ impl Board {
             code_changed: false,
             last_poll: None,
             resched: false,
+            systick_in_stop_window: false,
         };
         let mut uc =
             Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, hw).map_err(uc_err)?;
@@ -1476,6 +1501,13 @@ impl Board {
         &self.bus
     }
 
+    /// I2C1 receiver bytes handed to the firmware wrong because it read
+    /// byte N−1 after the STOP reached the bus (errata ES096 "Wrong data
+    /// read into data register"), since power-on.
+    pub fn i2c1_late_last_byte_reads(&self) -> u64 {
+        self.uc.get_data().i2c.late_last_byte_reads()
+    }
+
     /// Every log line decoded so far.
     pub fn log_lines(&self) -> &[LogLine] {
         &self.lines
@@ -1643,6 +1675,7 @@ impl Board {
             BoardFault::Button(p) => hw.button_pressed = *p,
             BoardFault::RttReaderStops => self.rtt.reading = false,
             BoardFault::RttReaderResumes => self.rtt.reading = true,
+            BoardFault::SysTickInStopWindow => hw.systick_in_stop_window = true,
             BoardFault::I2c(f) => {
                 let now = hw.now_ns();
                 hw.sync_clock();

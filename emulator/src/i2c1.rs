@@ -272,6 +272,9 @@ pub struct I2c1 {
     btf_held: bool,
     /// Another master owns the bus (after arbitration loss) until then.
     other_master_until: Option<u64>,
+    /// Last bytes shifted by the errata's late read (see
+    /// [`I2c1::late_last_byte_reads`]).
+    late_last_bytes: u64,
 }
 
 impl I2c1 {
@@ -309,6 +312,7 @@ impl I2c1 {
             spurious_berr: false,
             btf_held: false,
             other_master_until: None,
+            late_last_bytes: 0,
         };
         s.now_ns = s.bus.clock().now_ns();
         s.sync_lines();
@@ -318,6 +322,21 @@ impl I2c1 {
     /// The bus behind the peripheral (fault injection, truth).
     pub fn bus(&self) -> &SimBus {
         &self.bus
+    }
+
+    /// How many times since power-on a receiver's last byte was shifted
+    /// one bit left because byte N−1 was still in DR when the STOP reached
+    /// the bus (errata ES096 "Wrong data read into data register"): each
+    /// is a wrong byte handed to software.
+    pub fn late_last_byte_reads(&self) -> u64 {
+        self.late_last_bytes
+    }
+
+    /// Master receiver holding SCL low on BTF (byte N−1 in DR, byte N in
+    /// the shift register): the moment the errata's closing window opens
+    /// when software sets STOP.
+    pub fn receiver_on_btf(&self) -> bool {
+        self.phase == Phase::RxStall && self.dr_rx.is_some() && self.shift_rx.is_some()
     }
 
     /// Injects a fault of the peripheral.
@@ -662,6 +681,7 @@ impl I2c1 {
         if self.dr_rx.is_some() {
             if let Some(n) = self.shift_rx.as_mut() {
                 *n <<= 1;
+                self.late_last_bytes += 1;
             }
         }
     }
