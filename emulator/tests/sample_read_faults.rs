@@ -226,8 +226,11 @@ fn systick_inside_the_stop_window_cannot_make_the_last_byte_late() {
     // before the STOP is on the bus, after which byte N reads shifted. The
     // I2C1 handlers run at priority 5; SysTick, at hardware priority 0,
     // could preempt them there. SysTick is pended inside that window on
-    // 200 consecutive reads: the firmware's critical section holds it off
-    // until byte N−1 is read, so no byte is ever shifted.
+    // 200 consecutive reads, its handler made 5 µs longer (two SCL
+    // periods): the firmware's critical section holds it off until byte
+    // N−1 is read, so no byte is ever shifted. (The same firmware with
+    // STOP and the byte N−1 read outside the critical section fails here:
+    // SysTick preempts the window and byte N reads shifted.)
     let Some(mut b) = board() else { return };
     boot_ok(&mut b);
     run_until(&mut b, 2 * S);
@@ -235,7 +238,7 @@ fn systick_inside_the_stop_window_cannot_make_the_last_byte_late() {
     let ticks0 = b.exception_entries(emulator::scs::SYSTICK);
     let t0 = b.now_ns();
     for _ in 0..200 {
-        b.apply(emulator::BoardFault::SysTickInStopWindow);
+        b.apply(emulator::BoardFault::SysTickInStopWindow { handler_ns: 5_000 });
         into_next_read(&mut b, 600_000);
     }
     let ticks = b.exception_entries(emulator::scs::SYSTICK) - ticks0;
@@ -243,6 +246,11 @@ fn systick_inside_the_stop_window_cannot_make_the_last_byte_late() {
     assert!(
         ticks >= ms + 150,
         "{ticks} SysTick entries in {ms} ms: the pends inside the window did not happen"
+    );
+    assert_eq!(
+        b.i2c1_stop_window_preemptions(),
+        0,
+        "SysTick ran between setting STOP and reading byte N−1"
     );
     assert_eq!(
         b.i2c1_late_last_byte_reads(),
