@@ -146,3 +146,71 @@ fn two_byte_ending_data2_is_shifted_when_data1_is_read_late() {
     assert_eq!(got, [want[0], want[1] << 1]);
     assert_ne!(want[1], want[1] << 1, "the test can tell");
 }
+
+/// RM0008's N = 1 ending (EV6_3): ACK cleared before the ADDR clear, STOP
+/// set `late_ns` after it; returns (SR1 after the first byte, the byte,
+/// SR1 after that read).
+fn read_one(r: &mut Rig, late_ns: u64) -> (u16, u8, u16) {
+    r.write_bytes(MPU, &[0x75]).unwrap();
+    r.start_address((MPU << 1) | 1);
+    r.clear_cr1(cr1::ACK);
+    r.clear_addr();
+    r.wait(late_ns);
+    r.set_cr1(cr1::STOP);
+    let at = r.poll_sr1(sr1::RXNE, 100_000).expect("RXNE");
+    r.wait(20 * BIT_NS - at.min(20 * BIT_NS));
+    let s = r.rd(reg::SR1);
+    let b = r.rd(reg::DR) as u8;
+    let after = r.rd(reg::SR1);
+    r.rd(reg::DR);
+    r.wait_stop_cleared(100_000).expect("STOP clears");
+    (s, b, after)
+}
+
+#[test]
+fn single_byte_stop_must_be_set_before_the_byte_ends() {
+    // ES096 §2.13.2 (EV6_3) and RM0008: STOP set during the byte's
+    // reception goes out after it; once the byte has ended (nine SCL
+    // periods after the ADDR clear) the master clocks one more byte.
+    let (s, b, after) = read_one(&mut Rig::new(), 9 * BIT_NS - 100);
+    assert_eq!((s, b, after), (sr1::RXNE, 0x71, 0), "one byte, then STOP");
+    let (s, b, after) = read_one(&mut Rig::new(), 9 * BIT_NS);
+    assert_eq!(
+        s,
+        sr1::RXNE | sr1::BTF,
+        "an extra byte in the shift register"
+    );
+    assert_eq!(b, 0x71);
+    assert_eq!(after, sr1::RXNE, "the extra byte moved to DR");
+}
+
+/// RM0008's N = 2 ending (POS = 1): ACK cleared `late_ns` after the ADDR
+/// clear, STOP on BTF, Data1 and Data2 read at once. Whether SDA is
+/// released after the STOP.
+fn two_bytes_sda_released(r: &mut Rig, late_ns: u64) -> bool {
+    r.write_bytes(MS, &[0xA4]).unwrap();
+    r.set_cr1(cr1::ACK | cr1::POS);
+    r.start_address((MS << 1) | 1);
+    r.clear_addr();
+    r.wait(late_ns);
+    r.clear_cr1(cr1::ACK);
+    r.poll_sr1(sr1::BTF, 100_000).expect("BTF");
+    r.set_cr1(cr1::STOP);
+    r.rd(reg::DR);
+    r.rd(reg::DR);
+    r.wait_stop_cleared(100_000).expect("STOP bit clears");
+    r.clear_cr1(cr1::POS);
+    r.i2c.sda_high(r.t)
+}
+
+#[test]
+fn two_byte_ack_must_be_cleared_before_data1_ends() {
+    // ES096 §2.13.2 (EV6_1): with POS = 1 the ACK bit when Data1 ends
+    // decides Data2's. Cleared in time, Data2 is NACKed and the chip lets
+    // SDA go; cleared after Data1 ended, Data2 is ACKed: the chip starts
+    // its next byte, holds SDA low and the STOP never reaches the wire.
+    assert!(two_bytes_sda_released(&mut Rig::new(), 9 * BIT_NS - 100));
+    let mut r = Rig::new();
+    assert!(!two_bytes_sda_released(&mut r, 9 * BIT_NS));
+    assert!(r.busy(), "NACK not sent: the bus stays busy");
+}
