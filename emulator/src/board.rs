@@ -211,6 +211,16 @@ pub enum BoardFault {
     /// A fault of the I2C1 peripheral itself (errata BUSY lock-up of the
     /// analog filter, spurious BERR).
     I2c(crate::i2c1::PeripheralFault),
+    /// SysTick (hardware priority 0, above every configurable priority) is
+    /// pended by the next write that sets I2C1 CR1.STOP while the receiver
+    /// holds SCL low on BTF: an interrupt arriving inside ES096's
+    /// "set STOP … read byte N−1" window, which must not be interrupted.
+    /// Its handler then takes `handler_ns` longer than the firmware's own
+    /// (a monotonic's timer queue waking tasks, a flash wait).
+    SysTickInStopWindow {
+        /// Extra time the CPU spends in that SysTick handler.
+        handler_ns: u64,
+    },
 }
 
 /// A waveform driven onto a GPIO pin from outside the board (a receiver's
@@ -297,6 +307,13 @@ pub struct Hw {
     last_poll: Option<(u32, u16, u64)>,
     /// A register access in this slice may have moved the next event.
     resched: bool,
+    /// [`BoardFault::SysTickInStopWindow`] armed: its handler's extra ns.
+    systick_in_stop_window: Option<u64>,
+    /// SysTick pended by that fault: the extra ns charged at its entry.
+    systick_entry_stall_ns: Option<u64>,
+    /// Times that SysTick preempted the STOP window (see
+    /// [`Board::i2c1_stop_window_preemptions`]).
+    i2c_stop_window_preemptions: u64,
 }
 
 impl Hw {
@@ -617,6 +634,7 @@ impl Hw {
                         "I2C1 DMA requests (CR2.DMAEN) not modelled".into(),
                     ));
                 }
+                self.pend_in_stop_window(a - 0x4000_5400, value);
                 self.i2c.write(a - 0x4000_5400, value, now);
                 true
             }
@@ -749,6 +767,54 @@ impl Hw {
     }
 }
 
+impl Hw {
+    /// [`BoardFault::SysTickInStopWindow`]: a CR1 write that sets STOP
+    /// with the receiver on BTF pends SysTick (once).
+    fn pend_in_stop_window(&mut self, off: u32, value: u16) {
+        use crate::i2c1::{cr1, reg};
+        if off == reg::CR1 && value & cr1::STOP != 0 && self.i2c.receiver_on_btf() {
+            if let Some(ns) = self.systick_in_stop_window.take() {
+                self.systick_entry_stall_ns = Some(ns);
+                self.nvic.pending[SYSTICK] = true;
+            }
+        }
+    }
+
+    /// Exception `n` entered: SysTick pended by
+    /// [`BoardFault::SysTickInStopWindow`] spends its extra time now.
+    pub(crate) fn on_exception_entry(&mut self, n: usize) {
+        if n == SYSTICK {
+            if let Some(ns) = self.systick_entry_stall_ns.take() {
+                self.charge(u32::try_from(ns_to_cycles(ns)).unwrap_or(u32::MAX));
+            }
+        }
+    }
+}
+
+/// [`BoardFault::SysTickInStopWindow`] fired by this write: when the
+/// execution priority lets SysTick in (PRIMASK clear, priority above the
+/// running handler's), the core takes it between the STOP store and the
+/// next instruction. The emulator takes exceptions between blocks only, and
+/// the window's store and DR load are one block, so the preemption's time
+/// (entry, the handler's extra time, return) is spent here, before the
+/// load; the handler's own code runs at the block's end. Masked, SysTick
+/// stays pending and spends that time when it is entered.
+fn preempt_in_stop_window(uc: &mut Unicorn<'_, Hw>) {
+    let Some(ns) = uc.get_data().systick_entry_stall_ns else {
+        return;
+    };
+    let prio = exceptions::execution_priority(uc);
+    let hw = uc.get_data_mut();
+    if hw.nvic.deliverable(prio) != Some(SYSTICK) {
+        return;
+    }
+    hw.systick_entry_stall_ns = None;
+    hw.charge_exception(ExceptionStep::Entry);
+    hw.charge(u32::try_from(ns_to_cycles(ns)).unwrap_or(u32::MAX));
+    hw.charge_exception(ExceptionStep::Return);
+    hw.i2c_stop_window_preemptions += 1;
+}
+
 /// Re-pends IRQs whose peripheral line is asserted (EXTI pending bits):
 /// an NVIC input that is still high after its handler returns pends again.
 pub fn refresh_irq_lines(hw: &mut Hw) {
@@ -856,6 +922,7 @@ fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
             pc,
         });
     }
+    preempt_in_stop_window(uc);
     if dma_side(a) {
         // A channel enabled, or a request line raised, by this write.
         let now = uc.get_data().now_ns();
@@ -1209,6 +1276,9 @@ impl Board {
             code_changed: false,
             last_poll: None,
             resched: false,
+            systick_in_stop_window: None,
+            systick_entry_stall_ns: None,
+            i2c_stop_window_preemptions: 0,
         };
         let mut uc =
             Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, hw).map_err(uc_err)?;
@@ -1476,6 +1546,19 @@ impl Board {
         &self.bus
     }
 
+    /// I2C1 receiver bytes handed to the firmware wrong because it read
+    /// byte N−1 after the STOP reached the bus (errata ES096 "Wrong data
+    /// read into data register"), since power-on.
+    pub fn i2c1_late_last_byte_reads(&self) -> u64 {
+        self.uc.get_data().i2c.late_last_byte_reads()
+    }
+
+    /// How many [`BoardFault::SysTickInStopWindow`] SysTicks preempted the
+    /// firmware inside the window (the rest waited for it to close).
+    pub fn i2c1_stop_window_preemptions(&self) -> u64 {
+        self.uc.get_data().i2c_stop_window_preemptions
+    }
+
     /// Every log line decoded so far.
     pub fn log_lines(&self) -> &[LogLine] {
         &self.lines
@@ -1643,6 +1726,9 @@ impl Board {
             BoardFault::Button(p) => hw.button_pressed = *p,
             BoardFault::RttReaderStops => self.rtt.reading = false,
             BoardFault::RttReaderResumes => self.rtt.reading = true,
+            BoardFault::SysTickInStopWindow { handler_ns } => {
+                hw.systick_in_stop_window = Some(*handler_ns);
+            }
             BoardFault::I2c(f) => {
                 let now = hw.now_ns();
                 hw.sync_clock();

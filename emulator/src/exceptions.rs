@@ -169,6 +169,7 @@ pub fn exception_return(uc: &mut Unicorn<'_, Hw>, exc_return: u32) -> Result<(),
         // Tail-chain: the frame stays, LR keeps this EXC_RETURN.
         set(uc, RegisterARM::LR, exc_return)?;
         uc.get_data_mut().charge_exception(ExceptionStep::TailChain);
+        uc.get_data_mut().on_exception_entry(n);
         return jump_to_handler(uc, n);
     }
     uc.get_data_mut().charge_exception(ExceptionStep::Return);
@@ -208,6 +209,7 @@ pub fn deliver(uc: &mut Unicorn<'_, Hw>) -> Result<(), BoardError> {
             return Ok(());
         };
         enter(uc, n)?;
+        uc.get_data_mut().on_exception_entry(n);
         uc.get_data_mut().charge_exception(if i == 0 {
             ExceptionStep::Entry
         } else {

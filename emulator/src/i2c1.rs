@@ -28,6 +28,15 @@
 //! moment writes STOP = 1 again, a second STOP (the manual's warning),
 //! which fires right after the next START.
 //!
+//! Errata ES096 §2.13 "Wrong data read into data register" (master
+//! receiver, the N = 2 and N > 2 endings): with byte N−1 in DR and byte N
+//! in the shift register, software must read byte N−1 between setting
+//! STOP and the STOP condition on the bus (one SCL period when SCL is held
+//! low on BTF; the end of byte N plus one period when STOP is set while
+//! byte N is still arriving). Late, byte N is shifted one bit left and
+//! the last DR read returns it so: a handler preempted inside that window
+//! reads a wrong last byte, as the silicon does.
+//!
 //! BUSY (SR2): set when the peripheral sees SDA or SCL low, cleared when it
 //! sees a STOP, and set for the master's own transfers. The peripheral sees
 //! the pins through its analog filter whatever their GPIO mode, so a chip
@@ -263,6 +272,9 @@ pub struct I2c1 {
     btf_held: bool,
     /// Another master owns the bus (after arbitration loss) until then.
     other_master_until: Option<u64>,
+    /// Last bytes shifted by the errata's late read (see
+    /// [`I2c1::late_last_byte_reads`]).
+    late_last_bytes: u64,
 }
 
 impl I2c1 {
@@ -300,6 +312,7 @@ impl I2c1 {
             spurious_berr: false,
             btf_held: false,
             other_master_until: None,
+            late_last_bytes: 0,
         };
         s.now_ns = s.bus.clock().now_ns();
         s.sync_lines();
@@ -309,6 +322,21 @@ impl I2c1 {
     /// The bus behind the peripheral (fault injection, truth).
     pub fn bus(&self) -> &SimBus {
         &self.bus
+    }
+
+    /// How many times since power-on a receiver's last byte was shifted
+    /// one bit left because byte N−1 was still in DR when the STOP reached
+    /// the bus (errata ES096 "Wrong data read into data register"): each
+    /// is a wrong byte handed to software.
+    pub fn late_last_byte_reads(&self) -> u64 {
+        self.late_last_bytes
+    }
+
+    /// Master receiver holding SCL low on BTF (byte N−1 in DR, byte N in
+    /// the shift register): the moment the errata's closing window opens
+    /// when software sets STOP.
+    pub fn receiver_on_btf(&self) -> bool {
+        self.phase == Phase::RxStall && self.dr_rx.is_some() && self.shift_rx.is_some()
     }
 
     /// Injects a fault of the peripheral.
@@ -626,6 +654,7 @@ impl I2c1 {
 
     fn stop_done(&mut self) {
         self.btf_held = false;
+        self.corrupt_unread_last_byte();
         if self.pins_af() {
             self.bus.wire_stop();
         }
@@ -640,6 +669,21 @@ impl I2c1 {
         }
         self.sync_lines();
         self.try_start();
+    }
+
+    /// Errata ES096 §2.13 "Wrong data read into data register": in master
+    /// receiver mode, closing with STOP while byte N−1 waits in DR and
+    /// byte N in the shift register (BTF), byte N is shifted one bit to
+    /// the left when the STOP condition reaches the bus before software
+    /// has read byte N−1; reading byte N then returns the wrong value.
+    /// The bit shifted in is taken as 0 (the errata does not say).
+    fn corrupt_unread_last_byte(&mut self) {
+        if self.dr_rx.is_some() {
+            if let Some(n) = self.shift_rx.as_mut() {
+                *n <<= 1;
+                self.late_last_bytes += 1;
+            }
+        }
     }
 
     /// The wire loses the master mid-transfer: a chip shifting out a read

@@ -218,3 +218,45 @@ fn scl_held_low_at_the_repeated_start_does_not_starve_the_mcu() {
     assert_loop_runs(&mut b, "SCL held low at a repeated START");
     assert_no_reset(&b);
 }
+
+#[test]
+fn systick_inside_the_stop_window_cannot_make_the_last_byte_late() {
+    // ES096 "Wrong data read into data register": between setting STOP on
+    // BTF and reading byte N−1 the handler has one SCL period (2.5 µs)
+    // before the STOP is on the bus, after which byte N reads shifted. The
+    // I2C1 handlers run at priority 5; SysTick, at hardware priority 0,
+    // could preempt them there. SysTick is pended inside that window on
+    // 200 consecutive reads, its handler made 5 µs longer (two SCL
+    // periods): the firmware's critical section holds it off until byte
+    // N−1 is read, so no byte is ever shifted. (The same firmware with
+    // STOP and the byte N−1 read outside the critical section fails here:
+    // SysTick preempts the window and byte N reads shifted.)
+    let Some(mut b) = board() else { return };
+    boot_ok(&mut b);
+    run_until(&mut b, 2 * S);
+    assert_eq!(b.i2c1_late_last_byte_reads(), 0, "in time without help");
+    let ticks0 = b.exception_entries(emulator::scs::SYSTICK);
+    let t0 = b.now_ns();
+    for _ in 0..200 {
+        b.apply(emulator::BoardFault::SysTickInStopWindow { handler_ns: 5_000 });
+        into_next_read(&mut b, 600_000);
+    }
+    let ticks = b.exception_entries(emulator::scs::SYSTICK) - ticks0;
+    let ms = (b.now_ns() - t0) / 1_000_000;
+    assert!(
+        ticks >= ms + 150,
+        "{ticks} SysTick entries in {ms} ms: the pends inside the window did not happen"
+    );
+    assert_eq!(
+        b.i2c1_stop_window_preemptions(),
+        0,
+        "SysTick ran between setting STOP and reading byte N−1"
+    );
+    assert_eq!(
+        b.i2c1_late_last_byte_reads(),
+        0,
+        "byte N−1 read after the STOP: a sample's last byte was wrong"
+    );
+    assert_eq!(health(&b, "mpu", "err"), Some(0), "{}", tail(&b, 20));
+    assert_no_reset(&b);
+}

@@ -850,14 +850,17 @@ impl SampleRead {
             }
             Step::Receive if self.left == 2 && sr1 & BTF != 0 => {
                 // N−1 in DR, N (NACKed) in the shift register. ES096
-                // §2.13.2: setting STOP and reading byte N−1 must not be
-                // interrupted (else a byte more is clocked in, or the STOP
-                // comes a byte late). SysTick, the monotonic's tick at
-                // hardware priority 0, is the one exception above this
-                // handler; it stays there (the 1 kHz tick counts time in
-                // its interrupt: one held off for over 1 ms is time lost),
-                // so the window masks every interrupt instead, as the
-                // polled read's endings do: two register accesses, < 1 µs.
+                // ("Wrong data read into data register"): byte N−1 must be
+                // read before the STOP reaches the bus, one SCL period
+                // after it is set here, else byte N reads shifted one bit
+                // left; the errata's workaround masks interrupts from
+                // setting STOP to reading byte N−1. SysTick, the
+                // monotonic's tick at hardware priority 0, is the one
+                // exception above this handler; it stays there (the 1 kHz
+                // tick counts time in its interrupt: one held off for over
+                // 1 ms is time lost), so the window masks every interrupt
+                // instead, as the polled read's endings do: two register
+                // accesses, < 1 µs.
                 let n1 = critical_section::with(|_| {
                     cr1_set(i2c, CR1_STOP);
                     read_dr(i2c)
