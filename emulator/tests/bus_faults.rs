@@ -91,7 +91,18 @@ fn nack_storm_in_flight_is_counted_and_survived() {
 /// SCL, recovers and logs it (6 s simulated).
 #[test]
 fn stuck_bus_in_flight_is_recovered() {
-    let Some(b) = in_flight(|b| b.sim().inject(Fault::SlaveHoldsSda(Chip::Ms5611)), 2) else {
+    // A chip left holding SDA is released by the next transfer's clocks
+    // when it strikes mid-read: injected again every 0.13 ms over one
+    // sample period, it also strikes an idle bus, which only a recovery
+    // frees (with the cycle model's timing, 3.0 s itself is mid-read).
+    let hold = |b: &mut emulator::Board| {
+        let t0 = b.now_ns();
+        for k in 0..8u64 {
+            b.sim().inject(Fault::SlaveHoldsSda(Chip::Ms5611));
+            run_until(b, t0 + (k + 1) * 130_000);
+        }
+    };
+    let Some(b) = in_flight(hold, 2) else {
         return;
     };
     assert_logged(&b, "I2C stuck: recovered");

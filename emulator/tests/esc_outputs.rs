@@ -750,23 +750,23 @@ fn arming_waits_for_the_recovery_window_after_the_link_comes_back() {
     assert_link_times_out(&mut b);
 
     let back = b.now_ns();
-    stream_until(&mut b, &sticks(1000, false), "never", 250 * MS);
+    stream_until(&mut b, &acro_sticks(1000, false), "never", 250 * MS);
     // An off -> on flip 250 ms into the window: refused (no arming).
-    stream_until(&mut b, &sticks(1000, true), "never", 150 * MS);
+    stream_until(&mut b, &acro_sticks(1000, true), "never", 150 * MS);
     assert!(
         lines_after(&b, back, "flight: ARMED").is_empty(),
         "armed inside the recovery window\n{}",
         tail(&b, 30)
     );
     assert!(lines_after(&b, back, "rc: link up").is_empty());
-    stream_until(&mut b, &sticks(1000, false), "never", 250 * MS);
+    stream_until(&mut b, &acro_sticks(1000, false), "never", 250 * MS);
     let up_ns = up_time(&b, back);
     assert!(
         (back + 500 * MS..back + 600 * MS).contains(&up_ns),
         "link up {} ms after the first frame",
         (up_ns - back) / MS
     );
-    let armed = stream_until(&mut b, &sticks(1000, true), "flight: ARMED", S);
+    let armed = stream_until(&mut b, &acro_sticks(1000, true), "flight: ARMED", S);
     assert!(armed.is_some(), "{}", tail(&b, 30));
     assert_no_reset(&b);
 }

@@ -397,12 +397,13 @@ fn wiring_errors_at_take_off_end_in_a_runaway_disarm() {
             return;
         };
         fly_until(&mut r, scenario.duration_s());
-        let flying = r.samples().iter().filter(|s| !s.quad.on_ground);
-        let max_h = flying.clone().map(|s| s.truth.height_m).fold(0.0, f64::max);
-        let max_tilt = flying.map(tilt_deg).fold(0.0, f64::max);
         let off = pins_off_at(&r, ARM_AT_S + 0.5);
+        let until = off.unwrap_or(scenario.duration_s());
+        let flying = window(&r, ARM_AT_S, until);
+        let max_h = flying.iter().map(|s| s.truth.height_m).fold(0.0, f64::max);
+        let max_tilt = flying.iter().map(tilt_deg).fold(0.0, f64::max);
         println!(
-            "fil {}: runaway disarm, pins off at {off:?} s, max height {max_h:.2} m, max tilt {max_tilt:.0}°",
+            "fil {}: runaway disarm, pins off at {off:?} s, until then max height {max_h:.2} m, max tilt {max_tilt:.0}°",
             scenario.name()
         );
         assert_logged(r.board(), "RunawayTakeoff");

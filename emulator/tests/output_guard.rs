@@ -101,7 +101,8 @@ fn highs(b: &mut Board) -> [u64; 4] {
 fn armed_with_throttle_up() -> Option<Board> {
     let mut b = board_with(|c| c.sim.errors = sim::SensorErrors::ideal())?;
     assert!(wait_for_gyro_bias(&mut b), "{}", tail(&b, 30));
-    stream(&mut b, &frame(1000, false), 300 * MS);
+    // The link counts as up after 0.5 s of steady frames.
+    stream(&mut b, &frame(1000, false), 700 * MS);
     assert_link_up_after(&b, 0);
     let t = b.now_ns();
     stream(&mut b, &frame(1000, true), 100 * MS);
