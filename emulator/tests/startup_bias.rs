@@ -158,8 +158,7 @@ fn a_bump_in_the_first_window_restarts_it() {
         .log_lines()
         .iter()
         .find(|l| {
-            l.host_time_ns as f64 * 1e-9 > BUMP_AT_S
-                && l.text.contains("gyro bias: Collecting")
+            l.host_time_ns as f64 * 1e-9 > BUMP_AT_S && l.text.contains("gyro bias: Collecting")
         })
         .map(|l| (l.host_time_ns, field(&l.text.replace(',', " "), "have:")))
         .unwrap_or_else(|| panic!("no Collecting line\n{}", tail(&b, 30)));
