@@ -19,7 +19,7 @@
 //!   when the earlier load's destination is not the later one's base
 //!   (§3.3.2: neighbouring loads pipeline). LDRD/STRD 1 + N = 3;
 //!   LDM/STM/PUSH/POP 1 + N;
-//! - branches (B, B<cond>, BL, BX, BLX, CBZ/CBNZ; MOV/ADD/LDR/POP/LDM to
+//! - branches (B, `B<cond>`, BL, BX, BLX, CBZ/CBNZ; MOV/ADD/LDR/POP/LDM to
 //!   PC) 1 in their block, and the refill when taken at the next block
 //!   (see below); TBB/TBH 3 (load 2 + add 1, §3.3.2) plus the refill;
 //! - IT 0 when it folds onto a preceding 16-bit instruction of its block,
@@ -107,7 +107,7 @@ pub enum Class {
         /// Registers in the list, PC and LR included.
         n: u8,
     },
-    /// B, B<cond>, BL, BX, BLX, CBZ, CBNZ, SVC, UDF, and data processing
+    /// B, `B<cond>`, BL, BX, BLX, CBZ, CBNZ, SVC, UDF, and data processing
     /// that writes PC.
     Branch,
     /// TBB, TBH.
