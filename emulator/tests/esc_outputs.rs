@@ -8,6 +8,7 @@
 
 mod common;
 use common::*;
+use emulator::crsf::{self, crc8_dvb_s2, rc_frame};
 use emulator::{Board, BoardFault};
 
 /// The protocol the firmware was built for, from its `outputs:` boot line:
@@ -106,48 +107,12 @@ fn outputs_return_to_the_off_pulse_after_a_watchdog_reset() {
     assert_off(&mut b, "50 ms after the watchdog reset");
 }
 
-/// CRC-8/DVB-S2 (polynomial 0xD5), the CRSF frame check. Written again on
-/// purpose (not `rc_input::crc8_dvb_s2`): the frames the board receives must
-/// not come from the crate whose parser they test.
-fn crc8_dvb_s2(bytes: &[u8]) -> u8 {
-    bytes.iter().fold(0u8, |mut crc, &b| {
-        crc ^= b;
-        for _ in 0..8 {
-            crc = if crc & 0x80 != 0 {
-                (crc << 1) ^ 0xD5
-            } else {
-                crc << 1
-            };
-        }
-        crc
-    })
-}
-
-/// An RC_CHANNELS_PACKED frame (type 0x16) to the flight controller
-/// (0xC8): 16 channels of 11 bits, little-endian, LSB first.
-fn rc_frame(ticks: [u16; 16]) -> Vec<u8> {
-    let mut payload = vec![0u8; 22];
-    for (i, &t) in ticks.iter().enumerate() {
-        for bit in 0..11 {
-            if t & (1 << bit) != 0 {
-                let at = i * 11 + bit;
-                payload[at / 8] |= 1 << (at % 8);
-            }
-        }
-    }
-    let mut body = vec![0x16];
-    body.extend_from_slice(&payload);
-    let crc = crc8_dvb_s2(&body);
-    let mut f = vec![0xC8, (body.len() + 1) as u8];
-    f.extend_from_slice(&body);
-    f.push(crc);
-    f
-}
-
-/// CRSF ticks for a pulse in µs (the specification's
-/// `us = (ticks − 992) · 5/8 + 1500`, inverted; exact for these values).
+/// CRSF ticks for a pulse width in µs. The frames come from
+/// `emulator::crsf`, written from the TBS specification on purpose, not
+/// from `rc_input`: the frames the board receives must not come from the
+/// crate whose parser they test.
 fn ticks(us: i32) -> u16 {
-    ((us - 1500) * 8 / 5 + 992) as u16
+    crsf::ticks(u16::try_from(us).unwrap_or(0))
 }
 
 /// Sends `frame` every `period_ns` until `until_ns`; when each was sent.

@@ -9,6 +9,7 @@
 
 mod common;
 use common::*;
+use emulator::crsf;
 use emulator::{Board, BoardFault, ResetCause};
 
 const CRSF_BAUD: u32 = 420_000;
@@ -23,25 +24,10 @@ const NO_SAMPLE_BOUND_NS: u64 = 60 * MS;
 /// `flight::outputguard::ARM_SWITCH_OFF_BOUND_US`.
 const ARM_SWITCH_OFF_BOUND_NS: u64 = 5 * MS;
 
-/// CRC-8/DVB-S2 (polynomial 0xD5), written out so the frames do not come
-/// from the parser under test.
-fn crc8_dvb_s2(bytes: &[u8]) -> u8 {
-    bytes.iter().fold(0u8, |mut crc, &b| {
-        crc ^= b;
-        for _ in 0..8 {
-            crc = if crc & 0x80 != 0 {
-                (crc << 1) ^ 0xD5
-            } else {
-                crc << 1
-            };
-        }
-        crc
-    })
-}
-
-/// CRSF ticks for a pulse in µs.
+/// CRSF ticks for a pulse width in µs (`emulator::crsf`, written from the
+/// TBS specification, not from the parser under test).
 fn ticks(us: i32) -> u16 {
-    ((us - 1500) * 8 / 5 + 992) as u16
+    crsf::ticks(u16::try_from(us).unwrap_or(0))
 }
 
 /// An RC_CHANNELS_PACKED frame: sticks centred, throttle (channel 3) at
@@ -52,22 +38,7 @@ fn frame(throttle_us: i32, arm: bool) -> Vec<u8> {
     ch[2] = ticks(throttle_us);
     ch[4] = ticks(if arm { 2000 } else { 1000 });
     ch[5] = ticks(2000);
-    let mut payload = vec![0u8; 22];
-    for (i, &t) in ch.iter().enumerate() {
-        for bit in 0..11 {
-            if t & (1 << bit) != 0 {
-                let at = i * 11 + bit;
-                payload[at / 8] |= 1 << (at % 8);
-            }
-        }
-    }
-    let mut body = vec![0x16];
-    body.extend_from_slice(&payload);
-    let crc = crc8_dvb_s2(&body);
-    let mut f = vec![0xC8, (body.len() + 1) as u8];
-    f.extend_from_slice(&body);
-    f.push(crc);
-    f
+    crsf::rc_frame(ch)
 }
 
 fn send(b: &mut Board, f: &[u8]) {
