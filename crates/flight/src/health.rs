@@ -411,6 +411,12 @@ impl ResetGate {
         self.next_ms.is_some()
     }
 
+    /// `true` while the last re-check was answered wrong (the chip is
+    /// there but not as configured: it reset itself).
+    pub fn answered_wrong(&self) -> bool {
+        self.wrong > 0
+    }
+
     /// The re-check failed: `answered` if the chip answered wrong
     /// (configuration or WHO_AM_I), not if it answered nothing. Disarmed,
     /// or once the policy's count of such re-checks in a row is reached,

@@ -51,7 +51,13 @@
 //! it suspect, and [`Sensors::maintain`] re-checks it (WHO_AM_I and the
 //! configuration read-back) at most every 5 ms; a wrong answer on 2
 //! re-checks in a row, or no answer on 20 (≥ 100 ms), resets it
-//! (stepwise, as above). Its samples keep flowing while it is suspect.
+//! (stepwise, as above). Its samples keep flowing while it is suspect. A
+//! chip that reset itself stops its data-ready interrupt: the caller says
+//! how long the samples have been away ([`Sensors::mpu_sample_gap`]), and
+//! past [`MPU_STALL_US`] the chip is re-checked at once; while it answers
+//! wrong, is reset or settles ([`Sensors::mpu_recovering`]), the caller's
+//! output guard bridges the missing samples
+//! (`crate::outputguard`).
 //! Measured on the simulator's 400 kHz bus (`tests/mpu_reset_in_flight.rs`):
 //! the longest step 0.82 ms (the reset poll with the configuration
 //! writes), the configuration check 0.55 ms. The AK8963's and MS5611's
@@ -166,6 +172,13 @@ pub enum Maintenance {
         retry_in_ms: u32,
     },
 }
+
+/// No sample step for this long while the MPU-9250 counts as healthy:
+/// it is suspect ([`Sensors::mpu_sample_gap`]). The flight controller's
+/// hold of its last commands (`crate::flightctl::BAD_INPUT_HOLD_US`): a
+/// healthy board's gaps are shorter but for a flash page erase (≤ 40 ms),
+/// which costs one re-check that finds the chip right.
+pub const MPU_STALL_US: u32 = crate::flightctl::BAD_INPUT_HOLD_US;
 
 /// Longest wait for the MPU-9250's H_RESET to clear, ms (the driver's
 /// blocking `init` polls as long).
@@ -807,12 +820,39 @@ impl<I: I2c> Sensors<I> {
     /// call it every flight-controller step, or at least on every change.
     pub fn set_armed(&mut self, armed: bool) {
         // A reset asked for on the ground, not yet begun: armed, it needs
-        // the proof first.
-        if armed && self.reinit_pending[0] {
+        // the proof first. Only at the arming: a reset proven while armed
+        // stays asked for.
+        if armed && !self.armed && self.reinit_pending[0] {
             self.reinit_pending[0] = false;
             self.mpu_suspect = true;
         }
         self.armed = armed;
+    }
+
+    /// `gap_us`: the time since the last sample step. Past
+    /// [`MPU_STALL_US`] while the MPU-9250 counts as healthy, its
+    /// data-ready interrupt is gone (it reset itself, or lost power or its
+    /// INT wire): armed, it becomes suspect, re-checked at once rather than
+    /// at the next configuration check. Disarmed, nothing: the
+    /// configuration check finds a reset, and the watchdog rule handles a
+    /// dead INT line.
+    pub fn mpu_sample_gap(&mut self, gap_us: u32) {
+        let stalled = gap_us > MPU_STALL_US;
+        if stalled && self.armed && self.mpu_usable() && !self.mpu_gate.pending() {
+            self.mpu_suspect = true;
+        }
+    }
+
+    /// `true` while the MPU-9250 answered wrong and is being re-checked,
+    /// reset or settled after its reset: its samples stop or are not used
+    /// for that long, which the caller bridges
+    /// (`crate::outputguard::OutputGuard::set_mpu_recovering`). `false`
+    /// for a chip that does not answer at all.
+    pub fn mpu_recovering(&self) -> bool {
+        self.mpu_gate.answered_wrong()
+            || self.reinit_pending[0]
+            || self.mpu_reset != MpuReset::Idle
+            || self.mpu_settle_until_ms.is_some()
     }
 
     /// The MPU-9250's failed reads or checks call for a re-initialisation:
