@@ -43,7 +43,10 @@
 //! * `guard` (priority 4, every 5–6 ms): the output guard's check: no
 //!   sample step for 50 ms while the outputs run → the off pulse on all
 //!   four ESC outputs, "outputs: forced off: NoSamples" in the log, and the
-//!   flight controller disarmed (`NoImuSamples`) at the next sample. The
+//!   flight controller disarmed (`NoImuSamples`) at the next sample; while
+//!   the MPU is re-initialised (the service task says so each round, and
+//!   makes it suspect after 10 ms without a sample step), even thrust at
+//!   the last collective after 10 ms and off only after 0.25 s. The
 //!   receiver's task does the same at once for the arm switch off while
 //!   armed ("outputs: forced off: ArmSwitchOff"), so neither needs a
 //!   sample to arrive.
@@ -99,11 +102,13 @@
 //! ESC protocol, the motor-test command and the magnetometer calibration
 //! of the build are in `config.rs`.
 //!
-//! Flash: 63,404 B of the 63 KiB budget with the flight controller
-//! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
-//! static RAM 5.2 KiB; the `ppm` build (PPM instead of CRSF): 62,416 B.
-//! The output guard (its task, the guarded outputs, the watchdog rule)
-//! costs ≈ 0.9 KiB of it; the constructors inlined so that the constant
+//! Flash: 64,456 B of the 63 KiB budget with the flight controller
+//! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`):
+//! 56 B left, until the fixed-point flight controller frees its float
+//! code; static RAM 5.2 KiB; the `ppm` build (PPM instead of CRSF):
+//! 63,452 B. The output guard (its task, the guarded outputs, the
+//! watchdog rule, the re-initialisation bridge) costs ≈ 1.1 KiB of it, the
+//! stepwise MPU reset with its proof while armed ≈ 0.8 KiB; the constructors inlined so that the constant
 //! configuration folds save 1.2 KiB.
 //! The interrupt-driven sample read costs 1,780 B of it, and `mem.rs`'s
 //! 50 B of `__aeabi_memcpy*`/`__aeabi_memclr*` save 1,560 B over
@@ -212,7 +217,7 @@ mod app {
     };
     use flight::health::SensorState;
     use flight::motortest::MotorPosition;
-    use flight::outputguard::{ForceOffReason, CHECK_PERIOD_US};
+    use flight::outputguard::{ForceOffReason, TickAction, CHECK_PERIOD_US};
     use flight::pipeline::Pipeline;
     use flight::sample::{SampleIn, SampleStep};
     use flight::schedule::{
@@ -611,8 +616,12 @@ mod app {
     async fn guard(mut cx: guard::Context) {
         loop {
             let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
-            if let Some(r) = cx.shared.outputs.lock(|o| o.on_tick(now_us)) {
-                log_forced_off(r);
+            match cx.shared.outputs.lock(|o| o.on_tick(now_us)) {
+                Some(TickAction::ForceOff(r)) => log_forced_off(r),
+                Some(TickAction::Level) => {
+                    defmt::warn!("outputs: even thrust while the MPU-9250 is re-initialised")
+                }
+                None => {}
             }
             Mono::delay(ExtU32::millis(CHECK_PERIOD_US / 1_000)).await;
         }
@@ -740,7 +749,7 @@ mod app {
 
     /// Barometer schedule, configuration checks and one maintenance step
     /// per round (bus recovery, re-initialisation, re-probing).
-    #[task(priority = 2, shared = [sensors, pipeline, clock])]
+    #[task(priority = 2, shared = [sensors, pipeline, clock, outputs])]
     async fn service(mut cx: service::Context) {
         let mut check = Periodic::new(
             cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count())),
@@ -776,6 +785,7 @@ mod app {
                 &mut cx.shared.sensors,
                 &mut cx.shared.pipeline,
             );
+            mpu_bridge(&mut cx.shared.sensors, &mut cx.shared.outputs, now_us);
             // ≤ 10 ms between rounds: the bound on how late a recovery starts.
             let wait_us = match deadline {
                 Some(d) => (d.wrapping_sub(now_us) as i32).clamp(1_000, 10_000) as u32,
@@ -783,6 +793,20 @@ mod app {
             };
             Mono::delay(ExtU32::millis(wait_us.div_ceil(1_000))).await;
         }
+    }
+
+    /// The MPU's re-initialisation and the output guard: the guard bridges
+    /// it (`flight::outputguard`); samples stopped for 10 ms while armed
+    /// make the MPU suspect at once (a chip that reset itself stops its
+    /// data-ready interrupt), not at the next 50 ms configuration check.
+    fn mpu_bridge(
+        sensors: &mut impl rtic::Mutex<T = Sensors<BusHandle>>,
+        outputs: &mut impl rtic::Mutex<T = GuardedOutputs>,
+        now_us: u32,
+    ) {
+        let recovering = sensors.lock(|s| s.mpu_recovering());
+        let since_us = outputs.lock(|o| o.set_mpu_recovering(recovering, now_us));
+        sensors.lock(|s| s.mpu_sample_gap(since_us));
     }
 
     /// Carries out and logs what a maintenance step asked for or did.
