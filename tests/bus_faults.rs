@@ -213,13 +213,14 @@ fn stuck_sda_in_flight_is_recovered_within_the_service_period() {
             })
         .is_some());
     // Samples were skipped only from the fault to the end of the MPU's
-    // settling: ≈ 2 service periods + re-init + 100 ms.
-    assert!(log.samples_failed <= 150, "{log:?}");
+    // settling: ≈ 3 service periods + the re-init's three steps (one per
+    // service period) + 100 ms, some ms counted twice by this loop.
+    assert!(log.samples_failed <= 300, "{log:?}");
     assert_eq!(s.bus_recoveries(), 1);
     assert_eq!(s.mpu_health.counters().retries, 0);
-    // One maintenance step never holds the bus for long: the MPU's reset
-    // poll (10 ms in the simulator) plus its configuration.
-    assert!(log.longest_step_ms < 20.0, "{} ms", log.longest_step_ms);
+    // One maintenance step never holds the bus for long: the MPU's steps
+    // never wait; the MS5611's reset waits 2.8 ms.
+    assert!(log.longest_step_ms < 5.0, "{} ms", log.longest_step_ms);
 
     // Detected by the I2C peripheral (BUSY while idle): the very next step.
     rig.bus.inject(Fault::StuckBus);

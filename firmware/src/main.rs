@@ -26,9 +26,13 @@
 //! * `service` (priority 2, every ≤ 10 ms): the MS5611 schedule, the
 //!   configuration checks every 50 ms, and one step of
 //!   `Sensors::maintain`: a bus recovery when I2C1 saw BUSY while idle or
-//!   every chip fails, one chip's re-initialisation, the MPU's 100 ms
-//!   post-reset check, or the re-probe of a missing chip (back-off 1 s
-//!   doubling to 32 s). A stuck bus is recovered within 11 ms of the first
+//!   every chip fails, one step of the MPU's re-initialisation (none
+//!   waits: each holds `sensors` for less than a sample period) or another
+//!   chip's, the MPU's 100 ms post-reset check, the re-check of a suspect
+//!   MPU, or the re-probe of a missing chip (back-off 1 s doubling to
+//!   32 s). Armed (`Sensors::set_armed`, from `sample_done`), the MPU is
+//!   reset only once proven lost, and the other chips' re-initialisations
+//!   and the re-probes wait for the disarm. A stuck bus is recovered within 11 ms of the first
 //!   refused transfer.
 //! * `log` (priority 1, 20 Hz): attitude, altitude, health, loop timing,
 //!   stack high-water mark over defmt-RTT; the PA0 button and the
@@ -39,7 +43,10 @@
 //! * `guard` (priority 4, every 5–6 ms): the output guard's check: no
 //!   sample step for 50 ms while the outputs run → the off pulse on all
 //!   four ESC outputs, "outputs: forced off: NoSamples" in the log, and the
-//!   flight controller disarmed (`NoImuSamples`) at the next sample. The
+//!   flight controller disarmed (`NoImuSamples`) at the next sample; while
+//!   the MPU is re-initialised (the service task says so each round, and
+//!   makes it suspect after 10 ms without a sample step), even thrust at
+//!   the last collective after 10 ms and off only after 0.25 s. The
 //!   receiver's task does the same at once for the arm switch off while
 //!   armed ("outputs: forced off: ArmSwitchOff"), so neither needs a
 //!   sample to arrive.
@@ -95,11 +102,13 @@
 //! ESC protocol, the motor-test command and the magnetometer calibration
 //! of the build are in `config.rs`.
 //!
-//! Flash: 63,404 B of the 63 KiB budget with the flight controller
-//! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`);
-//! static RAM 5.2 KiB; the `ppm` build (PPM instead of CRSF): 62,416 B.
-//! The output guard (its task, the guarded outputs, the watchdog rule)
-//! costs ≈ 0.9 KiB of it; the constructors inlined so that the constant
+//! Flash: 64,456 B of the 63 KiB budget with the flight controller
+//! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`):
+//! 56 B left, until the fixed-point flight controller frees its float
+//! code; static RAM 5.2 KiB; the `ppm` build (PPM instead of CRSF):
+//! 63,452 B. The output guard (its task, the guarded outputs, the
+//! watchdog rule, the re-initialisation bridge) costs ≈ 1.1 KiB of it, the
+//! stepwise MPU reset with its proof while armed ≈ 0.8 KiB; the constructors inlined so that the constant
 //! configuration folds save 1.2 KiB.
 //! The interrupt-driven sample read costs 1,780 B of it, and `mem.rs`'s
 //! 50 B of `__aeabi_memcpy*`/`__aeabi_memclr*` save 1,560 B over
@@ -198,6 +207,7 @@ mod app {
     use crate::stack;
     use crate::store::FlashPage;
     use crate::watchdog::{Watchdog, BOOT_MIN_TIMEOUT_MS, RUN_MIN_TIMEOUT_MS};
+    use core::sync::atomic::{AtomicBool, Ordering};
     use cortex_m::peripheral::DWT;
     use flight::boot::BiasStatus;
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
@@ -207,7 +217,7 @@ mod app {
     };
     use flight::health::SensorState;
     use flight::motortest::MotorPosition;
-    use flight::outputguard::{ForceOffReason, CHECK_PERIOD_US};
+    use flight::outputguard::{ForceOffReason, TickAction, CHECK_PERIOD_US};
     use flight::pipeline::Pipeline;
     use flight::sample::{SampleIn, SampleStep};
     use flight::schedule::{
@@ -228,6 +238,10 @@ mod app {
     };
 
     systick_monotonic!(Mono, 1_000);
+
+    /// The flight controller is armed: written by `sample_done` after each
+    /// step, read by `service` for `Sensors::set_armed`.
+    static ARMED: AtomicBool = AtomicBool::new(false);
 
     /// What the `imu` task knew when it started a sample's read, for the
     /// `sample_done` task that processes it.
@@ -446,6 +460,7 @@ mod app {
         let disarmed = forced.and_then(|f| cx.local.fc.as_mut()?.force_disarm(f.disarm_cause()));
         let motors = fly(&mut cx, start.now_us, mpu_ok, fresh, disarmed);
         let armed = cx.local.fc.as_ref().is_some_and(FlightController::is_armed);
+        ARMED.store(armed, Ordering::Relaxed);
         cx.shared
             .outputs
             .lock(|o| o.on_step(start.now_us, armed, &motors));
@@ -601,8 +616,12 @@ mod app {
     async fn guard(mut cx: guard::Context) {
         loop {
             let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
-            if let Some(r) = cx.shared.outputs.lock(|o| o.on_tick(now_us)) {
-                log_forced_off(r);
+            match cx.shared.outputs.lock(|o| o.on_tick(now_us)) {
+                Some(TickAction::ForceOff(r)) => log_forced_off(r),
+                Some(TickAction::Level) => {
+                    defmt::warn!("outputs: even thrust while the MPU-9250 is re-initialised")
+                }
+                None => {}
             }
             Mono::delay(ExtU32::millis(CHECK_PERIOD_US / 1_000)).await;
         }
@@ -730,7 +749,7 @@ mod app {
 
     /// Barometer schedule, configuration checks and one maintenance step
     /// per round (bus recovery, re-initialisation, re-probing).
-    #[task(priority = 2, shared = [sensors, pipeline, clock])]
+    #[task(priority = 2, shared = [sensors, pipeline, clock, outputs])]
     async fn service(mut cx: service::Context) {
         let mut check = Periodic::new(
             cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count())),
@@ -738,10 +757,11 @@ mod app {
         );
         loop {
             let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
-            let (m, deadline) = cx
-                .shared
-                .sensors
-                .lock(|s| (s.poll_baro(now_us), s.baro_deadline_us()));
+            let (m, deadline) = cx.shared.sensors.lock(|s| {
+                // Armed, the MPU is reset only once proven lost.
+                s.set_armed(ARMED.load(Ordering::Relaxed));
+                (s.poll_baro(now_us), s.baro_deadline_us())
+            });
             if let Some(m) = m {
                 cx.shared
                     .pipeline
@@ -765,6 +785,7 @@ mod app {
                 &mut cx.shared.sensors,
                 &mut cx.shared.pipeline,
             );
+            mpu_bridge(&mut cx.shared.sensors, &mut cx.shared.outputs, now_us);
             // ≤ 10 ms between rounds: the bound on how late a recovery starts.
             let wait_us = match deadline {
                 Some(d) => (d.wrapping_sub(now_us) as i32).clamp(1_000, 10_000) as u32,
@@ -772,6 +793,20 @@ mod app {
             };
             Mono::delay(ExtU32::millis(wait_us.div_ceil(1_000))).await;
         }
+    }
+
+    /// The MPU's re-initialisation and the output guard: the guard bridges
+    /// it (`flight::outputguard`); samples stopped for 10 ms while armed
+    /// make the MPU suspect at once (a chip that reset itself stops its
+    /// data-ready interrupt), not at the next 50 ms configuration check.
+    fn mpu_bridge(
+        sensors: &mut impl rtic::Mutex<T = Sensors<BusHandle>>,
+        outputs: &mut impl rtic::Mutex<T = GuardedOutputs>,
+        now_us: u32,
+    ) {
+        let recovering = sensors.lock(|s| s.mpu_recovering());
+        let since_us = outputs.lock(|o| o.set_mpu_recovering(recovering, now_us));
+        sensors.lock(|s| s.mpu_sample_gap(since_us));
     }
 
     /// Carries out and logs what a maintenance step asked for or did.
@@ -782,7 +817,7 @@ mod app {
         pipeline: &mut impl rtic::Mutex<T = Option<Pipeline>>,
     ) {
         match step {
-            Maintenance::Idle => {}
+            Maintenance::Idle | Maintenance::MpuResetStep => {}
             Maintenance::RecoverBus => {
                 let (r, n) = sensors.lock(|s| {
                     let r = bus::recover();
@@ -805,10 +840,7 @@ mod app {
                 defmt::info!("re-init {}: {=bool}", chip, ok)
             }
             Maintenance::Settled { ok } => {
-                defmt::info!(
-                    "MPU-9250 post-reset check (WHO_AM_I, PWR_MGMT_1, config): {=bool}",
-                    ok
-                )
+                defmt::info!("MPU-9250 check (WHO_AM_I, PWR_MGMT_1, config): {=bool}", ok)
             }
             Maintenance::StillMissing { chip, retry_in_ms } => {
                 defmt::info!(

@@ -18,7 +18,7 @@
 use control::esc::EscTimer;
 use core::sync::atomic::{AtomicU16, Ordering};
 use flight::flightctl::Motors;
-use flight::outputguard::{ForceOffReason, OutputGuard, OutputVerdict};
+use flight::outputguard::{ForceOffReason, OutputGuard, OutputVerdict, TickAction};
 use stm32f1xx_hal::pac;
 
 /// Compare value of the off pulse, published for the fault paths (0: the
@@ -78,6 +78,16 @@ impl EscOutputs {
         for (ch, c) in compare.into_iter().enumerate() {
             self.tim.ccr(ch).write(|w| w.ccr().set(c));
         }
+    }
+
+    /// Even thrust: every channel at the mean of the four compare values
+    /// in use (the quad-X mixer's torques cancel in it; the pulse width is
+    /// linear in the command).
+    pub fn level(&mut self) {
+        let sum: u32 = (0..4)
+            .map(|ch| u32::from(self.tim.ccr(ch).read().ccr().bits()))
+            .sum();
+        self.write([(sum / 4) as u16; 4]);
     }
 
     /// The off pulse on all four channels.
@@ -140,14 +150,24 @@ impl GuardedOutputs {
         r
     }
 
-    /// The periodic check at `now_us`: the off pulse if no sample step
-    /// came for too long while the outputs ran (its reason returned).
-    pub fn on_tick(&mut self, now_us: u32) -> Option<ForceOffReason> {
-        let r = self.guard.on_tick(now_us);
-        if r.is_some() {
-            self.esc.off();
+    /// The periodic check at `now_us`: even thrust while an MPU reset is
+    /// bridged, the off pulse if no sample step came for too long while
+    /// the outputs ran (the action returned, to log).
+    pub fn on_tick(&mut self, now_us: u32) -> Option<TickAction> {
+        let a = self.guard.on_tick(now_us);
+        match a {
+            Some(TickAction::Level) => self.esc.level(),
+            Some(TickAction::ForceOff(_)) => self.esc.off(),
+            None => {}
         }
-        r
+        a
+    }
+
+    /// The sensor stack's word on the MPU's re-initialisation
+    /// (`flight::outputguard`); returns the µs since the last sample step.
+    pub fn set_mpu_recovering(&mut self, recovering: bool, now_us: u32) -> u32 {
+        self.guard.set_mpu_recovering(recovering);
+        self.guard.since_step_us(now_us)
     }
 
     /// Whether the watchdog may be fed (`flight::outputguard`).

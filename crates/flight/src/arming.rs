@@ -340,7 +340,9 @@ pub struct SafetyConfig {
     pub althold_max_climb_mps: f32,
     /// Altitude hold: throttle-stick deadband around 0.5 (hold height).
     pub althold_deadband: f32,
-    /// Unusable attitude/gyro input for this long while armed: disarm, s.
+    /// Unusable attitude/gyro input for this long while armed: disarm, s
+    /// (0.25: the bridge of [`crate::flightctl`]'s "Sensor loss" rule,
+    /// longer than an MPU-9250 reset with its 100 ms settle).
     pub bad_input_disarm_s: f32,
     /// Runaway take-off: torque command (any axis, ±1 = the mixer's full
     /// authority) counted as pushing hard, 0.2..=1 (see [`crate::runaway`]).
@@ -394,7 +396,7 @@ impl Default for SafetyConfig {
             motor_test_stick_tolerance: 0.1,
             althold_max_climb_mps: 1.0,
             althold_deadband: 0.1,
-            bad_input_disarm_s: 0.1,
+            bad_input_disarm_s: 0.25,
             runaway_torque_min: 0.6,
             runaway_rate_roll_pitch_dps: 15.0,
             runaway_rate_yaw_dps: 50.0,

@@ -64,10 +64,26 @@
 //! altitude estimate |vertical speed| < 0.3 m/s, without one the throttle
 //! stick ≤ [`SafetyConfig::arm_throttle_max`] (5 %); see "Landing
 //! detection" below); no take-off within 5 s of arming;
-//! unusable attitude/gyro for 0.1 s (single bad samples keep the last motor
-//! commands); runaway take-off (torque ≥ 0.6 while turning for 75 ms
-//! before 0.5 s of normal flight, [`crate::runaway`]). The motors are
-//! [`Motors::Off`] whenever disarmed.
+//! unusable attitude/gyro for [`SafetyConfig::bad_input_disarm_s`]
+//! (0.25 s, bridged until then: below); runaway take-off (torque ≥ 0.6
+//! while turning for 75 ms before 0.5 s of normal flight,
+//! [`crate::runaway`]). The motors are [`Motors::Off`] whenever disarmed.
+//!
+//! **Sensor loss** while armed (attitude or gyro not finite: the sample
+//! was lost, the MPU-9250 is being re-initialised or settling): the last
+//! motor commands for [`BAD_INPUT_HOLD_US`] (10 ms: single lost samples
+//! pass unnoticed), then even thrust at the last collective (the mixer with
+//! no torque, so the craft keeps the attitude and rate it had and nothing
+//! the rate loop last commanded keeps accelerating it), until
+//! [`SafetyConfig::bad_input_disarm_s`] (0.25 s) without a usable sample
+//! disarms ([`DisarmCause::SensorFault`]). Each such step reports
+//! [`Event::InputRejected`]; the arm switch still disarms at once. Why
+//! 0.25 s: it covers an MPU-9250 reset in flight (its samples stop for the
+//! reset's steps, ≤ 40 ms, and the 100 ms settle after it) with margin;
+//! open loop, a 250-class quad (≈ 2·10⁻³ kg·m² about roll, rotors 0.09 m
+//! off the axis) with a 1 % thrust mismatch (≈ 0.05 N) turns ≈ 4° in
+//! 0.25 s from a steady hover, plus whatever rate it had when the samples
+//! stopped; much longer and it would not be recoverable.
 //!
 //! **Pilot signal loss** while armed: level hold (tilt 0, yaw rate 0) for
 //! [`SafetyConfig::failsafe_hold_s`] (1 s) at the current height with
@@ -160,6 +176,13 @@ pub const MAX_DT_US: u32 = 20_000;
 /// Collective ramp-down per second in a failsafe descent that lost its
 /// altitude estimate (hover at ~0.5 reaches the landing threshold in ~7 s).
 pub const FAILSAFE_BLIND_RAMP_PER_S: f32 = 0.05;
+/// Unusable attitude/gyro input for this long keeps the last motor
+/// commands, µs; then even thrust at the last collective (see "Sensor
+/// loss" in the [module docs](self)). Held longer, a torque the rate loop
+/// commanded in a manoeuvre keeps accelerating the craft: 10 ms of a
+/// 0.5 N thrust differential (10 % of a 0.5 kg quad's hover thrust) on a
+/// 250-class quad (≈ 2·10⁻³ kg·m², 0.09 m lever) builds ≈ 13 °/s.
+pub const BAD_INPUT_HOLD_US: u32 = 10_000;
 /// Time constant of the hover-collective estimate's low-pass, s: long
 /// enough that a manoeuvre of a second or two moves it by less than half
 /// its excursion, short enough to follow the battery's sag.
@@ -940,13 +963,7 @@ impl FlightController {
 
         // Vehicle input.
         let Some(cos_t) = cos_tilt(vehicle) else {
-            if self.bad_input.update(true, dt_us, self.lim.bad_input_us) {
-                self.disarm(DisarmCause::SensorFault, out);
-            } else {
-                out.events.push(Event::InputRejected);
-                out.motors = self.last_motors;
-            }
-            return;
+            return self.bridge_bad_input(dt_us, out);
         };
         self.bad_input = Hold::default();
 
@@ -978,6 +995,25 @@ impl FlightController {
 
         self.safety_checks(dt_us, cos_t, self_level, collective, vehicle, alt, out);
         self.track_hover(dt_s, cos_t, collective);
+    }
+
+    /// Flies a step without usable attitude/gyro ("Sensor loss" in the
+    /// module docs): the last motor commands, then even thrust at the last
+    /// collective, then the disarm.
+    fn bridge_bad_input(&mut self, dt_us: u32, out: &mut FlightOutput) {
+        if self.bad_input.update(true, dt_us, self.lim.bad_input_us) {
+            return self.disarm(DisarmCause::SensorFault, out);
+        }
+        out.events.push(Event::InputRejected);
+        out.motors = self.last_motors;
+        if self.bad_input.us > BAD_INPUT_HOLD_US {
+            let even = self
+                .mixer
+                .mix(self.last_collective, &TorqueCommand::default());
+            if let Ok(m) = even {
+                out.motors = Motors::Run(m.motors);
+            }
+        }
     }
 
     /// Rate setpoint, collective and whether the mode self-levels; `None`

@@ -307,6 +307,145 @@ impl SensorHealth {
     }
 }
 
+/// When an armed craft may reset a chip: only once it is proven lost.
+///
+/// A reset of the MPU-9250 costs its samples for the reset itself and
+/// the 100 ms settle after it, longer than the flight controller can fly
+/// without a gyro; a bus glitch that corrupts one read-back, or a burst of
+/// NACKs, is over long before that. So, while armed, a suspect chip is
+/// re-checked at most every [`recheck_spacing_ms`](Self::recheck_spacing_ms),
+/// and reset only when
+/// * it answers wrong (a configuration register or WHO_AM_I that reads
+///   back wrong) on [`confirm_rereads`](Self::confirm_rereads) re-checks in
+///   a row: a chip that reset itself reads wrong every time, a glitch does
+///   not; or
+/// * it answers nothing (NACK, bus error) on
+///   [`lost_after_rechecks`](Self::lost_after_rechecks) re-checks in a row
+///   (at least 20 × 5 ms = 100 ms): a chip that does not answer loses
+///   nothing by a reset attempt.
+///
+/// Failed reads never reset the chip by their count while armed. Disarmed,
+/// the first wrong or missing answer resets it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ResetPolicy {
+    /// Re-checks in a row that must read wrong before the chip counts as
+    /// reset (2: with the read that made it suspect, three wrong answers).
+    pub confirm_rereads: u8,
+    /// Re-checks in a row without any answer after which the chip is lost
+    /// (20).
+    pub lost_after_rechecks: u8,
+    /// Shortest time between two re-checks, ms (5: a glitch that lasts a
+    /// few ms cannot confirm a mismatch by itself).
+    pub recheck_spacing_ms: u32,
+}
+
+impl Default for ResetPolicy {
+    fn default() -> Self {
+        Self {
+            confirm_rereads: 2,
+            lost_after_rechecks: 20,
+            recheck_spacing_ms: 5,
+        }
+    }
+}
+
+/// What a re-check of a suspect chip concluded ([`ResetGate`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ResetVerdict {
+    /// Not proven: check again when [`ResetGate::due`] says so.
+    Recheck,
+    /// Proven lost (or disarmed): reset the chip.
+    Reset,
+}
+
+/// The [`ResetPolicy`]'s memory for one chip: whether a re-check is
+/// pending and when, and how many re-checks in a row answered wrong or
+/// not at all.
+///
+/// ```
+/// use flight::health::{ResetGate, ResetPolicy, ResetVerdict};
+/// let mut g = ResetGate::new(ResetPolicy::default());
+/// g.suspect(0);
+/// assert!(g.due(0));
+/// assert_eq!(g.failed(0, true, true), ResetVerdict::Recheck);
+/// assert!(!g.due(4) && g.due(5));
+/// assert_eq!(g.failed(5, true, true), ResetVerdict::Reset); // wrong again
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ResetGate {
+    policy: ResetPolicy,
+    wrong: u8,
+    silent: u8,
+    next_ms: Option<u32>,
+}
+
+impl ResetGate {
+    /// Nothing suspected.
+    pub const fn new(policy: ResetPolicy) -> Self {
+        Self {
+            policy,
+            wrong: 0,
+            silent: 0,
+            next_ms: None,
+        }
+    }
+
+    /// Something (a failed read streak, a read-back mismatch, a bus
+    /// recovery) makes the chip suspect: a re-check is due now unless one
+    /// is already scheduled.
+    pub fn suspect(&mut self, now_ms: u32) {
+        self.next_ms.get_or_insert(now_ms);
+    }
+
+    /// `true` when a re-check is pending and its time has come.
+    pub fn due(&self, now_ms: u32) -> bool {
+        self.next_ms
+            .is_some_and(|t| (now_ms.wrapping_sub(t) as i32) >= 0)
+    }
+
+    /// `true` while a re-check is pending.
+    pub fn pending(&self) -> bool {
+        self.next_ms.is_some()
+    }
+
+    /// `true` while the last re-check was answered wrong (the chip is
+    /// there but not as configured: it reset itself).
+    pub fn answered_wrong(&self) -> bool {
+        self.wrong > 0
+    }
+
+    /// The re-check failed: `answered` if the chip answered wrong
+    /// (configuration or WHO_AM_I), not if it answered nothing. Disarmed,
+    /// or once the policy's count of such re-checks in a row is reached,
+    /// [`ResetVerdict::Reset`] (and the gate is cleared); else another
+    /// re-check is scheduled.
+    pub fn failed(&mut self, now_ms: u32, armed: bool, answered: bool) -> ResetVerdict {
+        let (n, limit) = if answered {
+            self.silent = 0;
+            self.wrong = self.wrong.saturating_add(1);
+            (self.wrong, self.policy.confirm_rereads)
+        } else {
+            self.wrong = 0;
+            self.silent = self.silent.saturating_add(1);
+            (self.silent, self.policy.lost_after_rechecks)
+        };
+        if !armed || n >= limit {
+            *self = Self::new(self.policy);
+            return ResetVerdict::Reset;
+        }
+        self.next_ms = Some(now_ms.wrapping_add(self.policy.recheck_spacing_ms));
+        ResetVerdict::Recheck
+    }
+
+    /// The re-check read everything right: the suspicion is dropped.
+    pub fn right_answer(&mut self) {
+        *self = Self::new(self.policy);
+    }
+}
+
 /// `true` when every present (not `Missing`) sensor has failed at least
 /// `bus_recovery_after_errors` transactions in a row: the bus itself is
 /// stuck, not one chip. Returns `false` if no sensor is present.
@@ -541,6 +680,50 @@ mod tests {
         assert_eq!(h.state(), SensorState::Degraded);
         let mut m = SensorHealth::missing(policy());
         assert_eq!(m.config_mismatch(), Action::Disable);
+    }
+
+    #[test]
+    fn armed_reset_needs_confirmed_wrong_answers_spaced_apart() {
+        let mut g = ResetGate::new(ResetPolicy::default());
+        assert!(!g.pending() && !g.due(0));
+        g.suspect(100);
+        g.suspect(150); // already scheduled: keeps its time
+        assert!(g.due(100));
+        // A glitch: one wrong re-read, then a right one.
+        assert_eq!(g.failed(100, true, true), ResetVerdict::Recheck);
+        assert!(!g.due(104) && g.due(105));
+        g.right_answer();
+        assert!(!g.pending());
+        // A reset chip: wrong on both re-reads.
+        g.suspect(200);
+        assert_eq!(g.failed(200, true, true), ResetVerdict::Recheck);
+        assert_eq!(g.failed(205, true, true), ResetVerdict::Reset);
+        assert!(!g.pending(), "a verdict clears the gate");
+        // A silent re-check between two wrong ones breaks the row.
+        g.suspect(300);
+        assert_eq!(g.failed(300, true, true), ResetVerdict::Recheck);
+        assert_eq!(g.failed(305, true, false), ResetVerdict::Recheck);
+        assert_eq!(g.failed(310, true, true), ResetVerdict::Recheck);
+        // Disarmed: the first wrong or missing answer resets.
+        g.suspect(400);
+        assert_eq!(g.failed(400, false, true), ResetVerdict::Reset);
+        g.suspect(400);
+        assert_eq!(g.failed(400, false, false), ResetVerdict::Reset);
+    }
+
+    #[test]
+    fn armed_reset_after_twenty_silent_rechecks_only() {
+        let mut g = ResetGate::new(ResetPolicy::default());
+        let t0 = u32::MAX - 10; // across the clock's wrap
+        g.suspect(t0);
+        let mut t = t0;
+        for _ in 0..19 {
+            assert!(g.due(t));
+            assert_eq!(g.failed(t, true, false), ResetVerdict::Recheck);
+            t = t.wrapping_add(5);
+        }
+        assert_eq!(g.failed(t, true, false), ResetVerdict::Reset);
+        assert_eq!(t.wrapping_sub(t0), 95, "at least 100 ms with the first");
     }
 
     #[test]

@@ -33,6 +33,19 @@
 //!   input: the motors do not hold a fixed throttle, blind, for longer
 //!   than a failed-read episode would leave them. Off, not a descent: a
 //!   level-less descent needs an attitude, which is what is missing.
+//! * **MPU re-initialisation** ([`OutputGuard::set_mpu_recovering`], from
+//!   the sensor-maintenance task): while the MPU-9250 answered wrong and is
+//!   being re-checked, reset or is settling after its reset (a brown-out
+//!   on the sensor board put its registers back to their defaults, so its
+//!   data-ready interrupt stopped), the steps stop for the reset's length,
+//!   which the sensor stack flies through (`crate::sensors`, "Armed").
+//!   Then the outputs go to even thrust at the last collective (the mean
+//!   of the four commands: the quad-X mixer's torques cancel in it) once
+//!   no step came for [`BAD_INPUT_HOLD_US`], as the flight controller's
+//!   own sensor-loss bridge does, and off only after
+//!   [`RESET_BRIDGE_US`] without a step, the controller's 0.25 s limit for
+//!   unusable input. An MPU that does not answer at all is not recovering
+//!   (it lost power): the 50 ms rule above holds.
 //! * **Latch**: a forced off stays until the next sample step has
 //!   disarmed the flight controller for it ([`OutputGuard::take_forced`],
 //!   then `FlightController::force_disarm`), so a sample arriving after
@@ -49,9 +62,15 @@
 //!   off pulse and arms only on a fresh switch flip.
 
 use crate::arming::DisarmCause;
+use crate::flightctl::BAD_INPUT_HOLD_US;
 
 /// No completed sample step for this long while the outputs run: off.
 pub const NO_SAMPLE_TIMEOUT_US: u32 = 50_000;
+
+/// No completed sample step for this long while the MPU-9250 is being
+/// re-initialised: off (the flight controller's default
+/// `SafetyConfig::bad_input_disarm_s`, 0.25 s).
+pub const RESET_BRIDGE_US: u32 = 250_000;
 
 /// The periodic check's period (the firmware's guard task).
 pub const CHECK_PERIOD_US: u32 = 5_000;
@@ -85,6 +104,17 @@ impl ForceOffReason {
     }
 }
 
+/// What the periodic check asks of the outputs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TickAction {
+    /// Even thrust at the last collective: every output at the mean of
+    /// the four commands (once per re-initialisation).
+    Level,
+    /// The off pulse, for this reason.
+    ForceOff(ForceOffReason),
+}
+
 /// What the outputs carry after a sample step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -102,6 +132,8 @@ pub struct OutputGuard {
     armed: bool,
     outputs_off: bool,
     forced: Option<ForceOffReason>,
+    mpu_recovering: bool,
+    levelled: bool,
 }
 
 impl OutputGuard {
@@ -113,6 +145,8 @@ impl OutputGuard {
             armed: false,
             outputs_off: true,
             forced: None,
+            mpu_recovering: false,
+            levelled: false,
         }
     }
 
@@ -159,19 +193,46 @@ impl OutputGuard {
         None
     }
 
-    /// The periodic check at `now_us`. `Some` when this forces the outputs
-    /// off now (write the off pulse and say why).
-    pub fn on_tick(&mut self, now_us: u32) -> Option<ForceOffReason> {
-        if !self.outputs_off && self.since_step_us(now_us) > NO_SAMPLE_TIMEOUT_US {
-            return Some(self.force(ForceOffReason::NoSamples));
+    /// The sensor stack's word on the MPU-9250: `true` while it answered
+    /// wrong and is being re-checked, reset or settled (see the [module
+    /// docs](self)).
+    pub fn set_mpu_recovering(&mut self, recovering: bool) {
+        self.mpu_recovering = recovering;
+    }
+
+    /// The longest time without a step before the off pulse: 50 ms, or
+    /// the re-initialisation's bridge.
+    fn timeout_us(&self) -> u32 {
+        if self.mpu_recovering {
+            RESET_BRIDGE_US
+        } else {
+            NO_SAMPLE_TIMEOUT_US
         }
-        None
+    }
+
+    /// The periodic check at `now_us`. `Some` when the outputs must change
+    /// now: levelled for an MPU re-initialisation, or forced off (write
+    /// the off pulse and say why).
+    pub fn on_tick(&mut self, now_us: u32) -> Option<TickAction> {
+        if self.outputs_off {
+            return None;
+        }
+        let since = self.since_step_us(now_us);
+        if since > self.timeout_us() {
+            return Some(TickAction::ForceOff(self.force(ForceOffReason::NoSamples)));
+        }
+        // Levelled once per gap: a check that sees a recent step (or the
+        // MPU not recovering) re-arms it.
+        let level = self.mpu_recovering && since > BAD_INPUT_HOLD_US;
+        let first = level && !self.levelled;
+        self.levelled = level;
+        first.then_some(TickAction::Level)
     }
 
     /// Whether the watchdog may be fed at `now_us`; `mpu_in_loop`: the
     /// MPU-9250 is healthy, so its samples are expected.
     pub fn may_feed_watchdog(&self, now_us: u32, mpu_in_loop: bool) -> bool {
-        let progress = self.since_step_us(now_us) <= NO_SAMPLE_TIMEOUT_US;
+        let progress = self.since_step_us(now_us) <= self.timeout_us();
         let safe = self.outputs_off && (!self.armed || self.forced.is_some());
         progress || (safe && !mpu_in_loop)
     }
@@ -184,7 +245,7 @@ impl OutputGuard {
 
     /// µs since the last sample step (0 if that step's time is after
     /// `now_us`: a step stamped by a clock read that raced this one).
-    fn since_step_us(&self, now_us: u32) -> u32 {
+    pub fn since_step_us(&self, now_us: u32) -> u32 {
         let d = now_us.wrapping_sub(self.last_step_us) as i32;
         d.max(0) as u32
     }
@@ -195,6 +256,7 @@ mod tests {
     use super::*;
 
     const MS: u32 = 1_000;
+    const OFF: TickAction = TickAction::ForceOff(ForceOffReason::NoSamples);
 
     /// Armed and running, last step at `t_us`.
     fn armed_at(t_us: u32) -> OutputGuard {
@@ -221,10 +283,7 @@ mod tests {
     fn no_samples_for_the_timeout_forces_off_while_running() {
         let mut g = armed_at(10 * MS);
         assert_eq!(g.on_tick(10 * MS + NO_SAMPLE_TIMEOUT_US), None);
-        assert_eq!(
-            g.on_tick(10 * MS + NO_SAMPLE_TIMEOUT_US + 1),
-            Some(ForceOffReason::NoSamples)
-        );
+        assert_eq!(g.on_tick(10 * MS + NO_SAMPLE_TIMEOUT_US + 1), Some(OFF));
         assert_eq!(g.on_tick(10 * MS + 2 * NO_SAMPLE_TIMEOUT_US), None);
         // Outputs at off (disarmed): nothing to force.
         let mut g = OutputGuard::new(0);
@@ -236,10 +295,7 @@ mod tests {
     fn the_timeout_holds_across_the_clock_wrap_and_a_racing_step() {
         let mut g = armed_at(u32::MAX - 10 * MS);
         assert_eq!(g.on_tick(20 * MS), None);
-        assert_eq!(
-            g.on_tick(NO_SAMPLE_TIMEOUT_US),
-            Some(ForceOffReason::NoSamples)
-        );
+        assert_eq!(g.on_tick(NO_SAMPLE_TIMEOUT_US), Some(OFF));
         let mut g = armed_at(10 * MS);
         assert_eq!(g.on_tick(9 * MS), None, "a step stamped after now");
     }
@@ -247,7 +303,7 @@ mod tests {
     #[test]
     fn the_latch_keeps_the_outputs_off_until_a_step_has_disarmed() {
         let mut g = armed_at(MS);
-        assert_eq!(g.on_tick(MS + 60 * MS), Some(ForceOffReason::NoSamples));
+        assert_eq!(g.on_tick(MS + 60 * MS), Some(OFF));
         // A step that started before the off (it did not take the latch)
         // still commands the motors: the off stays.
         assert_eq!(
@@ -294,6 +350,41 @@ mod tests {
         // The motor test without samples: not fed.
         g.on_step(MS, false, true);
         assert!(!g.may_feed_watchdog(late, false));
+    }
+
+    #[test]
+    fn an_mpu_reset_is_bridged_level_then_off_after_the_bridge() {
+        let t0 = u32::MAX - 20 * MS; // across the clock's wrap
+        let mut g = armed_at(t0);
+        g.set_mpu_recovering(true);
+        let at = |ms: u32| t0.wrapping_add(ms * MS);
+        assert_eq!(g.on_tick(at(10)), None, "the controller's hold first");
+        assert_eq!(g.on_tick(at(11)), Some(TickAction::Level));
+        assert_eq!(g.on_tick(at(15)), None, "levelled once");
+        assert_eq!(g.on_tick(at(200)), None, "past 50 ms: bridged");
+        assert!(g.may_feed_watchdog(at(200), true));
+        assert_eq!(g.on_tick(at(251)), Some(OFF));
+        // Steps again (the reset done, INT back): a later stall levels again.
+        let mut g = armed_at(t0);
+        g.set_mpu_recovering(true);
+        assert_eq!(g.on_tick(at(20)), Some(TickAction::Level));
+        g.on_step(at(30), true, true);
+        assert_eq!(g.on_tick(at(35)), None, "steps again");
+        assert_eq!(g.on_tick(at(45)), Some(TickAction::Level));
+        // Recovery flagged only after the hold: levelled then.
+        let mut g = armed_at(t0);
+        assert_eq!(g.on_tick(at(12)), None);
+        g.set_mpu_recovering(true);
+        assert_eq!(g.on_tick(at(17)), Some(TickAction::Level));
+    }
+
+    #[test]
+    fn an_mpu_not_recovering_keeps_the_50_ms_rule_and_holds_the_motors() {
+        let mut g = armed_at(MS);
+        assert_eq!(g.on_tick(40 * MS), None, "no level: the last commands");
+        g.set_mpu_recovering(true);
+        g.set_mpu_recovering(false);
+        assert_eq!(g.on_tick(MS + NO_SAMPLE_TIMEOUT_US + 1), Some(OFF));
     }
 
     #[test]

@@ -7,9 +7,9 @@
 //! Each driver owns its own bus handle of type `I` (the firmware passes
 //! one zero-sized handle per chip over a shared bus; the tests pass handles
 //! onto the simulator). Nothing here blocks except [`Sensors::boot`],
-//! [`Sensors::service`] and one step of [`Sensors::maintain`] (chip
-//! resets need a few ms of delay); call those from boot or a low-priority
-//! context.
+//! [`Sensors::service`] and, disarmed, one step of [`Sensors::maintain`]
+//! (the AK8963's and MS5611's resets and the re-probes need a few ms of
+//! delay); call those from boot or a low-priority context.
 //!
 //! The per-sample read also comes split for an interrupt-driven bus:
 //! [`Sensors::plan_sample`] says which register blocks to read (the
@@ -21,17 +21,50 @@
 //!
 //! Background maintenance ([`Sensors::maintain`]) does one thing per call,
 //! so a caller that holds a lock around each call never holds it for more
-//! than one chip's (re-)initialisation:
+//! than one step:
 //! 1. a bus recovery when one was requested ([`Sensors::request_bus_recovery`],
 //!    e.g. the I2C peripheral saw BUSY while idle) or every present chip
 //!    keeps failing;
-//! 2. a pending re-initialisation, MPU-9250 first (the AK8963 sits behind
-//!    its bypass), then AK8963, then MS5611;
+//! 2. one step of the MPU-9250's re-initialisation, which never waits:
+//!    WHO_AM_I and H_RESET; one PWR_MGMT_1 poll per call until the reset
+//!    is over (at most [`MPU_RESET_TIMEOUT_MS`]), then, in the same call,
+//!    the configuration writes; their read-back. Each step is a few
+//!    register transfers, at most ~0.8 ms of bus time at 400 kHz (the poll
+//!    and the writes): less than one 1 kHz sample period;
 //! 3. the MPU-9250's check [`SensorsConfig::mpu_settle_ms`] after its
 //!    reset (WHO_AM_I and the configuration read-back, PWR_MGMT_1
 //!    included, as PX4 does); its samples are not used before;
-//! 4. a re-probe of one missing (or failed) chip when its [`Backoff`]
+//! 4. the re-check of a suspect MPU-9250 (below);
+//! 5. a pending re-initialisation of the AK8963, then the MS5611;
+//! 6. a re-probe of one missing (or failed) chip when its [`Backoff`]
 //!    expires, preceded by a bus recovery when no chip answers at all.
+//!
+//! # Armed
+//!
+//! An MPU-9250 reset costs its samples for the reset and the 100 ms
+//! settle after it, which the flight controller flies open loop (its
+//! sensor-loss bridge, 0.25 s, in [`crate::flightctl`]); a glitch or a
+//! NACK burst costs a few samples at most. So while the caller says the
+//! craft is armed ([`Sensors::set_armed`]) the MPU-9250 is reset only once
+//! it is proven lost ([`crate::health::ResetPolicy`]): a failed read
+//! streak, a configuration read-back mismatch or a bus recovery only make
+//! it suspect, and [`Sensors::maintain`] re-checks it (WHO_AM_I and the
+//! configuration read-back) at most every 5 ms; a wrong answer on 2
+//! re-checks in a row, or no answer on 20 (≥ 100 ms), resets it
+//! (stepwise, as above). Its samples keep flowing while it is suspect. A
+//! chip that reset itself stops its data-ready interrupt: the caller says
+//! how long the samples have been away ([`Sensors::mpu_sample_gap`]), and
+//! past [`MPU_STALL_US`] the chip is re-checked at once; while it answers
+//! wrong, is reset or settles ([`Sensors::mpu_recovering`]), the caller's
+//! output guard bridges the missing samples
+//! (`crate::outputguard`).
+//! Measured on the simulator's 400 kHz bus (`tests/mpu_reset_in_flight.rs`):
+//! the longest step 0.82 ms (the reset poll with the configuration
+//! writes), the configuration check 0.55 ms. The AK8963's and MS5611's
+//! re-initialisations (whose resets wait 1–3 ms) and every re-probe wait
+//! until the craft is disarmed: the AHRS flies on the gyro and
+//! accelerometer, and the barometer's schedule restarts a lost conversion
+//! by itself.
 
 use ak8963::{parse_status_block, Ak8963, RawMag};
 use embedded_hal::{delay::DelayNs, i2c::I2c};
@@ -40,7 +73,10 @@ use ms5611::{Address as BaroAddress, Measurement, Ms5611, Sampler, SamplerConfig
 
 use crate::boot::{probe_with_retries, BootReport, Chip, ProbeFailure, ProbeResult};
 use crate::boot::{AhrsMode, Capabilities};
-use crate::health::{needs_bus_recovery, Action, HealthPolicy, SensorHealth, SensorState};
+use crate::health::{
+    needs_bus_recovery, Action, HealthPolicy, ResetGate, ResetPolicy, ResetVerdict, SensorHealth,
+    SensorState,
+};
 use crate::schedule::Backoff;
 
 /// Settings for [`Sensors`].
@@ -62,6 +98,8 @@ pub struct SensorsConfig {
     pub probe_retry_ms: u32,
     /// Retry / re-init / failure thresholds.
     pub policy: HealthPolicy,
+    /// When an armed craft may reset the MPU-9250.
+    pub reset_policy: ResetPolicy,
     /// Wait after the MPU-9250's power-up and after each of its resets
     /// before its registers are trusted, ms (datasheet: 100 ms start-up;
     /// PX4 waits 100 ms after a reset).
@@ -83,6 +121,7 @@ impl Default for SensorsConfig {
             probe_attempts: 3,
             probe_retry_ms: 10,
             policy: HealthPolicy::default(),
+            reset_policy: ResetPolicy::default(),
             mpu_settle_ms: 100,
             reprobe_first_ms: 1_000,
             reprobe_max_ms: 32_000,
@@ -109,8 +148,14 @@ pub enum Maintenance {
         /// Success.
         ok: bool,
     },
-    /// The MPU-9250's post-reset check ran: `ok` means WHO_AM_I and the
-    /// configuration read back right and its samples are used again.
+    /// One step of the MPU-9250's re-initialisation ran (the reset or its
+    /// poll, the configuration writes); the last step reports
+    /// [`Maintenance::Reinitialised`].
+    MpuResetStep,
+    /// The MPU-9250's check ran, [`SensorsConfig::mpu_settle_ms`] after
+    /// its reset or as the re-check of a suspect chip: `ok` means WHO_AM_I
+    /// and the configuration read back right and its samples are used
+    /// (again).
     Settled {
         /// Success.
         ok: bool,
@@ -126,6 +171,30 @@ pub enum Maintenance {
         /// Back-off until the next attempt, ms.
         retry_in_ms: u32,
     },
+}
+
+/// No sample step for this long while the MPU-9250 counts as healthy:
+/// it is suspect ([`Sensors::mpu_sample_gap`]). The flight controller's
+/// hold of its last commands (`crate::flightctl::BAD_INPUT_HOLD_US`): a
+/// healthy board's gaps are shorter but for a flash page erase (≤ 40 ms),
+/// which costs one re-check that finds the chip right.
+pub const MPU_STALL_US: u32 = crate::flightctl::BAD_INPUT_HOLD_US;
+
+/// Longest wait for the MPU-9250's H_RESET to clear, ms (the driver's
+/// blocking `init` polls as long).
+pub const MPU_RESET_TIMEOUT_MS: u32 =
+    mpu9250::RESET_MAX_POLLS as u32 * mpu9250::RESET_POLL_INTERVAL_MS;
+
+/// Where the MPU-9250's stepwise re-initialisation stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum MpuReset {
+    /// Not running.
+    Idle,
+    /// H_RESET written at this ms time; polling it, then writing the
+    /// configuration in the step that finds the reset over.
+    Polling(u32),
+    /// Configuration written: read it back next.
+    Verify,
 }
 
 /// First wait before retrying a bus recovery that failed, ms.
@@ -231,6 +300,13 @@ pub struct Sensors<I> {
     /// reset), then it is checked.
     mpu_settle_until_ms: Option<u32>,
     reprobe: [Backoff; 3],
+    /// The craft is armed: resets wait for proof, re-probes wait.
+    armed: bool,
+    /// The MPU-9250 became suspect while armed; the gate is told at the
+    /// next [`maintain`](Sensors::maintain) (which knows the time).
+    mpu_suspect: bool,
+    mpu_gate: ResetGate,
+    mpu_reset: MpuReset,
     /// Spaces out recoveries that failed (SDA held by a short, not a slave).
     recovery_backoff: Backoff,
     recovery_failing: bool,
@@ -389,6 +465,10 @@ impl<I: I2c> Sensors<I> {
             fresh_recovery: false,
             mpu_settle_until_ms: None,
             reprobe: [Backoff::new(cfg.reprobe_first_ms, cfg.reprobe_max_ms); 3],
+            armed: false,
+            mpu_suspect: false,
+            mpu_gate: ResetGate::new(cfg.reset_policy),
+            mpu_reset: MpuReset::Idle,
             recovery_backoff: Backoff::new(RECOVERY_RETRY_FIRST_MS, RECOVERY_RETRY_MAX_MS),
             recovery_failing: false,
         }
@@ -418,7 +498,7 @@ impl<I: I2c> Sensors<I> {
     fn record_imu(&mut self, r: Result<RawSample, mpu9250::Error<I::Error>>) -> Option<RawSample> {
         let r = self.mpu_health.record(r);
         if r.is_err() && self.mpu_health.pending_action() == Action::Reinit {
-            self.reinit_pending[0] = true;
+            self.mpu_trouble();
         }
         r.ok()
     }
@@ -605,14 +685,20 @@ impl<I: I2c> Sensors<I> {
 
     /// Reads back the MPU-9250 and AK8963 configuration registers; a
     /// mismatch means the chip reset itself and schedules a
-    /// re-initialisation. Returns `true` if any mismatch was found. Call
+    /// re-initialisation (armed, the MPU-9250 only becomes suspect: see
+    /// the module docs). Returns `true` if a mismatch was acted on. Call
     /// every ~100 ms.
     pub fn check_configs(&mut self) -> bool {
         let mut found = false;
-        let mut mpu_ok = true;
-        if self.mpu_health.usable() {
+        // Skipped while it is being reset or re-checked: those read it.
+        let mut mpu_ok = self.mpu_reset == MpuReset::Idle && !self.mpu_gate.pending();
+        if mpu_ok && self.mpu_health.usable() {
             match self.mpu.verify_config() {
                 Ok(()) => self.mpu_health.success(),
+                Err(mpu9250::Error::ConfigMismatch { .. }) if self.armed => {
+                    mpu_ok = false;
+                    self.mpu_suspect = true;
+                }
                 Err(mpu9250::Error::ConfigMismatch { .. }) => {
                     found = true;
                     mpu_ok = false;
@@ -620,7 +706,9 @@ impl<I: I2c> Sensors<I> {
                 }
                 Err(_) => {
                     mpu_ok = false;
-                    self.reinit_pending[0] |= self.mpu_health.error() == Action::Reinit;
+                    if self.mpu_health.error() == Action::Reinit {
+                        self.mpu_trouble();
+                    }
                 }
             }
         }
@@ -647,7 +735,9 @@ impl<I: I2c> Sensors<I> {
 
     /// Runs the pending re-initialisations (blocking: chip resets take a
     /// few ms up to ~200 ms for a slow MPU-9250 reset). The MPU goes first
-    /// because the AK8963 is reached through its bypass.
+    /// because the AK8963 is reached through its bypass. For boot and the
+    /// host tools: it ignores [`set_armed`](Self::set_armed) and blocks, so
+    /// a board in flight uses [`maintain`](Self::maintain).
     pub fn service<D: DelayNs>(&mut self, delay: &mut D) -> ServiceReport {
         let mut report = ServiceReport::default();
         let [mpu_p, mag_p, baro_p] = self.reinit_pending;
@@ -719,6 +809,60 @@ impl<I: I2c> Sensors<I> {
                 *p = true;
             }
         }
+        // A recovery clocks the bus free; it does not reset a chip.
+        if self.armed && self.reinit_pending[0] {
+            self.reinit_pending[0] = false;
+            self.mpu_suspect = true;
+        }
+    }
+
+    /// Tells the stack whether the craft is armed (see the module docs):
+    /// call it every flight-controller step, or at least on every change.
+    pub fn set_armed(&mut self, armed: bool) {
+        // A reset asked for on the ground, not yet begun: armed, it needs
+        // the proof first. Only at the arming: a reset proven while armed
+        // stays asked for.
+        if armed && !self.armed && self.reinit_pending[0] {
+            self.reinit_pending[0] = false;
+            self.mpu_suspect = true;
+        }
+        self.armed = armed;
+    }
+
+    /// `gap_us`: the time since the last sample step. Past
+    /// [`MPU_STALL_US`] while the MPU-9250 counts as healthy, its
+    /// data-ready interrupt is gone (it reset itself, or lost power or its
+    /// INT wire): armed, it becomes suspect, re-checked at once rather than
+    /// at the next configuration check. Disarmed, nothing: the
+    /// configuration check finds a reset, and the watchdog rule handles a
+    /// dead INT line.
+    pub fn mpu_sample_gap(&mut self, gap_us: u32) {
+        let stalled = gap_us > MPU_STALL_US;
+        if stalled && self.armed && self.mpu_usable() && !self.mpu_gate.pending() {
+            self.mpu_suspect = true;
+        }
+    }
+
+    /// `true` while the MPU-9250 answered wrong and is being re-checked,
+    /// reset or settled after its reset: its samples stop or are not used
+    /// for that long, which the caller bridges
+    /// (`crate::outputguard::OutputGuard::set_mpu_recovering`). `false`
+    /// for a chip that does not answer at all.
+    pub fn mpu_recovering(&self) -> bool {
+        self.mpu_gate.answered_wrong()
+            || self.reinit_pending[0]
+            || self.mpu_reset != MpuReset::Idle
+            || self.mpu_settle_until_ms.is_some()
+    }
+
+    /// The MPU-9250's failed reads or checks call for a re-initialisation:
+    /// at once when disarmed; armed, it only becomes suspect.
+    fn mpu_trouble(&mut self) {
+        if self.armed {
+            self.mpu_suspect = true;
+        } else {
+            self.reinit_pending[0] = true;
+        }
     }
 
     /// The caller's recovery could not free the bus (SDA or SCL held by
@@ -742,9 +886,12 @@ impl<I: I2c> Sensors<I> {
         self.bus_recoveries
     }
 
-    /// `true` while the MPU-9250 is usable and not settling after a reset.
+    /// `true` while the MPU-9250 is usable, not being reset and not
+    /// settling after a reset.
     fn mpu_usable(&self) -> bool {
-        self.mpu_health.usable() && self.mpu_settle_until_ms.is_none()
+        self.mpu_health.usable()
+            && self.mpu_reset == MpuReset::Idle
+            && self.mpu_settle_until_ms.is_none()
     }
 
     /// What the stack can do with the chips in use now (changes when a
@@ -764,9 +911,10 @@ impl<I: I2c> Sensors<I> {
     }
 
     /// One step of background maintenance at `now_ms` (a wrapping ms
-    /// clock): see the module documentation for the order. Blocks for at
-    /// most one chip's initialisation (the MPU-9250's reset poll, 10 ms
-    /// typically, bounded by the driver at 200 ms).
+    /// clock): see the module documentation for the order. The MPU-9250's
+    /// steps never wait; disarmed, the AK8963's or MS5611's
+    /// re-initialisation or a re-probe blocks for that chip's init (an
+    /// MPU-9250 re-probe up to its 200 ms reset poll).
     pub fn maintain<D: DelayNs>(&mut self, now_ms: u32, delay: &mut D) -> Maintenance {
         if self.recovery_failing {
             // The bus could not be freed: nothing else can work either;
@@ -779,39 +927,17 @@ impl<I: I2c> Sensors<I> {
         if self.needs_bus_recovery() {
             return Maintenance::RecoverBus;
         }
-        let [mpu_p, mag_p, baro_p] = self.reinit_pending;
-        if mpu_p {
-            self.reinit_pending[0] = false;
-            if !self.mpu_health.usable() {
-                return Maintenance::Idle;
-            }
-            let ok = self.init_mpu(delay);
-            self.mpu_health.reinit_done(ok);
-            if ok {
-                self.mpu_settle_until_ms = Some(now_ms.wrapping_add(self.cfg.mpu_settle_ms));
-            }
-            return Maintenance::Reinitialised {
-                chip: Chip::Mpu9250,
-                ok,
-            };
+        if core::mem::take(&mut self.mpu_suspect) {
+            self.mpu_gate.suspect(now_ms);
         }
-        if let Some(until) = self.mpu_settle_until_ms {
-            if (now_ms.wrapping_sub(until) as i32) < 0 {
-                return Maintenance::Idle;
-            }
-            self.mpu_settle_until_ms = None;
-            let ok = mpu_settled(&mut self.mpu).is_ok();
-            if ok {
-                // The AK8963 is reachable again through the bypass: if it
-                // is missing, probe it now rather than at its back-off.
-                if let Some(b) = self.reprobe.get_mut(1) {
-                    b.due_now(now_ms);
-                }
-            } else {
-                self.mpu_health.error();
-                self.reinit_pending[0] = true;
-            }
-            return Maintenance::Settled { ok };
+        if let Some(step) = self.mpu_step(now_ms) {
+            return step;
+        }
+        let [_, mag_p, baro_p] = self.reinit_pending;
+        if self.armed {
+            // Re-initialisations that wait, and re-probes, wait for the
+            // ground.
+            return Maintenance::Idle;
         }
         if mag_p && self.mpu_usable() {
             self.reinit_pending[1] = false;
@@ -833,6 +959,108 @@ impl<I: I2c> Sensors<I> {
             };
         }
         self.reprobe_step(now_ms, delay)
+    }
+
+    /// The MPU-9250's part of [`maintain`](Self::maintain): a step of its
+    /// re-initialisation, its post-reset check, or its re-check; `None`
+    /// when none is due.
+    fn mpu_step(&mut self, now_ms: u32) -> Option<Maintenance> {
+        if self.mpu_reset != MpuReset::Idle {
+            return Some(self.mpu_reset_step(now_ms));
+        }
+        if self.reinit_pending[0] {
+            self.reinit_pending[0] = false;
+            if !self.mpu_health.usable() {
+                return Some(Maintenance::Idle);
+            }
+            let cfg = self.cfg.mpu;
+            if self.mpu.start_reset(&cfg).is_err() {
+                return Some(self.mpu_reset_over(now_ms, false));
+            }
+            self.mpu_reset = MpuReset::Polling(now_ms);
+            return Some(Maintenance::MpuResetStep);
+        }
+        if let Some(until) = self.mpu_settle_until_ms {
+            if (now_ms.wrapping_sub(until) as i32) < 0 {
+                return Some(Maintenance::Idle);
+            }
+            self.mpu_settle_until_ms = None;
+            let ok = mpu_settled(&mut self.mpu).is_ok();
+            if ok {
+                // The AK8963 is reachable again through the bypass: if it
+                // is missing, probe it now rather than at its back-off.
+                if let Some(b) = self.reprobe.get_mut(1) {
+                    b.due_now(now_ms);
+                }
+            } else {
+                self.mpu_health.error();
+                self.reinit_pending[0] = true;
+            }
+            return Some(Maintenance::Settled { ok });
+        }
+        if self.mpu_gate.due(now_ms) {
+            return Some(self.mpu_recheck(now_ms));
+        }
+        None
+    }
+
+    /// One step of the MPU-9250's re-initialisation after its H_RESET.
+    fn mpu_reset_step(&mut self, now_ms: u32) -> Maintenance {
+        match self.mpu_reset {
+            MpuReset::Polling(since) => {
+                if now_ms.wrapping_sub(since) >= MPU_RESET_TIMEOUT_MS {
+                    return self.mpu_reset_over(now_ms, false);
+                }
+                // The poll and the writes fit one step: ~0.8 ms of bus.
+                if !self.mpu.reset_done() {
+                    return Maintenance::MpuResetStep;
+                }
+                if self.mpu.write_config().is_err() {
+                    return self.mpu_reset_over(now_ms, false);
+                }
+                self.mpu_reset = MpuReset::Verify;
+                Maintenance::MpuResetStep
+            }
+            MpuReset::Verify | MpuReset::Idle => {
+                let ok = self.mpu.finish_init().is_ok();
+                self.mpu_reset_over(now_ms, ok)
+            }
+        }
+    }
+
+    /// Ends the MPU-9250's re-initialisation: health books, and on success
+    /// its samples wait [`SensorsConfig::mpu_settle_ms`].
+    fn mpu_reset_over(&mut self, now_ms: u32, ok: bool) -> Maintenance {
+        self.mpu_reset = MpuReset::Idle;
+        self.mpu_health.reinit_done(ok);
+        if ok {
+            self.mpu_settle_until_ms = Some(now_ms.wrapping_add(self.cfg.mpu_settle_ms));
+        }
+        Maintenance::Reinitialised {
+            chip: Chip::Mpu9250,
+            ok,
+        }
+    }
+
+    /// Re-checks a suspect MPU-9250 (WHO_AM_I, configuration read-back)
+    /// and resets it once the [`ResetGate`] calls it lost.
+    fn mpu_recheck(&mut self, now_ms: u32) -> Maintenance {
+        let answered = match mpu_settled(&mut self.mpu) {
+            Ok(()) => {
+                self.mpu_gate.right_answer();
+                self.mpu_health.success();
+                return Maintenance::Settled { ok: true };
+            }
+            Err(e) => !matches!(e, mpu9250::Error::Bus(_)),
+        };
+        let verdict = self.mpu_gate.failed(now_ms, self.armed, answered);
+        if verdict == ResetVerdict::Reset && answered {
+            self.mpu_health.config_mismatch();
+        }
+        if verdict == ResetVerdict::Reset {
+            self.reinit_pending[0] = true;
+        }
+        Maintenance::Settled { ok: false }
     }
 
     fn init_mpu<D: DelayNs>(&mut self, delay: &mut D) -> bool {

@@ -418,7 +418,64 @@ fn single_bad_sample_keeps_motors_and_persistent_fault_disarms() {
     r.run_ms(10);
     assert!(r.fc.is_armed());
     r.vehicle.attitude.w = f32::INFINITY;
-    r.expect_event_after(Event::Disarmed(DisarmCause::SensorFault), 1_000, 100..=101);
+    r.expect_event_after(Event::Disarmed(DisarmCause::SensorFault), 1_000, 250..=251);
+}
+
+#[test]
+fn sensor_loss_is_bridged_last_motors_then_even_thrust_then_disarm() {
+    let mut r = Rig::new();
+    r.take_off();
+    // A manoeuvre: the rate loop commands a torque (motors uneven).
+    r.pilot.sticks.roll = 0.5;
+    r.run_ms(30);
+    let Motors::Run(before) = r.step().motors else {
+        panic!("armed")
+    };
+    let spread = |m: &[f32; 4]| {
+        m.iter().fold(f32::MIN, |a, b| a.max(*b)) - m.iter().fold(f32::MAX, |a, b| a.min(*b))
+    };
+    assert!(spread(&before) > 0.01, "{before:?}");
+    // The MPU stops (lost samples, a reset and its settle): no gyro.
+    r.vehicle.gyro.roll_rps = f32::NAN;
+    for ms in 1..250u32 {
+        let out = r.step();
+        assert!(r.fc.is_armed(), "armed at {ms} ms");
+        assert!(out.events.contains(Event::InputRejected));
+        let Motors::Run(m) = out.motors else {
+            panic!("motors off at {ms} ms")
+        };
+        if ms <= 10 {
+            assert_eq!(m, before, "{ms} ms: the last commands");
+        } else {
+            assert!(spread(&m) < 1e-6, "{ms} ms: even thrust {m:?}");
+            assert!(m.iter().all(|x| *x > 0.04), "{ms} ms: {m:?}");
+        }
+    }
+    let out = r.step();
+    assert!(out
+        .events
+        .contains(Event::Disarmed(DisarmCause::SensorFault)));
+    assert_eq!(out.motors, Motors::Off);
+}
+
+#[test]
+fn sensor_loss_bridge_ends_when_samples_return_and_the_switch_still_disarms() {
+    let mut r = Rig::new();
+    r.take_off();
+    r.vehicle.gyro.roll_rps = f32::NAN;
+    r.run_ms(200);
+    assert!(r.fc.is_armed());
+    // Samples back: the bridge's timer starts over.
+    r.vehicle.gyro.roll_rps = 0.0;
+    assert!(!r.step().events.contains(Event::InputRejected));
+    r.vehicle.gyro.roll_rps = f32::NAN;
+    r.run_ms(200);
+    assert!(r.fc.is_armed(), "a new loss gets the whole bridge");
+    // The pilot's arm switch is obeyed during the bridge.
+    r.pilot.arm_switch = false;
+    let out = r.step();
+    assert!(out.events.contains(Event::Disarmed(DisarmCause::Switch)));
+    assert_eq!(out.motors, Motors::Off);
 }
 
 // ---- failsafe --------------------------------------------------------------

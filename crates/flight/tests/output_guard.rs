@@ -8,7 +8,9 @@ mod common;
 
 use common::*;
 use flight::flightctl::*;
-use flight::outputguard::{ForceOffReason, OutputGuard, OutputVerdict, NO_SAMPLE_TIMEOUT_US};
+use flight::outputguard::{
+    ForceOffReason, OutputGuard, OutputVerdict, TickAction, NO_SAMPLE_TIMEOUT_US,
+};
 
 /// One sample step as the firmware runs it: take the latch, disarm the
 /// controller for it, step, and ask the guard what to write.
@@ -33,7 +35,10 @@ fn samples_after_a_forced_off_do_not_spin_the_motors_again() {
     assert!(matches!(m, Motors::Run(_)));
     // The samples stop; the periodic check forces off.
     let dead_until = r.now_us.wrapping_add(NO_SAMPLE_TIMEOUT_US + 5_000);
-    assert_eq!(g.on_tick(dead_until), Some(ForceOffReason::NoSamples));
+    assert_eq!(
+        g.on_tick(dead_until),
+        Some(TickAction::ForceOff(ForceOffReason::NoSamples))
+    );
     r.now_us = dead_until;
     // They come back with the arm switch still on.
     let (ev, m) = sample_step(&mut r, &mut g);

@@ -420,6 +420,22 @@ where
         delay: &mut D,
         config: &Config,
     ) -> Result<Variant, Error<E>> {
+        let variant = self.start_reset(config).await?;
+        self.wait_reset(delay).await?;
+        self.write_config().await?;
+        self.finish_init().await?;
+        Ok(variant)
+    }
+
+    /// [`init`](Self::init) in steps that never wait, for a caller that
+    /// must not block (re-initialising in flight): step 1 validates and
+    /// adopts `config`, reads WHO_AM_I and writes H_RESET. Then call
+    /// [`reset_done`](Self::reset_done) until it says `true` (the chip
+    /// takes ~1 ms; poll at most for 200 ms), then
+    /// [`write_config`](Self::write_config), then
+    /// [`finish_init`](Self::finish_init). Until that succeeds the driver
+    /// counts as not initialised.
+    pub async fn start_reset(&mut self, config: &Config) -> Result<Variant, Error<E>> {
         config.validate()?;
         self.initialized = false;
         // Keep the bias meaning the same physical rate under the new range.
@@ -432,7 +448,20 @@ where
         self.variant = Some(variant);
         self.write_reg(reg::PWR_MGMT_1, reg::PWR_MGMT_1_H_RESET)
             .await?;
-        self.wait_reset(delay).await?;
+        Ok(variant)
+    }
+
+    /// One PWR_MGMT_1 poll after [`start_reset`](Self::start_reset):
+    /// `true` once H_RESET cleared. A bus error (the chip may NACK while it
+    /// reboots) reads as "not yet".
+    pub async fn reset_done(&mut self) -> bool {
+        let r = self.read_reg(reg::PWR_MGMT_1).await;
+        r.is_ok_and(|v| v & reg::PWR_MGMT_1_H_RESET == 0)
+    }
+
+    /// Writes every configuration register as [`init`](Self::init) does
+    /// after the reset (no read-back: [`finish_init`](Self::finish_init)).
+    pub async fn write_config(&mut self) -> Result<(), Error<E>> {
         for (register, value) in self.register_values() {
             self.write_reg(register, value).await?;
         }
@@ -443,19 +472,22 @@ where
         for (register, value) in self.master_values().into_iter().flatten() {
             self.write_reg(register, value).await?;
         }
+        Ok(())
+    }
+
+    /// Reads the configuration back after [`write_config`](Self::write_config);
+    /// on success the driver is initialised.
+    pub async fn finish_init(&mut self) -> Result<(), Error<E>> {
         self.check_registers().await?;
         self.initialized = true;
-        Ok(variant)
+        Ok(())
     }
 
     async fn wait_reset<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
         for _ in 0..RESET_MAX_POLLS {
             delay.delay_ms(RESET_POLL_INTERVAL_MS).await;
-            // The chip may NACK while it reboots: that only means "not yet".
-            if let Ok(v) = self.read_reg(reg::PWR_MGMT_1).await {
-                if v & reg::PWR_MGMT_1_H_RESET == 0 {
-                    return Ok(());
-                }
+            if self.reset_done().await {
+                return Ok(());
             }
         }
         Err(Error::ResetTimeout)
