@@ -221,6 +221,17 @@ pub enum BoardFault {
         /// Extra time the CPU spends in that SysTick handler.
         handler_ns: u64,
     },
+    /// The next I2C1 event interrupt taken while a received byte waits in
+    /// DR finds that byte `ns` old at the earliest: the CPU was inside a
+    /// section that masks interrupts (a log frame's critical section, a
+    /// flash erase) or a longer SysTick from the byte's arrival on. A
+    /// handler due earlier enters `ns` after the byte arrived; one due
+    /// later is not delayed. One shot. It makes the EV7 late that errata
+    /// ES096 §2.13.2 asks to serve before the next byte is transferred.
+    I2cEventHeldOff {
+        /// How long after the byte's arrival the handler can enter.
+        ns: u64,
+    },
 }
 
 /// A waveform driven onto a GPIO pin from outside the board (a receiver's
@@ -314,6 +325,10 @@ pub struct Hw {
     /// Times that SysTick preempted the STOP window (see
     /// [`Board::i2c1_stop_window_preemptions`]).
     i2c_stop_window_preemptions: u64,
+    /// [`BoardFault::I2cEventHeldOff`] armed: its `ns`.
+    i2c_event_held_off: Option<u64>,
+    /// Times that fault fired (see [`Board::i2c1_events_held_off`]).
+    i2c_events_held_off: u64,
 }
 
 impl Hw {
@@ -783,11 +798,35 @@ impl Hw {
     /// Exception `n` entered: SysTick pended by
     /// [`BoardFault::SysTickInStopWindow`] spends its extra time now.
     pub(crate) fn on_exception_entry(&mut self, n: usize) {
+        if n == IRQ0 + 31 {
+            self.hold_off_i2c_event();
+        }
         if n == SYSTICK {
             if let Some(ns) = self.systick_entry_stall_ns.take() {
                 self.charge(u32::try_from(ns_to_cycles(ns)).unwrap_or(u32::MAX));
             }
         }
+    }
+}
+
+impl Hw {
+    /// [`BoardFault::I2cEventHeldOff`] at an I2C1_EV entry: with a
+    /// received byte in DR, the entry waits until that byte is `ns` old
+    /// (the CPU's time goes to the masking section).
+    fn hold_off_i2c_event(&mut self) {
+        let Some(ns) = self.i2c_event_held_off else {
+            return;
+        };
+        let now = self.now_ns();
+        self.sync_clock();
+        self.i2c.advance(now);
+        let Some(since) = self.i2c.rx_byte_waiting_since() else {
+            return;
+        };
+        self.i2c_event_held_off = None;
+        self.i2c_events_held_off += 1;
+        let late = (since + ns).saturating_sub(now);
+        self.charge(u32::try_from(ns_to_cycles(late)).unwrap_or(u32::MAX));
     }
 }
 
@@ -1279,6 +1318,8 @@ impl Board {
             systick_in_stop_window: None,
             systick_entry_stall_ns: None,
             i2c_stop_window_preemptions: 0,
+            i2c_event_held_off: None,
+            i2c_events_held_off: 0,
         };
         let mut uc =
             Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, hw).map_err(uc_err)?;
@@ -1553,6 +1594,18 @@ impl Board {
         self.uc.get_data().i2c.late_last_byte_reads()
     }
 
+    /// DR reads since power-on that raced the end of the byte on the wire
+    /// (errata ES096 §2.13.2's late EV7): each read a byte twice or lost
+    /// one.
+    pub fn i2c1_late_ev7_reads(&self) -> u64 {
+        self.uc.get_data().i2c.late_ev7_reads()
+    }
+
+    /// How many [`BoardFault::I2cEventHeldOff`] faults have fired.
+    pub fn i2c1_events_held_off(&self) -> u64 {
+        self.uc.get_data().i2c_events_held_off
+    }
+
     /// How many [`BoardFault::SysTickInStopWindow`] SysTicks preempted the
     /// firmware inside the window (the rest waited for it to close).
     pub fn i2c1_stop_window_preemptions(&self) -> u64 {
@@ -1729,6 +1782,7 @@ impl Board {
             BoardFault::SysTickInStopWindow { handler_ns } => {
                 hw.systick_in_stop_window = Some(*handler_ns);
             }
+            BoardFault::I2cEventHeldOff { ns } => hw.i2c_event_held_off = Some(*ns),
             BoardFault::I2c(f) => {
                 let now = hw.now_ns();
                 hw.sync_clock();

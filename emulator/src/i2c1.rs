@@ -37,6 +37,22 @@
 //! the last DR read returns it so: a handler preempted inside that window
 //! reads a wrong last byte, as the silicon does.
 //!
+//! Errata ES096 §2.13.2 "Some software events must be managed before the
+//! current byte is being transferred": an EV7 (RXNE, byte k in DR) not
+//! served before the next byte k+1 has been transferred can read "the same
+//! data twice" or "miss" data. The errata names the outcomes, not the
+//! mechanism or the window; the model's (an assumption, see
+//! [`Ev7Race`]): a DR read in the last SCL period of byte k+1 (its ACK
+//! pulse, when the receiver moves the byte out of the shift register)
+//! races that move. In the period's first half the hardware has already
+//! decided on the stale RXNE: byte k+1 stays in the shift register with
+//! BTF set and SCL held low, but DR still holds byte k with RXNE clear, so
+//! the next DR read returns byte k again (read twice). In its second half
+//! the byte is loaded into DR but the read's RXNE clear lands after the
+//! load: RXNE stays clear and byte k+1 is overwritten by byte k+2 unseen
+//! (missed). A DR read while SCL is held low on BTF (nothing on the wire)
+//! or before that last period is in time.
+//!
 //! BUSY (SR2): set when the peripheral sees SDA or SCL low, cleared when it
 //! sees a STOP, and set for the master's own transfers. The peripheral sees
 //! the pins through its analog filter whatever their GPIO mode, so a chip
@@ -69,6 +85,21 @@
 
 use sim::SimBus;
 use sim::SimBusError;
+
+/// How a DR read racing the end of the byte on the wire (errata ES096
+/// §2.13.2, the late EV7) comes out, by where in that byte's last SCL
+/// period it lands. The errata says only "reading the same data twice or
+/// missing data"; the window (the ACK pulse) and its split into halves are
+/// this model's assumption, stated so a test can aim at each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ev7Race {
+    /// First half: the byte on the wire stays in the shift register (BTF)
+    /// while DR keeps the byte just read, RXNE clear: read twice.
+    ReadTwice,
+    /// Second half: the byte on the wire is loaded into DR with RXNE left
+    /// clear: the next byte overwrites it (missed).
+    Missed,
+}
 
 /// Register offsets (RM0008 §26.6).
 pub mod reg {
@@ -275,6 +306,12 @@ pub struct I2c1 {
     /// Last bytes shifted by the errata's late read (see
     /// [`I2c1::late_last_byte_reads`]).
     late_last_bytes: u64,
+    /// A DR read raced the byte on the wire: its outcome when it ends.
+    ev7_race: Option<Ev7Race>,
+    /// Late-EV7 races since power-on (see [`I2c1::late_ev7_reads`]).
+    ev7_races: u64,
+    /// When the byte now in DR got there (RXNE set).
+    rxne_since_ns: u64,
 }
 
 impl I2c1 {
@@ -313,6 +350,9 @@ impl I2c1 {
             btf_held: false,
             other_master_until: None,
             late_last_bytes: 0,
+            ev7_race: None,
+            ev7_races: 0,
+            rxne_since_ns: 0,
         };
         s.now_ns = s.bus.clock().now_ns();
         s.sync_lines();
@@ -330,6 +370,20 @@ impl I2c1 {
     /// is a wrong byte handed to software.
     pub fn late_last_byte_reads(&self) -> u64 {
         self.late_last_bytes
+    }
+
+    /// How many DR reads since power-on raced the end of the byte on the
+    /// wire (errata ES096 §2.13.2's late EV7): each read a byte twice or
+    /// lost one (see the module documentation).
+    pub fn late_ev7_reads(&self) -> u64 {
+        self.ev7_races
+    }
+
+    /// Master receiver with a byte waiting in DR (RXNE): `Some(when it
+    /// got there)`, in ns. `None` otherwise.
+    pub fn rx_byte_waiting_since(&self) -> Option<u64> {
+        (matches!(self.phase, Phase::RxByte { .. } | Phase::RxStall) && self.dr_rx.is_some())
+            .then_some(self.rxne_since_ns)
     }
 
     /// Master receiver holding SCL low on BTF (byte N−1 in DR, byte N in
@@ -635,10 +689,16 @@ impl I2c1 {
                 0xFF
             }
         };
-        if self.dr_rx.is_none() {
-            self.dr_rx = Some(byte);
-        } else {
-            self.shift_rx = Some(byte);
+        match self.ev7_race.take() {
+            // The hold decided on the stale RXNE: DR keeps the byte read.
+            Some(Ev7Race::ReadTwice) => self.shift_rx = Some(byte),
+            // Loaded, but the read's RXNE clear came after.
+            Some(Ev7Race::Missed) => self.dr_last = byte,
+            None if self.dr_rx.is_none() => {
+                self.dr_rx = Some(byte);
+                self.rxne_since_ns = self.now_ns;
+            }
+            None => self.shift_rx = Some(byte),
         }
         self.phase = Phase::RxStall;
         if !self.after_byte_requests() && self.shift_rx.is_none() {
@@ -736,6 +796,7 @@ impl I2c1 {
         self.pe_off_pending = false;
         self.spurious_berr = false;
         self.btf_held = false;
+        self.ev7_race = None;
     }
 
     /// RCC APB1RSTR.I2C1RST: every register back to its reset value.
@@ -754,6 +815,7 @@ impl I2c1 {
         self.cr1 &= !(cr1::PE | cr1::START | cr1::STOP | cr1::ACK | cr1::POS);
         self.flags &= !(sr1::SB | sr1::ADDR);
         // RM0008 SR1: RxNE, TxE and BTF are cleared by hardware when PE = 0.
+        self.ev7_race = None;
         self.dr_rx = None;
         self.shift_rx = None;
         self.dr_tx = None;
@@ -924,9 +986,18 @@ impl I2c1 {
     }
 
     fn read_dr(&mut self) -> u16 {
+        let stale = self.dr_rx.is_none() && self.shift_rx.is_some();
         if let Some(b) = self.dr_rx.take() {
+            self.ev7_race = self.ev7_race_of_read_now();
             self.dr_last = b;
+        }
+        if self.dr_rx.is_none() && (stale || self.ev7_race.is_none()) {
+            // DR refilled from the shift register: after a read on BTF, or
+            // the second read of a byte read twice (DR still held it).
             self.dr_rx = self.shift_rx.take();
+            if self.dr_rx.is_some() {
+                self.rxne_since_ns = self.now_ns;
+            }
             if self.phase == Phase::RxStall && self.dr_rx.is_some() {
                 // BTF released: the next byte is clocked in.
                 if !self.after_byte_requests() {
@@ -935,6 +1006,23 @@ impl I2c1 {
             }
         }
         u16::from(self.dr_last)
+    }
+
+    /// Errata ES096 §2.13.2, the late EV7: a DR read (RXNE set) in the
+    /// last SCL period of the byte on the wire races its move out of the
+    /// shift register; which half decides the outcome (see [`Ev7Race`]).
+    fn ev7_race_of_read_now(&mut self) -> Option<Ev7Race> {
+        let Phase::RxByte { done, .. } = self.phase else {
+            return None;
+        };
+        let bit = self.bit_ns();
+        let into = self.now_ns.checked_sub(done.saturating_sub(bit))?;
+        self.ev7_races += 1;
+        Some(if into < bit / 2 {
+            Ev7Race::ReadTwice
+        } else {
+            Ev7Race::Missed
+        })
     }
 
     /// Writes `value` to the register at `offset`.

@@ -362,9 +362,112 @@ fn stick_steps_tilt_the_craft_and_it_levels_again() {
     );
     let tilt_after = level.iter().map(tilt_deg).fold(0.0, f64::max);
     println!("fil steps seed 1: roll {roll:.1}°, pitch {pitch:.1}° at the ends of the holds; tilt 1 s after {tilt_after:.1}°");
+    assert_step_figures(&r);
     assert!((roll - 15.0).abs() < 4.0, "roll {roll}°");
     assert!((pitch + 15.0).abs() < 4.0, "pitch {pitch}°");
     assert!(tilt_after < 6.0, "tilt {tilt_after}°");
+}
+
+/// The steps' rise (10–90 %) and overshoot, truth and estimate.
+fn assert_step_figures(r: &FlightRig) {
+    use sim::scenario::{PITCH_STEP_S, ROLL_STEP_S, STEP_HOLD_S};
+    // Rise (10–90 %) and overshoot to the shaped setpoint (±14.5° for the
+    // half stick, as `cargo sim --scenario steps` reports it), on the
+    // truth (1 ms) and on the firmware's own estimate (its 20 Hz log).
+    let euler = |s: &RigSample| {
+        let q = s.truth.q_ned_from_body;
+        let right = q.rotate([0.0, 1.0, 0.0]);
+        let fwd = q.rotate([1.0, 0.0, 0.0]);
+        (right[2].asin().to_degrees(), -fwd[2].asin().to_degrees())
+    };
+    let truth = |axis: usize| -> Vec<(f64, f64)> {
+        r.samples()
+            .iter()
+            .map(|s| (s.t_s, [euler(s).0, euler(s).1][axis]))
+            .collect()
+    };
+    let est = |axis: usize| -> Vec<(f64, f64)> {
+        r.board()
+            .log_lines()
+            .iter()
+            .filter_map(|l| Some((l.host_time_ns as f64 * 1e-9, attitude(&l.text)?[axis])))
+            .collect()
+    };
+    for (name, axis, t0, sp) in [
+        ("roll", 0, ROLL_STEP_S, 14.5),
+        ("pitch", 1, PITCH_STEP_S, -14.5),
+    ] {
+        let t = step_figures(&truth(axis), t0, STEP_HOLD_S, sp);
+        let e = step_figures(&est(axis), t0, STEP_HOLD_S, sp);
+        println!("fil steps seed 1: {name} truth rise {:.3} s overshoot {:.1} %; estimate rise {:.3} s overshoot {:.1} %", t.0, t.1, e.0, e.1);
+        assert!(t.0 < 0.5 && e.0 < 0.5, "{name} rise {t:?} {e:?}");
+        assert!(e.1 < 15.0, "{name} estimate overshoot {e:?}");
+    }
+}
+
+/// Step figures of the series `(t_s, value)` for a step at `t0` of `len`
+/// towards `setpoint`, from the mean over the 0.5 s before: (rise 10–90 %
+/// in s, overshoot beyond the setpoint in % of the step).
+fn step_figures(series: &[(f64, f64)], t0: f64, len: f64, setpoint: f64) -> (f64, f64) {
+    let before: Vec<f64> = series
+        .iter()
+        .filter(|(t, _)| *t >= t0 - 0.5 && *t < t0)
+        .map(|p| p.1)
+        .collect();
+    let from = before.iter().sum::<f64>() / before.len() as f64;
+    let frac = |v: f64| (v - from) / (setpoint - from);
+    let inside: Vec<(f64, f64)> = series
+        .iter()
+        .filter(|(t, _)| *t >= t0 && *t < t0 + len)
+        .map(|&(t, v)| (t, frac(v)))
+        .collect();
+    let at = |f: f64| inside.iter().find(|p| p.1 >= f).map_or(f64::NAN, |p| p.0);
+    let peak = inside.iter().map(|p| p.1).fold(f64::MIN, f64::max);
+    (at(0.9) - at(0.1), ((peak - 1.0) * 100.0).max(0.0))
+}
+
+/// Altitude hold (the `althold` script): a 2 s full-stick climb, then
+/// 20° forward flight. The climb stops without much overshoot (the peak
+/// true height after the stick is centred against the height held 3–5 s
+/// later), and the forward flight holds the height (RMS and largest error
+/// against the height held before it, over the flight and 3 s after).
+#[test]
+fn altitude_hold_stops_a_climb_and_holds_through_forward_flight() {
+    use sim::scenario::{CLIMB2_HOLD_S, CLIMB2_S, FORWARD_HOLD_S, FORWARD_S};
+    let Some(mut r) = rig(Scenario::AltHold, 1) else {
+        return;
+    };
+    let end = FORWARD_S + FORWARD_HOLD_S + 3.0;
+    fly_until(&mut r, end);
+    let stop = CLIMB2_S + CLIMB2_HOLD_S;
+    let (h0, _) = height_stats(&window(&r, CLIMB2_S - 1.0, CLIMB2_S));
+    let (held, _) = height_stats(&window(&r, stop + 3.0, stop + 5.0));
+    let peak = window(&r, stop, FORWARD_S)
+        .iter()
+        .map(|s| s.truth.height_m)
+        .fold(f64::MIN, f64::max);
+    let (before, _) = height_stats(&window(&r, FORWARD_S - 1.0, FORWARD_S));
+    let errs: Vec<f64> = window(&r, FORWARD_S, end)
+        .iter()
+        .map(|s| s.truth.height_m - before)
+        .collect();
+    let rms = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt();
+    let max = errs.iter().map(|e| e.abs()).fold(0.0, f64::max);
+    println!(
+        "fil althold seed 1: climbed {h0:.2} -> {held:.2} m, overshoot {:.3} m; forward flight height error RMS {rms:.3} m, max {max:.3} m",
+        peak - held
+    );
+    assert!(
+        held - h0 > 1.0,
+        "the climb: {h0} -> {held} m\n{}",
+        tail(r.board(), 40)
+    );
+    assert!(peak - held < 0.3, "overshoot {} m", peak - held);
+    assert!(
+        rms < 0.15 && max < 0.3,
+        "forward flight: RMS {rms} m, max {max} m"
+    );
+    assert!(!window(&r, ARM_AT_S + 1.0, end).iter().any(pins_off));
 }
 
 /// A motor stops in the hover: three motors cannot hold a quad-X, the
@@ -479,4 +582,124 @@ fn a_flapping_link_gives_control_back_only_when_steady() {
     assert_eq!(ups_after.len(), 1, "{}", tail(r.board(), 40));
     let after = window(&r, FLAP_S, FLAP_S + FLAP_HOLD_S + 2.0);
     assert!(after.iter().all(|s| !pins_off(s) && !s.quad.on_ground));
+}
+
+// ---- I2C storms in the hover, the IMU lost in a climb ------------------
+
+/// The bus noise of a storm: what every transfer meets while it lasts.
+#[derive(Clone, Copy, Debug)]
+enum Storm {
+    /// A misplaced START/STOP in every transfer (BERR; the chip drops out
+    /// `k` data bytes in, `k` walking over the 14-byte burst), renewed
+    /// every 0.5 ms.
+    BusError,
+    /// Every transfer loses arbitration on its address byte (ARLO; the
+    /// other master then holds the bus for a 3-byte transfer).
+    Arbitration,
+}
+
+/// Runs a storm of `ms` from FAULT_AT_S in the hover, then lifts it.
+fn storm(r: &mut FlightRig, kind: Storm, ms: u32) {
+    let end = FAULT_AT_S + f64::from(ms) * 1e-3;
+    match kind {
+        Storm::Arbitration => {
+            r.board_mut().sim().inject(sim::Fault::ArbitrationLoss {
+                transactions: u32::MAX,
+            });
+            fly_until(r, end);
+        }
+        Storm::BusError => {
+            let mut t = FAULT_AT_S;
+            let mut k = 0;
+            while t < end {
+                r.board_mut()
+                    .sim()
+                    .inject(sim::Fault::BusErrorMidTransfer { after_bytes: k });
+                k = (k + 5) % 15;
+                t += 0.5e-3;
+                fly_until(r, t.min(end));
+            }
+        }
+    }
+    r.board_mut().sim().clear_faults();
+}
+
+/// A 5 ms storm in the hover (about five samples lost or cleared as the
+/// errata's spurious BERR): flown through, no disarm, height within 0.3 m.
+#[test]
+fn a_5_ms_bus_error_storm_in_the_hover_is_flown_through() {
+    let Some(mut r) = hovering(1) else { return };
+    storm(&mut r, Storm::BusError, 5);
+    assert_flown_through(&mut r, "5 ms BERR storm", 0.3);
+}
+
+/// As above with arbitration lost by every transfer for 5 ms.
+#[test]
+#[ignore = "known defect (issue 25 item 2): six failed MPU reads in 5 ms start the MPU's re-initialisation, whose pause stops the samples past the output guard's 50 ms: pins off, the craft falls 1.7 m (seed 1)"]
+fn a_5_ms_arbitration_loss_storm_in_the_hover_is_flown_through() {
+    let Some(mut r) = hovering(1) else { return };
+    storm(&mut r, Storm::Arbitration, 5);
+    assert_flown_through(&mut r, "5 ms ARLO storm", 0.3);
+}
+
+/// 50 ms of bus errors in the hover (every transfer meets one): the
+/// errata's "spurious" BERR is cleared and the read goes on, a chip that
+/// dropped out fails its block; samples keep coming often enough for the
+/// output guard (50 ms), and the craft flies through (0.12 m, seed 1).
+#[test]
+fn a_50_ms_bus_error_storm_in_the_hover_is_flown_through() {
+    let Some(mut r) = hovering(1) else { return };
+    storm(&mut r, Storm::BusError, 50);
+    assert_flown_through(&mut r, "50 ms BERR storm", 0.3);
+}
+
+/// 50 ms of arbitration loss in the hover.
+#[test]
+#[ignore = "known defect (issue 25 item 2): as the 5 ms storm; the pins go off 0.16 s after the storm starts and the craft falls 1.7 m"]
+fn a_50_ms_arbitration_loss_storm_in_the_hover_is_flown_through() {
+    let Some(mut r) = hovering(1) else { return };
+    storm(&mut r, Storm::Arbitration, 50);
+    assert_flown_through(&mut r, "50 ms ARLO storm", 0.5);
+}
+
+/// The sensor board loses power 0.3 s into the full-throttle climb of
+/// `climbloss` (angle mode, the link still up): the output guard must
+/// not leave the ESCs at full throttle. All four pins at the off pulse
+/// within 0.1 s and from then on; the craft climbs no further than it
+/// coasts, and falls.
+#[test]
+fn imu_power_lost_in_a_full_throttle_climb_turns_the_motors_off() {
+    use sim::scenario::CLIMB_LOSS_THROTTLE_S;
+    let Some(mut r) = rig(Scenario::ClimbLinkLoss, 1) else {
+        return;
+    };
+    let at = CLIMB_LOSS_THROTTLE_S + 0.3;
+    fly_until(&mut r, at);
+    let s0 = *r.samples().last().unwrap();
+    let (h0, v0) = (s0.truth.height_m, -s0.truth.velocity_ned_mps[2]);
+    r.board_mut().apply(emulator::BoardFault::ImuIntStops);
+    r.board_mut().sim().inject(sim::Fault::Nack {
+        address: mpu_address(),
+        transactions: None,
+    });
+    fly_until(&mut r, at + 2.0);
+    let off = pins_off_at(&r, at).map(|t| t - at);
+    let g = sim::physics::G0_MPS2;
+    let after = window(&r, at, at + 2.0);
+    let max_h = after.iter().map(|s| s.truth.height_m).fold(0.0, f64::max);
+    let end_h = after.last().unwrap().truth.height_m;
+    let t_off = off.expect("pins never off");
+    // Until the pins go off the motors may push up to 2 g net, then the
+    // craft coasts; 0.3 m for the rotors spinning down.
+    let v1 = v0.max(0.0) + 2.0 * g * t_off;
+    let bound = h0 + v1 * t_off + v1 * v1 / (2.0 * g) + 0.3;
+    println!("fil imu lost in the climb: {h0:.2} m, {v0:.1} m/s up; pins off after {t_off:.3} s; max {max_h:.2} m (bound {bound:.2} m); {end_h:.2} m 2 s later");
+    assert!(
+        t_off <= 0.1,
+        "pins off after {t_off} s\n{}",
+        tail(r.board(), 30)
+    );
+    assert!(window(&r, at + t_off, at + 2.0).iter().all(pins_off));
+    assert!(max_h < bound, "climbed on to {max_h} m");
+    assert!(end_h < max_h - 1.0, "not falling: {end_h} m");
 }

@@ -4,6 +4,11 @@
 //! * "Wrong data read into data register": with byte N−1 in DR and byte N
 //!   in the shift register, reading N−1 after the STOP condition is on the
 //!   bus leaves byte N shifted one bit to the left.
+//! * The late EV7 (ES096 §2.13.2, "Some software events must be managed
+//!   before the current byte is being transferred": "reading the same data
+//!   twice or missing data"): byte k read from DR in the last SCL period
+//!   of byte k+1 races that byte's move out of the shift register; the
+//!   model's window and its halves are an assumption (see `emulator::i2c1`).
 //! * A late STOP for N = 1 clocks one byte more (`i2c1_sequences.rs`,
 //!   `single_byte_reception_with_late_stop_clocks_an_extra_byte`); a late
 //!   RxNE without STOP only stretches SCL (BTF), nothing is lost
@@ -213,4 +218,92 @@ fn two_byte_ack_must_be_cleared_before_data1_ends() {
     let mut r = Rig::new();
     assert!(!two_bytes_sda_released(&mut r, 9 * BIT_NS));
     assert!(r.busy(), "NACK not sent: the bus stays busy");
+}
+
+/// Reads the six offset bytes and two more the simple way (each byte on
+/// RXNE, or on BTF with RXNE clear, as an event-driven reader would see
+/// them), with byte index 1 read `into_ns` into the last SCL period of
+/// byte index 2 (negative: before it); ends with NACK and STOP. Returns
+/// the first six values read and how many late-EV7 races the model saw.
+fn read_with_late_ev7(into_ns: i64) -> (Vec<u8>, u64) {
+    let mut r = Rig::new();
+    load_offsets(&mut r);
+    r.write_bytes(MPU, &[0x13]).unwrap();
+    r.set_cr1(cr1::ACK);
+    r.start_address((MPU << 1) | 1);
+    r.clear_addr();
+    let mut out = Vec::new();
+    r.poll_sr1(sr1::RXNE, 100_000).expect("RXNE of byte 0");
+    out.push(r.rd(reg::DR) as u8);
+    r.poll_sr1(sr1::RXNE, 100_000).expect("RXNE of byte 1");
+    // Byte 2 is on the wire; it ends (ACK pulse included) at `done`.
+    let done = r.i2c.next_event_ns().expect("byte 2 on the wire");
+    let at = (done - BIT_NS).checked_add_signed(into_ns).unwrap();
+    r.wait(at - r.t);
+    out.push(r.rd(reg::DR) as u8);
+    while out.len() < 6 {
+        r.poll_sr1(sr1::RXNE | sr1::BTF, 100_000)
+            .expect("RXNE or BTF");
+        out.push(r.rd(reg::DR) as u8);
+    }
+    r.clear_cr1(cr1::ACK);
+    r.set_cr1(cr1::STOP);
+    r.rd(reg::DR);
+    r.rd(reg::DR);
+    r.wait_stop_cleared(100_000).expect("STOP clears");
+    (out, r.i2c.late_ev7_reads())
+}
+
+#[test]
+fn ev7_served_before_the_next_byte_ends_reads_every_byte_once() {
+    // In time: anywhere before the last SCL period of the byte after it.
+    for into_ns in [-(8 * BIT_NS as i64), -1_000, -1] {
+        let (got, races) = read_with_late_ev7(into_ns);
+        assert_eq!(got, OFFSETS.to_vec(), "read {into_ns} ns into the window");
+        assert_eq!(races, 0);
+    }
+}
+
+#[test]
+fn ev7_late_into_the_next_bytes_ack_pulse_reads_a_byte_twice() {
+    // First half of byte 2's last SCL period: byte 2 held in the shift
+    // register (BTF), DR still byte 1 with RXNE clear; the next read (on
+    // BTF) returns byte 1 again, and everything after comes one late.
+    for into_ns in [0, 600, BIT_NS as i64 / 2 - 1] {
+        let (got, races) = read_with_late_ev7(into_ns);
+        let o = OFFSETS;
+        assert_eq!(
+            got,
+            vec![o[0], o[1], o[1], o[2], o[3], o[4]],
+            "{into_ns} ns"
+        );
+        assert_eq!(races, 1);
+    }
+}
+
+#[test]
+fn ev7_late_to_the_end_of_the_next_byte_misses_it() {
+    // Second half: byte 2 is loaded into DR but RXNE stays clear; byte 3
+    // overwrites it, and the reader never sees byte 2.
+    for into_ns in [BIT_NS as i64 / 2, BIT_NS as i64 - 1] {
+        let (got, races) = read_with_late_ev7(into_ns);
+        let o = OFFSETS;
+        assert_eq!(got[..5], [o[0], o[1], o[3], o[4], o[5]], "{into_ns} ns");
+        assert_eq!(races, 1);
+    }
+}
+
+#[test]
+fn ev7_after_the_next_byte_ended_waits_on_btf_and_loses_nothing() {
+    // RM0008: byte 2 ended with byte 1 unread: BTF, SCL held low; a read
+    // then (however late) is in time.
+    for into_ns in [BIT_NS as i64, 10 * BIT_NS as i64, 400_000] {
+        let (got, races) = read_with_late_ev7(into_ns);
+        assert_eq!(
+            got,
+            OFFSETS.to_vec(),
+            "read {into_ns} ns after the window opened"
+        );
+        assert_eq!(races, 0);
+    }
 }

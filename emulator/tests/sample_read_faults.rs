@@ -49,8 +49,8 @@ fn assert_loop_runs(b: &mut emulator::Board, after: &str) {
         "after {after}: {ready} data-ready, {done} samples processed in 1 s\n{}",
         tail(b, 40)
     );
-    // Start, address, register, BTF, repeated start, address, 11 RXNE and
-    // 2 BTF: about 19 events for the 14-byte block alone.
+    // Start, address, register, BTF, repeated start, address, 13 BTF:
+    // about 19 events for the 14-byte block alone.
     assert!(
         events >= 15 * done,
         "after {after}: {events} I2C1 events for {done} samples: not interrupt-driven?"
@@ -258,5 +258,45 @@ fn systick_inside_the_stop_window_cannot_make_the_last_byte_late() {
         "byte N−1 read after the STOP: a sample's last byte was wrong"
     );
     assert_eq!(health(&b, "mpu", "err"), Some(0), "{}", tail(&b, 20));
+    assert_no_reset(&b);
+}
+
+#[test]
+fn a_late_ev7_never_reads_a_sample_byte_twice_or_misses_one() {
+    // ES096 §2.13.2: an EV7 (RXNE) not served before the next byte has
+    // been transferred can read a byte twice or miss one; in a 14-byte
+    // burst either shifts the bytes after it, a wrong sample nothing can
+    // tell from a right one. The I2C1 handler is held off (a section that
+    // masks interrupts) from a received byte's arrival for 18–24 µs, about
+    // one byte time at 400 kHz, aimed at every byte of the burst in turn:
+    // 240 reads. The firmware must never read DR while the next byte is
+    // being transferred. (The firmware that read the burst's first bytes
+    // on RXNE failed here: 20 races in the 60 reads the fault reached
+    // before the errors stopped the samples, 49 MPU errors: a byte read
+    // twice left BTF with RXNE clear, which that handler did not act on,
+    // so reads timed out and the MPU was re-initialised; a byte missed
+    // raised no error at all: the burst was read one byte long and its
+    // bytes shifted, a wrong sample used — 12 of 12 in a probe at 21 µs.)
+    let Some(mut b) = board() else { return };
+    boot_ok(&mut b);
+    run_until(&mut b, 2 * S);
+    let fired0 = b.i2c1_events_held_off();
+    for i in 0..240u64 {
+        into_next_read(&mut b, 80_000 + (i % 12) * 22_500);
+        b.apply(emulator::BoardFault::I2cEventHeldOff {
+            ns: 18_000 + (i / 12) * 300,
+        });
+    }
+    run_for(&mut b, 1_100 * MS);
+    let fired = b.i2c1_events_held_off() - fired0;
+    assert!(fired >= 200, "the hold-off fired {fired} times");
+    assert_eq!(
+        b.i2c1_late_ev7_reads(),
+        0,
+        "DR read racing the next byte: a sample byte read twice or missed (mpu err {:?})",
+        health(&b, "mpu", "err")
+    );
+    assert_eq!(health(&b, "mpu", "err"), Some(0), "{}", tail(&b, 20));
+    assert_loop_runs(&mut b, "handlers held off by a byte time");
     assert_no_reset(&b);
 }

@@ -30,7 +30,10 @@
 //!   §2.13.2 asks for the master's events to be handled before the current
 //!   byte ends (its workaround for interrupt-driven transfers). The
 //!   handler is one short step per event; every decision falls where SCL
-//!   is held low (ADDR, BTF), the endings are RM0008's for N = 1 and N ≥ 3.
+//!   is held low (ADDR, BTF), the endings are RM0008's for N = 1 and N ≥ 3,
+//!   and a block of N ≥ 3 takes every byte on BTF (not RXNE), so no DR read
+//!   races the next byte's transfer (ES096 §2.13.2: "reading the same data
+//!   twice or missing data"); SCL waits a handler's latency per byte.
 //!   The two windows the errata wants uninterrupted (ADDR clear → STOP for
 //!   N = 1; STOP → reading byte N−1 for N ≥ 3) run in a critical section:
 //!   SysTick (hardware priority 0) is above the handlers, and stays there
@@ -397,8 +400,11 @@ fn read(i2c: &pac::i2c1::RegisterBlock, address: u8, buf: &mut [u8]) -> Result<(
             cr1_set(i2c, CR1_ACK);
             start(i2c, addr_byte)?;
             clear_addr(i2c);
+            // On BTF, as the sample read (ES096 §2.13.2: a DR read racing
+            // the next byte's transfer reads a byte twice or misses one;
+            // this task can be preempted between the flag and the read).
             for b in head {
-                wait(i2c, RXNE)?;
+                wait(i2c, BTF)?;
                 *b = read_dr(i2c);
             }
             // Data N−2 in DR, N−1 in the shift register.
@@ -779,10 +785,11 @@ impl SampleRead {
         self.left = self.left.saturating_sub(1);
     }
 
-    /// One event (RM0008 §26.3.3, master receiver with the BTF endings:
-    /// SCL is held low at every decision, so none depends on how soon the
-    /// handler runs, except the single-byte ending's STOP, programmed in
-    /// the same handler run as the ADDR clear). `Some(true)` when the block
+    /// One event (RM0008 §26.3.3, master receiver with every byte of a
+    /// block of three or more taken on BTF: SCL is held low at every
+    /// decision and every DR read, so none depends on how soon the handler
+    /// runs, except the single-byte ending's STOP, programmed in the same
+    /// handler run as the ADDR clear). `Some(true)` when the block
     /// ended, `None` for an event this step does not act on.
     fn on_event(&mut self, i2c: &pac::i2c1::RegisterBlock, sr1: u16) -> Option<bool> {
         if sr1 & SB != 0 {
@@ -818,9 +825,6 @@ impl SampleRead {
             } else {
                 clear_addr(i2c);
                 self.step = Step::Receive;
-                if self.left > 3 {
-                    cr2_modify(i2c, CR2_ITBUFEN, 0);
-                }
             }
             return Some(false);
         }
@@ -834,12 +838,12 @@ impl SampleRead {
                 self.put(read_dr(i2c));
                 Some(true)
             }
-            Step::Receive if self.left > 3 && sr1 & RXNE != 0 => {
+            Step::Receive if self.left > 3 && sr1 & BTF != 0 => {
+                // EV7 on BTF, not RXNE: DR is read only while SCL is held
+                // low, never while the next byte is being transferred,
+                // which ES096 §2.13.2 says can read a byte twice or miss
+                // one (a handler held off about a byte time would).
                 self.put(read_dr(i2c));
-                if self.left == 3 {
-                    // The last three bytes are taken on BTF.
-                    cr2_modify(i2c, 0, CR2_ITBUFEN);
-                }
                 Some(false)
             }
             Step::Receive if self.left == 3 && sr1 & BTF != 0 => {
