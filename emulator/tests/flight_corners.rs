@@ -100,9 +100,9 @@ fn pessimistic_corner_imu_power_lost_turns_the_motors_off() {
 }
 
 /// 30 ms of NACKs from the MPU-9250 in the hover at the pessimistic
-/// corner: flown through at the typical model (`flight_in_the_loop`), but
-/// here the failed samples end in MPU re-initialisations (`reinit=3`) and
-/// the motors go off: the known defect of the MPU-reset scenario.
+/// corner: the failed samples end in MPU re-initialisations (`reinit=3`)
+/// and the motors go off, the known defect of `flight_in_the_loop`'s
+/// NACK-burst and MPU-reset scenarios.
 #[test]
 #[ignore = "known defect (issue 25 item 2): at the pessimistic corner the NACK burst ends in MPU re-initialisations that stop the samples past the output guard's 50 ms, and the motors go off"]
 fn pessimistic_corner_flies_through_a_nack_burst() {
