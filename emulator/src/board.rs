@@ -2,9 +2,13 @@
 //! models, the run loop (instruction-count slices with interrupts delivered
 //! between them), resets, RTT and the test/CLI API.
 //!
-//! Time: `Hw::cycles` counts 72 MHz core cycles (13.9 ns) and is the one
-//! clock: simulated time, SysTick, DWT CYCCNT and every peripheral's event
-//! times follow it. Each translated block costs the cycles the model in
+//! Time: `Hw::cycles` counts core (HCLK) cycles and is the one clock:
+//! simulated time is those cycles at the HCLK the firmware programs in RCC
+//! ([`crate::rcc::CoreClock`]: 8 MHz HSI from reset, 72 MHz from the
+//! crystal's PLL, 64 MHz from the HSI's), SysTick and DWT CYCCNT count
+//! them, and every peripheral's event times are in ns on their own bus
+//! clocks (TIM3/TIM4 on the APB1 timer clock, USART1 on PCLK2, I2C1 on
+//! PCLK1, RM0008 §7.2). Each translated block costs the cycles the model in
 //! [`crate::cycles`] gives its instructions (computed once per block), a
 //! block reached by a taken branch its pipeline refill and flash wait
 //! states, an exception its entry, tail-chain or return, an APB register
@@ -20,7 +24,7 @@ use crate::flash::{Flash, FlashEffect};
 use crate::gpio::{Afio, PinConfig, Port};
 use crate::i2c1::{I2c1, PinMode};
 use crate::iwdg::{Iwdg, LSI_NOMINAL_HZ};
-use crate::rcc::{Rcc, ResetCause};
+use crate::rcc::{CoreClock, Rcc, ResetCause, HSI_HZ};
 use crate::rtt::{LogLine, RttHost, RttMode, TargetMemory};
 use crate::scs::{Dwt, Nvic, SysTick, IRQ0, SYSTICK};
 use crate::tim::GpTimer;
@@ -29,8 +33,6 @@ use std::path::Path;
 use unicorn_engine::unicorn_const::{uc_error, Arch, Mode, Prot};
 use unicorn_engine::{ArmCpuModel, RegisterARM, Unicorn};
 
-/// CPU clock (the firmware's configuration; checked when it switches SYSCLK).
-pub const CPU_HZ: u64 = 72_000_000;
 /// SRAM base and size of the STM32F103C8 (20 KiB).
 pub const RAM_BASE: u32 = 0x2000_0000;
 /// SRAM size.
@@ -89,15 +91,6 @@ const USART1_END: u32 = 0x4001_3BFF;
 /// §9.3.7 table 43, no remap).
 pub const TIM3_PINS: [(usize, u32); 4] = [(0, 6), (0, 7), (1, 0), (1, 1)];
 
-/// Simulated ns for `cycles` at 72 MHz.
-pub fn cycles_to_ns(cycles: u64) -> u64 {
-    cycles * 125 / 9
-}
-/// Cycles at 72 MHz for `ns`, rounded up.
-pub fn ns_to_cycles(ns: u64) -> u64 {
-    (ns * 9).div_ceil(125)
-}
-
 /// What stops the emulated board.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum BoardError {
@@ -133,8 +126,8 @@ pub enum BoardError {
         /// Address.
         sp: u32,
     },
-    /// The firmware configured a clock tree other than the one the time
-    /// base assumes.
+    /// The firmware configured a clock tree outside the manual's limits
+    /// (RM0008 §7.2 maxima, §3.3.3 flash wait states for SYSCLK).
     Clock(String),
     /// The firmware ELF could not be used.
     Elf(String),
@@ -277,6 +270,8 @@ pub struct Executed {
 pub struct Hw {
     /// Core cycles since power-on (the time base).
     pub cycles: u64,
+    /// Those cycles in ns, at the HCLK of the moment.
+    core: CoreClock,
     /// Instructions and the cycles they took since power-on.
     pub executed: Executed,
     cycle_model: CycleModel,
@@ -333,7 +328,7 @@ pub struct Hw {
 
 impl Hw {
     fn now_ns(&self) -> u64 {
-        cycles_to_ns(self.cycles)
+        self.core.ns_at(self.cycles)
     }
 
     fn fail(&mut self, e: BoardError) {
@@ -696,9 +691,7 @@ impl Hw {
                 if self.rcc.apb2rstr & (1 << 14) != 0 {
                     self.usart1.reset();
                 }
-                self.tim3.set_clock_hz(self.rcc.apb1_timer_hz(), now);
-                self.tim4.set_clock_hz(self.rcc.apb1_timer_hz(), now);
-                self.usart1.set_pclk_hz(self.rcc.pclk2_hz());
+                self.follow_clock_tree(now);
                 for (bit, port) in [(2, 0), (3, 1), (4, 2)] {
                     if self.rcc.apb2rstr & (1 << bit) != 0 && old2 & (1 << bit) == 0 {
                         self.ports[port] = Port::default();
@@ -712,6 +705,7 @@ impl Hw {
             0x4002_2000..=0x4002_23FF => match self.flash.write(a - 0x4002_2000, v & mask) {
                 Some(effect) => {
                     self.flash_effect(effect);
+                    self.check_flash_latency();
                     true
                 }
                 None => false,
@@ -733,6 +727,38 @@ impl Hw {
         }
     }
 
+    /// The bus clocks and the core's time base follow RCC's clock tree from
+    /// `now` on (RM0008 §7.2, figure 8): TIM3/TIM4 on the APB1 timer clock
+    /// (PCLK1, ×2 when the APB1 prescaler is not 1), USART1 on PCLK2, I2C1
+    /// on PCLK1, the CPU, SysTick and DWT on HCLK.
+    fn follow_clock_tree(&mut self, now: u64) {
+        self.tim3.set_clock_hz(self.rcc.apb1_timer_hz(), now);
+        self.tim4.set_clock_hz(self.rcc.apb1_timer_hz(), now);
+        self.usart1.set_pclk_hz(self.rcc.pclk2_hz());
+        self.sync_clock();
+        self.i2c.set_pclk1_hz(self.rcc.pclk1_hz(), now);
+        self.core.retune(self.rcc.hclk_hz(), self.cycles);
+        self.check_flash_latency();
+    }
+
+    /// FLASH_ACR.LATENCY against SYSCLK (RM0008 §3.3.3: zero wait states
+    /// up to 24 MHz, one up to 48 MHz, two up to 72 MHz): fewer than the
+    /// manual asks for stops the board (the flash would return wrong data).
+    fn check_flash_latency(&mut self) {
+        let sysclk = self.rcc.sysclk_hz();
+        let needed = match sysclk {
+            0..=24_000_000 => 0,
+            24_000_001..=48_000_000 => 1,
+            _ => 2,
+        };
+        let ws = self.flash.wait_states();
+        if ws < needed {
+            self.fail(BoardError::Clock(format!(
+                "FLASH_ACR.LATENCY {ws} at SYSCLK {sysclk} Hz: RM0008 §3.3.3 asks for {needed} wait states"
+            )));
+        }
+    }
+
     /// A tight loop polling an unchanged I2C1 status or control register
     /// (the same value read again within a few instructions) would only
     /// spin until the peripheral's next bus event: skip to that event. Time
@@ -748,7 +774,7 @@ impl Hw {
             return;
         }
         if let Some(t) = self.i2c.next_event_ns() {
-            let target = ns_to_cycles(t).min(self.slice_end);
+            let target = self.core.cycle_at(t).min(self.slice_end);
             if target > self.cycles {
                 self.cycles = target;
             }
@@ -803,7 +829,8 @@ impl Hw {
         }
         if n == SYSTICK {
             if let Some(ns) = self.systick_entry_stall_ns.take() {
-                self.charge(u32::try_from(ns_to_cycles(ns)).unwrap_or(u32::MAX));
+                let n = self.core.cycles_for(ns);
+                self.charge(u32::try_from(n).unwrap_or(u32::MAX));
             }
         }
     }
@@ -849,7 +876,8 @@ fn preempt_in_stop_window(uc: &mut Unicorn<'_, Hw>) {
     }
     hw.systick_entry_stall_ns = None;
     hw.charge_exception(ExceptionStep::Entry);
-    hw.charge(u32::try_from(ns_to_cycles(ns)).unwrap_or(u32::MAX));
+    let n = hw.core.cycles_for(ns);
+    hw.charge(u32::try_from(n).unwrap_or(u32::MAX));
     hw.charge_exception(ExceptionStep::Return);
     hw.i2c_stop_window_preemptions += 1;
 }
@@ -952,6 +980,7 @@ fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
     let hw = uc.get_data_mut();
     hw.charge_bus_access(a);
     let pend_before = hw.nvic.pending;
+    let hclk_before = hw.core.hz();
     hw.resched = true;
     if !hw.periph_write(a, (value as u32) << shift, mask) {
         hw.fail(BoardError::Unmodelled {
@@ -969,8 +998,9 @@ fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
         refresh_irq_lines(uc.get_data_mut());
     }
     let hw = uc.get_data_mut();
-    // A write that pends an exception, stalls the CPU or resets ends the
-    // slice at the next block so the run loop acts on it at once. (Not
+    // A write that pends an exception, stalls the CPU, resets or changes
+    // HCLK (the slice's end is in cycles of the old clock) ends the slice
+    // at the next block so the run loop acts on it at once. (Not
     // `emu_stop` here: unicorn would re-execute the store on restart.)
     if hw.error.is_some() {
         let _ = uc.emu_stop();
@@ -978,10 +1008,17 @@ fn mmio_write(uc: &mut Unicorn<'_, Hw>, addr: u32, size: usize, value: u64) {
         || hw.nvic.reset_requested
         || hw.nvic.pending != pend_before
         || hw.code_changed
+        || hw.core.hz() != hclk_before
         || (0x4001_0400..0x4001_0800).contains(&a)
     {
         hw.slice_end = hw.cycles;
     }
+}
+
+/// A peripheral or system-control register (not memory).
+fn is_register(addr: u32) -> bool {
+    (PERIPH_BASE..PERIPH_BASE + PERIPH_SIZE).contains(&addr)
+        || (PPB_BASE..PPB_BASE + PPB_SIZE).contains(&addr)
 }
 
 /// A register of DMA1 or of a DMA requester: its state depends on the
@@ -1281,6 +1318,7 @@ impl Board {
         rcc.hse_works = config.hse_works;
         let hw = Hw {
             cycles: 0,
+            core: CoreClock::new(HSI_HZ),
             executed: Executed::default(),
             cycle_model: config.cycle_model,
             fall_through: None,
@@ -1299,9 +1337,9 @@ impl Board {
             exti: Exti::default(),
             iwdg: Iwdg::new(config.lsi_hz),
             i2c: I2c1::new(bus.clone()),
-            tim3: GpTimer::new("TIM3", 8_000_000),
-            tim4: GpTimer::new("TIM4", 8_000_000),
-            usart1: Usart::new("USART1", 8_000_000),
+            tim3: GpTimer::new("TIM3", HSI_HZ),
+            tim4: GpTimer::new("TIM4", HSI_HZ),
+            usart1: Usart::new("USART1", HSI_HZ),
             dma1: Dma::new(),
             driven: Vec::new(),
             clock,
@@ -1506,12 +1544,11 @@ impl Board {
             hw.i2c.peripheral_reset();
             hw.update_i2c_pins();
             hw.tim3.reset();
-            hw.tim3.set_clock_hz(hw.rcc.apb1_timer_hz(), now);
             hw.drive_pins_to(now);
             hw.tim4.reset();
-            hw.tim4.set_clock_hz(hw.rcc.apb1_timer_hz(), now);
             hw.usart1.reset();
-            hw.usart1.set_pclk_hz(hw.rcc.pclk2_hz());
+            // Back on the HSI (RM0008 §7.3.2: CFGR resets to 0).
+            hw.follow_clock_tree(now);
             hw.dma1 = Dma::new();
             hw.exc_return = None;
             hw.cpu_fault = None;
@@ -1580,6 +1617,63 @@ impl Board {
         let mut b = [0u8; 4];
         self.uc.mem_read(u64::from(addr), &mut b).ok()?;
         Some(u32::from_le_bytes(b))
+    }
+
+    /// Reads the word at `addr` as a debug probe does through its access
+    /// port (no CPU cycles): memory, or a peripheral register through its
+    /// model now (with its read side effects, e.g. SR then DR clears).
+    pub fn debug_read(&mut self, addr: u32) -> Result<u32, BoardError> {
+        if !is_register(addr) {
+            return self
+                .read_word(addr)
+                .ok_or_else(|| BoardError::Cpu(format!("debug read of unmapped {addr:#010x}")));
+        }
+        let now = self.now_ns();
+        catch_up_usart1(&mut self.uc, now);
+        let hw = self.uc.get_data_mut();
+        let v = if hw.failed_on_unclocked(addr, 0) {
+            None
+        } else {
+            hw.periph_read(addr & !3)
+        };
+        match (hw.error.take(), v) {
+            (Some(e), _) => Err(e),
+            (None, Some(v)) => Ok(v),
+            (None, None) => Err(BoardError::Unmodelled {
+                addr,
+                write: None,
+                size: 4,
+                pc: 0,
+            }),
+        }
+    }
+
+    /// Writes the word at `addr` as a debug probe does (no CPU cycles):
+    /// memory, or a peripheral register through its model now; a register
+    /// write the board refuses (unmodelled, unclocked, a clock tree out of
+    /// the manual's limits) is the error.
+    pub fn debug_write(&mut self, addr: u32, v: u32) -> Result<(), BoardError> {
+        if !is_register(addr) {
+            return self
+                .uc
+                .mem_write(u64::from(addr), &v.to_le_bytes())
+                .map_err(uc_err);
+        }
+        let now = self.now_ns();
+        catch_up_usart1(&mut self.uc, now);
+        let hw = self.uc.get_data_mut();
+        if !hw.failed_on_unclocked(addr, 0) && !hw.periph_write(addr & !3, v, u32::MAX) {
+            hw.fail(BoardError::Unmodelled {
+                addr,
+                write: Some(v),
+                size: 4,
+                pc: 0,
+            });
+        }
+        serve_dma(&mut self.uc, now);
+        let hw = self.uc.get_data_mut();
+        refresh_irq_lines(hw);
+        hw.error.take().map_or(Ok(()), Err)
     }
 
     /// The simulator's bus (chips, world, truth, fault injection).
@@ -1806,8 +1900,14 @@ impl Board {
     /// Runs until `t_ns` (simulated); stops early with the error that
     /// stopped the board.
     pub fn run_until_ns(&mut self, t_ns: u64) -> Result<(), BoardError> {
-        let end = ns_to_cycles(t_ns);
-        while self.uc.get_data().cycles < end {
+        // `t_ns` in cycles of the clock of the moment: a slice ends where
+        // HCLK changes, and the next one converts again.
+        loop {
+            let hw = self.uc.get_data();
+            let end = hw.core.cycle_at(t_ns);
+            if hw.cycles >= end {
+                break;
+            }
             self.step(end)?;
         }
         self.poll_rtt();
@@ -1893,7 +1993,7 @@ impl Board {
         let mut next = end.min(now + MAX_SLICE);
         let mut at_ns = |t: Option<u64>| {
             if let Some(t) = t {
-                next = next.min(ns_to_cycles(t).max(now + 1));
+                next = next.min(hw.core.cycle_at(t).max(now + 1));
             }
         };
         at_ns(Some(self.next_rtt_poll_ns));
@@ -1943,7 +2043,7 @@ impl Board {
         let r = self.uc.emu_start(u64::from(pc | 1), 0, 0, 0);
         let hw = self.uc.get_data_mut();
         if hw.stall_ns > 0 {
-            hw.cycles += ns_to_cycles(hw.stall_ns);
+            hw.cycles += hw.core.cycles_for(hw.stall_ns);
             hw.stall_ns = 0;
         }
         if hw.code_changed {
@@ -2031,7 +2131,8 @@ mod tests {
             0xE000_E010,
         );
         let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
-        b.run_until_ns(cycles_to_ns(10_100))
+        // The core runs on the 8 MHz HSI from reset: 125 ns a cycle.
+        b.run_until_ns(10_100 * 125)
             .unwrap_or_else(|e| panic!("{e}"));
         let ticks = reg(&b, RegisterARM::R4);
         // One tick every LOAD + 1 = 101 cycles from the enable.
@@ -2118,8 +2219,10 @@ mod tests {
     }
 
     #[test]
-    fn time_base_is_72_mhz() {
-        assert_eq!(cycles_to_ns(72_000_000), 1_000_000_000);
-        assert_eq!(ns_to_cycles(1_000), 72);
+    fn the_time_base_is_the_hsi_from_reset() {
+        let fw = bare(&[0xE7FE], 0);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        b.run_until_ns(1_000_000).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(b.uc.get_data().cycles, 8_000);
     }
 }

@@ -2,10 +2,13 @@
 //! the errata ES096 behaviours the firmware must survive, over the
 //! simulator's chips (`sim::SimBus`'s wire-level steps).
 //!
-//! Time: a transfer advances in bus time. One SCL period comes from CR2.FREQ
-//! and CCR (standard mode: 2·CCR·T_PCLK1; fast mode: 3·CCR·T_PCLK1 with
-//! DUTY = 0, 25·CCR·T_PCLK1 with DUTY = 1; rise times are not added), so
-//! FREQ = 36, CCR = 0x801E gives 2.5 µs per bit. A START takes one period,
+//! Time: a transfer advances in bus time. One SCL period comes from CCR
+//! and the peripheral's clock PCLK1 (RM0008 §26.6.8: standard mode
+//! 2·CCR·T_PCLK1; fast mode 3·CCR·T_PCLK1 with DUTY = 0, 25·CCR·T_PCLK1
+//! with DUTY = 1; rise times are not added), the clock RCC gives it
+//! ([`I2c1::set_pclk1_hz`]), not the one CR2.FREQ claims: at PCLK1 =
+//! 36 MHz, CCR = 0x801E gives 2.5 µs per bit; the same CCR at 32 MHz
+//! (the HSI fallback's APB1) 2.8125 µs. A START takes one period,
 //! an address or data byte nine, a STOP one. Flags appear when the byte
 //! ends; the caller advances time with [`I2c1::advance`] (and every
 //! register access does). While another device holds SCL low, a START,
@@ -72,7 +75,8 @@
 //! let mut i2c = I2c1::new(bus);
 //! let af = PinMode::AlternateOpenDrain;
 //! i2c.set_pins(af, af, 0);
-//! i2c.write(reg::CR2, 36, 0); // PCLK1 = 36 MHz
+//! i2c.set_pclk1_hz(36_000_000, 0);
+//! i2c.write(reg::CR2, 36, 0); // FREQ: PCLK1 = 36 MHz
 //! i2c.write(reg::CCR, 0x801E, 0); // fast mode, 400 kHz
 //! i2c.write(reg::CR1, cr1::PE | cr1::START, 0);
 //! assert_eq!(i2c.read(reg::SR1, 2_499) & sr1::SB, 0);
@@ -263,6 +267,8 @@ enum Phase {
 pub struct I2c1 {
     bus: SimBus,
     now_ns: u64,
+    /// The peripheral's clock (APB1).
+    pclk1_hz: u32,
     cr1: u16,
     cr2: u16,
     oar1: u16,
@@ -315,12 +321,15 @@ pub struct I2c1 {
 }
 
 impl I2c1 {
-    /// The peripheral at its reset state, pins as inputs, with `bus` behind it.
-    /// Build `bus` with `SimConfig { bus_hz: None, .. }`: the emulator owns time.
+    /// The peripheral at its reset state, pins as inputs, with `bus` behind
+    /// it, on a 36 MHz PCLK1 (the board's 72 MHz tree; see
+    /// [`I2c1::set_pclk1_hz`]). Build `bus` with `SimConfig { bus_hz: None,
+    /// .. }`: the emulator owns time.
     pub fn new(bus: SimBus) -> Self {
         let mut s = Self {
             bus,
             now_ns: 0,
+            pclk1_hz: 36_000_000,
             cr1: 0,
             cr2: 0,
             oar1: 0,
@@ -422,9 +431,18 @@ impl I2c1 {
 
     // ---------------------------------------------------------------- time
 
-    /// One SCL period in ns from CR2.FREQ and CCR (at least 1 ns).
+    /// The peripheral's clock PCLK1 becomes `hz` at `now_ns` (RCC's APB1
+    /// prescaler or SYSCLK changed); a byte already on the wire keeps its
+    /// timing.
+    pub fn set_pclk1_hz(&mut self, hz: u32, now_ns: u64) {
+        if hz != self.pclk1_hz {
+            self.advance(now_ns);
+            self.pclk1_hz = hz.max(1);
+        }
+    }
+
+    /// One SCL period in ns from CCR and PCLK1 (at least 1 ns).
     pub fn bit_ns(&self) -> u64 {
-        let freq_mhz = u64::from((self.cr2 & cr2::FREQ_MASK).max(2));
         let ccr = u64::from(self.ccr & 0x0FFF).max(1);
         let clocks = if self.ccr & 0x8000 == 0 {
             2 * ccr
@@ -433,7 +451,7 @@ impl I2c1 {
         } else {
             25 * ccr
         };
-        (clocks * 1_000 / freq_mhz).max(1)
+        (clocks * 1_000_000_000 / u64::from(self.pclk1_hz)).max(1)
     }
 
     /// Bus progress up to `now_ns`.

@@ -11,8 +11,13 @@
 //! own table (`rtt`). Any access to a register that is not modelled stops
 //! the board with an error.
 //!
-//! Not modelled: the PLL/HSI clock before the switch (the CPU counts at
-//! 72 MHz from reset), instruction timing beyond the per-block cycle
+//! The clock tree follows RCC (`rcc`): the core runs on the 8 MHz HSI
+//! from reset and at the PLL's 72 MHz (crystal) or 64 MHz (HSI fallback)
+//! once the firmware switches, and the timers, USART1 and I2C1 run on
+//! their APB clocks.
+//!
+//! Not modelled: the HSI's and LSE's frequency error (both exact), the
+//! switch's few-cycle delay, instruction timing beyond the per-block cycle
 //! model of `cycles` (no bus contention with DMA, no data-dependent
 //! multiply/divide times),
 //! the process stack, MPU/FPU (none on the M3 part used), DMA2, timers

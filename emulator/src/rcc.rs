@@ -1,6 +1,9 @@
 //! Reset and clock control (RM0008 §7.3): oscillator ready bits with
 //! start-up times, the system clock switch, peripheral clock enables and
-//! resets, and the reset flags in CSR.
+//! resets, and the reset flags in CSR; the clock tree those registers
+//! program (§7.2, figure 8: SYSCLK from HSI, HSE or the PLL, the AHB and
+//! APB prescalers, the APB1 timers' ×2) and the core's time base that
+//! follows HCLK ([`CoreClock`]).
 
 /// HSE start-up time (DS5319 table 22, t_SU(HSE) typical 2 ms).
 pub const HSE_STARTUP_NS: u64 = 2_000_000;
@@ -8,6 +11,71 @@ pub const HSE_STARTUP_NS: u64 = 2_000_000;
 pub const PLL_LOCK_NS: u64 = 200_000;
 /// LSI start-up (DS5319 table 28, t_SU(LSI) max 85 µs).
 pub const LSI_STARTUP_NS: u64 = 85_000;
+/// HSI (RM0008 §7.2.2; factory-trimmed, taken as exact).
+pub const HSI_HZ: u32 = 8_000_000;
+/// The board's crystal (the Blue Pill's 8 MHz HSE).
+pub const HSE_HZ: u32 = 8_000_000;
+/// Highest SYSCLK, AHB and APB2 clock (RM0008 §7.2: 72 MHz).
+pub const MAX_SYSCLK_HZ: u32 = 72_000_000;
+/// Highest APB1 clock (RM0008 §7.2: 36 MHz).
+pub const MAX_PCLK1_HZ: u32 = 36_000_000;
+
+/// The core's time base: core (HCLK) cycles since power-on mapped to
+/// simulated ns. HCLK changes when the firmware switches SYSCLK or the AHB
+/// prescaler (and at a reset, back to HSI); each change starts a new
+/// segment at the cycle it happens, so SysTick and DWT CYCCNT, which count
+/// core cycles (PM0056 §4.5, ARMv7-M ARM C1.8.8), and the CPU's work run
+/// at the programmed clock. Cycles before the current segment map to its
+/// start (only the present and future are asked).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CoreClock {
+    hz: u64,
+    from_cycle: u64,
+    from_ns: u64,
+}
+
+impl CoreClock {
+    /// A clock at `hz` from cycle 0 at 0 ns.
+    pub fn new(hz: u32) -> Self {
+        Self {
+            hz: u64::from(hz.max(1)),
+            from_cycle: 0,
+            from_ns: 0,
+        }
+    }
+
+    /// HCLK now (Hz).
+    pub fn hz(&self) -> u32 {
+        self.hz as u32
+    }
+
+    /// Simulated ns at core cycle `cycle` (rounded down).
+    pub fn ns_at(&self, cycle: u64) -> u64 {
+        let d = u128::from(cycle.saturating_sub(self.from_cycle));
+        self.from_ns + (d * 1_000_000_000 / u128::from(self.hz)) as u64
+    }
+
+    /// The first core cycle at or after `ns` (rounded up: `ns_at` of it is
+    /// not before `ns`).
+    pub fn cycle_at(&self, ns: u64) -> u64 {
+        self.from_cycle + self.cycles_for(ns.saturating_sub(self.from_ns))
+    }
+
+    /// Core cycles that last at least `ns` at the current HCLK.
+    pub fn cycles_for(&self, ns: u64) -> u64 {
+        (u128::from(ns) * u128::from(self.hz)).div_ceil(1_000_000_000) as u64
+    }
+
+    /// HCLK becomes `hz` at core cycle `cycle`.
+    pub fn retune(&mut self, hz: u32, cycle: u64) {
+        let hz = u64::from(hz.max(1));
+        if hz != self.hz {
+            self.from_ns = self.ns_at(cycle);
+            self.from_cycle = cycle;
+            self.hz = hz;
+        }
+    }
+}
 
 /// Why the MCU last came out of reset (RCC_CSR flags, RM0008 §7.3.10).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -118,25 +186,42 @@ impl Rcc {
         next
     }
 
-    /// SYSCLK in Hz for the current CFGR.SWS.
+    /// SYSCLK in Hz for the current CFGR.SWS (RM0008 §7.2, figure 8): HSI,
+    /// HSE, or the PLL from HSI/2 or HSE (÷2 with PLLXTPRE) times PLLMUL
+    /// (field + 2, 0b1111 also ×16; §7.3.2).
     pub fn sysclk_hz(&self) -> u32 {
         match (self.cfgr >> 2) & 3 {
-            1 => 8_000_000,
+            1 => HSE_HZ,
             2 => {
-                let mul = ((self.cfgr >> 18) & 0xF) + 2;
-                let mul = mul.min(16);
-                let src = if self.cfgr & (1 << 16) != 0 {
-                    if self.cfgr & (1 << 17) != 0 {
-                        4_000_000
-                    } else {
-                        8_000_000
-                    }
+                let mul = (((self.cfgr >> 18) & 0xF) + 2).min(16);
+                let src = if self.cfgr & (1 << 16) == 0 {
+                    HSI_HZ / 2
+                } else if self.cfgr & (1 << 17) != 0 {
+                    HSE_HZ / 2
                 } else {
-                    4_000_000
+                    HSE_HZ
                 };
                 src * mul
             }
-            _ => 8_000_000,
+            _ => HSI_HZ,
+        }
+    }
+
+    /// The clock tree against the manual's limits (RM0008 §7.2: SYSCLK
+    /// and AHB ≤ 72 MHz, APB1 ≤ 36 MHz); the first one broken.
+    pub fn out_of_spec(&self) -> Option<String> {
+        if self.sysclk_hz() > MAX_SYSCLK_HZ {
+            Some(format!(
+                "SYSCLK {} Hz above the {MAX_SYSCLK_HZ} Hz maximum (RM0008 §7.2)",
+                self.sysclk_hz()
+            ))
+        } else if self.pclk1_hz() > MAX_PCLK1_HZ {
+            Some(format!(
+                "PCLK1 {} Hz above the {MAX_PCLK1_HZ} Hz maximum of APB1 (RM0008 §7.2)",
+                self.pclk1_hz()
+            ))
+        } else {
+            None
         }
     }
 
@@ -211,8 +296,8 @@ impl Rcc {
         })
     }
 
-    /// Write at `offset`; returns `Err` text when the firmware asks for a
-    /// clock tree the emulator's time base does not follow.
+    /// Write at `offset`; returns `Err` text when the firmware programs a
+    /// clock tree outside the manual's limits ([`Rcc::out_of_spec`]).
     pub fn write(&mut self, offset: u32, v: u32, now_ns: u64) -> Option<Result<(), String>> {
         self.update(now_ns);
         match offset {
@@ -246,11 +331,8 @@ impl Rcc {
                 };
                 let sws = if ready { sw } else { (self.cfgr >> 2) & 3 };
                 self.cfgr = (v & !0xC) | (sws << 2);
-                if sws == 2 && self.sysclk_hz() != 72_000_000 {
-                    return Some(Err(format!(
-                        "SYSCLK set to {} Hz: the emulator's time base is 72 MHz",
-                        self.sysclk_hz()
-                    )));
+                if let Some(e) = self.out_of_spec() {
+                    return Some(Err(e));
                 }
             }
             0x08 => {}
@@ -272,5 +354,47 @@ impl Rcc {
             _ => return None,
         }
         Some(Ok(()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_core_clock_maps_cycles_to_time_per_segment() {
+        let mut c = CoreClock::new(72_000_000);
+        assert_eq!(c.ns_at(72_000_000), 1_000_000_000);
+        assert_eq!(c.cycle_at(1_000), 72);
+        assert_eq!(c.cycle_at(1), 1, "rounded up");
+        // 64 MHz from the first second on.
+        c.retune(64_000_000, 72_000_000);
+        assert_eq!(c.ns_at(72_000_000 + 64_000_000), 2_000_000_000);
+        assert_eq!(c.cycle_at(2_000_000_000), 136_000_000);
+        assert_eq!(c.cycles_for(1_000), 64);
+        for t in [1_000_000_001, 1_500_000_007, 1_999_999_999] {
+            assert!(c.ns_at(c.cycle_at(t)) >= t);
+            assert!(c.ns_at(c.cycle_at(t) - 1) < t);
+        }
+    }
+
+    #[test]
+    fn the_clock_tree_follows_cfgr() {
+        let mut r = Rcc::new(ResetCause::PowerOn, 0);
+        assert_eq!(r.sysclk_hz(), HSI_HZ);
+        // HSI/2 × 16, APB1 ÷ 2: the firmware's fallback.
+        let cfgr = (14 << 18) | (4 << 8);
+        assert_eq!(r.write(0x04, cfgr, 0), Some(Ok(())));
+        assert_eq!(r.write(0x00, 0x83 | (1 << 24), 0), Some(Ok(())));
+        assert_eq!(r.write(0x04, cfgr | 2, PLL_LOCK_NS), Some(Ok(())));
+        assert_eq!(r.sysclk_hz(), 64_000_000);
+        assert_eq!(r.pclk1_hz(), 32_000_000);
+        assert_eq!(r.apb1_timer_hz(), 64_000_000, "×2: APB1 prescaler ≠ 1");
+        assert_eq!(r.pclk2_hz(), 64_000_000);
+        // APB1 at 64 MHz breaks §7.2's 36 MHz limit.
+        assert!(matches!(
+            r.write(0x04, (14 << 18) | 2, PLL_LOCK_NS),
+            Some(Err(_))
+        ));
     }
 }

@@ -2,15 +2,23 @@
 //! RXNE, ORE, IDLE and FE and the manual's clear sequences, for bytes the
 //! host puts on the RX line (8N1 frames at the line's own baud rate).
 //!
-//! Timing: a byte whose start bit begins at `t` is in DR (RXNE) at the
-//! middle of its stop bit, `t + 9.5` bit times; the line idle for one whole
-//! frame after a stop bit sets IDLE (only once after each RXNE, §27.6.1).
-//! A byte that completes while RXNE is still set is lost and sets ORE; DR
-//! keeps the unread byte (§27.3.3 "Overrun error"). The receiver's own
-//! baud rate (f_PCLK / BRR, 16× oversampling) must be within the manual's
-//! receiver tolerance of the line's (§27.3.5: 3.75 % with DIV_Fraction = 0
-//! and M = 0; the model takes it for every BRR) or each byte is received
-//! with FE set.
+//! Reception samples the line (§27.3.3, figures 279–280): the receiver,
+//! at its own baud rate (f_PCLK / BRR, 16× oversampling, §27.3.4), waits
+//! for a falling edge, takes it as a start bit when the line is still low
+//! half a bit later, then samples the eight data bits (LSB first) and the
+//! stop bit in the middle of each of its own bit times. The byte in DR is
+//! what it sampled; a low stop bit sets FE (§27.3.3 "Framing error"); it
+//! looks for the next falling edge after its stop-bit sample. A receiver
+//! within the manual's tolerance of the line's rate (§27.3.5, 3.75 %)
+//! therefore gets every byte right; one further off (a BRR computed for
+//! another PCLK2) gets the bits its samples land on: wrong bytes, framing
+//! errors, and start bits found inside data bits.
+//!
+//! Timing: a byte is in DR (RXNE) at the receiver's stop-bit sample,
+//! `t + 9.5` of its bit times after the start edge `t`; the line idle for
+//! one whole frame after that sets IDLE (only once after each RXNE,
+//! §27.6.1). A byte that completes while RXNE is still set is lost and
+//! sets ORE; DR keeps the unread byte (§27.3.3 "Overrun error").
 //!
 //! Receiver DMA (CR3.DMAR, §27.3.13): RXNE is then a request to the DMA
 //! (USART1_RX is DMA1 channel 5), and the DMA's read of DR is a DR read
@@ -86,8 +94,20 @@ pub mod cr3 {
     pub const DMAR: u32 = 1 << 6;
 }
 
-/// Receiver tolerance to the line's baud rate (RM0008 §27.3.5, table 180).
+/// Receiver tolerance to the line's baud rate (RM0008 §27.3.5, table 180):
+/// within it the sampling above reads every bit right.
 pub const RX_TOLERANCE: f64 = 0.0375;
+
+/// A frame as the receiver samples it.
+#[derive(Clone, Copy, Debug)]
+struct Sampled {
+    /// The start edge (ns).
+    edge: f64,
+    /// The stop-bit sample (ns): RXNE.
+    stop_at: f64,
+    byte: u8,
+    stop_high: bool,
+}
 
 /// The USART's state.
 #[derive(Clone, Debug)]
@@ -109,10 +129,22 @@ pub struct Usart {
     /// Bytes received into DR, and lost to overrun.
     received: u64,
     overruns: u64,
+    /// The receiver looks for a start edge after this time (ns).
+    search_from: f64,
 }
 
 fn bit_ns(baud: u32) -> f64 {
     1e9 / f64::from(baud.max(1))
+}
+
+/// Bit `k` of an 8N1 frame of `byte`: start (0), data LSB first (1–8),
+/// stop (9).
+fn frame_bit(byte: u8, k: u32) -> bool {
+    match k {
+        0 => false,
+        1..=8 => byte >> (k - 1) & 1 != 0,
+        _ => true,
+    }
 }
 
 impl Usart {
@@ -132,6 +164,7 @@ impl Usart {
             idle_from_ns: None,
             received: 0,
             overruns: 0,
+            search_from: 0.0,
         }
     }
 
@@ -184,32 +217,98 @@ impl Usart {
         (self.received, self.overruns)
     }
 
-    /// Brings the receiver to `now_ns`: every byte whose stop bit has been
-    /// sampled lands in DR (or overruns); a quiet line sets IDLE.
-    pub fn advance(&mut self, now_ns: u64) {
-        while let Some(&(start, byte, baud)) = self.line.front() {
+    /// The line's level at `t` (ns): idle high outside the frames.
+    fn line_high(&self, t: f64) -> bool {
+        for &(start, byte, baud) in &self.line {
             let bit = bit_ns(baud);
-            let done = start + (9.5 * bit).round() as u64;
-            if let Some(idle) = self.idle_from_ns {
-                let idle_at = idle + (10.0 * bit).round() as u64;
-                if start >= idle_at && idle_at <= now_ns {
-                    self.set_idle();
-                }
+            let k = ((t - start as f64) / bit).floor();
+            if k < 0.0 {
+                return true;
             }
-            if done > now_ns {
+            if k < 10.0 {
+                return frame_bit(byte, k as u32);
+            }
+        }
+        true
+    }
+
+    /// The first falling edge on the line at or after `from` (ns).
+    fn falling_edge_after(&self, from: f64) -> Option<f64> {
+        self.line.iter().find_map(|&(start, byte, baud)| {
+            let bit = bit_ns(baud);
+            // The start bit follows idle or a stop bit (both high); a data
+            // bit falls after a high bit.
+            (0..9)
+                .filter(|&k| k == 0 || (frame_bit(byte, k - 1) && !frame_bit(byte, k)))
+                .map(|k| start as f64 + f64::from(k) * bit)
+                .find(|&t| t >= from)
+        })
+    }
+
+    /// The next frame the receiver takes from the line, if it is on.
+    fn next_sampled(&self) -> Option<Sampled> {
+        let rb = 1e9 / self.baud().filter(|_| self.receiving())?;
+        let mut from = self.search_from;
+        loop {
+            let edge = self.falling_edge_after(from)?;
+            if self.line_high(edge + 0.5 * rb) {
+                // Not a start bit (§27.3.3: noise); look on from there.
+                from = edge + 0.5 * rb;
+                continue;
+            }
+            let byte = (0..8).fold(0u8, |b, i| {
+                let high = self.line_high(edge + (f64::from(i) + 1.5) * rb);
+                b | (u8::from(high) << i)
+            });
+            let stop_at = edge + 9.5 * rb;
+            return Some(Sampled {
+                edge,
+                stop_at,
+                byte,
+                stop_high: self.line_high(stop_at),
+            });
+        }
+    }
+
+    /// Drops the frames that ended before `t` (ns).
+    fn prune_line(&mut self, t: f64) {
+        while let Some(&(start, _, baud)) = self.line.front() {
+            if start as f64 + 10.0 * bit_ns(baud) >= t {
                 return;
             }
             self.line.pop_front();
-            if !self.receiving() {
-                continue;
+        }
+    }
+
+    /// Brings the receiver to `now_ns`: every byte whose stop bit has been
+    /// sampled lands in DR (or overruns); a quiet line sets IDLE.
+    pub fn advance(&mut self, now_ns: u64) {
+        let now = now_ns as f64;
+        if !self.receiving() {
+            self.search_from = self.search_from.max(now);
+            self.prune_line(now);
+            return;
+        }
+        let rb = self.baud().map_or(0.0, |b| 1e9 / b);
+        while let Some(f) = self.next_sampled() {
+            if let Some(idle) = self.idle_from_ns {
+                let idle_at = idle as f64 + 10.0 * rb;
+                if f.edge >= idle_at && idle_at <= now {
+                    self.set_idle();
+                }
             }
-            self.receive(byte, baud);
-            self.idle_from_ns = Some(start + (10.0 * bit).round() as u64);
+            if f.stop_at.round() > now {
+                break;
+            }
+            self.search_from = f.stop_at;
+            self.receive(f.byte, f.stop_high);
+            // Idle detection counts from the end of the stop bit.
+            self.idle_from_ns = Some((f.edge + 10.0 * rb).round() as u64);
+            self.prune_line(f.stop_at);
         }
         if let Some(idle) = self.idle_from_ns {
             // Idle detection is at the receiver's own rate.
-            let bit = self.baud().map_or(0.0, |b| 1e9 / b);
-            if idle + (10.0 * bit).round() as u64 <= now_ns {
+            if idle + (10.0 * rb).round() as u64 <= now_ns {
                 self.set_idle();
             }
         }
@@ -222,10 +321,7 @@ impl Usart {
         self.idle_from_ns = None;
     }
 
-    fn receive(&mut self, byte: u8, line_baud: u32) {
-        let framing_ok = self
-            .baud()
-            .is_some_and(|b| (b / f64::from(line_baud) - 1.0).abs() <= RX_TOLERANCE);
+    fn receive(&mut self, byte: u8, framing_ok: bool) {
         if self.sr & sr::RXNE != 0 {
             self.sr |= sr::ORE;
             self.overruns += 1;
@@ -241,9 +337,7 @@ impl Usart {
 
     /// When the next byte on the line lands in DR (or overruns).
     pub fn next_byte_ns(&self) -> Option<u64> {
-        self.line
-            .front()
-            .map(|&(s, _, b)| s + (9.5 * bit_ns(b)).round() as u64)
+        self.next_sampled().map(|f| f.stop_at.round() as u64)
     }
 
     /// The receiver's DMA request (USART1_RX: DMA1 channel 5): RXNE with
@@ -327,6 +421,10 @@ impl Usart {
                     return unsupported(
                         "CR1 bits other than UE, RE, RXNEIE, IDLEIE (transmitter, parity, 9-bit, wake-up)",
                     );
+                }
+                if !self.receiving() {
+                    // A receiver switched on looks for start bits from now.
+                    self.search_from = now_ns as f64;
                 }
                 if v & cr1::UE != 0 && self.brr < 16 {
                     return Some(Err(format!(

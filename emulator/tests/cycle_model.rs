@@ -193,9 +193,8 @@ fn an_exception_round_trip_costs_entry_and_return() {
     let config = BoardConfig::default();
     let mut b = Board::new(&fw, config).unwrap_or_else(|e| panic!("{e}"));
     // The tick comes LOAD + 1 = 101 cycles after the enable; stop before
-    // the second.
-    b.run_until_ns(150 * 1000 / 72)
-        .unwrap_or_else(|e| panic!("{e}"));
+    // the second (150 cycles of the 8 MHz HSI the core runs on from reset).
+    b.run_until_ns(150 * 125).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(b.exception_entries(15), 1);
     let e = b.executed();
     assert_eq!(e.cycles - 1, 6 + 12 + 2 + 10);

@@ -340,16 +340,18 @@ fn dma_reads_clear_rxne_but_idle_needs_sr_then_dr() {
 
 #[test]
 fn error_interrupt_with_dmar_and_eie() {
-    // A receiver at 115200 baud on a 420 kbaud line: every byte has FE.
+    // A receiver at 800 kbaud on a 420 kbaud line sending 0x00: its
+    // stop-bit sample (9.5 of its bits, 5 of the line's) falls on a low
+    // data bit: FE.
     let mut u = Usart::new("USART1", PCLK2_HZ);
-    u.write(usart::reg::BRR, 625, 0).unwrap().unwrap();
+    u.write(usart::reg::BRR, 90, 0).unwrap().unwrap();
     u.write(usart::reg::CR1, cr1::UE | cr1::RE, 0)
         .unwrap()
         .unwrap();
     u.write(usart::reg::CR3, cr3::DMAR | cr3::EIE, 0)
         .unwrap()
         .unwrap();
-    u.inject(&[0xC8], CRSF_BAUD, 0);
+    u.inject(&[0x00], CRSF_BAUD, 0);
     u.advance(2 * BYTE_NS);
     assert!(u.rx_dma_request(), "the byte still goes to the DMA");
     assert!(u.irq(), "FE with EIE and DMAR");

@@ -5,6 +5,8 @@
 #![allow(dead_code, clippy::panic, clippy::expect_used, clippy::unwrap_used)]
 
 use emulator::{Board, BoardConfig, ResetCause};
+
+pub mod rigs;
 use std::path::PathBuf;
 
 /// One simulated second in ns.
