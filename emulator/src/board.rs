@@ -853,7 +853,7 @@ impl Hw {
         self.i2c_event_held_off = None;
         self.i2c_events_held_off += 1;
         let late = (since + ns).saturating_sub(now);
-        self.charge(u32::try_from(ns_to_cycles(late)).unwrap_or(u32::MAX));
+        self.charge(u32::try_from(self.core.cycles_for(late)).unwrap_or(u32::MAX));
     }
 }
 

@@ -1,6 +1,6 @@
 //! Flight in the loop at the corners the board may run at: the cycle
 //! model's pessimistic end (take-off, link loss, the sensor board losing
-//! power in the hover; a NACK burst there is a known defect, ignored), the LSI at both ends of its datasheet range (30 and 60 kHz: the
+//! power in the hover, a NACK burst), the LSI at both ends of its datasheet range (30 and 60 kHz: the
 //! watchdog bites later or earlier) and the HSI fallback (no crystal:
 //! SYSCLK 64 MHz, APB1 32 MHz). The subset `scripts/check` flies on every
 //! run (README, "Flight in the loop"); each test flies only the seconds
@@ -100,11 +100,9 @@ fn pessimistic_corner_imu_power_lost_turns_the_motors_off() {
 }
 
 /// 30 ms of NACKs from the MPU-9250 in the hover at the pessimistic
-/// corner: the failed samples end in MPU re-initialisations (`reinit=3`)
-/// and the motors go off, the known defect of `flight_in_the_loop`'s
-/// NACK-burst and MPU-reset scenarios.
+/// corner: flown through (before the armed reset policy the failed
+/// samples ended in MPU re-initialisations and the motors off).
 #[test]
-#[ignore = "known defect (issue 25 item 2): at the pessimistic corner the NACK burst ends in MPU re-initialisations that stop the samples past the output guard's 50 ms, and the motors go off"]
 fn pessimistic_corner_flies_through_a_nack_burst() {
     let Some(mut r) = corner(Scenario::Takeoff, 1, pessimistic) else {
         return;
