@@ -156,7 +156,8 @@ pub const KINDS: [KindInfo; 23] = [
     kind(Kind::MagOverflow, "mag-overflow", ArgKind::None, false, "every AK8963 sample reports magnetic overflow (HOFL)"),
     kind(Kind::StuckBus, "stuck-bus", ArgKind::None, false, "SDA held low: every transfer fails until `clear`"),
     kind(Kind::SclStuck, "scl-stuck", ArgKind::None, false, "SCL held low (a shorted line) until `clear`"),
-    kind(Kind::SdaHeld, "sda-held", ArgKind::Chip, false, "CHIP is left mid-byte holding SDA low until SCL is clocked (as after a reset during a read)"),
+    kind(Kind::SdaHeld, "sda-held", ArgKind::Chip, false, "CHIP is left mid-byte holding SDA low until SCL is clocked (as after a reset during a read); \
+         on the board at TIME 0: held at power-up"),
     kind(Kind::BusError, "bus-error", ArgKind::Count, false, "one transfer fails with a bus error after N bytes"),
     kind(Kind::Arbitration, "arbitration", ArgKind::Count, false, "the next N transfers lose arbitration"),
     kind(Kind::Magnet, "magnet", ArgKind::None, false, "a magnet passes the board: 60 µT peak on body x, 4 s wide, peaking 2 s after TIME"),
