@@ -33,6 +33,7 @@ pub mod elf;
 pub mod exceptions;
 pub mod exti;
 pub mod flash;
+pub mod flightplot;
 pub mod gpio;
 pub mod i2c1;
 pub mod iwdg;

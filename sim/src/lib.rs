@@ -14,7 +14,9 @@
 //! magnets, vibration, spontaneous resets) are injected with
 //! [`SimBus::inject`]. A [`Quadcopter`] model (motors, battery, drag,
 //! ground) can be the truth instead, through a [`QuadLink`], for closed-loop
-//! flight.
+//! flight. Shared by both flight rigs (`cargo sim`, `cargo fil`): the
+//! scripted pilots ([`scenario`]), the `--fault TIME:KIND[:ARG]` syntax
+//! ([`faults`]) and the flight plots ([`plot`]).
 //!
 //! The same bus is open at the wire level ([`wire`]): START + address,
 //! bytes with the master's ACK/NACK, STOP, and the SCL/SDA levels with what
@@ -43,10 +45,12 @@ pub mod bus;
 pub mod clock;
 pub mod device;
 pub mod errors;
+pub mod faults;
 pub mod math;
 pub mod mpu9250;
 pub mod ms5611;
 pub mod physics;
+pub mod plot;
 pub mod quad;
 pub mod rng;
 pub mod scenario;

@@ -11,10 +11,11 @@ mod demo;
 
 use clap::Parser;
 use demo::output::CsvWriter;
-use demo::plot::{PlotFormat, PlotSeries};
-use demo::run::{run, RecordSink, RunOptions, RunResult, ScheduledFault};
+use demo::plot::PlotSeries;
+use demo::run::{run, RecordSink, RunOptions, RunResult};
 use demo::stack::Filter;
 use host_console::{note, say};
+use sim::faults::{FaultSpec, Rig};
 use sim::Trajectory;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -43,7 +44,7 @@ FlightController flies it (scripted pilot), and the scenario's figures
 
 /// Command-line options (see `--help`).
 #[derive(Parser, Debug)]
-#[command(name = "sim", version, about = ABOUT, after_help = demo::faults::help(), allow_negative_numbers = true)]
+#[command(name = "sim", version, about = ABOUT, after_help = sim::faults::help(Rig::Sim), allow_negative_numbers = true)]
 struct Cli {
     /// The flight to simulate.
     #[arg(short, long, value_name = "NAME", default_value = "hover",
@@ -79,15 +80,15 @@ struct Cli {
     #[arg(long, value_name = "SECONDS", default_value_t = 40.0,
           value_parser = seconds_in(0.0, 600.0))]
     mag_dance: f64,
-    /// Inject a fault into the flight: KIND or KIND@T (T seconds of flight
-    /// time); repeatable. Kinds are listed below.
-    #[arg(long, value_name = "KIND[@T]", value_parser = demo::faults::parse)]
-    fault: Vec<ScheduledFault>,
+    /// Inject a fault into the flight at TIME (seconds of flight time);
+    /// repeatable. Kinds and their ARG are listed below.
+    #[arg(short = 'f', long, value_name = "TIME:KIND[:ARG]", value_parser = sim::faults::parse_sim)]
+    fault: Vec<FaultSpec>,
     /// Fly the quadcopter model in a closed loop instead of a trajectory:
     /// the chips read its motion, the firmware's pipeline estimates it, the
     /// flight controller flies it through a scripted pilot. Prints the
     /// scenario's figures; --plot draws the responses.
-    #[arg(long, value_name = "NAME", conflicts_with_all = ["trajectory", "csv", "fault", "duration"],
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["trajectory", "csv", "duration"],
           value_parser = clap::builder::PossibleValuesParser::new(demo::closed_loop::Scenario::NAMES))]
     scenario: Option<String>,
     /// No progress line on stderr.
@@ -165,18 +166,21 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
     }
     let trajectory = Trajectory::from_name(&cli.trajectory)
         .ok_or_else(|| format!("unknown trajectory `{}`", cli.trajectory))?;
-    if let Some(f) = cli.fault.iter().find(|f| f.at_s >= cli.duration) {
+    let duration_s = match &cli.scenario {
+        Some(name) => demo::closed_loop::Scenario::from_name(name)
+            .ok_or_else(|| format!("unknown scenario `{name}`"))?
+            .duration_s(),
+        None => cli.duration,
+    };
+    if let Some(f) = cli.fault.iter().find(|f| f.at_s >= duration_s) {
         return Err(format!(
-            "--fault at {} s is after the end of the {} s flight",
-            f.at_s, cli.duration
+            "--fault {f}: {} s is after the end of the {duration_s} s flight",
+            f.at_s
         ));
     }
     let is_stdout = |p: &Path| p == Path::new("-");
     if let Some(plot) = &cli.plot {
-        if is_stdout(plot) {
-            return Err("--plot needs a file name (.png or .svg), not stdout".into());
-        }
-        PlotFormat::from_path(plot).map_err(|e| format!("--plot {}: {e}", plot.display()))?;
+        sim::plot::check_plot_path(plot)?;
     }
     if let (Some(csv), Some(plot)) = (&cli.csv, &cli.plot) {
         if !is_stdout(csv) && same_file(csv, plot) {
@@ -309,6 +313,7 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: &Outputs) -> Result<(), Stri
     let mut opts = ClosedLoopOptions::new(scenario, cli.seed);
     opts.board_seed = cli.board_seed.unwrap_or(cli.seed);
     opts.mag_dance_s = cli.mag_dance;
+    opts.faults = cli.fault.clone();
     let mut fc = demo::flight_fc::FirmwareFc::new(flight::flightctl::FlightConfig::default())?;
     say!(
         "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",

@@ -49,9 +49,12 @@ fn bad_values_are_refused_before_work() {
     refused(&["--mag-dance", "0"], "out of range");
     refused(&["--seed", "-1"], "--seed");
     refused(&["--trajectory", "moon"], "moon");
-    refused(&["--fault", "laser"], "unknown fault kind `laser`");
-    refused(&["--fault", "magnet@-1"], "-1");
-    refused(&["-d", "10", "--fault", "magnet@20"], "after the end");
+    refused(&["--fault", "1:laser"], "unknown fault kind `laser`");
+    refused(&["--fault=-1:magnet"], "TIME `-1`");
+    refused(&["--fault", "magnet@20"], "e.g. `20:magnet`");
+    refused(&["--fault", "3:nack:mpu"], "nack:CHIP:N");
+    refused(&["-f", "3:busy-lockup"], "emulated board only");
+    refused(&["-d", "10", "--fault", "20:magnet"], "after the end");
     refused(&["--plot", "x.jpg"], "unsupported plot format `.jpg`");
     refused(&["--plot", "noext"], "needs an extension");
     refused(&["--plot", "-"], "--plot needs a file name");
@@ -89,7 +92,7 @@ fn files_are_written_into_new_folders_even_when_stdout_closes() {
             "--print-every",
             "0.1",
             "--fault",
-            "vibration@2",
+            "2:vibration",
             "--csv",
             csv.to_str().unwrap(),
             "--plot",
@@ -128,12 +131,15 @@ fn a_closed_loop_scenario_prints_its_figures_and_plots() {
         "linkloss",
         "--mag-dance",
         "10",
+        "--fault",
+        "12:nack:baro:20",
         "--plot",
         plot.to_str().unwrap(),
     ]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     for want in [
+        "s: fault 12:nack:baro:20",
         "Armed",
         "FailsafeHold",
         "FailsafeDescent",
@@ -159,7 +165,7 @@ fn a_scenario_refuses_the_open_loop_options() {
         "cannot be used with",
     );
     refused(
-        &["--scenario", "steps", "--fault", "magnet@2"],
-        "cannot be used with",
+        &["--scenario", "takeoff", "--fault", "30:magnet"],
+        "after the end of the 20 s flight",
     );
 }

@@ -1,21 +1,28 @@
 //! `cargo fil`: the release firmware on the emulated Blue Pill, its live
 //! defmt log printed as `cargo embed` shows it, with faults injected at
-//! chosen simulated times.
+//! chosen simulated times (`--fault TIME:KIND[:ARG]`, the syntax of
+//! `cargo sim`, parsed by `sim::faults`); with `--scenario` it flies the
+//! quad model, and `--plot` draws the flight (`emulator::flightplot`).
+//!
+//! Exit status: 0 done, 1 the board stopped or an output failed, 2 bad
+//! arguments (every value and path is checked before the board starts).
 
 use clap::Parser;
 use emulator::i2c1::PeripheralFault;
 use emulator::rig::{FlightRig, RigOptions};
 use emulator::{calpage, Board, BoardConfig, BoardError, BoardFault, CycleModel, RttMode};
+use host_console::note;
+use sim::faults::{BoardAction, FaultAction, FaultSchedule, FaultSpec, Rig};
 use sim::scenario::Scenario;
-use sim::{Chip, Fault, Trajectory};
+use sim::Trajectory;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 /// Boot the real firmware ELF on an emulated STM32F103 with simulated
 /// sensors and print its log. Time is simulated: 10 s run in a few seconds.
 #[derive(Parser, Debug)]
-#[command(name = "cargo fil", version, after_help = FAULT_HELP)]
+#[command(name = "cargo fil", version, after_help = sim::faults::help(Rig::Board))]
 struct Args {
     /// Firmware ELF (default: the release build, `cargo fw`).
     #[arg(long)]
@@ -37,8 +44,15 @@ struct Args {
           conflicts_with = "trajectory")]
     scenario: Option<String>,
     /// Fault at a simulated time, `TIME:KIND[:ARG]` (repeatable; see below).
-    #[arg(short, long = "fault", value_name = "TIME:KIND[:ARG]")]
-    faults: Vec<String>,
+    #[arg(short, long = "fault", value_name = "TIME:KIND[:ARG]",
+          value_parser = sim::faults::parse_board)]
+    faults: Vec<FaultSpec>,
+    /// With --scenario: plot the flight into FILE (.png or .svg; parent
+    /// folders are created): truth, the firmware's estimate (its 20 Hz
+    /// `att` log line), the stick setpoints, the four ESC pulse widths and
+    /// the pilot's sticks.
+    #[arg(long, value_name = "FILE", requires = "scenario")]
+    plot: Option<PathBuf>,
     /// LSI frequency of this part in Hz (datasheet range 30000–60000).
     #[arg(long, default_value_t = 40_000)]
     lsi_hz: u32,
@@ -58,106 +72,26 @@ struct Args {
     cpi: bool,
 }
 
-const FAULT_HELP: &str = "Fault kinds (TIME in simulated seconds):
-  missing:CHIP          CHIP (mpu|mag|baro) never answers (NACK), from TIME
-  nack:CHIP:N           the next N transfers to CHIP are not acknowledged
-  chip-reset:CHIP       CHIP resets itself (registers back to defaults)
-  stuck-bus             every transfer fails with a bus error until `clear`
-  sda-held:CHIP         CHIP is left mid-byte holding SDA low (as after a reset
-                        during a read); at TIME 0: SDA held low at power-up
-  scl-stuck             SCL held low until `clear`
-  busy-lockup           errata ES096: I2C1's analog filter locks BUSY
-  spurious-berr         errata ES096: a spurious bus error in master mode
-  bus-error:N           one transfer fails after N bytes
-  arbitration:N         N transfers lose arbitration
-  frozen:CHIP           CHIP's data stops updating
-  mag-overflow          the magnetometer reports overflow
-  wrong-id:CHIP:ID      CHIP reports WHO_AM_I = ID (hex)
-  imu-int-stops         the MPU-9250 INT line (PB5) stops
-  imu-int-restored      ... and works again
-  rtt-stops             the host stops reading RTT (a closed cargo embed)
-  rtt-resumes           ... and reads again
-  button-down / button-up   the PA0 button
-  clear                 clears every persistent chip/bus fault
-Example: cargo fil -t hover -s 10 -f 3:chip-reset:mpu -f 5:nack:baro:200";
-
-#[derive(Debug, Clone)]
-enum Action {
-    Sim(Fault),
-    Board(BoardFault),
-    Clear,
-}
-
-fn chip(s: &str) -> Result<(Chip, u8), String> {
-    Ok(match s {
-        "mpu" => (Chip::Mpu9250, 0x68),
-        "mag" => (Chip::Ak8963, sim::AK8963_ADDRESS),
-        "baro" => (Chip::Ms5611, 0x77),
-        _ => return Err(format!("unknown chip `{s}` (mpu, mag, baro)")),
-    })
-}
-
-fn num(s: Option<&str>, what: &str) -> Result<u32, String> {
-    s.ok_or(format!("{what} missing"))?
-        .parse()
-        .map_err(|_| format!("{what}: not a number"))
-}
-
-fn parse_fault(spec: &str) -> Result<(f64, Action), String> {
-    let mut it = spec.split(':');
-    let t: f64 = it
-        .next()
-        .unwrap_or_default()
-        .parse()
-        .map_err(|_| format!("`{spec}`: TIME must be seconds"))?;
-    if !t.is_finite() || t < 0.0 {
-        return Err(format!("`{spec}`: TIME must be ≥ 0 s"));
+/// The board's own fault for a board-only kind.
+fn board_fault(a: BoardAction) -> BoardFault {
+    match a {
+        BoardAction::BusyLockup => BoardFault::I2c(PeripheralFault::BusyLockup),
+        BoardAction::SpuriousBerr => BoardFault::I2c(PeripheralFault::SpuriousBerr),
+        BoardAction::ImuIntStops => BoardFault::ImuIntStops,
+        BoardAction::ImuIntRestored => BoardFault::ImuIntRestored,
+        BoardAction::RttStops => BoardFault::RttReaderStops,
+        BoardAction::RttResumes => BoardFault::RttReaderResumes,
+        BoardAction::Button(down) => BoardFault::Button(down),
     }
-    let kind = it.next().ok_or(format!("`{spec}`: KIND missing"))?;
-    let arg = it.next();
-    let chip_arg = || chip(arg.unwrap_or(""));
-    let a = match kind {
-        "missing" => Action::Sim(Fault::Nack {
-            address: chip_arg()?.1,
-            transactions: None,
-        }),
-        "nack" => Action::Sim(Fault::Nack {
-            address: chip_arg()?.1,
-            transactions: Some(num(it.next(), "N")?),
-        }),
-        "chip-reset" => Action::Sim(Fault::ChipReset(chip_arg()?.0)),
-        "frozen" => Action::Sim(Fault::Frozen(chip_arg()?.0)),
-        "stuck-bus" => Action::Sim(Fault::StuckBus),
-        "bus-error" => Action::Sim(Fault::BusErrorMidTransfer {
-            after_bytes: num(arg, "N")? as usize,
-        }),
-        "arbitration" => Action::Sim(Fault::ArbitrationLoss {
-            transactions: num(arg, "N")?,
-        }),
-        "mag-overflow" => Action::Sim(Fault::MagOverflow),
-        "wrong-id" => Action::Sim(Fault::WrongChipId {
-            chip: chip_arg()?.0,
-            id: u8::from_str_radix(it.next().unwrap_or("").trim_start_matches("0x"), 16)
-                .map_err(|_| format!("`{spec}`: ID must be a hex byte"))?,
-        }),
-        "imu-int-stops" => Action::Board(BoardFault::ImuIntStops),
-        "imu-int-restored" => Action::Board(BoardFault::ImuIntRestored),
-        "rtt-stops" => Action::Board(BoardFault::RttReaderStops),
-        "rtt-resumes" => Action::Board(BoardFault::RttReaderResumes),
-        "button-down" => Action::Board(BoardFault::Button(true)),
-        "button-up" => Action::Board(BoardFault::Button(false)),
-        "clear" => Action::Clear,
-        "sda-held" => Action::Sim(Fault::SlaveHoldsSda(chip_arg()?.0)),
-        "scl-stuck" => Action::Sim(Fault::SclStuckLow),
-        "busy-lockup" => Action::Board(BoardFault::I2c(PeripheralFault::BusyLockup)),
-        "spurious-berr" => Action::Board(BoardFault::I2c(PeripheralFault::SpuriousBerr)),
-        _ => {
-            return Err(format!(
-                "`{spec}`: unknown fault kind `{kind}` (see --help)"
-            ))
-        }
-    };
-    Ok((t, a))
+}
+
+/// Applies one fault to the board.
+fn apply(board: &mut Board, f: &FaultSpec) {
+    match f.action() {
+        FaultAction::Inject(fault) => board.sim().inject(fault),
+        FaultAction::Clear => board.sim().clear_faults(),
+        FaultAction::Board(a) => board.apply(board_fault(a)),
+    }
 }
 
 fn ensure_elf(path: &std::path::Path, explicit: bool) -> Result<(), String> {
@@ -167,7 +101,7 @@ fn ensure_elf(path: &std::path::Path, explicit: bool) -> Result<(), String> {
     if explicit {
         return Err(format!("{}: no such file", path.display()));
     }
-    eprintln!("firmware ELF absent; building it with `cargo fw` ...");
+    note!("firmware ELF absent; building it with `cargo fw` ...");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let status = std::process::Command::new(cargo)
         .args([
@@ -220,7 +154,16 @@ impl Runner {
     }
 }
 
-fn checked_args(args: &Args) -> Result<(), String> {
+/// What the checks found: what to fly, for how long, on which ELF.
+struct Plan {
+    scenario: Option<Scenario>,
+    seconds: f64,
+    elf: PathBuf,
+}
+
+/// Checks every value and path before the board starts; creates the
+/// plot's folders and file so an unwritable path fails now.
+fn validate(args: &Args) -> Result<Plan, String> {
     if let Some(s) = args.seconds {
         if !(s.is_finite() && s > 0.0 && s <= 3600.0) {
             return Err("--seconds must be in (0, 3600]".into());
@@ -229,7 +172,46 @@ fn checked_args(args: &Args) -> Result<(), String> {
     if !(30_000..=60_000).contains(&args.lsi_hz) {
         return Err("--lsi-hz must be within the datasheet's 30000–60000 Hz".into());
     }
-    Ok(())
+    let scenario = match &args.scenario {
+        Some(n) => Some(Scenario::from_name(n).ok_or(format!("unknown scenario `{n}`"))?),
+        None => None,
+    };
+    let seconds = args
+        .seconds
+        .unwrap_or(scenario.map_or(5.0, |s| s.duration_s()));
+    if let Some(f) = args.faults.iter().find(|f| f.at_s >= seconds) {
+        return Err(format!(
+            "--fault {f}: {} s is after the end of the {seconds} s run",
+            f.at_s
+        ));
+    }
+    let elf = args.elf.clone().unwrap_or_else(emulator::release_elf_path);
+    if let Some(plot) = &args.plot {
+        sim::plot::check_plot_path(plot)?;
+        if host_console::canonical_path(plot) == host_console::canonical_path(&elf) {
+            return Err(format!(
+                "--plot {} is the firmware ELF (an input)",
+                plot.display()
+            ));
+        }
+        create(plot)?;
+    }
+    Ok(Plan {
+        scenario,
+        seconds,
+        elf,
+    })
+}
+
+/// Creates `path` (and its parent folders) for writing.
+fn create(path: &Path) -> Result<(), String> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("--plot: creating folder {}: {e}", dir.display()))?;
+    }
+    std::fs::File::create(path)
+        .map(drop)
+        .map_err(|e| format!("--plot {}: {e}", path.display()))
 }
 
 fn board_runner(args: &Args, elf: &std::path::Path) -> Result<Runner, String> {
@@ -270,53 +252,23 @@ fn rig_runner(scenario: Scenario, args: &Args, elf: &std::path::Path) -> Result<
     Ok(Runner::Rig(Box::new(rig)))
 }
 
-fn run(args: Args) -> Result<(), String> {
-    checked_args(&args)?;
-    let scenario = match &args.scenario {
-        Some(n) => Some(Scenario::from_name(n).ok_or(format!("unknown scenario `{n}`"))?),
-        None => None,
-    };
-    let seconds = args
-        .seconds
-        .unwrap_or(scenario.map_or(5.0, |s| s.duration_s()));
-    let mut faults = args
-        .faults
-        .iter()
-        .map(|f| parse_fault(f))
-        .collect::<Result<Vec<_>, _>>()?;
-    faults.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let elf = args.elf.clone().unwrap_or_else(emulator::release_elf_path);
-    ensure_elf(&elf, args.elf.is_some())?;
-    let mut runner = match scenario {
-        Some(s) => rig_runner(s, &args, &elf)?,
-        None => board_runner(&args, &elf)?,
-    };
-    let out = std::io::stdout();
-    let mut out = out.lock();
-    let end_ns = (seconds * 1e9) as u64;
-    let (mut shown_lines, mut shown_events) = (0, 0);
-    let mut pending = faults.into_iter().peekable();
-    let mut t = 0;
-    let result = loop {
-        while let Some((_, a)) = pending.next_if(|(ft, _)| (*ft * 1e9) as u64 <= t) {
-            let board = runner.board_mut();
-            match a {
-                Action::Sim(f) => board.sim().inject(f),
-                Action::Board(f) => board.apply(f),
-                Action::Clear => board.sim().clear_faults(),
-            }
-        }
-        let next_fault = pending.peek().map_or(end_ns, |(ft, _)| (*ft * 1e9) as u64);
-        t = (t + 10_000_000).min(end_ns).min(next_fault.max(t + 1));
-        let r = runner.run_until_ns(t);
-        let board = runner.board();
+/// New log lines and (with `--events`) board events since the last call,
+/// as `cargo fil` prints them.
+struct Printer {
+    lines: usize,
+    events: usize,
+    with_events: bool,
+}
+
+impl Printer {
+    fn text(&mut self, board: &Board) -> String {
         let mut text = String::new();
-        for l in &board.log_lines()[shown_lines..] {
+        for l in &board.log_lines()[self.lines..] {
             text.push_str(&format!("[{:>11.6}] {l}\n", l.host_time_ns as f64 * 1e-9));
         }
-        shown_lines = board.log_lines().len();
-        if args.events {
-            for e in &board.events()[shown_events..] {
+        self.lines = board.log_lines().len();
+        if self.with_events {
+            for e in &board.events()[self.events..] {
                 text.push_str(&format!(
                     "[{:>11.6}] [emulator] {}\n",
                     e.time_ns as f64 * 1e-9,
@@ -324,25 +276,75 @@ fn run(args: Args) -> Result<(), String> {
                 ));
             }
         }
-        shown_events = board.events().len();
-        if let Err(e) = out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-            if e.kind() == std::io::ErrorKind::BrokenPipe {
-                return Ok(());
+        self.events = board.events().len();
+        text
+    }
+}
+
+/// Runs the board to `end_ns` in 10 ms steps, applying the faults at their
+/// times and printing the log as it comes. A closed stdout (`| head`) stops
+/// the printing, not the flight.
+fn fly(runner: &mut Runner, faults: &[FaultSpec], end_ns: u64, args: &Args) -> Result<(), String> {
+    let out = std::io::stdout();
+    let mut out = out.lock();
+    let mut printer = Printer {
+        lines: 0,
+        events: 0,
+        with_events: args.events,
+    };
+    let mut pending = FaultSchedule::new(faults);
+    let (mut t, mut printing) = (0, true);
+    loop {
+        while let Some(f) = pending.next_due(t as f64 * 1e-9) {
+            apply(runner.board_mut(), &f);
+        }
+        let next_fault = pending
+            .next_at_s()
+            .map_or(end_ns, |s| (s * 1e9).ceil() as u64);
+        t = (t + 10_000_000).min(end_ns).min(next_fault.max(t + 1));
+        let r = runner.run_until_ns(t);
+        let text = printer.text(runner.board());
+        if printing {
+            if let Err(e) = out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+                if e.kind() != std::io::ErrorKind::BrokenPipe {
+                    return Err(format!("writing the log to stdout: {e}"));
+                }
+                printing = false;
             }
-            return Err(e.to_string());
         }
         if let Err(e) = r {
-            break Err(format!(
+            return Err(format!(
                 "emulated board stopped at {:.6} s: {e}",
-                board.now_ns() as f64 * 1e-9
+                runner.board().now_ns() as f64 * 1e-9
             ));
         }
         if t >= end_ns {
-            break Ok(());
+            return Ok(());
         }
+    }
+}
+
+/// Runs what `plan` says; writes the plot (also when the board stopped:
+/// the flight up to there) and the summaries.
+fn run(args: &Args, plan: &Plan) -> Result<(), String> {
+    ensure_elf(&plan.elf, args.elf.is_some())?;
+    let mut runner = match plan.scenario {
+        Some(s) => rig_runner(s, args, &plan.elf)?,
+        None => board_runner(args, &plan.elf)?,
     };
+    let result = fly(&mut runner, &args.faults, (plan.seconds * 1e9) as u64, args);
+    if let (Some(path), Runner::Rig(rig)) = (&args.plot, &runner) {
+        let title = format!(
+            "cargo fil: {} seed {} (the release ELF on the emulated board)",
+            args.scenario.as_deref().unwrap_or_default(),
+            args.seed
+        );
+        emulator::flightplot::write_plot(rig, path, &title)
+            .map_err(|e| format!("plotting {}: {e}", path.display()))?;
+        note!("wrote {}", path.display());
+    }
     if let (Ok(()), Runner::Rig(rig)) = (&result, &runner) {
-        print_flight_summary(&mut out, rig);
+        print_flight_summary(&mut std::io::stdout().lock(), rig);
     }
     if args.cpi {
         print_cpi(runner.board(), &args.cycle_model);
@@ -386,7 +388,7 @@ fn print_flight_summary(out: &mut impl Write, rig: &FlightRig) {
 fn print_cpi(board: &Board, model: &str) {
     let e = board.executed();
     let per = |c: u64| c as f64 / e.instructions.max(1) as f64;
-    eprintln!(
+    note!(
         "executed: {} instructions, {} CPU cycles, CPI {:.3} ({model} model; of it \
          refills {:.3}, exceptions {:.3}, APB {:.3})",
         e.instructions,
@@ -400,11 +402,65 @@ fn print_cpi(board: &Board, model: &str) {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    match run(args) {
+    let plan = match validate(&args) {
+        Ok(p) => p,
+        Err(e) => {
+            note!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    match run(&args, &plan) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            if let Some(p) = &args.plot {
+                if std::fs::metadata(p).is_ok_and(|m| m.len() == 0) {
+                    let _ = std::fs::remove_file(p);
+                }
+            }
+            note!("error: {e}");
             ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::Args;
+    use clap::Parser;
+
+    /// clap's checks of the definitions; any command line parses or errs, never panics.
+    #[test]
+    fn the_command_line_is_well_defined() {
+        host_console::testing::check_parser::<Args>();
+    }
+
+    /// One fault syntax with `cargo sim`, the board's own kinds included;
+    /// `--plot` only with a scenario.
+    #[test]
+    fn faults_and_plot_on_the_command_line() {
+        let a = Args::try_parse_from([
+            "fil",
+            "--scenario",
+            "takeoff",
+            "-f",
+            "8:imu-int-stops",
+            "--fault",
+            "8:missing:mpu",
+            "--plot",
+            "x.svg",
+        ])
+        .unwrap();
+        let specs: Vec<String> = a.faults.iter().map(ToString::to_string).collect();
+        assert_eq!(specs, ["8:imu-int-stops", "8:missing:mpu"]);
+        for (argv, want) in [
+            (vec!["fil", "-f", "magnet@3"], "e.g. `3:magnet`"),
+            (vec!["fil", "-f", "3:nack:baro"], "nack:CHIP:N"),
+            (vec!["fil", "-f", "3:laser"], "unknown fault kind `laser`"),
+            (vec!["fil", "--plot", "x.svg"], "--scenario"),
+        ] {
+            let e = Args::try_parse_from(&argv).unwrap_err().to_string();
+            assert!(e.contains(want), "{argv:?}: wanted `{want}` in {e}");
         }
     }
 }

@@ -14,6 +14,7 @@ use super::stack::{self, Stack};
 pub use flight::flightctl::FlightMode as Mode;
 use flight::flightctl::{PilotInput, VehicleState};
 use flight::storage::CalibrationRecord;
+use sim::faults::{FaultSchedule, FaultSpec};
 use sim::quad::QuadState;
 pub use sim::scenario::*;
 use sim::{
@@ -87,6 +88,8 @@ pub struct ClosedLoopOptions {
     pub esc_rate_hz: f64,
     /// Length of the magnetometer calibration dance before the flight (s).
     pub mag_dance_s: f64,
+    /// Chip and bus faults injected during the flight.
+    pub faults: Vec<FaultSpec>,
 }
 
 impl ClosedLoopOptions {
@@ -101,6 +104,7 @@ impl ClosedLoopOptions {
             airframe: scenario.airframe(),
             esc_rate_hz: 400.0,
             mag_dance_s: 30.0,
+            faults: Vec::new(),
         }
     }
 }
@@ -154,7 +158,6 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
         ..SimConfig::default()
     };
     let record = ground_calibration(&base, opts.mag_dance_s)?;
-
     let mut quad = Quadcopter::new(opts.airframe).map_err(|e| e.to_string())?;
     link.publish(&quad);
     let clock = SimClock::new();
@@ -168,7 +171,11 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     let mut missed = 0;
     let mut events = Vec::new();
     let mut radio = Radio::default();
+    let mut faults = FaultSchedule::new(&opts.faults);
     while clock.now_s() < duration_s {
+        faults.apply_due(clock.now_s(), &bus, |f| {
+            events.push((clock.now_s(), format!("fault {f}")));
+        })?;
         let t_next = bus.next_mpu_sample_ns() as f64 * 1e-9;
         escs.fly_to(&mut quad, t_next, &out.motors, &opts.scenario);
         link.publish(&quad);
@@ -185,26 +192,15 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
         };
         let pilot = opts.scenario.pilot(now_s);
         let now_us = clock.now_us() as u32;
-        let input = ControlInput {
-            now_us,
-            sensors_healthy: true,
-            vehicle: VehicleState::from_pipeline(stack.pipeline()),
-            gyro_bias_done: stack.gyro_bias_rps().is_some(),
-            accel_calibrated: stack.pipeline().accel_calibrated(),
-            pilot: radio.poll(now_s, now_us, pilot),
-        };
+        let input = ControlInput::from_stack(&stack, now_us, radio.poll(now_s, now_us, pilot));
         out = fc.step(&input)?;
         events.extend(fc.drain_events().into_iter().map(|e| (now_s, e)));
         let q = est.q_ned_from_body.map(f64::from);
-        samples.push(Sample {
-            t_s: now_s,
-            truth: quad.truth(),
-            est_q: Quat::new(q[0], q[1], q[2], q[3]),
-            est_height_m: est.height_m.map(f64::from),
-            out,
-            pilot,
-            quad: *quad.state(),
-        });
+        let est = (
+            Quat::new(q[0], q[1], q[2], q[3]),
+            est.height_m.map(f64::from),
+        );
+        samples.push(Sample::new(now_s, &quad, est, out, pilot));
     }
     Ok(FlightLog {
         scenario: opts.scenario,
@@ -214,6 +210,43 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
         events,
         radio_frames: radio.frames(),
     })
+}
+
+impl ControlInput {
+    /// What the flight controller gets at `now_us`: the stack's state and
+    /// the pilot's input.
+    fn from_stack(stack: &Stack, now_us: u32, pilot: PilotInput) -> Self {
+        Self {
+            now_us,
+            sensors_healthy: true,
+            vehicle: VehicleState::from_pipeline(stack.pipeline()),
+            gyro_bias_done: stack.gyro_bias_rps().is_some(),
+            accel_calibrated: stack.pipeline().accel_calibrated(),
+            pilot,
+        }
+    }
+}
+
+impl Sample {
+    /// The sample at `t_s`: the model's truth and state, the estimate
+    /// (attitude, height), the controller's output and the pilot's frame.
+    fn new(
+        t_s: f64,
+        quad: &Quadcopter,
+        (est_q, est_height_m): (Quat, Option<f64>),
+        out: ControlOutput,
+        pilot: Option<Pilot>,
+    ) -> Self {
+        Self {
+            t_s,
+            truth: quad.truth(),
+            est_q,
+            est_height_m,
+            out,
+            pilot,
+            quad: *quad.state(),
+        }
+    }
 }
 
 /// The calibrations a user runs once on the ground: the accelerometer on six

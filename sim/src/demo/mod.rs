@@ -13,12 +13,10 @@
 //!   controller) flies it through the
 //!   scripted pilot of a [`closed_loop::Scenario`]; [`figures`] scores it,
 //!   [`plot_closed`] draws it.
-//! * [`faults`] names the simulator's fault kinds for `--fault`.
 //!
 //! Printing that survives a closed pipe is `host_console`, shared with `replay`.
 
 pub mod closed_loop;
-pub mod faults;
 pub mod figures;
 pub mod flight_fc;
 pub mod mag;

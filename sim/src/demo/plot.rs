@@ -5,43 +5,15 @@
 //! before/after calibration as XY / YZ / XZ scatter plots. Legends sit in
 //! a strip right of the data.
 //!
-//! The font (DejaVu Sans) is compiled into the binary, so the text does
-//! not depend on what the machine has installed. PNG or SVG by the file's
-//! extension.
+//! The building blocks (format by extension, the embedded font, the
+//! time-series chart with its legend strip) are `sim::plot`'s.
 
 use super::run::{attitude_errors, Record, RecordSink};
 use super::stack::MagCalRun;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::FontStyle;
+use sim::plot::{autoscale, load_font, time_chart, PlotFormat, Res, COLORS, FONT};
 use std::path::Path;
-
-/// Image formats, chosen by the output file's extension.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PlotFormat {
-    /// `.png`: bitmap.
-    Png,
-    /// `.svg`: vector.
-    Svg,
-}
-
-impl PlotFormat {
-    /// The format for `path`'s extension (case-insensitive), or an error
-    /// naming the ones supported.
-    pub fn from_path(path: &Path) -> Result<Self, String> {
-        let ext = path
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        match ext.as_deref() {
-            Some("png") => Ok(Self::Png),
-            Some("svg") => Ok(Self::Svg),
-            Some(other) => Err(format!(
-                "unsupported plot format `.{other}` (use .png or .svg)"
-            )),
-            None => Err("the plot file needs an extension: .png or .svg".into()),
-        }
-    }
-}
 
 /// One plotted instant.
 #[derive(Clone, Copy, Debug)]
@@ -116,25 +88,8 @@ impl RecordSink for PlotSeries {
     }
 }
 
-pub(super) type Res = Result<(), Box<dyn std::error::Error>>;
-
-pub(super) const COLORS: [RGBColor; 3] = [
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(31, 119, 180),
-];
-pub(super) const FONT: &str = "sans-serif";
 const WIDTH: u32 = 1500;
 const HEIGHT: u32 = 1560;
-/// Width of the legend strip right of each time-series panel (px).
-const LEGEND_W: u32 = 210;
-
-/// Registers the embedded DejaVu Sans as plotters' sans-serif face.
-pub(super) fn load_font() -> Result<(), String> {
-    plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular())
-        .map_err(|_| "the embedded font could not be loaded".to_string())
-}
-
 /// Draws the run into `path` (format from the extension).
 pub fn write_plot(
     path: &Path,
@@ -219,75 +174,6 @@ fn unwrapped(p: &[Point], axis: usize) -> (Line, Line) {
         est.push((r.t_s, t + wrap_deg(r.est_deg[axis] - raw)));
     }
     (truth, est)
-}
-
-/// `lo..hi` around the values with a 10 % margin and at least `min_span`.
-pub(super) fn autoscale<'a>(
-    values: impl Iterator<Item = &'a f64>,
-    min_span: f64,
-) -> std::ops::Range<f64> {
-    let (lo, hi) = values
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(*v), hi.max(*v))
-        });
-    if lo > hi {
-        return -min_span / 2.0..min_span / 2.0;
-    }
-    let mid = 0.5 * (lo + hi);
-    let half = (0.5 * (hi - lo) * 1.1).max(min_span / 2.0);
-    mid - half..mid + half
-}
-
-/// A time-series chart with its legend strip; returns the chart.
-pub(super) fn time_chart<'a, DB: DrawingBackend>(
-    area: &'a DrawingArea<DB, Shift>,
-    caption: &str,
-    t_max: f64,
-    y: std::ops::Range<f64>,
-    y_desc: &str,
-    legend: &[(&str, ShapeStyle)],
-) -> Result<
-    ChartContext<
-        'a,
-        DB,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
-    Box<dyn std::error::Error>,
->
-where
-    DB::ErrorType: 'static,
-{
-    let (plot_area, legend_area) = area.split_horizontally(area.dim_in_pixel().0 - LEGEND_W);
-    draw_legend(&legend_area, legend)?;
-    let mut c = ChartBuilder::on(&plot_area)
-        .margin(8)
-        .caption(caption, (FONT, 17))
-        .x_label_area_size(30)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0.0..t_max, y)?;
-    c.configure_mesh()
-        .x_desc("t [s]")
-        .y_desc(y_desc)
-        .label_style((FONT, 13))
-        .draw()?;
-    Ok(c)
-}
-
-/// Legend entries (a line sample and a name) stacked in their own strip.
-fn draw_legend<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    entries: &[(&str, ShapeStyle)],
-) -> Res
-where
-    DB::ErrorType: 'static,
-{
-    for (i, (name, style)) in entries.iter().enumerate() {
-        let y = 50 + 24 * i as i32;
-        area.draw(&PathElement::new(vec![(10, y), (40, y)], *style))?;
-        area.draw(&Text::new(name.to_string(), (48, y - 8), (FONT, 15)))?;
-    }
-    Ok(())
 }
 
 fn draw_angle<DB: DrawingBackend>(
@@ -429,22 +315,6 @@ where
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn format_by_extension() {
-        assert_eq!(
-            PlotFormat::from_path(Path::new("a/b.png")),
-            Ok(PlotFormat::Png)
-        );
-        assert_eq!(
-            PlotFormat::from_path(Path::new("b.SVG")),
-            Ok(PlotFormat::Svg)
-        );
-        assert!(PlotFormat::from_path(Path::new("b.jpg"))
-            .unwrap_err()
-            .contains(".jpg"));
-        assert!(PlotFormat::from_path(Path::new("b")).is_err());
-    }
 
     #[test]
     fn wrap_is_half_open_and_unwrap_is_continuous() {

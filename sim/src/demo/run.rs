@@ -3,7 +3,8 @@
 
 use super::stack::{self, AccelCalRun, MagCalRun, Stack};
 use host_console::{note, say};
-use sim::{Environment, Fault, Quat, SensorErrors, SimBus, SimClock, SimConfig, Trajectory};
+use sim::faults::{FaultSchedule, FaultSpec};
+use sim::{Environment, Quat, SensorErrors, SimBus, SimClock, SimConfig, Trajectory};
 use std::io::Write;
 
 /// What to run.
@@ -22,7 +23,7 @@ pub struct RunOptions {
     /// Length of the magnetometer calibration dance (s).
     pub mag_dance_s: f64,
     /// Faults injected during the flight.
-    pub faults: Vec<ScheduledFault>,
+    pub faults: Vec<FaultSpec>,
     /// Show a progress line on stderr during long runs.
     pub progress: bool,
 }
@@ -121,15 +122,6 @@ pub fn attitude_errors(est: &Quat, truth: &Quat) -> (f64, f64, f64) {
     (total, heading, incl)
 }
 
-/// A fault injected into the flight session at a simulated time.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ScheduledFault {
-    /// When (s of simulated flight time).
-    pub at_s: f64,
-    /// What (`sim::Fault`); persistent ones last to the end of the run.
-    pub fault: Fault,
-}
-
 /// Where each record goes as it is produced (the run keeps none of them).
 pub trait RecordSink {
     /// Takes one record.
@@ -204,9 +196,7 @@ fn fly(
     let mut delay = clock.delay();
     let mut stack = Stack::boot(&bus, &mut delay, record)?;
     print_boot(&stack);
-    let mut faults: Vec<ScheduledFault> = opts.faults.clone();
-    faults.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
-    let mut faults = faults.into_iter().peekable();
+    let mut faults = FaultSchedule::new(&opts.faults);
     let mut progress = Progress::new(opts.duration_s, opts.progress, wall);
     let mut out = Flight {
         scorer: Scorer::default(),
@@ -215,10 +205,9 @@ fn fly(
     };
     let mut next_print = 0.0;
     while clock.now_s() < opts.duration_s {
-        while let Some(f) = faults.next_if(|f| f.at_s <= clock.now_s()) {
-            say!("t {:.2} s: injecting {:?}", clock.now_s(), f.fault);
-            bus.inject(f.fault);
-        }
+        faults.apply_due(clock.now_s(), &bus, |f| {
+            say!("t {:.2} s: fault {f}", clock.now_s());
+        })?;
         bus.advance_to_next_mpu_sample();
         progress.tick(clock.now_s());
         if !bus.data_ready() {

@@ -1,0 +1,117 @@
+//! `cargo fil` as a user meets it: bad arguments fail before the board
+//! starts (status 2, a message naming what is wrong, nothing on stdout);
+//! `--scenario NAME --fault … --plot FILE` flies the release ELF with the
+//! fault in the air and writes the plot with its series.
+
+#![allow(clippy::panic, clippy::expect_used, clippy::unwrap_used)]
+
+mod common;
+use std::path::PathBuf;
+use std::process::{Command, Output, Stdio};
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fil-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn fil(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fil"))
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Fails with status 2 and `msg`, before the board runs (nothing on stdout).
+fn refused(args: &[&str], msg: &str) {
+    let o = fil(args);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    assert!(
+        stderr(&o).contains(msg),
+        "{args:?}: wanted `{msg}` in {}",
+        stderr(&o)
+    );
+    assert!(o.stdout.is_empty(), "{args:?} did work before failing");
+}
+
+#[test]
+fn bad_arguments_are_refused_before_the_board_starts() {
+    let d = dir("refused");
+    refused(&["-f", "magnet@3"], "e.g. `3:magnet`");
+    refused(&["-f", "3:nack:baro"], "nack:CHIP:N");
+    refused(&["-f", "3:chip-reset:gps"], "unknown chip `gps`");
+    refused(&["-f", "3:laser"], "unknown fault kind `laser`");
+    refused(
+        &["-s", "4", "-f", "5:stuck-bus"],
+        "after the end of the 4 s run",
+    );
+    refused(&["--plot", "x.svg"], "--scenario");
+    refused(&["--scenario", "takeoff", "--plot", "-"], "not stdout");
+    refused(
+        &["--scenario", "takeoff", "--plot", "x.jpg"],
+        "unsupported plot format `.jpg`",
+    );
+    // The ELF itself, spelled differently, with a plot extension.
+    let elf_svg = d.join("firmware.svg");
+    std::fs::write(&elf_svg, b"not an ELF").unwrap();
+    let name = d.file_name().unwrap().to_str().unwrap();
+    let other = format!("{}/../{name}/./firmware.svg", d.display());
+    refused(
+        &[
+            "--elf",
+            elf_svg.to_str().unwrap(),
+            "--scenario",
+            "takeoff",
+            "--plot",
+            &other,
+        ],
+        "is the firmware ELF",
+    );
+    assert_eq!(std::fs::read(&elf_svg).unwrap(), b"not an ELF");
+    let _ = std::fs::remove_dir_all(d);
+}
+
+#[test]
+fn a_scenario_flies_with_a_fault_in_the_air_and_plots() {
+    let Some(elf) = common::elf() else { return };
+    let d = dir("plot");
+    let plot = d.join("out/takeoff.svg");
+    let o = fil(&[
+        "--elf",
+        elf.to_str().unwrap(),
+        "--scenario",
+        "takeoff",
+        "-s",
+        "4.5",
+        "--fault",
+        "4:nack:baro:20",
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("att r="), "no attitude line in the log");
+    assert!(out.contains("[emulator] flight:"), "{out}");
+    assert!(stderr(&o).contains("wrote"), "{}", stderr(&o));
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    assert!(svg.len() > 10_000, "{} bytes", svg.len());
+    for series in [
+        "cargo fil: takeoff seed 1",
+        "truth",
+        "firmware estimate",
+        "stick setpoint",
+        "PA6 motor 1 (RR)",
+        "PB1 motor 4 (FL)",
+        "throttle",
+        "arm switch",
+    ] {
+        assert!(svg.contains(series), "no `{series}` in the plot");
+    }
+    let _ = std::fs::remove_dir_all(d);
+}
