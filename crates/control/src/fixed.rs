@@ -56,6 +56,7 @@ fn sat32(x: i64) -> i32 {
 }
 
 /// Q24 of a non-negative gain, [`Error::InvalidParameter`] at or above 128.
+#[inline(always)]
 fn gain_q24(g: f32) -> Result<i32, Error> {
     if !(g.is_finite() && (0.0..128.0).contains(&g)) {
         return Err(Error::InvalidParameter);
@@ -73,6 +74,7 @@ pub fn to_q16(x: f32) -> Result<i32, Error> {
 }
 
 /// Q30 of an output-unit value within ±1.99, [`Error::InvalidLimits`] otherwise.
+#[inline(always)]
 pub fn to_q30(x: f32) -> Result<i32, Error> {
     if !(x.is_finite() && x.abs() <= 1.99) {
         return Err(Error::InvalidLimits);
@@ -116,6 +118,10 @@ impl PidQ {
     /// config's own ([`PidConfig::validate`]), [`Error::InvalidDt`],
     /// [`Error::InvalidParameter`] (a gain ≥ 128 after folding in `dt_s`),
     /// [`Error::InvalidLimits`] (a limit beyond ±1.99).
+    // `inline(always)`: with a constant configuration (the firmware's) the
+    // conversions fold at compile time; out of line they are soft-float
+    // code in flash.
+    #[inline(always)]
     pub fn new(cfg: &PidConfig, dt_s: f32) -> Result<Self, Error> {
         cfg.validate()?;
         check_dt(dt_s)?;

@@ -98,8 +98,10 @@ impl RateControllerQ {
     /// The loop for `cfg` run every `dt_s` seconds (the gains converted
     /// once, here). Errors: [`RateConfig::validate`]'s, and [`PidQ::new`]'s
     /// for gains or limits the formats cannot hold.
-    // Out of line: configuration time only.
-    #[inline(never)]
+    // `inline(always)`, as the `f32` loops' constructors: a constant
+    // configuration (the firmware's) then folds at compile time (1.4 KiB
+    // of flash out of line).
+    #[inline(always)]
     pub fn new(cfg: &RateConfig, dt_s: f32) -> Result<Self, Error> {
         cfg.validate()?;
         Ok(Self {
@@ -136,10 +138,6 @@ impl RateControllerQ {
         self.axes.map(|a| a.integral_q30())
     }
 }
-
-/// Roll, pitch, yaw signs of each motor (the coefficients of
-/// [`QUAD_X`](crate::mixer::QUAD_X) are these times ½).
-const SIGNS: [[i32; 3]; MOTORS] = [[-1, -1, -1], [-1, 1, 1], [1, -1, 1], [1, 1, -1]];
 
 /// `1.0` in Q29, the mixer's working format.
 const ONE_Q29: i32 = 1 << 29;
@@ -182,7 +180,13 @@ impl MixOutputQ {
 
     /// The motor commands as `f32` 0..1.
     pub fn motor_commands(&self) -> [f32; MOTORS] {
-        self.motors_q30.map(|m| q_to_f32(m, 30))
+        let m = &self.motors_q30;
+        [
+            q_to_f32(m[0], 30),
+            q_to_f32(m[1], 30),
+            q_to_f32(m[2], 30),
+            q_to_f32(m[3], 30),
+        ]
     }
 }
 
@@ -198,6 +202,7 @@ pub struct MixerQ {
 impl MixerQ {
     /// Validates the configuration ([`MixerConfig::validate`]) and converts
     /// the idle once. Errors: [`Error::InvalidParameter`].
+    #[inline(always)]
     pub fn new(cfg: &MixerConfig) -> Result<Self, Error> {
         cfg.validate()?;
         Ok(Self {
@@ -212,32 +217,43 @@ impl MixerQ {
         let lo = self.idle_q29;
         let hi = ONE_Q29;
         let t = (throttle_q30 >> 1).max(lo).min(hi);
-        let [roll, pitch, yaw] = torque_q30.map(|v| (v >> 1).clamp(-ONE_Q29, ONE_Q29));
-        // Roll/pitch part ±1 and yaw part ±½ per motor, Q29.
-        let rp = SIGNS.map(|s| (s[0] * roll + s[1] * pitch) >> 1);
-        let y = SIGNS.map(|s| (s[2] * yaw) >> 1);
-        let mut m = [0i32; MOTORS];
-        let mut fits = true;
-        for i in 0..MOTORS {
-            m[i] = t + rp[i] + y[i];
-            fits &= m[i] >= lo && m[i] <= hi;
-        }
+        let c = |v: i32| (v >> 1).clamp(-ONE_Q29, ONE_Q29);
+        let (roll, pitch, yaw) = (c(torque_q30[0]), c(torque_q30[1]), c(torque_q30[2]));
+        // Roll/pitch part ±1 and yaw part ±½ per motor, Q29: the signs of
+        // [`QUAD_X`](crate::mixer::QUAD_X) (its ±½ are the shifts), written
+        // out (array `map`s here cost a `memcpy` each).
+        let rp = [
+            (-roll - pitch) >> 1,
+            (pitch - roll) >> 1,
+            (roll - pitch) >> 1,
+            (roll + pitch) >> 1,
+        ];
+        let (yp, yn) = (yaw >> 1, (-yaw) >> 1);
+        let m = [
+            t + rp[0] + yn,
+            t + rp[1] + yp,
+            t + rp[2] + yp,
+            t + rp[3] + yn,
+        ];
+        let fits = m.iter().all(|&v| v >= lo && v <= hi);
         if fits {
             return MixOutputQ {
-                motors_q30: m.map(|v| v << 1),
+                motors_q30: [m[0] << 1, m[1] << 1, m[2] << 1, m[3] << 1],
                 roll_pitch_gain_q16: ONE_Q16,
                 yaw_gain_q16: ONE_Q16,
                 collective_shift_q30: 0,
             };
         }
-        desaturate(t, &rp, &y, lo, hi)
+        desaturate(t, &rp, (yp, yn), lo, hi)
     }
 }
 
 /// The mixer's saturated path ([`Mixer`](crate::mixer::Mixer)'s steps 1–3)
-/// from the collective `t` and the per-motor parts, all Q29.
+/// from the collective `t`, the per-motor roll/pitch parts and the yaw
+/// part of the CCW motors (1, 2) and of the CW ones (0, 3), all Q29.
 #[inline(never)]
-fn desaturate(t: i32, rp: &[i32; MOTORS], y: &[i32; MOTORS], lo: i32, hi: i32) -> MixOutputQ {
+fn desaturate(t: i32, rp: &[i32; MOTORS], (yp, yn): (i32, i32), lo: i32, hi: i32) -> MixOutputQ {
+    let y = [yn, yp, yp, yn];
     let width = hi - lo;
     let (rp_lo, rp_hi) = min_max(rp);
     let rp_span = rp_hi - rp_lo;
@@ -246,8 +262,11 @@ fn desaturate(t: i32, rp: &[i32; MOTORS], y: &[i32; MOTORS], lo: i32, hi: i32) -
     } else {
         ONE_Q16
     };
-    let base = rp.map(|v| mul_q16(g_rp, v));
-    let g_y = max_gain_q16(&base, y, width);
+    let mut base = [0i32; MOTORS];
+    for (b, &v) in base.iter_mut().zip(rp) {
+        *b = mul_q16(g_rp, v);
+    }
+    let g_y = yaw_gain_q16(&base, yp, yn, width);
     let mut m = [0i32; MOTORS];
     for i in 0..MOTORS {
         m[i] = t + base[i] + mul_q16(g_y, y[i]);
@@ -262,8 +281,11 @@ fn desaturate(t: i32, rp: &[i32; MOTORS], y: &[i32; MOTORS], lo: i32, hi: i32) -
     } else {
         0
     };
+    for v in &mut m {
+        *v = (*v + shift).max(lo).min(hi) << 1;
+    }
     MixOutputQ {
-        motors_q30: m.map(|v| (v + shift).max(lo).min(hi) << 1),
+        motors_q30: m,
         roll_pitch_gain_q16: g_rp,
         yaw_gain_q16: g_y,
         collective_shift_q30: shift << 1,
@@ -292,23 +314,24 @@ fn ratio_q16(num: i32, den: i32) -> i32 {
     (n / d16).min(ONE_Q16 as u32) as i32
 }
 
-/// The largest Q16 `g` in `[0, 1]` with `span(base + g·add) ≤ width`, given
-/// `span(base) ≤ width` (as `mixer::max_gain`): every pair `(i, j)` with
-/// `aᵢ > aⱼ` bounds it by `(width − (bᵢ − bⱼ)) / (aᵢ − aⱼ)`.
-fn max_gain_q16(base: &[i32; MOTORS], add: &[i32; MOTORS], width: i32) -> i32 {
-    let mut g = ONE_Q16;
-    for i in 0..MOTORS {
-        for j in 0..MOTORS {
-            let da = add[i] - add[j];
-            if da > 0 {
-                let room = width - (base[i] - base[j]);
-                if i64::from(room) << 16 < i64::from(g) * i64::from(da) {
-                    g = ratio_q16(room, da);
-                }
-            }
-        }
+/// The largest Q16 `g` in `[0, 1]` with `span(base + g·y) ≤ width`, given
+/// `span(base) ≤ width`, for the quad-X yaw parts `y = [yn, yp, yp, yn]`
+/// (as `mixer::max_gain`, whose pairs `(i, j)` with `yᵢ > yⱼ` all have the
+/// same `da = |yp − yn|`, so the binding pair is the one with the least
+/// room `width − (bᵢ − bⱼ)`: one division).
+fn yaw_gain_q16(base: &[i32; MOTORS], yp: i32, yn: i32, width: i32) -> i32 {
+    // The motors the yaw pushes up and those it pushes down.
+    let ((u0, u1), (d0, d1), da) = if yp > yn {
+        ((base[1], base[2]), (base[0], base[3]), yp - yn)
+    } else {
+        ((base[0], base[3]), (base[1], base[2]), yn - yp)
+    };
+    let room = width - (u0.max(u1) - d0.min(d1));
+    if room >= da {
+        ONE_Q16
+    } else {
+        ratio_q16(room, da) // 0 for no room
     }
-    g
 }
 
 fn min_max(v: &[i32; MOTORS]) -> (i32, i32) {
