@@ -93,9 +93,10 @@ fn budgets() -> Vec<(&'static str, Vec<Limit>)> {
         // saturated mix included.
         (RATE_MIX_Q, vec![Limit::Max(1_500)]),
         (RATE_MIX_Q_SAT, vec![Limit::Max(1_500)]),
-        // The 1 kHz flight step: a regression guard at ~10 % over the
-        // measured 14.7k (about 0.2 ms of each 1 ms sample at 72 MHz).
-        (FC_STEP_ANGLE, vec![Limit::Max(16_000)]),
+        // The 1 kHz flight step: a regression guard at ~13 % over the
+        // measured 8.4k with the rate loop and mixer in fixed point (14.7k
+        // in f32; issue 26 asks for 3,000 once the rest follows).
+        (FC_STEP_ANGLE, vec![Limit::Max(9_500)]),
         // The receiver's DMA ring hands the parser a frame's bytes in one
         // interrupt at priority 4, above the 1 kHz IMU task: 25 ordinary
         // bytes and the completing one. These limits keep that under 7,650
