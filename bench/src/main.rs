@@ -176,7 +176,106 @@ mod suite {
             Quat::from_euler(0.05 * k as f32 - 0.1, 0.02 * k as f32, 0.3 * k as f32)
         });
         level_and_mixer_cases(&q);
+        rate_mixer_cases();
         flight_controller_cases(&q);
+    }
+
+    /// Names of the budgeted fixed-point rate-loop rows (see xtask's budgets).
+    const RATE_MIX_Q_NAME: &str =
+        "control::rateq rate loop + mixer, fixed (f32 in, Q16/Q30; unsaturated)";
+    const RATE_MIX_Q_SAT_NAME: &str =
+        "control::rateq rate loop + mixer, fixed (f32 in, Q16/Q30; saturated)";
+
+    /// (setpoint, gyro) pairs for the rate-loop rows: roll setpoints of
+    /// `big` × 0.5..1.1 rad/s against a slowly turning gyro.
+    fn rate_inputs(
+        big: f32,
+    ) -> [(
+        control::controllers::BodyRates,
+        control::controllers::BodyRates,
+    ); CALLS] {
+        use control::controllers::BodyRates;
+        core::array::from_fn(|k| {
+            let k = k as f32;
+            (
+                BodyRates {
+                    roll_rps: big * (0.5 + 0.1 * k),
+                    pitch_rps: -0.3 * big,
+                    yaw_rps: 0.2 + 0.01 * k,
+                },
+                BodyRates {
+                    roll_rps: 0.1 * k - 0.2,
+                    pitch_rps: 0.05,
+                    yaw_rps: -0.02 * k,
+                },
+            )
+        })
+    }
+
+    /// The per-sample rate loop and mixer, `f32` and fixed point, on the
+    /// same inputs: rate setpoints and gyro rates as the flight controller
+    /// holds them (`f32` rad/s), the fixed rows including the conversions
+    /// to Q16 and the motor commands back to `f32`.
+    fn rate_mixer_cases() {
+        use control::controllers::BodyRates;
+        use control::fixed::f32_to_q;
+        use control::loops::{RateConfig, RateController};
+        use control::mixer::{Mixer, MixerConfig};
+        use control::rateq::{MixerQ, RateControllerQ};
+
+        let (calm, hard) = (rate_inputs(0.4), rate_inputs(8.0));
+        let (Ok(rf), Ok(mf), Ok(rq), Ok(mq)) = (
+            RateController::new(RateConfig::default()),
+            Mixer::new(MixerConfig::default()),
+            RateControllerQ::new(&RateConfig::default(), DT_S),
+            MixerQ::new(&MixerConfig::default()),
+        ) else {
+            return;
+        };
+        for (inputs, thr, sat, name_f, name_q) in [
+            (
+                &calm,
+                0.5f32,
+                false,
+                "control rate loop + mixer, f32 (RateController::update + Mixer::mix; unsaturated)",
+                RATE_MIX_Q_NAME,
+            ),
+            (
+                &hard,
+                0.9,
+                true,
+                "control rate loop + mixer, f32 (RateController::update + Mixer::mix; saturated)",
+                RATE_MIX_Q_SAT_NAME,
+            ),
+        ] {
+            let mut st = (rf, mf);
+            let _ = st.0.update(&inputs[0].0, &inputs[0].1, DT_S); // D history
+            case_checked(
+                name_f,
+                &mut st,
+                inputs,
+                |(r, m), (sp, g)| {
+                    let t = r.update(sp, g, DT_S).unwrap_or_default();
+                    m.mix(thr, &t)
+                },
+                |o| o.as_ref().is_ok_and(|o| o.saturated() == sat),
+            );
+            let mut st = (rq, mq);
+            let q16 = |b: &BodyRates| [b.roll_rps, b.pitch_rps, b.yaw_rps].map(|v| f32_to_q(v, 16));
+            let _ = st.0.update(q16(&inputs[0].0), q16(&inputs[0].1));
+            let thr_q30 = f32_to_q(thr, 30);
+            case_checked(
+                name_q,
+                &mut st,
+                inputs,
+                |(r, m), (sp, g)| {
+                    let t = r.update(q16(sp), q16(g));
+                    let o = m.mix(thr_q30, t);
+                    (o.saturated(), o.motor_commands())
+                },
+                |o| o.0 == sat && o.1.iter().all(|&c| c > 0.0 && c <= 1.0),
+            );
+        }
     }
 
     /// The angle-mode outer loop and the mixer, the flight controller's

@@ -201,6 +201,17 @@ impl EscTimer {
         t.min(u32::from(u16::MAX)) as u16
     }
 
+    /// [`compare`](Self::compare) for a Q30 command (`1 << 30` = full
+    /// throttle; clamped to 0..1): `min + round(c · span)` by one 32×32-bit
+    /// `UMULL`, no soft-float. Equal to `compare(c as f32 / 2³⁰)` within
+    /// one tick (the `f32` form rounds its product to 24 bits first).
+    pub fn compare_q30(&self, command_q30: i32) -> u16 {
+        let c = command_q30.clamp(0, 1 << 30) as u32;
+        let t =
+            self.min_ticks + ((u64::from(c) * u64::from(self.span_ticks) + (1 << 29)) >> 30) as u32;
+        t.min(u32::from(u16::MAX)) as u16
+    }
+
     /// Compare value of the "off" pulse (ESC disarmed / motor stopped).
     pub fn off_compare(&self) -> u16 {
         self.min_ticks.min(u32::from(u16::MAX)) as u16

@@ -12,6 +12,7 @@
 //! | output, integral, feed-forward, their limits (torque, throttle) | Q30 | ±2 (limits must lie within ±1.99) |
 //! | gains with the period folded in (`kp`, `ki·dt`, `kd/dt`) | Q24 | 0..128 |
 //! | D-filter coefficient `α = dt/(τ + dt)` | Q30 | 0..1 |
+//! | D-filter state (measurement change per period) | Q24 | ±128 per period |
 //!
 //! Products are formed in `i64` (one `SMULL` on the M3) and every stored
 //! value saturates, so no input can overflow.
@@ -21,9 +22,10 @@
 //! For the same configuration, period and Q16-representable inputs the
 //! outputs stay within 2e-4 (output units, i.e. 0.02 % of a ±1 torque) of
 //! [`crate::pid::Pid`] and the f32 controllers over long random sequences
-//! that reach the limits (the tests drive both side by side). The
-//! difference is mostly the D term: the measurement change per period is
-//! kept in Q16, so `kd/dt` multiplies a 1.5e-5 quantum.
+//! that reach the limits (the tests drive both side by side). The D
+//! filter's state, the measurement change per period, is kept in Q24 (8
+//! bits below the inputs), so its rounding is far below `kd/dt` times one
+//! Q16 input quantum.
 //!
 //! # What differs
 //!
@@ -54,6 +56,7 @@ fn sat32(x: i64) -> i32 {
 }
 
 /// Q24 of a non-negative gain, [`Error::InvalidParameter`] at or above 128.
+#[inline(always)]
 fn gain_q24(g: f32) -> Result<i32, Error> {
     if !(g.is_finite() && (0.0..128.0).contains(&g)) {
         return Err(Error::InvalidParameter);
@@ -71,6 +74,7 @@ pub fn to_q16(x: f32) -> Result<i32, Error> {
 }
 
 /// Q30 of an output-unit value within ±1.99, [`Error::InvalidLimits`] otherwise.
+#[inline(always)]
 pub fn to_q30(x: f32) -> Result<i32, Error> {
     if !(x.is_finite() && x.abs() <= 1.99) {
         return Err(Error::InvalidLimits);
@@ -101,8 +105,10 @@ pub struct PidQ {
     integral_min_q30: i32,
     integral_max_q30: i32,
     integral_q30: i32,
-    /// Low-passed measurement change per period, Q16.
-    dmeas_filt_q16: i32,
+    /// Low-passed measurement change per period, Q24 (±128 units per
+    /// period; 8 bits below the inputs' Q16, so the filter's rounding
+    /// stays far below one input quantum).
+    dmeas_filt_q24: i32,
     prev_meas_q16: i32,
     has_prev: bool,
 }
@@ -112,6 +118,10 @@ impl PidQ {
     /// config's own ([`PidConfig::validate`]), [`Error::InvalidDt`],
     /// [`Error::InvalidParameter`] (a gain ≥ 128 after folding in `dt_s`),
     /// [`Error::InvalidLimits`] (a limit beyond ±1.99).
+    // `inline(always)`: with a constant configuration (the firmware's) the
+    // conversions fold at compile time; out of line they are soft-float
+    // code in flash.
+    #[inline(always)]
     pub fn new(cfg: &PidConfig, dt_s: f32) -> Result<Self, Error> {
         cfg.validate()?;
         check_dt(dt_s)?;
@@ -133,7 +143,7 @@ impl PidQ {
             integral_min_q30,
             integral_max_q30,
             integral_q30: 0.max(integral_min_q30).min(integral_max_q30),
-            dmeas_filt_q16: 0,
+            dmeas_filt_q24: 0,
             prev_meas_q16: 0,
             has_prev: false,
         })
@@ -142,6 +152,15 @@ impl PidQ {
     /// Integral term, Q30 output units.
     pub fn integral_q30(&self) -> i32 {
         self.integral_q30
+    }
+
+    /// Forgets everything, as [`Pid::clear`](crate::pid::Pid::clear):
+    /// integral 0 (or the integral limit nearest to 0), no measurement
+    /// history (the next update has no D term).
+    pub fn clear(&mut self) {
+        self.integral_q30 = 0.max(self.integral_min_q30).min(self.integral_max_q30);
+        self.dmeas_filt_q24 = 0;
+        self.has_prev = false;
     }
 
     /// One period: `setpoint_q16`, `measurement_q16` in Q16 of the error
@@ -155,15 +174,17 @@ impl PidQ {
     ) -> i32 {
         let e = setpoint_q16.saturating_sub(measurement_q16);
         let p = mul_q24_q16(self.kp_q24, e);
-        let dmeas = if self.has_prev {
-            let raw = measurement_q16.saturating_sub(self.prev_meas_q16);
-            let f = self.dmeas_filt_q16;
-            let step = (i64::from(self.alpha_q30) * (i64::from(raw) - i64::from(f))) >> 30;
-            sat32(i64::from(f) + step)
+        let dmeas_q24 = if self.has_prev {
+            let raw = i64::from(measurement_q16) - i64::from(self.prev_meas_q16);
+            let raw_q24 = i64::from(sat32(raw << 8));
+            let f = i64::from(self.dmeas_filt_q24);
+            // |raw − f| < 2³², α ≤ 2³⁰: the product fits 63 bits.
+            sat32(f + ((i64::from(self.alpha_q30) * (raw_q24 - f)) >> 30))
         } else {
             0
         };
-        let d = -mul_q24_q16(self.kd_per_dt_q24, dmeas);
+        // Q24 gain × Q24 change = Q48; Q30 after the shift.
+        let d = -((i64::from(self.kd_per_dt_q24) * i64::from(dmeas_q24)) >> 18);
         let ff = i64::from(feed_forward_q30);
         let i = i64::from(self.integral_q30);
         // Conditional integration: never integrate toward a saturated output.
@@ -182,7 +203,7 @@ impl PidQ {
             .max(i64::from(self.output_min_q30))
             .min(i64::from(self.output_max_q30)) as i32;
         self.integral_q30 = integral;
-        self.dmeas_filt_q16 = dmeas;
+        self.dmeas_filt_q24 = dmeas_q24;
         self.prev_meas_q16 = measurement_q16;
         self.has_prev = true;
         out
@@ -331,6 +352,66 @@ impl AltitudeHoldQ {
             .min(self.max_climb_q16);
         self.speed.update(v_sp, velocity_q16, self.hover_q30)
     }
+}
+
+/// `x · 2^frac` rounded to the nearest integer (halves away from zero),
+/// saturating at `i32::MIN`/`i32::MAX`; NaN gives 0. By the bits of the
+/// IEEE single (sign, exponent, 24-bit significand shifted into place), so
+/// on the Cortex-M3 it costs about fifteen integer instructions instead of
+/// a soft-float multiply and `__aeabi_f2iz` (≈ 80). Exact for every input
+/// whose result fits: the shift drops only bits below the rounding bit.
+/// `frac` ≤ 62.
+#[inline]
+pub fn f32_to_q(x: f32, frac: u32) -> i32 {
+    let bits = x.to_bits();
+    let exp = ((bits >> 23) & 0xff) as i32;
+    if exp == 0xff && bits & 0x7f_ffff != 0 {
+        return 0; // NaN
+    }
+    let mant = (bits & 0x7f_ffff) | if exp == 0 { 0 } else { 0x80_0000 };
+    // value = mant · 2^(exp − 150) (subnormals: exp 1), times 2^frac.
+    let shift = exp.max(1) - 150 + frac.min(62) as i32;
+    let mag: u32 = if shift >= 8 {
+        if mant == 0 {
+            0
+        } else {
+            u32::MAX // ≥ 2³¹: saturates below
+        }
+    } else if shift >= 0 {
+        mant << shift
+    } else if shift >= -24 {
+        let s = (-shift) as u32;
+        (mant + (1 << (s - 1))) >> s
+    } else {
+        0
+    };
+    if bits >> 31 == 0 {
+        mag.min(i32::MAX as u32) as i32
+    } else if mag >= 1 << 31 {
+        i32::MIN
+    } else {
+        -(mag as i32)
+    }
+}
+
+/// `x / 2^frac` as an `f32` (truncated to 24 significant bits: relative
+/// error < 1.2e-7), by the bits: one `CLZ` and a few shifts instead of
+/// `__aeabi_i2f` and a multiply. `frac` ≤ 100.
+#[inline]
+pub fn q_to_f32(x: i32, frac: u32) -> f32 {
+    if x == 0 {
+        return 0.0;
+    }
+    let sign = (x as u32) & (1 << 31);
+    let a = x.unsigned_abs();
+    let lz = a.leading_zeros();
+    // a = 1.f · 2^(31 − lz); the biased exponent of x / 2^frac.
+    let exp = 127 + 31 - lz as i32 - frac.min(100) as i32;
+    if exp <= 0 {
+        return 0.0; // below the normal range: not reached by this crate's formats
+    }
+    let mant = ((a << lz) >> 8) & 0x7f_ffff;
+    f32::from_bits(sign | ((exp as u32) << 23) | mant)
 }
 
 /// Q16 of a finite f32 (m, m/s), saturating at ±32 767: the cheap

@@ -34,7 +34,13 @@
 //! * [`fixed`] — the PID and both controllers in fixed point (Q16 inputs,
 //!   Q30 outputs) for a constant loop period: the same laws, integer
 //!   arithmetic only (the firmware's motors are driven by [`loops`] in the
-//!   flight controller; these remain for fixed-period users).
+//!   flight controller; these remain for fixed-period users), and the
+//!   bit-level `f32` ↔ Q conversions ([`fixed::f32_to_q`], [`fixed::q_to_f32`]).
+//! * [`rateq`] — the 1 kHz rate loop ([`rateq::RateControllerQ`]: three
+//!   [`fixed::PidQ`], Q16 rad/s → Q30 torque) and the quad-X mixer with its
+//!   desaturation ([`rateq::MixerQ`], Q30 in and out) in fixed point, the
+//!   `f32` [`loops::RateController`] and [`mixer::Mixer`] kept as their
+//!   reference (equivalence tested).
 //!
 //! Conventions: height and vertical speed are **up** positive, in metres
 //! above the baro reference pressure; attitude is NED/FRD Euler angles in
@@ -71,6 +77,7 @@ pub mod fixed;
 pub mod loops;
 pub mod mixer;
 pub mod pid;
+pub mod rateq;
 pub mod shaping;
 pub mod vertical;
 

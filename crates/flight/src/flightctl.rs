@@ -156,8 +156,10 @@
 
 use control::controllers::{AltitudeHold, AltitudeHoldConfig, BodyRates, TorqueCommand};
 use control::esc::EscTimer;
-use control::loops::{LevelConfig, LevelController, Quat, RateConfig, RateController, TiltQuat};
-use control::mixer::{MixOutput, Mixer, MixerConfig, MOTORS};
+use control::fixed::f32_to_q;
+use control::loops::{LevelConfig, LevelController, Quat, RateConfig, TiltQuat};
+use control::mixer::{MixOutput, MixerConfig, MOTORS};
+use control::rateq::{torque_from_q30, MixerQ, RateControllerQ};
 use control::shaping::{StickShaping, Sticks, SticksConfig};
 
 use crate::motortest::{MotorTestSwitch, SwitchRequest};
@@ -192,6 +194,11 @@ pub const HOVER_TAU_S: f32 = 1.5;
 pub const HOVER_LEVEL_COS_TILT: f32 = 0.966;
 /// Step assumed for the first call, µs (the 1 kHz IMU period).
 pub const FIRST_DT_US: u32 = 1_000;
+/// The rate loop's constant period, s: the IMU's 1 kHz. The loop runs in
+/// fixed point ([`control::rateq`]) and counts every step as one period
+/// (a step that stands for two merged samples integrates one), as
+/// Betaflight's loop does at its target loop time.
+pub const RATE_LOOP_PERIOD_S: f32 = 0.001;
 
 /// How the pilot flies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -516,10 +523,11 @@ pub struct FlightController {
     cfg: FlightConfig,
     lim: Limits,
     shaping: StickShaping,
-    rate: RateController,
+    /// The rate loop in fixed point at [`RATE_LOOP_PERIOD_S`].
+    rate: RateControllerQ,
     level: LevelController,
     alt: AltitudeHold,
-    mixer: Mixer,
+    mixer: MixerQ,
     state: FlightState,
     last_us: Option<u32>,
     /// Last arm-switch position seen with the link up (`None` at boot and
@@ -581,10 +589,10 @@ impl FlightController {
             cfg,
             lim,
             shaping,
-            rate: RateController::new(cfg.rate)?,
+            rate: RateControllerQ::new(&cfg.rate, RATE_LOOP_PERIOD_S)?,
             level: LevelController::new(cfg.level)?,
             alt: AltitudeHold::new(cfg.altitude_hold)?,
-            mixer: Mixer::new(cfg.mixer)?,
+            mixer: MixerQ::new(&cfg.mixer)?,
             state: FlightState::Disarmed,
             last_us: None,
             prev_switch: None,
@@ -980,21 +988,37 @@ impl FlightController {
         if !self.took_off {
             self.rate.clear();
         }
-        let torque = self.rate.update(&rate_sp, g, dt_s).unwrap_or_default();
-        let mix = self.mixer.mix(collective, &torque).ok();
-        let motors = match mix {
-            Some(m) => Motors::Run(m.motors),
-            None => self.last_motors,
-        };
+        self.fly_rates(&rate_sp, g, collective, out);
         self.last_collective = collective;
-        out.rate_setpoint = rate_sp;
-        out.torque = torque;
-        out.collective = collective;
-        out.mix = mix;
-        out.motors = motors;
 
         self.safety_checks(dt_us, cos_t, self_level, collective, vehicle, alt, out);
         self.track_hover(dt_s, cos_t, collective);
+    }
+
+    /// The rate loop and mixer, in fixed point from here to the motor
+    /// commands (`control::rateq`): the inputs converted by their bits, one
+    /// period per step; the torques, mix and motors into `out`.
+    fn fly_rates(
+        &mut self,
+        rate_sp: &BodyRates,
+        g: &BodyRates,
+        collective: f32,
+        out: &mut FlightOutput,
+    ) {
+        let q16 = |x: f32| f32_to_q(x, 16);
+        let sp_q16 = [
+            q16(rate_sp.roll_rps),
+            q16(rate_sp.pitch_rps),
+            q16(rate_sp.yaw_rps),
+        ];
+        let gyro_q16 = [q16(g.roll_rps), q16(g.pitch_rps), q16(g.yaw_rps)];
+        let torque_q30 = self.rate.update(sp_q16, gyro_q16);
+        let mix = self.mixer.mix(f32_to_q(collective, 30), torque_q30);
+        out.rate_setpoint = *rate_sp;
+        out.torque = torque_from_q30(torque_q30);
+        out.collective = collective;
+        out.mix = Some(mix.to_f32());
+        out.motors = Motors::Run(mix.motor_commands());
     }
 
     /// Flies a step without usable attitude/gyro ("Sensor loss" in the
@@ -1007,12 +1031,8 @@ impl FlightController {
         out.events.push(Event::InputRejected);
         out.motors = self.last_motors;
         if self.bad_input.us > BAD_INPUT_HOLD_US {
-            let even = self
-                .mixer
-                .mix(self.last_collective, &TorqueCommand::default());
-            if let Ok(m) = even {
-                out.motors = Motors::Run(m.motors);
-            }
+            let even = self.mixer.mix(f32_to_q(self.last_collective, 30), [0; 3]);
+            out.motors = Motors::Run(even.motor_commands());
         }
     }
 
