@@ -115,3 +115,38 @@ fn a_scenario_flies_with_a_fault_in_the_air_and_plots() {
     }
     let _ = std::fs::remove_dir_all(d);
 }
+
+/// SIGINT during a scenario with `--plot` over an existing file: status
+/// 130, the old plot byte-identical, the temporary file removed.
+#[test]
+fn an_interrupted_flight_leaves_the_existing_plot_intact() {
+    let Some(elf) = common::elf() else { return };
+    let d = dir("interrupted");
+    let plot = d.join("keep.svg");
+    std::fs::write(&plot, b"an old plot").unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_fil"))
+        .args(["--elf", elf.to_str().unwrap(), "--scenario", "linkloss"])
+        .args(["--plot", plot.to_str().unwrap()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let count = || std::fs::read_dir(&d).unwrap().count();
+    let t0 = std::time::Instant::now();
+    while count() < 2 && t0.elapsed().as_secs() < 30 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert_eq!(count(), 2, "no temporary file beside the plot");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&plot).unwrap(), b"an old plot");
+    assert_eq!(count(), 1, "a temporary file was left behind");
+    let _ = std::fs::remove_dir_all(d);
+}

@@ -11,7 +11,7 @@ use clap::Parser;
 use emulator::i2c1::PeripheralFault;
 use emulator::rig::{FlightRig, RigOptions};
 use emulator::{calpage, Board, BoardConfig, BoardError, BoardFault, CycleModel, RttMode};
-use host_console::note;
+use host_console::{note, SafeFile};
 use sim::faults::{BoardAction, FaultAction, FaultSchedule, FaultSpec, Rig};
 use sim::scenario::Scenario;
 use sim::Trajectory;
@@ -94,7 +94,7 @@ fn apply(board: &mut Board, f: &FaultSpec) {
     }
 }
 
-fn ensure_elf(path: &std::path::Path, explicit: bool) -> Result<(), String> {
+fn ensure_elf(path: &Path, explicit: bool) -> Result<(), String> {
     if path.exists() {
         return Ok(());
     }
@@ -154,15 +154,17 @@ impl Runner {
     }
 }
 
-/// What the checks found: what to fly, for how long, on which ELF.
+/// What the checks found: what to fly, for how long, on which ELF, and the
+/// plot's file (written beside its target, renamed over it at the end).
 struct Plan {
     scenario: Option<Scenario>,
     seconds: f64,
     elf: PathBuf,
+    plot: Option<SafeFile>,
 }
 
 /// Checks every value and path before the board starts; creates the
-/// plot's folders and file so an unwritable path fails now.
+/// plot's folders and temporary file so an unwritable path fails now.
 fn validate(args: &Args) -> Result<Plan, String> {
     if let Some(s) = args.seconds {
         if !(s.is_finite() && s > 0.0 && s <= 3600.0) {
@@ -194,27 +196,24 @@ fn validate(args: &Args) -> Result<Plan, String> {
                 plot.display()
             ));
         }
-        create(plot)?;
     }
+    let plot = match &args.plot {
+        Some(p) => Some(
+            SafeFile::create(p)
+                .map_err(|e| format!("--plot {}: {e}", p.display()))?
+                .0,
+        ),
+        None => None,
+    };
     Ok(Plan {
         scenario,
         seconds,
         elf,
+        plot,
     })
 }
 
-/// Creates `path` (and its parent folders) for writing.
-fn create(path: &Path) -> Result<(), String> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| format!("--plot: creating folder {}: {e}", dir.display()))?;
-    }
-    std::fs::File::create(path)
-        .map(drop)
-        .map_err(|e| format!("--plot {}: {e}", path.display()))
-}
-
-fn board_runner(args: &Args, elf: &std::path::Path) -> Result<Runner, String> {
+fn board_runner(args: &Args, elf: &Path) -> Result<Runner, String> {
     let trajectory = Trajectory::from_name(&args.trajectory).ok_or(format!(
         "unknown trajectory `{}` (one of {})",
         args.trajectory,
@@ -236,7 +235,7 @@ fn board_runner(args: &Args, elf: &std::path::Path) -> Result<Runner, String> {
     Ok(Runner::Board(Box::new(board)))
 }
 
-fn rig_runner(scenario: Scenario, args: &Args, elf: &std::path::Path) -> Result<Runner, String> {
+fn rig_runner(scenario: Scenario, args: &Args, elf: &Path) -> Result<Runner, String> {
     let fw = emulator::Firmware::load(elf).map_err(|e| e.to_string())?;
     let mut opts = RigOptions::new(scenario, args.seed);
     opts.lsi_hz = Some(args.lsi_hz);
@@ -325,23 +324,17 @@ fn fly(runner: &mut Runner, faults: &[FaultSpec], end_ns: u64, args: &Args) -> R
 }
 
 /// Runs what `plan` says; writes the plot (also when the board stopped:
-/// the flight up to there) and the summaries.
-fn run(args: &Args, plan: &Plan) -> Result<(), String> {
+/// the flight up to there, unless that would replace an existing file) and
+/// the summaries.
+fn run(args: &Args, plan: Plan) -> Result<(), String> {
     ensure_elf(&plan.elf, args.elf.is_some())?;
     let mut runner = match plan.scenario {
         Some(s) => rig_runner(s, args, &plan.elf)?,
         None => board_runner(args, &plan.elf)?,
     };
     let result = fly(&mut runner, &args.faults, (plan.seconds * 1e9) as u64, args);
-    if let (Some(path), Runner::Rig(rig)) = (&args.plot, &runner) {
-        let title = format!(
-            "cargo fil: {} seed {} (the release ELF on the emulated board)",
-            args.scenario.as_deref().unwrap_or_default(),
-            args.seed
-        );
-        emulator::flightplot::write_plot(rig, path, &title)
-            .map_err(|e| format!("plotting {}: {e}", path.display()))?;
-        note!("wrote {}", path.display());
+    if let (Some(out), Runner::Rig(rig)) = (plan.plot, &runner) {
+        write_plot(args, rig, out, result.is_ok())?;
     }
     if let (Ok(()), Runner::Rig(rig)) = (&result, &runner) {
         print_flight_summary(&mut std::io::stdout().lock(), rig);
@@ -350,6 +343,27 @@ fn run(args: &Args, plan: &Plan) -> Result<(), String> {
         print_cpi(runner.board(), &args.cycle_model);
     }
     result
+}
+
+/// Draws the flight into `out` and renames it over its target: after a
+/// failed flight only if no file is there (a run that failed never
+/// replaces an existing output).
+fn write_plot(args: &Args, rig: &FlightRig, out: SafeFile, flown: bool) -> Result<(), String> {
+    let title = format!(
+        "cargo fil: {} seed {} (the release ELF on the emulated board)",
+        args.scenario.as_deref().unwrap_or_default(),
+        args.seed
+    );
+    let target = out.target().display().to_string();
+    emulator::flightplot::write_plot(rig, out.temp_path(), &title)
+        .map_err(|e| format!("plotting {target}: {e}"))?;
+    if !flown && out.target().exists() {
+        note!("{target} left as it was (the flight failed; its plot is not written over it)");
+        return Ok(());
+    }
+    out.commit().map_err(|e| format!("writing {target}: {e}"))?;
+    note!("wrote {target}");
+    Ok(())
 }
 
 /// The truth at the end of a rig flight, for people.
@@ -409,14 +423,9 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match run(&args, &plan) {
+    match run(&args, plan) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            if let Some(p) = &args.plot {
-                if std::fs::metadata(p).is_ok_and(|m| m.len() == 0) {
-                    let _ = std::fs::remove_file(p);
-                }
-            }
             note!("error: {e}");
             ExitCode::FAILURE
         }

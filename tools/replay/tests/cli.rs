@@ -207,6 +207,24 @@ fn a_bad_file_does_not_stop_the_batch() {
     assert!(!d.join("q_bad.csv").exists());
 }
 
+/// A recording that fails leaves an existing `--out` byte-identical, with
+/// no temporary file beside it.
+#[test]
+fn a_failed_replay_leaves_an_existing_out_intact() {
+    let d = dir("keep");
+    let bad = write(&d.join("bad.csv"), &corrupt(1, "nan"));
+    let out = write(&d.join("q.csv"), "old estimates\n");
+    let o = replay(&[bad.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_fails(&o, 1, "1 file(s) failed");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "old estimates\n");
+    let mut names: Vec<String> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["bad.csv", "q.csv"]);
+}
+
 #[test]
 fn board_capture_with_ctrl_c_and_repeated_header_replays() {
     let mut r = rows(200, 0.0);
