@@ -48,9 +48,19 @@ fn bad_arguments_are_refused_before_the_board_starts() {
     refused(&["-f", "3:chip-reset:gps"], "unknown chip `gps`");
     refused(&["-f", "3:laser"], "unknown fault kind `laser`");
     refused(
-        &["-s", "4", "-f", "5:stuck-bus"],
+        &["-d", "4", "-f", "5:stuck-bus"],
         "after the end of the 4 s run",
     );
+    refused(
+        &["--seconds", "4", "-f", "4:stuck-bus"],
+        "after the end of the 4 s run",
+    );
+    refused(&["-f", "1:stuck-bus:mpu:junk"], "junk");
+    // `-s` is the seed, as in `cargo sim`; the old seconds get a pointer.
+    refused(&["-s", "4.5"], "-d/--duration SECONDS");
+    refused(&["-d", "0"], "must be in (0, 3600]");
+    refused(&["-t", "moon"], "possible values: rest, spin");
+    refused(&["--elf", "/nonexistent/firmware"], "no such file");
     refused(&["--plot", "x.svg"], "--scenario");
     refused(&["--scenario", "takeoff", "--plot", "-"], "not stdout");
     refused(
@@ -87,7 +97,7 @@ fn a_scenario_flies_with_a_fault_in_the_air_and_plots() {
         elf.to_str().unwrap(),
         "--scenario",
         "takeoff",
-        "-s",
+        "-d",
         "4.5",
         "--fault",
         "4:nack:baro:20",
@@ -98,6 +108,11 @@ fn a_scenario_flies_with_a_fault_in_the_air_and_plots() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("att r="), "no attitude line in the log");
     assert!(out.contains("[emulator] flight:"), "{out}");
+    // The simulator's fault is echoed at its injection time.
+    assert!(
+        out.contains("[   4.000000] [emulator] fault 4:nack:baro:20 injected"),
+        "{out}"
+    );
     assert!(stderr(&o).contains("wrote"), "{}", stderr(&o));
     let svg = std::fs::read_to_string(&plot).unwrap();
     assert!(svg.len() > 10_000, "{} bytes", svg.len());

@@ -3,6 +3,9 @@
 //! chosen simulated times (`--fault TIME:KIND[:ARG]`, the syntax of
 //! `cargo sim`, parsed by `sim::faults`); with `--scenario` it flies the
 //! quad model, and `--plot` draws the flight (`emulator::flightplot`).
+//! The short options mean what they mean in `cargo sim` (`-t` trajectory,
+//! `-s` seed, `-d` seconds, `-f` fault); simulator faults are echoed in
+//! the log at their injection time.
 //!
 //! Exit status: 0 done, 1 the board stopped or an output failed, 2 bad
 //! arguments (every value and path is checked before the board starts).
@@ -27,15 +30,17 @@ struct Args {
     /// Firmware ELF (default: the release build, `cargo fw`).
     #[arg(long)]
     elf: Option<PathBuf>,
-    /// Motion of the board: rest, spin, slow, figure8, hover, aggressive, sixpos.
-    #[arg(short, long, default_value = "rest")]
+    /// Motion of the board (the trajectories of `cargo sim`).
+    #[arg(short, long, value_name = "NAME", default_value = "rest",
+          value_parser = clap::builder::PossibleValuesParser::new(Trajectory::NAMES))]
     trajectory: String,
-    /// Seed of the simulated sensor noise.
-    #[arg(long, default_value_t = 1)]
+    /// Seed of the simulated sensor noise (as in `cargo sim`).
+    #[arg(short, long, value_name = "N", default_value_t = 1, value_parser = seed)]
     seed: u64,
-    /// Simulated seconds to run (default 5, or the scenario's length).
-    #[arg(short, long)]
-    seconds: Option<f64>,
+    /// Simulated seconds to run, in (0, 3600] (as in `cargo sim`;
+    /// default 5, or the scenario's length). `--seconds` is an alias.
+    #[arg(short, long, value_name = "SECONDS", visible_alias = "seconds")]
+    duration: Option<f64>,
     /// Fly a closed-loop scenario instead of a trajectory: the firmware
     /// flies the quad model from a scripted pilot's CRSF frames (the
     /// scenarios of `cargo sim --scenario`), datasheet sensor errors,
@@ -70,6 +75,30 @@ struct Args {
     /// on stderr.
     #[arg(long)]
     cpi: bool,
+}
+
+/// A seed: a whole number. `-s` was the run's length before it meant the
+/// seed as in `cargo sim`, so a number of seconds gets a pointer to `-d`.
+fn seed(s: &str) -> Result<u64, String> {
+    s.parse().map_err(|_| {
+        let hint = if s.parse::<f64>().is_ok() {
+            "; the run's length is -d/--duration SECONDS (as in `cargo sim`, where -s is the seed too)"
+        } else {
+            ""
+        };
+        format!("`{s}` is not a seed (a whole number >= 0){hint}")
+    })
+}
+
+/// The release ELF `cargo fw` builds: under `CARGO_TARGET_DIR` when that is
+/// set (as cargo does), else in the workspace's `target/`.
+fn default_elf() -> PathBuf {
+    match std::env::var_os("CARGO_TARGET_DIR").filter(|d| !d.is_empty()) {
+        Some(dir) => emulator::elf::workspace_root()
+            .join(dir)
+            .join("thumbv7m-none-eabi/release/firmware"),
+        None => emulator::release_elf_path(),
+    }
 }
 
 /// The board's own fault for a board-only kind.
@@ -166,9 +195,14 @@ struct Plan {
 /// Checks every value and path before the board starts; creates the
 /// plot's folders and temporary file so an unwritable path fails now.
 fn validate(args: &Args) -> Result<Plan, String> {
-    if let Some(s) = args.seconds {
+    if let Some(s) = args.duration {
         if !(s.is_finite() && s > 0.0 && s <= 3600.0) {
-            return Err("--seconds must be in (0, 3600]".into());
+            return Err(format!("--duration {s}: must be in (0, 3600] seconds"));
+        }
+    }
+    if let Some(elf) = &args.elf {
+        if !elf.is_file() {
+            return Err(format!("--elf {}: no such file", elf.display()));
         }
     }
     if !(30_000..=60_000).contains(&args.lsi_hz) {
@@ -179,7 +213,7 @@ fn validate(args: &Args) -> Result<Plan, String> {
         None => None,
     };
     let seconds = args
-        .seconds
+        .duration
         .unwrap_or(scenario.map_or(5.0, |s| s.duration_s()));
     if let Some(f) = args.faults.iter().find(|f| f.at_s >= seconds) {
         return Err(format!(
@@ -187,7 +221,7 @@ fn validate(args: &Args) -> Result<Plan, String> {
             f.at_s
         ));
     }
-    let elf = args.elf.clone().unwrap_or_else(emulator::release_elf_path);
+    let elf = args.elf.clone().unwrap_or_else(default_elf);
     if let Some(plot) = &args.plot {
         sim::plot::check_plot_path(plot)?;
         if host_console::canonical_path(plot) == host_console::canonical_path(&elf) {
@@ -214,11 +248,8 @@ fn validate(args: &Args) -> Result<Plan, String> {
 }
 
 fn board_runner(args: &Args, elf: &Path) -> Result<Runner, String> {
-    let trajectory = Trajectory::from_name(&args.trajectory).ok_or(format!(
-        "unknown trajectory `{}` (one of {})",
-        args.trajectory,
-        Trajectory::NAMES.join(", ")
-    ))?;
+    let trajectory = Trajectory::from_name(&args.trajectory)
+        .ok_or(format!("unknown trajectory `{}`", args.trajectory))?;
     let mut config = BoardConfig {
         lsi_hz: args.lsi_hz,
         ..BoardConfig::default()
@@ -257,11 +288,24 @@ struct Printer {
     lines: usize,
     events: usize,
     with_events: bool,
+    /// Simulator faults applied since the last call, as printed.
+    faults: String,
 }
 
 impl Printer {
+    /// Echoes a simulator fault at its injection time (the board's own
+    /// kinds are board events already).
+    fn fault(&mut self, board: &Board, f: &FaultSpec) {
+        if self.with_events && !matches!(f.action(), FaultAction::Board(_)) {
+            self.faults.push_str(&format!(
+                "[{:>11.6}] [emulator] fault {f} injected\n",
+                board.now_ns() as f64 * 1e-9
+            ));
+        }
+    }
+
     fn text(&mut self, board: &Board) -> String {
-        let mut text = String::new();
+        let mut text = std::mem::take(&mut self.faults);
         for l in &board.log_lines()[self.lines..] {
             text.push_str(&format!("[{:>11.6}] {l}\n", l.host_time_ns as f64 * 1e-9));
         }
@@ -290,12 +334,14 @@ fn fly(runner: &mut Runner, faults: &[FaultSpec], end_ns: u64, args: &Args) -> R
         lines: 0,
         events: 0,
         with_events: args.events,
+        faults: String::new(),
     };
     let mut pending = FaultSchedule::new(faults);
     let (mut t, mut printing) = (0, true);
     loop {
         while let Some(f) = pending.next_due(t as f64 * 1e-9) {
             apply(runner.board_mut(), &f);
+            printer.fault(runner.board(), &f);
         }
         let next_fault = pending
             .next_at_s()
