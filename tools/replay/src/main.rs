@@ -8,7 +8,8 @@
 use clap::Parser;
 use host_console::{canonical_path, note, say, SafeFile};
 use replay::{
-    read, run_counted, score, FilterKind, MagCounts, Mode, ReadOptions, Recording, Score,
+    read, run_counted, same_hemisphere, score, FilterKind, MagCounts, Mode, ReadOptions, Recording,
+    Score,
 };
 use std::fs::File;
 use std::io::{Read, Write};
@@ -130,7 +131,9 @@ struct Cli {
     #[arg(long)]
     skip_invalid: bool,
     /// Write q_enu_from_sensor per row (t_s,qw,qx,qy,qz); `-` = stdout (one
-    /// input). With several inputs FILE is a prefix: FILE_<input>.csv, named
+    /// input). Each q is in its reference's hemisphere (−q, the same
+    /// rotation, where q·ref < 0; w >= 0 without a reference), so the
+    /// columns compare directly with ref_q*. Says on stderr what it wrote. With several inputs FILE is a prefix: FILE_<input>.csv, named
     /// from each input's path so no two collide. Never an input; folders are created.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
@@ -559,9 +562,17 @@ fn replay_one(
     if let Some(Output { path, writer, file }) = out {
         let failed = |e: std::io::Error| format!("--out {}: {e}", path.display());
         write_out(writer, &samples, &est).map_err(failed)?;
-        if let Some(file) = file {
-            file.commit().map_err(failed)?;
-        }
+        let whom = match file {
+            Some(file) => {
+                file.commit().map_err(failed)?;
+                path.display().to_string()
+            }
+            None => "stdout".into(),
+        };
+        note!(
+            "replay: wrote {whom}: {} rows of t_s,qw,qx,qy,qz (q_enu_from_sensor, in the reference's hemisphere)",
+            samples.len()
+        );
     }
     Ok((samples.len(), score(&samples, &est), counts))
 }
@@ -613,6 +624,8 @@ fn report(input: &Path, rec: &Recording) {
     }
 }
 
+/// One row per sample: the estimate, put in its reference's hemisphere
+/// ([`same_hemisphere`]).
 fn write_out(
     w: Box<dyn Write>,
     samples: &[replay::Sample],
@@ -622,6 +635,7 @@ fn write_out(
     let res = (|| {
         writeln!(w, "t_s,qw,qx,qy,qz")?;
         for (s, q) in samples.iter().zip(est) {
+            let q = same_hemisphere(q, s.reference.as_ref());
             writeln!(
                 w,
                 "{:.6},{:.7},{:.7},{:.7},{:.7}",
