@@ -48,9 +48,19 @@ fn bad_arguments_are_refused_before_the_board_starts() {
     refused(&["-f", "3:chip-reset:gps"], "unknown chip `gps`");
     refused(&["-f", "3:laser"], "unknown fault kind `laser`");
     refused(
-        &["-s", "4", "-f", "5:stuck-bus"],
+        &["-d", "4", "-f", "5:stuck-bus"],
         "after the end of the 4 s run",
     );
+    refused(
+        &["--seconds", "4", "-f", "4:stuck-bus"],
+        "after the end of the 4 s run",
+    );
+    refused(&["-f", "1:stuck-bus:mpu:junk"], "junk");
+    // `-s` is the seed, as in `cargo sim`; the old seconds get a pointer.
+    refused(&["-s", "4.5"], "-d/--duration SECONDS");
+    refused(&["-d", "0"], "must be in (0, 3600]");
+    refused(&["-t", "moon"], "possible values: rest, spin");
+    refused(&["--elf", "/nonexistent/firmware"], "no such file");
     refused(&["--plot", "x.svg"], "--scenario");
     refused(&["--scenario", "takeoff", "--plot", "-"], "not stdout");
     refused(
@@ -87,7 +97,7 @@ fn a_scenario_flies_with_a_fault_in_the_air_and_plots() {
         elf.to_str().unwrap(),
         "--scenario",
         "takeoff",
-        "-s",
+        "-d",
         "4.5",
         "--fault",
         "4:nack:baro:20",
@@ -98,6 +108,11 @@ fn a_scenario_flies_with_a_fault_in_the_air_and_plots() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("att r="), "no attitude line in the log");
     assert!(out.contains("[emulator] flight:"), "{out}");
+    // The simulator's fault is echoed at its injection time.
+    assert!(
+        out.contains("[   4.000000] [emulator] fault 4:nack:baro:20 injected"),
+        "{out}"
+    );
     assert!(stderr(&o).contains("wrote"), "{}", stderr(&o));
     let svg = std::fs::read_to_string(&plot).unwrap();
     assert!(svg.len() > 10_000, "{} bytes", svg.len());
@@ -113,5 +128,40 @@ fn a_scenario_flies_with_a_fault_in_the_air_and_plots() {
     ] {
         assert!(svg.contains(series), "no `{series}` in the plot");
     }
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// SIGINT during a scenario with `--plot` over an existing file: status
+/// 130, the old plot byte-identical, the temporary file removed.
+#[test]
+fn an_interrupted_flight_leaves_the_existing_plot_intact() {
+    let Some(elf) = common::elf() else { return };
+    let d = dir("interrupted");
+    let plot = d.join("keep.svg");
+    std::fs::write(&plot, b"an old plot").unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_fil"))
+        .args(["--elf", elf.to_str().unwrap(), "--scenario", "linkloss"])
+        .args(["--plot", plot.to_str().unwrap()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let count = || std::fs::read_dir(&d).unwrap().count();
+    let t0 = std::time::Instant::now();
+    while count() < 2 && t0.elapsed().as_secs() < 30 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert_eq!(count(), 2, "no temporary file beside the plot");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&plot).unwrap(), b"an old plot");
+    assert_eq!(count(), 1, "a temporary file was left behind");
     let _ = std::fs::remove_dir_all(d);
 }

@@ -18,7 +18,7 @@
 //!   `sample_done` (CAN_RX1's vector, priority 3): the bytes parsed by the
 //!   drivers (a failure is counted and the sample skipped, never retried),
 //!   `flight::sample::SampleStep`, the flight controller, the ESC outputs.
-//!   CPU per sample on the emulated board (`cargo fil -t hover -s 10`, one
+//!   CPU per sample on the emulated board (`cargo fil -t hover -d 10`, one
 //!   instruction per cycle): mean 5,605, worst 7,174 cycles of 72,000
 //!   (cpu 7.7 %), against 34,953 / 57,156 (48.5 %) with the task waiting
 //!   on the bus; the read itself takes 0.4 ms of bus time (0.72 ms on a

@@ -14,7 +14,7 @@ use demo::output::CsvWriter;
 use demo::plot::PlotSeries;
 use demo::run::{run, RecordSink, RunOptions, RunResult};
 use demo::stack::Filter;
-use host_console::{note, say};
+use host_console::{note, say, SafeFile};
 use sim::faults::{FaultSpec, Rig};
 use sim::Trajectory;
 use std::path::{Path, PathBuf};
@@ -127,10 +127,26 @@ fn seconds_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone 
     }
 }
 
-/// The outputs, opened before any work so a bad path fails at once.
+/// The outputs, opened before any work so a bad path fails at once. Each
+/// file is written beside its target and renamed over it only when the run
+/// succeeded (`host_console::SafeFile`): a failed or interrupted run leaves
+/// an existing file as it was.
 struct Outputs {
-    csv: Option<CsvWriter>,
-    plot: Option<PathBuf>,
+    /// The CSV writer, and its file unless it writes to stdout.
+    csv: Option<(CsvWriter, Option<SafeFile>)>,
+    plot: Option<SafeFile>,
+}
+
+impl Outputs {
+    /// Renames every finished output over its target.
+    fn commit(csv: Option<SafeFile>, plot: Option<SafeFile>) -> Result<(), String> {
+        for f in csv.into_iter().chain(plot) {
+            let name = f.target().display().to_string();
+            f.commit().map_err(|e| format!("writing {name}: {e}"))?;
+            say!("wrote {name}");
+        }
+        Ok(())
+    }
 }
 
 fn main() -> ExitCode {
@@ -143,7 +159,7 @@ fn main() -> ExitCode {
         }
     };
     let done = match &cli.scenario {
-        Some(name) => execute_scenario(name, &cli, &outputs),
+        Some(name) => execute_scenario(name, &cli, outputs),
         None => execute(&opts, outputs),
     };
     match done {
@@ -193,17 +209,19 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
     let csv = match &cli.csv {
         Some(p) if is_stdout(p) => {
             host_console::use_stderr();
-            Some(CsvWriter::new(Box::new(std::io::stdout()), "stdout")?)
+            Some((CsvWriter::new(Box::new(std::io::stdout()), "stdout")?, None))
         }
-        Some(p) => Some(CsvWriter::new(
-            Box::new(create(p, "--csv")?),
-            &p.display().to_string(),
-        )?),
+        Some(p) => {
+            let (out, file) = create(p, "--csv")?;
+            let name = p.display().to_string();
+            Some((CsvWriter::new(Box::new(file), &name)?, Some(out)))
+        }
         None => None,
     };
-    if let Some(p) = &cli.plot {
-        create(p, "--plot")?;
-    }
+    let plot = match &cli.plot {
+        Some(p) => Some(create(p, "--plot")?.0),
+        None => None,
+    };
     let opts = RunOptions {
         trajectory,
         seed: cli.seed,
@@ -214,13 +232,7 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
         faults: cli.fault.clone(),
         progress: !cli.quiet,
     };
-    Ok((
-        opts,
-        Outputs {
-            csv,
-            plot: cli.plot.clone(),
-        },
-    ))
+    Ok((opts, Outputs { csv, plot }))
 }
 
 fn check_filter(want: FilterArg) -> Result<(), String> {
@@ -247,17 +259,14 @@ fn same_file(a: &Path, b: &Path) -> bool {
     a == b || host_console::canonical_path(a) == host_console::canonical_path(b)
 }
 
-/// Creates `path` (and its parent folders) for writing.
-fn create(path: &Path, what: &str) -> Result<std::fs::File, String> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| format!("{what}: creating folder {}: {e}", dir.display()))?;
-    }
-    std::fs::File::create(path).map_err(|e| format!("{what} {}: {e}", path.display()))
+/// Creates the temporary file of output `path` (and its parent folders).
+fn create(path: &Path, what: &str) -> Result<(SafeFile, std::fs::File), String> {
+    SafeFile::create(path).map_err(|e| format!("{what} {}: {e}", path.display()))
 }
 
 fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
-    let Outputs { mut csv, plot } = outputs;
+    let Outputs { csv, plot } = outputs;
+    let (mut csv, csv_file) = csv.unzip();
     let mut series = PlotSeries::default();
     let result = {
         let mut sinks: Vec<&mut dyn RecordSink> = Vec::new();
@@ -267,35 +276,22 @@ fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
         if plot.is_some() {
             sinks.push(&mut series);
         }
-        run(opts, &mut sinks)
-    };
-    let result = match result {
-        Ok(r) => r,
-        Err(e) => {
-            if let Some(p) = &plot {
-                let _ = std::fs::remove_file(p);
-            }
-            return Err(e);
-        }
+        run(opts, &mut sinks)?
     };
     if let Some(c) = csv {
-        let name = c.name().to_string();
         c.finish()?;
-        if name != "stdout" {
-            say!("wrote {name}");
-        }
     }
-    if let Some(path) = &plot {
+    if let Some(out) = &plot {
         let title = format!(
             "sim: {} seed {} ({})",
             opts.trajectory.name(),
             opts.seed,
             flight::pipeline::AHRS_KIND
         );
-        demo::plot::write_plot(path, &title, &series, &result.mag_cal)
-            .map_err(|e| format!("plotting {}: {e}", path.display()))?;
-        say!("wrote {}", path.display());
+        demo::plot::write_plot(out.temp_path(), &title, &series, &result.mag_cal)
+            .map_err(|e| format!("plotting {}: {e}", out.target().display()))?;
     }
+    Outputs::commit(csv_file.flatten(), plot)?;
     print_summary(opts, &result);
     if result.summary.samples == 0 {
         return Err(format!(
@@ -307,7 +303,7 @@ fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
 }
 
 /// A closed-loop scenario: fly it, print its figures, plot it.
-fn execute_scenario(name: &str, cli: &Cli, outputs: &Outputs) -> Result<(), String> {
+fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), String> {
     use demo::closed_loop::{fly, ClosedLoopOptions, FlightControl, Scenario};
     let scenario = Scenario::from_name(name).ok_or_else(|| format!("unknown scenario `{name}`"))?;
     let mut opts = ClosedLoopOptions::new(scenario, cli.seed);
@@ -324,20 +320,12 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: &Outputs) -> Result<(), Stri
         flight::pipeline::AHRS_KIND,
         fc.name()
     );
-    let log = match fly(&opts, &mut fc) {
-        Ok(l) => l,
-        Err(e) => {
-            if let Some(p) = &outputs.plot {
-                let _ = std::fs::remove_file(p);
-            }
-            return Err(e);
-        }
-    };
-    if let Some(path) = &outputs.plot {
+    let log = fly(&opts, &mut fc)?;
+    if let Some(out) = outputs.plot {
         let title = format!("sim closed loop: {} seed {}", scenario.name(), opts.seed);
-        demo::plot_closed::write_plot(path, &title, &log)
-            .map_err(|e| format!("plotting {}: {e}", path.display()))?;
-        say!("wrote {}", path.display());
+        demo::plot_closed::write_plot(out.temp_path(), &title, &log)
+            .map_err(|e| format!("plotting {}: {e}", out.target().display()))?;
+        Outputs::commit(None, Some(out))?;
     }
     for (t, e) in &log.events {
         say!("t {t:7.3} s: {e}");

@@ -1,6 +1,7 @@
 //! The `sim` binary as a user meets it: bad arguments fail before any work
 //! (status 2, a message naming the option), outputs are created with their
-//! folders, a closed stdout is not a panic and the files are still written.
+//! folders, a closed stdout is not a panic and the files are still written;
+//! a failed or interrupted run leaves the existing outputs intact.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use std::path::PathBuf;
@@ -168,4 +169,76 @@ fn a_scenario_refuses_the_open_loop_options() {
         &["--scenario", "takeoff", "--fault", "30:magnet"],
         "after the end of the 20 s flight",
     );
+}
+
+/// The files in `d`, sorted.
+fn names(d: &std::path::Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// A run that fails leaves the existing plot and CSV byte-identical and no
+/// temporary file beside them.
+#[test]
+fn a_failed_run_leaves_existing_outputs_intact() {
+    let d = dir("failed");
+    let (png, csv) = (d.join("keep.png"), d.join("keep.csv"));
+    std::fs::write(&png, b"an old plot").unwrap();
+    std::fs::write(&csv, b"an old csv").unwrap();
+    let o = sim(&[
+        "-d",
+        "3",
+        "--mag-dance",
+        "10",
+        "-q",
+        "--fault",
+        "0:scl-stuck",
+        "--plot",
+        png.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&png).unwrap(), b"an old plot");
+    assert_eq!(std::fs::read(&csv).unwrap(), b"an old csv");
+    assert_eq!(names(&d), ["keep.csv", "keep.png"]);
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// SIGINT in the middle of a long run (the issue's `timeout -s INT 2 cargo
+/// sim -d 3000 --plot keep.png`): status 130, the old plot byte-identical,
+/// the temporary file removed.
+#[test]
+fn an_interrupted_run_leaves_the_existing_plot_intact() {
+    let d = dir("interrupted");
+    let png = d.join("keep.png");
+    std::fs::write(&png, b"an old plot").unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_sim"))
+        .args(["-d", "3000", "-q", "--plot", png.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait for the temporary file: the outputs are open, the handler is set.
+    let t0 = std::time::Instant::now();
+    while names(&d).len() < 2 && t0.elapsed().as_secs() < 30 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert_eq!(names(&d).len(), 2, "no temporary file: {:?}", names(&d));
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&png).unwrap(), b"an old plot");
+    assert_eq!(names(&d), ["keep.png"]);
+    let _ = std::fs::remove_dir_all(d);
 }

@@ -4,6 +4,9 @@
 //!
 //! * `size [ELF]` — text/data/bss of the firmware ELF against the budgets.
 //! * `bench` — instruction counts on an emulated Cortex-M3 (see `bench.rs`).
+//! * `fil ARGS` — what the `cargo fil` alias runs: the emulator's build
+//!   prerequisites checked (one clear line if missing), then `cargo run -p
+//!   emulator --bin fil -- ARGS` (see `fil.rs`).
 
 use clap::{Parser, Subcommand};
 use std::{
@@ -13,6 +16,7 @@ use std::{
 };
 
 mod bench;
+mod fil;
 
 /// Flash budget for the release firmware: the chip's 64 KiB less the last
 /// 1 KiB page, which holds the calibration.
@@ -67,6 +71,11 @@ fn quiet_on_closed_pipe() {}
 
 fn main() -> ExitCode {
     quiet_on_closed_pipe();
+    // `fil`'s arguments are the emulator's, passed on unparsed.
+    let args: Vec<String> = env::args().collect();
+    if args.get(1).is_some_and(|a| a == "fil") {
+        return fil::run(&args[2..]);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Task::Size { elf } => size(elf),

@@ -3,6 +3,9 @@
 //! chosen simulated times (`--fault TIME:KIND[:ARG]`, the syntax of
 //! `cargo sim`, parsed by `sim::faults`); with `--scenario` it flies the
 //! quad model, and `--plot` draws the flight (`emulator::flightplot`).
+//! The short options mean what they mean in `cargo sim` (`-t` trajectory,
+//! `-s` seed, `-d` seconds, `-f` fault); simulator faults are echoed in
+//! the log at their injection time.
 //!
 //! Exit status: 0 done, 1 the board stopped or an output failed, 2 bad
 //! arguments (every value and path is checked before the board starts).
@@ -11,7 +14,7 @@ use clap::Parser;
 use emulator::i2c1::PeripheralFault;
 use emulator::rig::{FlightRig, RigOptions};
 use emulator::{calpage, Board, BoardConfig, BoardError, BoardFault, CycleModel, RttMode};
-use host_console::note;
+use host_console::{note, SafeFile};
 use sim::faults::{BoardAction, FaultAction, FaultSchedule, FaultSpec, Rig};
 use sim::scenario::Scenario;
 use sim::Trajectory;
@@ -27,15 +30,17 @@ struct Args {
     /// Firmware ELF (default: the release build, `cargo fw`).
     #[arg(long)]
     elf: Option<PathBuf>,
-    /// Motion of the board: rest, spin, slow, figure8, hover, aggressive, sixpos.
-    #[arg(short, long, default_value = "rest")]
+    /// Motion of the board (the trajectories of `cargo sim`).
+    #[arg(short, long, value_name = "NAME", default_value = "rest",
+          value_parser = clap::builder::PossibleValuesParser::new(Trajectory::NAMES))]
     trajectory: String,
-    /// Seed of the simulated sensor noise.
-    #[arg(long, default_value_t = 1)]
+    /// Seed of the simulated sensor noise (as in `cargo sim`).
+    #[arg(short, long, value_name = "N", default_value_t = 1, value_parser = seed)]
     seed: u64,
-    /// Simulated seconds to run (default 5, or the scenario's length).
-    #[arg(short, long)]
-    seconds: Option<f64>,
+    /// Simulated seconds to run, in (0, 3600] (as in `cargo sim`;
+    /// default 5, or the scenario's length). `--seconds` is an alias.
+    #[arg(short, long, value_name = "SECONDS", visible_alias = "seconds")]
+    duration: Option<f64>,
     /// Fly a closed-loop scenario instead of a trajectory: the firmware
     /// flies the quad model from a scripted pilot's CRSF frames (the
     /// scenarios of `cargo sim --scenario`), datasheet sensor errors,
@@ -72,6 +77,30 @@ struct Args {
     cpi: bool,
 }
 
+/// A seed: a whole number. `-s` was the run's length before it meant the
+/// seed as in `cargo sim`, so a number of seconds gets a pointer to `-d`.
+fn seed(s: &str) -> Result<u64, String> {
+    s.parse().map_err(|_| {
+        let hint = if s.parse::<f64>().is_ok() {
+            "; the run's length is -d/--duration SECONDS (as in `cargo sim`, where -s is the seed too)"
+        } else {
+            ""
+        };
+        format!("`{s}` is not a seed (a whole number >= 0){hint}")
+    })
+}
+
+/// The release ELF `cargo fw` builds: under `CARGO_TARGET_DIR` when that is
+/// set (as cargo does), else in the workspace's `target/`.
+fn default_elf() -> PathBuf {
+    match std::env::var_os("CARGO_TARGET_DIR").filter(|d| !d.is_empty()) {
+        Some(dir) => emulator::elf::workspace_root()
+            .join(dir)
+            .join("thumbv7m-none-eabi/release/firmware"),
+        None => emulator::release_elf_path(),
+    }
+}
+
 /// The board's own fault for a board-only kind.
 fn board_fault(a: BoardAction) -> BoardFault {
     match a {
@@ -94,7 +123,7 @@ fn apply(board: &mut Board, f: &FaultSpec) {
     }
 }
 
-fn ensure_elf(path: &std::path::Path, explicit: bool) -> Result<(), String> {
+fn ensure_elf(path: &Path, explicit: bool) -> Result<(), String> {
     if path.exists() {
         return Ok(());
     }
@@ -154,19 +183,26 @@ impl Runner {
     }
 }
 
-/// What the checks found: what to fly, for how long, on which ELF.
+/// What the checks found: what to fly, for how long, on which ELF, and the
+/// plot's file (written beside its target, renamed over it at the end).
 struct Plan {
     scenario: Option<Scenario>,
     seconds: f64,
     elf: PathBuf,
+    plot: Option<SafeFile>,
 }
 
 /// Checks every value and path before the board starts; creates the
-/// plot's folders and file so an unwritable path fails now.
+/// plot's folders and temporary file so an unwritable path fails now.
 fn validate(args: &Args) -> Result<Plan, String> {
-    if let Some(s) = args.seconds {
+    if let Some(s) = args.duration {
         if !(s.is_finite() && s > 0.0 && s <= 3600.0) {
-            return Err("--seconds must be in (0, 3600]".into());
+            return Err(format!("--duration {s}: must be in (0, 3600] seconds"));
+        }
+    }
+    if let Some(elf) = &args.elf {
+        if !elf.is_file() {
+            return Err(format!("--elf {}: no such file", elf.display()));
         }
     }
     if !(30_000..=60_000).contains(&args.lsi_hz) {
@@ -177,7 +213,7 @@ fn validate(args: &Args) -> Result<Plan, String> {
         None => None,
     };
     let seconds = args
-        .seconds
+        .duration
         .unwrap_or(scenario.map_or(5.0, |s| s.duration_s()));
     if let Some(f) = args.faults.iter().find(|f| f.at_s >= seconds) {
         return Err(format!(
@@ -185,7 +221,7 @@ fn validate(args: &Args) -> Result<Plan, String> {
             f.at_s
         ));
     }
-    let elf = args.elf.clone().unwrap_or_else(emulator::release_elf_path);
+    let elf = args.elf.clone().unwrap_or_else(default_elf);
     if let Some(plot) = &args.plot {
         sim::plot::check_plot_path(plot)?;
         if host_console::canonical_path(plot) == host_console::canonical_path(&elf) {
@@ -194,32 +230,26 @@ fn validate(args: &Args) -> Result<Plan, String> {
                 plot.display()
             ));
         }
-        create(plot)?;
     }
+    let plot = match &args.plot {
+        Some(p) => Some(
+            SafeFile::create(p)
+                .map_err(|e| format!("--plot {}: {e}", p.display()))?
+                .0,
+        ),
+        None => None,
+    };
     Ok(Plan {
         scenario,
         seconds,
         elf,
+        plot,
     })
 }
 
-/// Creates `path` (and its parent folders) for writing.
-fn create(path: &Path) -> Result<(), String> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| format!("--plot: creating folder {}: {e}", dir.display()))?;
-    }
-    std::fs::File::create(path)
-        .map(drop)
-        .map_err(|e| format!("--plot {}: {e}", path.display()))
-}
-
-fn board_runner(args: &Args, elf: &std::path::Path) -> Result<Runner, String> {
-    let trajectory = Trajectory::from_name(&args.trajectory).ok_or(format!(
-        "unknown trajectory `{}` (one of {})",
-        args.trajectory,
-        Trajectory::NAMES.join(", ")
-    ))?;
+fn board_runner(args: &Args, elf: &Path) -> Result<Runner, String> {
+    let trajectory = Trajectory::from_name(&args.trajectory)
+        .ok_or(format!("unknown trajectory `{}`", args.trajectory))?;
     let mut config = BoardConfig {
         lsi_hz: args.lsi_hz,
         ..BoardConfig::default()
@@ -236,7 +266,7 @@ fn board_runner(args: &Args, elf: &std::path::Path) -> Result<Runner, String> {
     Ok(Runner::Board(Box::new(board)))
 }
 
-fn rig_runner(scenario: Scenario, args: &Args, elf: &std::path::Path) -> Result<Runner, String> {
+fn rig_runner(scenario: Scenario, args: &Args, elf: &Path) -> Result<Runner, String> {
     let fw = emulator::Firmware::load(elf).map_err(|e| e.to_string())?;
     let mut opts = RigOptions::new(scenario, args.seed);
     opts.lsi_hz = Some(args.lsi_hz);
@@ -258,11 +288,24 @@ struct Printer {
     lines: usize,
     events: usize,
     with_events: bool,
+    /// Simulator faults applied since the last call, as printed.
+    faults: String,
 }
 
 impl Printer {
+    /// Echoes a simulator fault at its injection time (the board's own
+    /// kinds are board events already).
+    fn fault(&mut self, board: &Board, f: &FaultSpec) {
+        if self.with_events && !matches!(f.action(), FaultAction::Board(_)) {
+            self.faults.push_str(&format!(
+                "[{:>11.6}] [emulator] fault {f} injected\n",
+                board.now_ns() as f64 * 1e-9
+            ));
+        }
+    }
+
     fn text(&mut self, board: &Board) -> String {
-        let mut text = String::new();
+        let mut text = std::mem::take(&mut self.faults);
         for l in &board.log_lines()[self.lines..] {
             text.push_str(&format!("[{:>11.6}] {l}\n", l.host_time_ns as f64 * 1e-9));
         }
@@ -291,12 +334,14 @@ fn fly(runner: &mut Runner, faults: &[FaultSpec], end_ns: u64, args: &Args) -> R
         lines: 0,
         events: 0,
         with_events: args.events,
+        faults: String::new(),
     };
     let mut pending = FaultSchedule::new(faults);
     let (mut t, mut printing) = (0, true);
     loop {
         while let Some(f) = pending.next_due(t as f64 * 1e-9) {
             apply(runner.board_mut(), &f);
+            printer.fault(runner.board(), &f);
         }
         let next_fault = pending
             .next_at_s()
@@ -325,23 +370,17 @@ fn fly(runner: &mut Runner, faults: &[FaultSpec], end_ns: u64, args: &Args) -> R
 }
 
 /// Runs what `plan` says; writes the plot (also when the board stopped:
-/// the flight up to there) and the summaries.
-fn run(args: &Args, plan: &Plan) -> Result<(), String> {
+/// the flight up to there, unless that would replace an existing file) and
+/// the summaries.
+fn run(args: &Args, plan: Plan) -> Result<(), String> {
     ensure_elf(&plan.elf, args.elf.is_some())?;
     let mut runner = match plan.scenario {
         Some(s) => rig_runner(s, args, &plan.elf)?,
         None => board_runner(args, &plan.elf)?,
     };
     let result = fly(&mut runner, &args.faults, (plan.seconds * 1e9) as u64, args);
-    if let (Some(path), Runner::Rig(rig)) = (&args.plot, &runner) {
-        let title = format!(
-            "cargo fil: {} seed {} (the release ELF on the emulated board)",
-            args.scenario.as_deref().unwrap_or_default(),
-            args.seed
-        );
-        emulator::flightplot::write_plot(rig, path, &title)
-            .map_err(|e| format!("plotting {}: {e}", path.display()))?;
-        note!("wrote {}", path.display());
+    if let (Some(out), Runner::Rig(rig)) = (plan.plot, &runner) {
+        write_plot(args, rig, out, result.is_ok())?;
     }
     if let (Ok(()), Runner::Rig(rig)) = (&result, &runner) {
         print_flight_summary(&mut std::io::stdout().lock(), rig);
@@ -350,6 +389,27 @@ fn run(args: &Args, plan: &Plan) -> Result<(), String> {
         print_cpi(runner.board(), &args.cycle_model);
     }
     result
+}
+
+/// Draws the flight into `out` and renames it over its target: after a
+/// failed flight only if no file is there (a run that failed never
+/// replaces an existing output).
+fn write_plot(args: &Args, rig: &FlightRig, out: SafeFile, flown: bool) -> Result<(), String> {
+    let title = format!(
+        "cargo fil: {} seed {} (the release ELF on the emulated board)",
+        args.scenario.as_deref().unwrap_or_default(),
+        args.seed
+    );
+    let target = out.target().display().to_string();
+    emulator::flightplot::write_plot(rig, out.temp_path(), &title)
+        .map_err(|e| format!("plotting {target}: {e}"))?;
+    if !flown && out.target().exists() {
+        note!("{target} left as it was (the flight failed; its plot is not written over it)");
+        return Ok(());
+    }
+    out.commit().map_err(|e| format!("writing {target}: {e}"))?;
+    note!("wrote {target}");
+    Ok(())
 }
 
 /// The truth at the end of a rig flight, for people.
@@ -409,14 +469,9 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match run(&args, &plan) {
+    match run(&args, plan) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            if let Some(p) = &args.plot {
-                if std::fs::metadata(p).is_ok_and(|m| m.len() == 0) {
-                    let _ = std::fs::remove_file(p);
-                }
-            }
             note!("error: {e}");
             ExitCode::FAILURE
         }

@@ -47,11 +47,6 @@ impl CsvWriter {
         }
     }
 
-    /// The name given at creation (a path, or `stdout`).
-    pub fn name(&self) -> &str {
-        &self.name
-    }
-
     /// Flushes the buffered rows.
     pub fn finish(mut self) -> Result<(), String> {
         if self.closed {

@@ -20,13 +20,20 @@
 //!
 //! [`canonical_path`] is here too: both tools refuse to write over one of
 //! their inputs or to write two outputs to one file, whatever the spelling.
+//!
+//! [`SafeFile`] is how every tool writes a file: into a temporary file
+//! beside the target, renamed over it only when complete, so a failed or
+//! interrupted run never destroys an existing output (see [`output`]).
 
 use std::io::{ErrorKind, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
+pub mod output;
 #[cfg(feature = "testing")]
 pub mod testing;
+
+pub use output::SafeFile;
 
 /// Where [`say!`] lines go: stdout unless the tool's data goes there.
 static TO_STDERR: AtomicBool = AtomicBool::new(false);

@@ -237,6 +237,22 @@ pub fn errors(est: &Quaternion, reference: &Quaternion) -> (f64, f64, f64) {
     (total, heading, incl)
 }
 
+/// `q` or `-q` (the same rotation), whichever lies in the reference's
+/// hemisphere: flipped when its dot product with `reference` is negative,
+/// so an estimate and its reference can be compared column by column.
+/// Without a reference, the one with `w >= 0`.
+pub fn same_hemisphere(q: &Quaternion, reference: Option<&Quaternion>) -> Quaternion {
+    let dot = match reference {
+        Some(r) => q.w * r.w + q.x * r.x + q.y * r.y + q.z * r.z,
+        None => q.w,
+    };
+    if dot < 0.0 {
+        Quaternion::new(-q.w, -q.x, -q.y, -q.z)
+    } else {
+        *q
+    }
+}
+
 /// Scores estimates against the reference over rows with `moving` and a
 /// valid reference (see [`errors`]). `None` if no row qualifies.
 pub fn score(samples: &[Sample], est: &[Quaternion]) -> Option<Score> {
@@ -280,6 +296,23 @@ mod tests {
         let (t, h, i) = errors(&roll180, &id);
         assert!((t.to_degrees() - 180.0).abs() < 1e-3 && (i.to_degrees() - 180.0).abs() < 1e-3);
         assert!(h.is_finite(), "{h}");
+    }
+
+    /// Flipped into the reference's hemisphere; the rotation is unchanged.
+    #[test]
+    fn estimates_are_put_in_the_reference_hemisphere() {
+        let q = Quaternion::new(0.6, 0.0, 0.0, -0.8);
+        let r = Quaternion::new(-0.5, 0.1, 0.0, 0.86);
+        let f = same_hemisphere(&q, Some(&r));
+        assert_eq!((f.w, f.x, f.y, f.z), (-0.6, -0.0, -0.0, 0.8));
+        assert!(f.w * r.w + f.z * r.z > 0.0);
+        assert!(errors(&f, &q).0 < 1e-3, "the same rotation");
+        let near = same_hemisphere(&q, Some(&q));
+        assert_eq!(near.w, 0.6);
+        assert_eq!(
+            same_hemisphere(&Quaternion::new(-1.0, 0.0, 0.0, 0.0), None).w,
+            1.0
+        );
     }
 
     #[test]

@@ -6,9 +6,10 @@
 //! an error: the table stops, the `--out` files are still written.
 
 use clap::Parser;
-use host_console::{canonical_path, note, say};
+use host_console::{canonical_path, note, say, SafeFile};
 use replay::{
-    read, run_counted, score, FilterKind, MagCounts, Mode, ReadOptions, Recording, Score,
+    read, run_counted, same_hemisphere, score, FilterKind, MagCounts, Mode, ReadOptions, Recording,
+    Score,
 };
 use std::fs::File;
 use std::io::{Read, Write};
@@ -130,7 +131,9 @@ struct Cli {
     #[arg(long)]
     skip_invalid: bool,
     /// Write q_enu_from_sensor per row (t_s,qw,qx,qy,qz); `-` = stdout (one
-    /// input). With several inputs FILE is a prefix: FILE_<input>.csv, named
+    /// input). Each q is in its reference's hemisphere (−q, the same
+    /// rotation, where q·ref < 0; w >= 0 without a reference), so the
+    /// columns compare directly with ref_q*. Says on stderr what it wrote. With several inputs FILE is a prefix: FILE_<input>.csv, named
     /// from each input's path so no two collide. Never an input; folders are created.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
@@ -237,8 +240,14 @@ fn config(cli: &Cli) -> fc_ahrs::Config {
     c
 }
 
-/// An opened output with its path (`-` = stdout).
-type Output = (PathBuf, Box<dyn Write>);
+/// An opened output: its path (`-` = stdout), its writer and, for a file,
+/// the temporary file it writes, renamed over the path once the input has
+/// replayed and every row is written (`host_console::SafeFile`).
+struct Output {
+    path: PathBuf,
+    writer: Box<dyn Write>,
+    file: Option<SafeFile>,
+}
 
 /// One input with its output, checked and opened before any replay.
 struct Job {
@@ -357,7 +366,11 @@ fn open_outputs(base: &Path, files: &[PathBuf]) -> Result<Vec<Output>, String> {
             return Err("--out -: stdout takes the estimates of one input only".into());
         }
         host_console::use_stderr();
-        return Ok(vec![(base.to_path_buf(), Box::new(std::io::stdout()))]);
+        return Ok(vec![Output {
+            path: base.to_path_buf(),
+            writer: Box::new(std::io::stdout()),
+            file: None,
+        }]);
     }
     let inputs: Vec<PathBuf> = files.iter().map(|f| canonical_path(f)).collect();
     let paths: Vec<PathBuf> = files.iter().map(|f| out_path(base, f, files)).collect();
@@ -371,13 +384,14 @@ fn open_outputs(base: &Path, files: &[PathBuf]) -> Result<Vec<Output>, String> {
         }
     }
     let mut outs: Vec<Output> = Vec::new();
-    for p in paths {
-        if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| format!("--out: creating folder {}: {e}", dir.display()))?;
-        }
-        let f = File::create(&p).map_err(|e| format!("--out {}: {e}", p.display()))?;
-        outs.push((p, Box::new(f)));
+    for path in paths {
+        let (file, f) =
+            SafeFile::create(&path).map_err(|e| format!("--out {}: {e}", path.display()))?;
+        outs.push(Output {
+            path,
+            writer: Box::new(f),
+            file: Some(file),
+        });
     }
     Ok(outs)
 }
@@ -535,7 +549,7 @@ fn read_input(path: &Path) -> Result<String, String> {
 }
 
 /// Reads, replays and scores one input, writing its estimates; on failure
-/// its output file is removed.
+/// its output is discarded (an existing file there is left as it was).
 fn replay_one(
     job: Job,
     kind: FilterKind,
@@ -544,19 +558,21 @@ fn replay_one(
     opts: ReadOptions,
 ) -> Result<(usize, Option<Score>, MagCounts), String> {
     let Job { input, out } = job;
-    let (samples, est, counts) = match replay_recording(&input, kind, mode, cfg, opts) {
-        Ok(v) => v,
-        Err(e) => {
-            if let Some((p, _)) = &out {
-                if !is_stdio(p) {
-                    let _ = std::fs::remove_file(p);
-                }
+    let (samples, est, counts) = replay_recording(&input, kind, mode, cfg, opts)?;
+    if let Some(Output { path, writer, file }) = out {
+        let failed = |e: std::io::Error| format!("--out {}: {e}", path.display());
+        write_out(writer, &samples, &est).map_err(failed)?;
+        let whom = match file {
+            Some(file) => {
+                file.commit().map_err(failed)?;
+                path.display().to_string()
             }
-            return Err(e);
-        }
-    };
-    if let Some((path, w)) = out {
-        write_out(w, &samples, &est).map_err(|e| format!("--out {}: {e}", path.display()))?;
+            None => "stdout".into(),
+        };
+        note!(
+            "replay: wrote {whom}: {} rows of t_s,qw,qx,qy,qz (q_enu_from_sensor, in the reference's hemisphere)",
+            samples.len()
+        );
     }
     Ok((samples.len(), score(&samples, &est), counts))
 }
@@ -608,6 +624,8 @@ fn report(input: &Path, rec: &Recording) {
     }
 }
 
+/// One row per sample: the estimate, put in its reference's hemisphere
+/// ([`same_hemisphere`]).
 fn write_out(
     w: Box<dyn Write>,
     samples: &[replay::Sample],
@@ -617,6 +635,7 @@ fn write_out(
     let res = (|| {
         writeln!(w, "t_s,qw,qx,qy,qz")?;
         for (s, q) in samples.iter().zip(est) {
+            let q = same_hemisphere(q, s.reference.as_ref());
             writeln!(
                 w,
                 "{:.6},{:.7},{:.7},{:.7},{:.7}",

@@ -207,6 +207,47 @@ fn a_bad_file_does_not_stop_the_batch() {
     assert!(!d.join("q_bad.csv").exists());
 }
 
+/// `--out` says what it wrote (path, rows) on stderr, and each quaternion
+/// is in its reference's hemisphere: a reference of −identity (the same
+/// rotation as +identity) gets estimates with w < 0, +identity with w > 0.
+#[test]
+fn out_says_what_it_wrote_in_the_reference_hemisphere() {
+    let d = dir("hemisphere");
+    for (name, reference, sign) in [("plus", LEVEL, 1.0), ("minus", [-1.0, 0.0, 0.0, 0.0], -1.0)] {
+        let rows: Vec<String> = (0..50).map(|i| row(i as f64 * 0.01, reference)).collect();
+        let input = write(&d.join(format!("{name}.csv")), &file(&rows));
+        let out = d.join(format!("{name}-q.csv"));
+        let o = replay(&[input.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let said = format!("wrote {}: 50 rows", out.display());
+        assert!(stderr(&o).contains(&said), "{}", stderr(&o));
+        let text = std::fs::read_to_string(&out).unwrap();
+        for line in text.lines().skip(1) {
+            let qw: f64 = line.split(',').nth(1).unwrap().parse().unwrap();
+            // The filter starts with a heading offset (see `LEVEL`): |w| is about 0.7.
+            assert!(qw * sign > 0.5, "{name}: {line}");
+        }
+    }
+}
+
+/// A recording that fails leaves an existing `--out` byte-identical, with
+/// no temporary file beside it.
+#[test]
+fn a_failed_replay_leaves_an_existing_out_intact() {
+    let d = dir("keep");
+    let bad = write(&d.join("bad.csv"), &corrupt(1, "nan"));
+    let out = write(&d.join("q.csv"), "old estimates\n");
+    let o = replay(&[bad.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_fails(&o, 1, "1 file(s) failed");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "old estimates\n");
+    let mut names: Vec<String> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["bad.csv", "q.csv"]);
+}
+
 #[test]
 fn board_capture_with_ctrl_c_and_repeated_header_replays() {
     let mut r = rows(200, 0.0);
