@@ -38,8 +38,14 @@ fn the_firmware_takes_off_and_holds_its_height() {
 /// the loss (s), the figures the README's agreement table compares with.
 const HOST_TOUCH_DOWN_S: f64 = 4.89;
 const HOST_DISARM_S: f64 = 7.64;
-/// The README's bounds for this row: touch-down within 0.1 s (the failsafe
-/// timeline); the disarm's time after touch-down within 0.25 s (it is 2 s
+/// The host's true height at the loss (m) and the failsafe's descent speed
+/// (m/s): a craft that holds higher at the loss touches down later by the
+/// difference over the descent speed (the rigs' hold heights differ by
+/// 0.07–0.08 m: 0.14–0.16 s).
+const HOST_HEIGHT_AT_LOSS_M: f64 = 1.77;
+const DESCENT_MPS: f64 = 0.5;
+/// The README's bounds for this row: touch-down within 0.1 s once
+/// corrected for the height at the loss (the failsafe timeline); the disarm's time after touch-down within 0.25 s (it is 2 s
 /// after the estimated vertical speed falls below 0.3 m/s, which takes
 /// longer the faster the craft touched down: see the README's row).
 const TOUCH_DOWN_BOUND_S: f64 = 0.1;
@@ -115,10 +121,12 @@ fn link_loss_in_flight_holds_descends_lands_and_turns_the_pins_off() {
         .all(|s| s.commands.iter().sum::<f64>() / 4.0 < 0.15);
     assert!(collective_low, "the collective was not low for the 2 s");
 
-    // Against the host rig (README's table): the same failsafe timeline.
+    // Against the host rig (README's table): the same failsafe timeline,
+    // the touch-down corrected to the height at the loss.
+    let host_landed = HOST_TOUCH_DOWN_S + (h0 - HOST_HEIGHT_AT_LOSS_M) / DESCENT_MPS;
     assert!(
-        (landed - HOST_TOUCH_DOWN_S).abs() <= TOUCH_DOWN_BOUND_S,
-        "touch-down +{landed} s against the host's +{HOST_TOUCH_DOWN_S} s"
+        (landed - host_landed).abs() <= TOUCH_DOWN_BOUND_S,
+        "touch-down +{landed} s against the host's +{host_landed} s (corrected to the height at the loss)"
     );
     let host_gap = HOST_DISARM_S - HOST_TOUCH_DOWN_S;
     assert!(
