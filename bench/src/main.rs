@@ -300,6 +300,7 @@ mod suite {
                 );
             }
         }
+        level_q_case(q);
         if let Ok(mut mixer) = Mixer::new(MixerConfig::default()) {
             let tq: [TorqueCommand; CALLS] = core::array::from_fn(|k| TorqueCommand {
                 roll: 0.02 * k as f32 - 0.06,
@@ -328,6 +329,37 @@ mod suite {
         }
     }
 
+    /// The self-level loop in fixed point on the same attitudes (converted
+    /// to Q30 outside the measured call, as the pipeline holds them).
+    fn level_q_case(q: &[control::loops::Quat; CALLS]) {
+        use control::levelq::{LevelControllerQ, QuatQ30, TiltQ30};
+        use control::loops::{LevelConfig, TiltQuat};
+        use control::shaping::TiltSetpoint;
+
+        let tilt = TiltSetpoint {
+            roll_rad: 0.2,
+            pitch_rad: -0.1,
+        };
+        let (Ok(mut level), Ok(tq)) = (
+            LevelControllerQ::new(&LevelConfig::default()),
+            TiltQuat::new(&tilt),
+        ) else {
+            return;
+        };
+        let tq = TiltQ30::new(&tq);
+        let q30: [QuatQ30; CALLS] = core::array::from_fn(|k| QuatQ30::from_quat(&q[k]));
+        case_checked(
+            LEVEL_Q_NAME,
+            &mut level,
+            &q30,
+            |l, q| l.rate_setpoint_q16(q, &tq),
+            |r| r.is_ok(),
+        );
+    }
+
+    /// Name of the budgeted fixed-point self-level row.
+    const LEVEL_Q_NAME: &str = "control::levelq::LevelControllerQ::rate_setpoint_q16 (fixed)";
+
     /// `FlightController::step` armed and flying, in angle and acro mode.
     fn flight_controller_cases(q: &[control::loops::Quat; CALLS]) {
         use control::controllers::BodyRates;
@@ -338,12 +370,17 @@ mod suite {
             SystemStatus, VehicleState,
         };
 
-        for (mode, name) in [
-            (FlightMode::Angle, FC_ANGLE_NAME),
+        // (mode, row, throttle, roll stick): the last drives the mixer
+        // into saturation (full throttle and a full roll demand).
+        for (mode, name, throttle, roll) in [
+            (FlightMode::Angle, FC_ANGLE_NAME, 0.5, 0.3),
             (
                 FlightMode::Acro,
                 "flight::FlightController::step (armed, acro)",
+                0.5,
+                0.3,
             ),
+            (FlightMode::Angle, FC_ANGLE_SATURATED_NAME, 0.95, 1.0),
         ] {
             let Ok(mut fc) = FlightController::new(FlightConfig::default()) else {
                 continue;
@@ -370,11 +407,11 @@ mod suite {
             let mut now_us = 0u32;
             for k in 0..(2 + WARM_CALLS) {
                 pilot.arm_switch = k > 0;
-                pilot.sticks.throttle = if k > 1 { 0.5 } else { 0.0 };
+                pilot.sticks.throttle = if k > 1 { throttle } else { 0.0 };
                 now_us += 1000;
                 let _ = fc.step(now_us, &pilot, &status, &still);
             }
-            pilot.sticks.roll = 0.3;
+            pilot.sticks.roll = roll;
             let inputs: [(u32, VehicleState); CALLS] = core::array::from_fn(|k| {
                 (
                     now_us + 1000 * (k as u32 + 1),
@@ -399,8 +436,10 @@ mod suite {
         }
     }
 
-    /// Name of the budgeted flight-control row (see xtask's budgets).
+    /// Names of the budgeted flight-control rows (see xtask's budgets).
     const FC_ANGLE_NAME: &str = "flight::FlightController::step (armed, angle)";
+    const FC_ANGLE_SATURATED_NAME: &str =
+        "flight::FlightController::step (armed, angle, mixer saturated)";
 
     fn calibration_cases() {
         use calibration::{AccelCalibration, GyroBias, MagCalibration};

@@ -65,6 +65,7 @@ fn gain_q24(g: f32) -> Result<i32, Error> {
 }
 
 /// Q16 of a value within ±32 767, [`Error::InvalidParameter`] otherwise.
+#[inline(always)]
 pub fn to_q16(x: f32) -> Result<i32, Error> {
     if !(x.is_finite() && x.abs() < 32_767.0) {
         return Err(Error::InvalidParameter);
@@ -161,6 +162,27 @@ impl PidQ {
         self.integral_q30 = 0.max(self.integral_min_q30).min(self.integral_max_q30);
         self.dmeas_filt_q24 = 0;
         self.has_prev = false;
+    }
+
+    /// Bumpless transfer, as [`Pid::reset_for`](crate::pid::Pid::reset_for):
+    /// the integral set (within its limits) so that an update with this
+    /// setpoint, measurement and feed-forward, and no D term, outputs
+    /// `output_q30`; the measurement becomes the D term's history.
+    pub fn reset_for(
+        &mut self,
+        setpoint_q16: i32,
+        measurement_q16: i32,
+        feed_forward_q30: i32,
+        output_q30: i32,
+    ) {
+        let p = mul_q24_q16(self.kp_q24, setpoint_q16.saturating_sub(measurement_q16));
+        let i = i64::from(output_q30) - p - i64::from(feed_forward_q30);
+        self.integral_q30 = sat32(i)
+            .max(self.integral_min_q30)
+            .min(self.integral_max_q30);
+        self.dmeas_filt_q24 = 0;
+        self.prev_meas_q16 = measurement_q16;
+        self.has_prev = true;
     }
 
     /// One period: `setpoint_q16`, `measurement_q16` in Q16 of the error
@@ -329,9 +351,10 @@ pub struct AltitudeHoldQ {
 impl AltitudeHoldQ {
     /// The controller for `cfg` run every `dt_s` seconds; errors as
     /// [`PidQ::new`] and [`AltitudeHoldConfig::validate`].
-    // Out of line: config-time only, and inlined its result is moved
-    // through the caller's frame once more (less flash).
-    #[inline(never)]
+    // `inline(always)`, as the other constructors: the flight controller's
+    // constant configuration then folds at compile time (out of line,
+    // 1.4 KiB of soft-float conversions and checks in flash).
+    #[inline(always)]
     pub fn new(cfg: &AltitudeHoldConfig, dt_s: f32) -> Result<Self, Error> {
         cfg.validate()?;
         Ok(Self {
@@ -351,6 +374,15 @@ impl AltitudeHoldQ {
             .max(-self.max_descent_q16)
             .min(self.max_climb_q16);
         self.speed.update(v_sp, velocity_q16, self.hover_q30)
+    }
+
+    /// Bumpless engage at the current height (target = height, so the
+    /// speed setpoint is 0), as [`AltitudeHold::reset`](crate::controllers::AltitudeHold::reset):
+    /// the next update outputs `throttle_q30` (within the integral's
+    /// limits).
+    pub fn reset(&mut self, velocity_q16: i32, throttle_q30: i32) {
+        self.speed
+            .reset_for(0, velocity_q16, self.hover_q30, throttle_q30);
     }
 }
 
@@ -544,6 +576,32 @@ mod tests {
             worst = worst.max((thf - thq).abs());
         }
         assert!(worst < 2e-4, "worst |f32 − Q| = {worst}");
+    }
+
+    #[test]
+    fn altitude_engage_is_bumpless_like_the_f32_controller() {
+        let dt = 0.001;
+        let hcfg = AltitudeHoldConfig::default();
+        let mut hf = AltitudeHold::new(hcfg).unwrap();
+        let mut hq = AltitudeHoldQ::new(&hcfg, dt).unwrap();
+        let mut rng = Rng(7);
+        for _ in 0..2_000 {
+            let (v, thr) = (q16(rng.f()), 0.5 + 0.4 * rng.f());
+            let h = q16(3.0 * rng.f());
+            hf.reset(v as f32 / 65_536.0, thr).unwrap();
+            hq.reset(v, to_q30(thr).unwrap());
+            // At the target, as engaged: the stick's throttle comes out
+            // (where the integral's limits allow it).
+            let hf_m = h as f32 / 65_536.0;
+            let thf = hf.update(hf_m, hf_m, v as f32 / 65_536.0, dt).unwrap();
+            let thq = from_q30(hq.update(h, h, v));
+            assert!((thf - thq).abs() < 1e-4, "{thf} vs {thq}");
+            // Where the integral this needs (throttle − hover − kp·(0 − v))
+            // lies inside its ±0.3 limits.
+            if (thr - 0.5 + 0.5 * v as f32 / 65_536.0).abs() < 0.29 {
+                assert!((thq - thr).abs() < 1e-3, "bumpless: {thq} for {thr}");
+            }
+        }
     }
 
     #[test]

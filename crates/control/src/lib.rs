@@ -5,9 +5,10 @@
 //! the exact barometric law and square roots; the rotation half-angles are
 //! an f32 polynomial, [`loops::half_angle_sin_cos`]), written for a
 //! Cortex-M3 **without FPU** where every float operation is a library call,
-//! so the per-sample paths avoid `powf`, trigonometry and most divisions
-//! (the 1 kHz self-level error takes two square roots; the mixer divides
-//! only when a motor saturates).
+//! so the per-sample paths avoid `powf`, trigonometry and most divisions;
+//! the flight controller's per-sample loops run in fixed point
+//! ([`levelq`], [`rateq`], [`fixed::AltitudeHoldQ`]) with the `f32` forms
+//! as their tested reference.
 //!
 //! * [`baro`] — exact ISA height ↔ pressure ([`baro::altitude_m`],
 //!   [`baro::pressure_pa`]) and [`baro::CheapBaro`], a table form costing
@@ -33,9 +34,14 @@
 //!   OneShot125 (125–250 µs) pulse → timer compare value, and the off value.
 //! * [`fixed`] — the PID and both controllers in fixed point (Q16 inputs,
 //!   Q30 outputs) for a constant loop period: the same laws, integer
-//!   arithmetic only (the firmware's motors are driven by [`loops`] in the
-//!   flight controller; these remain for fixed-period users), and the
-//!   bit-level `f32` ↔ Q conversions ([`fixed::f32_to_q`], [`fixed::q_to_f32`]).
+//!   arithmetic only ([`fixed::AltitudeHoldQ`] is the flight controller's
+//!   altitude hold), and the bit-level `f32` ↔ Q conversions
+//!   ([`fixed::f32_to_q`], [`fixed::q_to_f32`]).
+//! * [`levelq`] — the self-level loop in fixed point on the AHRS's Q30
+//!   quaternion ([`levelq::LevelControllerQ`]: Q30 attitude and tilt
+//!   setpoint → Q16 rad/s rate setpoints, two integer square roots, no
+//!   soft-float call), the `f32` [`loops::LevelController`] kept as its
+//!   reference (equivalence tested).
 //! * [`rateq`] — the 1 kHz rate loop ([`rateq::RateControllerQ`]: three
 //!   [`fixed::PidQ`], Q16 rad/s → Q30 torque) and the quad-X mixer with its
 //!   desaturation ([`rateq::MixerQ`], Q30 in and out) in fixed point, the
@@ -74,6 +80,7 @@ pub mod controllers;
 mod error;
 pub mod esc;
 pub mod fixed;
+pub mod levelq;
 pub mod loops;
 pub mod mixer;
 pub mod pid;

@@ -440,16 +440,21 @@ pub fn attitude_error_q(q: &Quat, tilt: &TiltQuat) -> [f32; 3] {
     // that of (|h| + hx, hy), so q_z(ψ) needs no trigonometry.
     let hx = w * w + x * x - y * y - z * z;
     let hy = 2.0 * (w * z + x * y);
+    // Near ψ = π, h + hx cancels: there the same direction is taken as
+    // (|hy|, sign(hy)·(h − hx)), since (h + hx)(h − hx) = hy².
     let h = libm::sqrtf(hx * hx + hy * hy);
-    let (a, b) = (h + hx, hy);
-    let m2 = a * a + b * b;
+    let (a, b) = if hx >= 0.0 {
+        (h + hx, hy)
+    } else if hy >= 0.0 {
+        (hy, h - hx)
+    } else {
+        (-hy, hx - h)
+    };
     let (c, s) = if h <= 1e-6 * n2 {
         // Nose straight up or down: the heading is undefined, any will do.
         (1.0, 0.0)
-    } else if m2 <= 1e-12 * n2 * n2 {
-        (0.0, 1.0) // ψ = π exactly
     } else {
-        let k = 1.0 / libm::sqrtf(m2);
+        let k = 1.0 / libm::sqrtf(a * a + b * b);
         (a * k, b * k)
     };
     // The measured tilt: p = q_z(ψ)⁻¹ ⊗ q.

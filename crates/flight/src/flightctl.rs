@@ -46,8 +46,9 @@
 //! off and on again. Armed, the motors run at least at the mixer's idle.
 //!
 //! **Modes** ([`FlightMode`]): acro (sticks → body rates), angle
-//! (self-level: sticks → tilt, P on the quaternion error → rates) and
-//! altitude hold (angle + [`AltitudeHold`] on the estimator's height; the
+//! (self-level: sticks → tilt, P on the quaternion error → rates,
+//! [`control::levelq`] on the Q30 quaternion) and altitude hold (angle +
+//! [`AltitudeHoldQ`] on the estimator's height; the
 //! throttle stick centred ± [`SafetyConfig::althold_deadband`] holds
 //! height, beyond it climbs or descends up to
 //! [`SafetyConfig::althold_max_climb_mps`]). Without an altitude estimate
@@ -154,10 +155,11 @@
 //! difference, limited to [`MAX_DT_US`] (a stalled loop does not integrate
 //! a huge step); two calls with the same time do not run the loops again.
 
-use control::controllers::{AltitudeHold, AltitudeHoldConfig, BodyRates, TorqueCommand};
+use control::controllers::{AltitudeHoldConfig, BodyRates, TorqueCommand};
 use control::esc::EscTimer;
-use control::fixed::f32_to_q;
-use control::loops::{LevelConfig, LevelController, Quat, RateConfig, TiltQuat};
+use control::fixed::{f32_to_q, q_to_f32, AltitudeHoldQ};
+use control::levelq::{LevelControllerQ, QuatQ30, TiltQ30};
+use control::loops::{LevelConfig, Quat, RateConfig, TiltQuat};
 use control::mixer::{MixOutput, MixerConfig, MOTORS};
 use control::rateq::{torque_from_q30, MixerQ, RateControllerQ};
 use control::shaping::{StickShaping, Sticks, SticksConfig};
@@ -189,9 +191,14 @@ pub const BAD_INPUT_HOLD_US: u32 = 10_000;
 /// enough that a manoeuvre of a second or two moves it by less than half
 /// its excursion, short enough to follow the battery's sag.
 pub const HOVER_TAU_S: f32 = 1.5;
+/// The hover estimate's low-pass gain per µs, Q30: `2³⁰/τ` with τ in µs
+/// (forward Euler: `dt/τ` rather than `dt/(τ + dt)`, 0.07 % apart at 1 ms).
+const HOVER_ALPHA_Q30_PER_US: i64 = ((1u64 << 30) as f32 / (HOVER_TAU_S * 1.0e6) + 0.5) as i64;
 /// Cosine of the largest tilt at which the collective counts towards the
 /// hover estimate (15°: tilted, a hover needs `1/cos` more, here ≤ 3.5 %).
 pub const HOVER_LEVEL_COS_TILT: f32 = 0.966;
+/// [`HOVER_LEVEL_COS_TILT`] in Q30.
+const HOVER_LEVEL_COS_TILT_Q30: i32 = (HOVER_LEVEL_COS_TILT * (1u32 << 30) as f32) as i32;
 /// Step assumed for the first call, µs (the 1 kHz IMU period).
 pub const FIRST_DT_US: u32 = 1_000;
 /// The rate loop's constant period, s: the IMU's 1 kHz. The loop runs in
@@ -465,30 +472,69 @@ impl Hold {
 }
 
 /// Everything derived from one stick position (recomputed only when the
-/// sticks change, at the receiver's frame rate rather than 1 kHz).
+/// sticks change, at the receiver's frame rate rather than 1 kHz), in the
+/// loops' formats.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Shaped {
     sticks: Sticks,
-    acro_rates: BodyRates,
-    tilt: TiltQuat,
-    yaw_rps: f32,
+    /// Acro rate setpoints (roll, pitch, yaw), Q16 rad/s.
+    acro_q16: [i32; 3],
+    tilt: TiltQ30,
+    /// Self-level modes' yaw rate, Q16 rad/s.
+    yaw_q16: i32,
     throttle: f32,
+    /// Altitude hold's climb demand, Q16 m/s.
+    climb_q16: i32,
+    /// The throttle stick at or below [`SafetyConfig::arm_throttle_max`].
+    stick_at_min: bool,
 }
 
 impl Shaped {
-    fn new(shaping: &StickShaping, s: &Sticks) -> Self {
-        let acro_rates = shaping.rate_setpoint(s).unwrap_or_default();
+    /// Shaped from no sticks: NaN sticks, never the same as a pilot's (the
+    /// step refuses non-finite sticks before shaping), so the first step
+    /// shapes. A constant, so the constructor has no shaping code to fold.
+    const UNSET: Self = Self {
+        sticks: Sticks {
+            roll: f32::NAN,
+            pitch: f32::NAN,
+            yaw: f32::NAN,
+            throttle: f32::NAN,
+        },
+        acro_q16: [0; 3],
+        tilt: TiltQ30::LEVEL,
+        yaw_q16: 0,
+        throttle: 0.0,
+        climb_q16: 0,
+        stick_at_min: false,
+    };
+
+    fn new(shaping: &StickShaping, safety: &SafetyConfig, s: &Sticks) -> Self {
+        let acro = shaping.rate_setpoint(s).unwrap_or_default();
         let (tilt, yaw_rps) = match shaping.level_setpoint(s) {
             Ok((t, y)) => (TiltQuat::new(&t).unwrap_or(TiltQuat::LEVEL), y),
             Err(_) => (TiltQuat::LEVEL, 0.0),
         };
+        let q16 = |x: f32| f32_to_q(x, 16);
         Self {
             sticks: *s,
-            acro_rates,
-            tilt,
-            yaw_rps,
+            acro_q16: [q16(acro.roll_rps), q16(acro.pitch_rps), q16(acro.yaw_rps)],
+            tilt: TiltQ30::new(&tilt),
+            yaw_q16: q16(yaw_rps),
             throttle: shaping.throttle(s.throttle).unwrap_or(0.0),
+            climb_q16: q16(stick_climb_mps(safety, s.throttle)),
+            stick_at_min: s.throttle <= safety.arm_throttle_max,
         }
+    }
+
+    /// Whether these are the sticks it was shaped from, by their bits (four
+    /// integer compares rather than four soft-float ones; a stick that
+    /// changes only between −0 and +0 is shaped once more).
+    fn same_sticks(&self, s: &Sticks) -> bool {
+        let a = &self.sticks;
+        a.roll.to_bits() == s.roll.to_bits()
+            && a.pitch.to_bits() == s.pitch.to_bits()
+            && a.yaw.to_bits() == s.yaw.to_bits()
+            && a.throttle.to_bits() == s.throttle.to_bits()
     }
 }
 
@@ -504,10 +550,14 @@ struct MotorTestRun {
 /// Limits in the units the hot path compares against.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Limits {
-    arm_cos_tilt: f32,
-    crash_cos_tilt: f32,
-    crash_rate_rps: f32,
-    land_rate_rps: f32,
+    /// Q30.
+    arm_cos_tilt: i32,
+    /// Q30.
+    crash_cos_tilt: i32,
+    /// The crash rate as the bits of an `f32` magnitude ([`mag`]).
+    crash_rate: u32,
+    /// The landing detector's rate limit, likewise.
+    land_rate: u32,
     crash_tilt_us: u32,
     crash_rate_us: u32,
     land_us: u32,
@@ -515,6 +565,8 @@ struct Limits {
     failsafe_hold_us: u32,
     motor_test_us: u32,
     bad_input_us: u32,
+    /// The failsafe descent's speed, Q16 m/s.
+    failsafe_descent_q16: i32,
 }
 
 /// The flight controller. See the [module docs](self).
@@ -525,8 +577,10 @@ pub struct FlightController {
     shaping: StickShaping,
     /// The rate loop in fixed point at [`RATE_LOOP_PERIOD_S`].
     rate: RateControllerQ,
-    level: LevelController,
-    alt: AltitudeHold,
+    /// The self-level loop in fixed point, on the Q30 quaternion.
+    level: LevelControllerQ,
+    /// The altitude hold's 1 kHz part in fixed point (Q16 m, m/s → Q30).
+    alt: AltitudeHoldQ,
     mixer: MixerQ,
     state: FlightState,
     last_us: Option<u32>,
@@ -538,11 +592,12 @@ pub struct FlightController {
     alt_engaged: bool,
     /// Altitude hold requested but unavailable (reported once per episode).
     alt_fallback: bool,
-    alt_target_m: f32,
+    /// The height altitude hold holds, Q16 m (up).
+    alt_target_q16: i32,
     last_collective: f32,
     /// The collective low-passed while flying near level under pilot
     /// control (`None` until the first such step after arming).
-    hover_collective: Option<f32>,
+    hover_collective_q30: Option<i32>,
     /// This step's throttle stick at or below
     /// [`SafetyConfig::arm_throttle_max`] (pilot control only).
     stick_at_min: bool,
@@ -572,10 +627,10 @@ impl FlightController {
         cfg.safety.validate().map_err(FlightConfigError::Safety)?;
         let s = &cfg.safety;
         let lim = Limits {
-            arm_cos_tilt: s.arm_cos_tilt(),
-            crash_cos_tilt: s.crash_cos_tilt(),
-            crash_rate_rps: s.crash_rate_dps * RAD_PER_DEG,
-            land_rate_rps: s.land_rate_max_dps * RAD_PER_DEG,
+            arm_cos_tilt: f32_to_q(s.arm_cos_tilt(), 30),
+            crash_cos_tilt: f32_to_q(s.crash_cos_tilt(), 30),
+            crash_rate: mag(s.crash_rate_dps * RAD_PER_DEG),
+            land_rate: mag(s.land_rate_max_dps * RAD_PER_DEG),
             crash_tilt_us: us(s.crash_tilt_time_s),
             crash_rate_us: us(s.crash_rate_time_s),
             land_us: us(s.land_time_s),
@@ -583,6 +638,7 @@ impl FlightController {
             failsafe_hold_us: us(s.failsafe_hold_s),
             motor_test_us: us(s.motor_test_max_s),
             bad_input_us: us(s.bad_input_disarm_s),
+            failsafe_descent_q16: f32_to_q(s.failsafe_descent_mps, 16),
         };
         let shaping = StickShaping::new(cfg.sticks)?;
         Ok(Self {
@@ -590,8 +646,8 @@ impl FlightController {
             lim,
             shaping,
             rate: RateControllerQ::new(&cfg.rate, RATE_LOOP_PERIOD_S)?,
-            level: LevelController::new(cfg.level)?,
-            alt: AltitudeHold::new(cfg.altitude_hold)?,
+            level: LevelControllerQ::new(&cfg.level)?,
+            alt: AltitudeHoldQ::new(&cfg.altitude_hold, RATE_LOOP_PERIOD_S)?,
             mixer: MixerQ::new(&cfg.mixer)?,
             state: FlightState::Disarmed,
             last_us: None,
@@ -599,9 +655,9 @@ impl FlightController {
             took_off: false,
             alt_engaged: false,
             alt_fallback: false,
-            alt_target_m: 0.0,
+            alt_target_q16: 0,
             last_collective: 0.0,
-            hover_collective: None,
+            hover_collective_q30: None,
             stick_at_min: false,
             last_motors: Motors::Off,
             armed_us: 0,
@@ -614,7 +670,7 @@ impl FlightController {
             motor_test: None,
             calibrating: false,
             test_switch: MotorTestSwitch::new(),
-            shaped: Shaped::new(&shaping, &Sticks::default()),
+            shaped: Shaped::UNSET,
         })
     }
 
@@ -635,7 +691,7 @@ impl FlightController {
 
     /// The height altitude hold is holding (m, up), while it is engaged.
     pub fn altitude_target_m(&self) -> Option<f32> {
-        (self.is_armed() && self.alt_engaged).then_some(self.alt_target_m)
+        (self.is_armed() && self.alt_engaged).then(|| q_to_f32(self.alt_target_q16, 16))
     }
 
     /// Everything that would refuse an arm request now (for a status LED
@@ -659,9 +715,9 @@ impl FlightController {
         if !status.gyro_bias_done {
             b.insert(ArmRefusal::GyroBiasPending);
         }
-        match cos_tilt(vehicle) {
+        match attitude_q30(vehicle) {
             None => b.insert(ArmRefusal::AttitudeInvalid),
-            Some(c) if c < self.lim.arm_cos_tilt => b.insert(ArmRefusal::NotLevel),
+            Some((_, c)) if c < self.lim.arm_cos_tilt => b.insert(ArmRefusal::NotLevel),
             Some(_) => {}
         }
         if !self.throttle_low(pilot) {
@@ -759,9 +815,14 @@ impl FlightController {
             Some(t) => now_us.wrapping_sub(t).min(MAX_DT_US),
         };
         self.last_us = Some(now_us);
-        // A pilot frame with a non-finite stick is as good as no frame.
+        // A pilot frame with a non-finite stick is as good as no frame
+        // (`is_finite` tests the bits: no soft-float call).
         let mut pilot = *pilot;
-        if pilot.sticks.clamped().is_err() {
+        let st = &pilot.sticks;
+        if ![st.roll, st.pitch, st.yaw, st.throttle]
+            .iter()
+            .all(|x| x.is_finite())
+        {
             pilot.link_ok = false;
         }
         let edge = pilot.link_ok && pilot.arm_switch && self.prev_switch == Some(false);
@@ -848,7 +909,7 @@ impl FlightController {
         self.took_off = false;
         self.alt_engaged = false;
         self.last_collective = 0.0;
-        self.hover_collective = None;
+        self.hover_collective_q30 = None;
         self.stick_at_min = false;
         self.armed_us = 0;
         self.failsafe_us = 0;
@@ -944,7 +1005,6 @@ impl FlightController {
         vehicle: &VehicleState,
         out: &mut FlightOutput,
     ) {
-        let dt_s = dt_us as f32 * 1.0e-6;
         self.armed_us = self.armed_us.saturating_add(dt_us);
 
         // Link and switch.
@@ -970,17 +1030,16 @@ impl FlightController {
         }
 
         // Vehicle input.
-        let Some(cos_t) = cos_tilt(vehicle) else {
+        let Some((att, cos_t)) = attitude_q30(vehicle) else {
             return self.bridge_bad_input(dt_us, out);
         };
         self.bad_input = Hold::default();
 
         let alt = usable_altitude(vehicle);
-        let (rate_sp, collective, self_level) =
-            match self.setpoints(dt_us, pilot, vehicle, alt, out) {
-                Some(x) => x,
-                None => return, // disarmed inside (failsafe without altitude)
-            };
+        let (rate_sp, collective, self_level) = match self.setpoints(dt_us, pilot, &att, alt, out) {
+            Some(x) => x,
+            None => return, // disarmed inside (failsafe without altitude)
+        };
 
         let g = &vehicle.gyro;
         // On the ground nothing can follow the setpoint: integrating
@@ -988,37 +1047,37 @@ impl FlightController {
         if !self.took_off {
             self.rate.clear();
         }
-        self.fly_rates(&rate_sp, g, collective, out);
+        self.fly_rates(rate_sp, g, collective, out);
         self.last_collective = collective;
 
         self.safety_checks(dt_us, cos_t, self_level, collective, vehicle, alt, out);
-        self.track_hover(dt_s, cos_t, collective);
+        self.track_hover(dt_us, cos_t, collective);
     }
 
     /// The rate loop and mixer, in fixed point from here to the motor
-    /// commands (`control::rateq`): the inputs converted by their bits, one
+    /// commands (`control::rateq`): the gyro converted by its bits, one
     /// period per step; the torques, mix and motors into `out`.
     fn fly_rates(
         &mut self,
-        rate_sp: &BodyRates,
+        sp_q16: [i32; 3],
         g: &BodyRates,
         collective: f32,
         out: &mut FlightOutput,
     ) {
         let q16 = |x: f32| f32_to_q(x, 16);
-        let sp_q16 = [
-            q16(rate_sp.roll_rps),
-            q16(rate_sp.pitch_rps),
-            q16(rate_sp.yaw_rps),
-        ];
         let gyro_q16 = [q16(g.roll_rps), q16(g.pitch_rps), q16(g.yaw_rps)];
         let torque_q30 = self.rate.update(sp_q16, gyro_q16);
         let mix = self.mixer.mix(f32_to_q(collective, 30), torque_q30);
-        out.rate_setpoint = *rate_sp;
+        out.rate_setpoint = BodyRates {
+            roll_rps: q_to_f32(sp_q16[0], 16),
+            pitch_rps: q_to_f32(sp_q16[1], 16),
+            yaw_rps: q_to_f32(sp_q16[2], 16),
+        };
         out.torque = torque_from_q30(torque_q30);
         out.collective = collective;
-        out.mix = Some(mix.to_f32());
-        out.motors = Motors::Run(mix.motor_commands());
+        let mix = mix.to_f32();
+        out.motors = Motors::Run(mix.motors);
+        out.mix = Some(mix);
     }
 
     /// Flies a step without usable attitude/gyro ("Sensor loss" in the
@@ -1036,22 +1095,29 @@ impl FlightController {
         }
     }
 
-    /// Rate setpoint, collective and whether the mode self-levels; `None`
-    /// after a failsafe disarm.
+    /// Rate setpoint (Q16 rad/s), collective and whether the mode
+    /// self-levels; `None` after a failsafe disarm.
     fn setpoints(
         &mut self,
         dt_us: u32,
         pilot: &PilotInput,
-        vehicle: &VehicleState,
+        att: &QuatQ30,
         alt: Option<AltitudeEstimate>,
         out: &mut FlightOutput,
-    ) -> Option<(BodyRates, f32, bool)> {
-        let dt_s = dt_us as f32 * 1.0e-6;
+    ) -> Option<([i32; 3], f32, bool)> {
         match self.state {
-            FlightState::Failsafe(phase) => {
-                self.failsafe_setpoints(phase, dt_us, dt_s, vehicle, alt, out)
-            }
-            _ => Some(self.pilot_setpoints(dt_s, pilot, vehicle, alt, out)),
+            FlightState::Failsafe(phase) => self.failsafe_setpoints(phase, dt_us, att, alt, out),
+            _ => Some(self.pilot_setpoints(dt_us, pilot, att, alt, out)),
+        }
+    }
+
+    /// The self-level loop's rate setpoint (Q16 rad/s) towards `tilt`
+    /// with the yaw rate `yaw_q16` (zero for an attitude the loop refuses;
+    /// `attitude_q30` has already checked it).
+    fn level_rates(&self, att: &QuatQ30, tilt: &TiltQ30, yaw_q16: i32) -> [i32; 3] {
+        match self.level.rate_setpoint_q16(att, tilt) {
+            Ok([roll, pitch]) => [roll, pitch, yaw_q16],
+            Err(_) => [0; 3],
         }
     }
 
@@ -1061,12 +1127,10 @@ impl FlightController {
         &mut self,
         phase: FailsafePhase,
         dt_us: u32,
-        dt_s: f32,
-        vehicle: &VehicleState,
+        att: &QuatQ30,
         alt: Option<AltitudeEstimate>,
         out: &mut FlightOutput,
-    ) -> Option<(BodyRates, f32, bool)> {
-        let q = &vehicle.attitude;
+    ) -> Option<([i32; 3], f32, bool)> {
         out.mode = FlightMode::Angle;
         self.failsafe_us = self.failsafe_us.saturating_add(dt_us);
         let mut phase = phase;
@@ -1079,23 +1143,21 @@ impl FlightController {
             self.state = FlightState::Failsafe(phase);
             out.events.push(Event::FailsafeDescent);
         }
-        let rate_sp = self
-            .level
-            .rate_setpoint_q(q, &TiltQuat::LEVEL, 0.0)
-            .unwrap_or_default();
+        let rate_sp = self.level_rates(att, &TiltQ30::LEVEL, 0);
         let collective = match alt {
             Some(a) => {
                 out.mode = FlightMode::AltitudeHold;
-                let climb = if phase == FailsafePhase::Descend {
-                    -self.cfg.safety.failsafe_descent_mps
+                let climb_q16 = if phase == FailsafePhase::Descend {
+                    -self.lim.failsafe_descent_q16
                 } else {
-                    0.0
+                    0
                 };
-                self.altitude_collective(a, climb, dt_s)
+                self.altitude_collective(a, climb_q16, dt_us)
             }
             // Altitude lost during the descent: keep going down by
             // ramping the collective off, so the landing detector ends it.
             None if phase == FailsafePhase::Descend => {
+                let dt_s = dt_us as f32 * 1.0e-6;
                 (self.last_collective - FAILSAFE_BLIND_RAMP_PER_S * dt_s).max(0.0)
             }
             // Level hold without altitude: never more than a hover.
@@ -1108,13 +1170,12 @@ impl FlightController {
     /// to angle mode without an altitude estimate).
     fn pilot_setpoints(
         &mut self,
-        dt_s: f32,
+        dt_us: u32,
         pilot: &PilotInput,
-        vehicle: &VehicleState,
+        att: &QuatQ30,
         alt: Option<AltitudeEstimate>,
         out: &mut FlightOutput,
-    ) -> (BodyRates, f32, bool) {
-        let q = &vehicle.attitude;
+    ) -> ([i32; 3], f32, bool) {
         let mut mode = pilot.mode;
         let fallback = mode == FlightMode::AltitudeHold && alt.is_none();
         if fallback {
@@ -1125,71 +1186,76 @@ impl FlightController {
         }
         self.alt_fallback = fallback;
         out.mode = mode;
-        self.stick_at_min = self.throttle_low(pilot);
         let s = &pilot.sticks;
-        if self.shaped.sticks != *s {
-            self.shaped = Shaped::new(&self.shaping, s);
+        if !self.shaped.same_sticks(s) {
+            self.shaped = Shaped::new(&self.shaping, &self.cfg.safety, s);
         }
-        let sh = self.shaped;
+        // By field, not a copy of the whole `Shaped` (a `memcpy` a step).
+        self.stick_at_min = self.shaped.stick_at_min;
         let rate_sp = match mode {
-            FlightMode::Acro => sh.acro_rates,
-            FlightMode::Angle | FlightMode::AltitudeHold => self
-                .level
-                .rate_setpoint_q(q, &sh.tilt, sh.yaw_rps)
-                .unwrap_or_default(),
+            FlightMode::Acro => self.shaped.acro_q16,
+            FlightMode::Angle | FlightMode::AltitudeHold => {
+                let sh = &self.shaped;
+                self.level_rates(att, &sh.tilt, sh.yaw_q16)
+            }
         };
         let collective = match (mode, alt) {
             (FlightMode::AltitudeHold, Some(a)) => {
-                let climb = self.stick_climb_mps(s.throttle);
-                self.altitude_collective(a, climb, dt_s)
+                self.altitude_collective(a, self.shaped.climb_q16, dt_us)
             }
             _ => {
                 self.alt_engaged = false;
-                sh.throttle
+                self.shaped.throttle
             }
         };
         (rate_sp, collective, mode != FlightMode::Acro)
     }
+}
 
-    /// Climb-rate demand of the throttle stick in altitude hold, m/s.
-    fn stick_climb_mps(&self, throttle: f32) -> f32 {
-        let s = &self.cfg.safety;
-        let d = throttle - 0.5;
-        let band = s.althold_deadband;
-        let span = 0.5 - band;
-        if d > band {
-            s.althold_max_climb_mps * (d - band) / span
-        } else if d < -band {
-            s.althold_max_climb_mps * (d + band) / span
-        } else {
-            0.0
-        }
+/// Climb-rate demand of the throttle stick in altitude hold, m/s.
+fn stick_climb_mps(s: &SafetyConfig, throttle: f32) -> f32 {
+    let d = throttle - 0.5;
+    let band = s.althold_deadband;
+    let span = 0.5 - band;
+    if d > band {
+        s.althold_max_climb_mps * (d - band) / span
+    } else if d < -band {
+        s.althold_max_climb_mps * (d + band) / span
+    } else {
+        0.0
     }
+}
 
-    /// Altitude-hold collective; engages bumplessly at the current height
-    /// and moves the target at `climb_mps`, kept within 2 m of the estimate
-    /// so it cannot run away from a vehicle that cannot follow.
-    fn altitude_collective(&mut self, a: AltitudeEstimate, climb_mps: f32, dt_s: f32) -> f32 {
-        const LEASH_M: f32 = 2.0;
+impl FlightController {
+    /// Altitude-hold collective, the 1 kHz part in fixed point
+    /// ([`AltitudeHoldQ`], one period per step); engages bumplessly at the
+    /// current height and moves the target at `climb_q16` (Q16 m/s) for
+    /// `dt_us`, kept within 2 m of the estimate so it cannot run away from
+    /// a vehicle that cannot follow.
+    fn altitude_collective(&mut self, a: AltitudeEstimate, climb_q16: i32, dt_us: u32) -> f32 {
+        const LEASH_Q16: i32 = 2 << 16;
+        let h = f32_to_q(a.height_m, 16);
+        let v = f32_to_q(a.vertical_speed_mps, 16);
         if !self.alt_engaged {
-            self.alt_target_m = a.height_m;
-            let _ = self.alt.reset(a.vertical_speed_mps, self.last_collective);
+            self.alt_target_q16 = h;
+            self.alt.reset(v, f32_to_q(self.last_collective, 30));
             self.alt_engaged = true;
         }
-        let t = self.alt_target_m + climb_mps * dt_s;
-        // max/min, not f32::clamp: clamp's bounds assertion links core::fmt's
-        // float formatting (~8 KiB of flash) for a panic that cannot happen.
-        self.alt_target_m = t.max(a.height_m - LEASH_M).min(a.height_m + LEASH_M);
-        self.alt
-            .update(self.alt_target_m, a.height_m, a.vertical_speed_mps, dt_s)
-            .unwrap_or(self.last_collective)
+        // climb · dt in Q16 m: Q16 m/s × µs × 2³²/10⁶ (4295, 0.0001 % high),
+        // shifted by 32; below 2⁴⁴ for any climb within Q16 and dt ≤ 20 ms.
+        let step = (i64::from(climb_q16) * i64::from(dt_us) * 4295) >> 32;
+        let t = self.alt_target_q16.saturating_add(step as i32);
+        self.alt_target_q16 = t
+            .max(h.saturating_sub(LEASH_Q16))
+            .min(h.saturating_add(LEASH_Q16));
+        q_to_f32(self.alt.update(self.alt_target_q16, h, v), 30)
     }
 
     #[allow(clippy::too_many_arguments)]
     fn safety_checks(
         &mut self,
         dt_us: u32,
-        cos_tilt: f32,
+        cos_tilt_q30: i32,
         self_level: bool,
         collective: f32,
         vehicle: &VehicleState,
@@ -1198,19 +1264,19 @@ impl FlightController {
     ) {
         let s = self.cfg.safety;
         let g = &vehicle.gyro;
-        let max_rate = g.roll_rps.abs().max(g.pitch_rps.abs()).max(g.yaw_rps.abs());
+        let max_rate = mag(g.roll_rps).max(mag(g.pitch_rps)).max(mag(g.yaw_rps));
         if self.runaway.update(dt_us, &out.torque, g, collective) {
             return self.disarm(DisarmCause::RunawayTakeoff, out);
         }
         if self.crash_tilt.update(
-            self_level && cos_tilt < self.lim.crash_cos_tilt,
+            self_level && cos_tilt_q30 < self.lim.crash_cos_tilt,
             dt_us,
             self.lim.crash_tilt_us,
         ) {
             return self.disarm(DisarmCause::CrashTilt, out);
         }
         if self.crash_rate.update(
-            max_rate >= self.lim.crash_rate_rps,
+            max_rate >= self.lim.crash_rate,
             dt_us,
             self.lim.crash_rate_us,
         ) {
@@ -1242,13 +1308,8 @@ impl FlightController {
     /// altitude estimate, no vertical speed; without one, under pilot
     /// control the throttle stick at its minimum, in a failsafe the blind
     /// descent's collective ramped to zero.
-    fn looks_landed(
-        &self,
-        max_rate_rps: f32,
-        collective: f32,
-        alt: Option<AltitudeEstimate>,
-    ) -> bool {
-        let no_rotation = max_rate_rps < self.lim.land_rate_rps;
+    fn looks_landed(&self, max_rate: u32, collective: f32, alt: Option<AltitudeEstimate>) -> bool {
+        let no_rotation = max_rate < self.lim.land_rate;
         let no_descent = match alt {
             Some(a) => a.vertical_speed_mps.abs() < self.cfg.safety.land_vertical_speed_max_mps,
             None if matches!(self.state, FlightState::Failsafe(_)) => collective <= 0.0,
@@ -1260,14 +1321,21 @@ impl FlightController {
     /// Low-passes the collective over [`HOVER_TAU_S`] while the pilot flies
     /// (armed, taken off, no failsafe) within 15° of level; the first such
     /// step seeds it.
-    fn track_hover(&mut self, dt_s: f32, cos_tilt: f32, collective: f32) {
+    fn track_hover(&mut self, dt_us: u32, cos_tilt_q30: i32, collective: f32) {
         let pilot_flying = self.state == FlightState::Armed && self.took_off;
-        if !pilot_flying || cos_tilt < HOVER_LEVEL_COS_TILT || !collective.is_finite() {
+        if !pilot_flying || cos_tilt_q30 < HOVER_LEVEL_COS_TILT_Q30 || !collective.is_finite() {
             return;
         }
-        self.hover_collective = Some(match self.hover_collective {
-            None => collective,
-            Some(h) => h + (collective - h) * dt_s / (HOVER_TAU_S + dt_s),
+        let c = f32_to_q(collective, 30);
+        self.hover_collective_q30 = Some(match self.hover_collective_q30 {
+            None => c,
+            // Forward Euler, α = dt/τ in Q30 (the collective's change is
+            // below 2³¹, dt ≤ 2¹⁵ µs, the rate below 2¹⁰: < 2⁵⁶).
+            Some(h) => {
+                let step =
+                    i64::from(c.saturating_sub(h)) * i64::from(dt_us) * HOVER_ALPHA_Q30_PER_US;
+                h.saturating_add((step >> 30) as i32)
+            }
         });
     }
 
@@ -1277,7 +1345,7 @@ impl FlightController {
     /// there is no estimate yet).
     fn hover_estimate(&self) -> f32 {
         let s = &self.cfg.safety;
-        let h = self.hover_collective.unwrap_or(s.land_collective_max);
+        let h = self.hover_collective().unwrap_or(s.land_collective_max);
         // max/min, not clamp (see `altitude_collective`).
         h.max(s.land_collective_max).min(s.failsafe_collective_max)
     }
@@ -1285,8 +1353,15 @@ impl FlightController {
     /// The hover-collective estimate so far (`None` before the first step
     /// flown near level after take-off), unclamped.
     pub fn hover_collective(&self) -> Option<f32> {
-        self.hover_collective
+        self.hover_collective_q30.map(|h| q_to_f32(h, 30))
     }
+}
+
+/// `|x|` as its IEEE 754 bit pattern: for finite values these order as
+/// the magnitudes do (one integer compare instead of a soft-float one).
+#[inline(always)]
+fn mag(x: f32) -> u32 {
+    x.to_bits() & 0x7fff_ffff
 }
 
 /// Altitude estimate if finite.
@@ -1295,18 +1370,16 @@ fn usable_altitude(v: &VehicleState) -> Option<AltitudeEstimate> {
         .filter(|a| a.height_m.is_finite() && a.vertical_speed_mps.is_finite())
 }
 
-/// Cosine of the tilt (body down · earth down), or `None` if the attitude
-/// or gyro is unusable.
-fn cos_tilt(v: &VehicleState) -> Option<f32> {
+/// The attitude in Q30 and the cosine of its tilt (body down · earth
+/// down, Q30), or `None` if the attitude or gyro is unusable: not finite,
+/// or `|q|²` outside 0.25..2 ([`QuatQ30::norm2_q60`]).
+fn attitude_q30(v: &VehicleState) -> Option<(QuatQ30, i32)> {
     let q = &v.attitude;
     let g = &v.gyro;
     let all = [q.w, q.x, q.y, q.z, g.roll_rps, g.pitch_rps, g.yaw_rps];
     if !all.iter().all(|x| x.is_finite()) {
         return None;
     }
-    let n2 = q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z;
-    if n2 < 0.25 {
-        return None;
-    }
-    Some(1.0 - 2.0 * (q.x * q.x + q.y * q.y) / n2)
+    let q30 = QuatQ30::from_quat(q);
+    q30.cos_tilt_q30().ok().map(|c| (q30, c))
 }

@@ -124,7 +124,8 @@ impl RunawayCheck {
             return false;
         }
         let t = mag(torque.roll).max(mag(torque.pitch)).max(mag(torque.yaw));
-        if collective >= self.off_collective && t < self.off_torque {
+        // The integer compare first: the soft-float one only when it holds.
+        if t < self.off_torque && collective >= self.off_collective {
             self.normal_us = self.normal_us.saturating_add(dt_us);
         }
         let turning = mag(gyro.roll_rps).max(mag(gyro.pitch_rps)) > self.rate_rp
