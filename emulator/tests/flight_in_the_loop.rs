@@ -36,13 +36,12 @@ fn the_firmware_takes_off_and_holds_its_height() {
 
 /// `cargo sim --scenario linkloss` (seed 1): touch-down and disarm after
 /// the loss (s), the figures the README's agreement table compares with.
-const HOST_TOUCH_DOWN_S: f64 = 4.89;
-const HOST_DISARM_S: f64 = 7.64;
+const HOST_TOUCH_DOWN_S: f64 = 4.82;
+const HOST_DISARM_S: f64 = 7.54;
 /// The host's true height at the loss (m) and the failsafe's descent speed
 /// (m/s): a craft that holds higher at the loss touches down later by the
-/// difference over the descent speed (the rigs' hold heights differ by
-/// 0.07–0.08 m: 0.14–0.16 s).
-const HOST_HEIGHT_AT_LOSS_M: f64 = 1.77;
+/// difference over the descent speed (0.2 s per 0.1 m).
+const HOST_HEIGHT_AT_LOSS_M: f64 = 1.75;
 const DESCENT_MPS: f64 = 0.5;
 /// The README's bounds for this row: touch-down within 0.1 s once
 /// corrected for the height at the loss (the failsafe timeline); the disarm's time after touch-down within 0.25 s (it is 2 s
