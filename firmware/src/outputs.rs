@@ -100,10 +100,7 @@ impl EscOutputs {
     pub fn set(&mut self, motors: &Motors) {
         match motors {
             Motors::Off => self.off(),
-            Motors::Run(m) => {
-                let c = m.map(|m| self.timer.compare(m));
-                self.write(c);
-            }
+            Motors::Run(_) => self.write(motors.compares(&self.timer)),
         }
     }
 }

@@ -160,8 +160,8 @@ use control::esc::EscTimer;
 use control::fixed::{f32_to_q, q_to_f32, AltitudeHoldQ};
 use control::levelq::{LevelControllerQ, QuatQ30, TiltQ30};
 use control::loops::{LevelConfig, Quat, RateConfig, TiltQuat};
-use control::mixer::{MixOutput, MixerConfig, MOTORS};
-use control::rateq::{torque_from_q30, MixerQ, RateControllerQ};
+use control::mixer::{MixerConfig, MOTORS};
+use control::rateq::{torque_from_q30, MixOutputQ, MixerQ, RateControllerQ};
 use control::shaping::{StickShaping, Sticks, SticksConfig};
 
 use crate::motortest::{MotorTestSwitch, SwitchRequest};
@@ -301,23 +301,30 @@ pub struct VehicleState {
 }
 
 /// What goes to the ESCs.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Motors {
     /// Every ESC at its "off" pulse.
     Off,
-    /// Commands 0..1 per motor (mixer order: index 0 = Betaflight motor 1,
-    /// rear right; see [`control::mixer`]).
-    Run([f32; MOTORS]),
+    /// Commands 0..1 per motor in Q30 (`1 << 30` = full), as the
+    /// fixed-point mixer makes them (mixer order: index 0 = Betaflight
+    /// motor 1, rear right; see [`control::mixer`]); to the timer with one
+    /// `UMULL` each ([`EscTimer::compare_q30`]).
+    Run([i32; MOTORS]),
 }
 
 impl Motors {
-    /// Commands per motor, 0 for off.
+    /// Commands per motor as `f32` 0..1, 0 for off (logs, plots, tests).
     pub fn commands(&self) -> [f32; MOTORS] {
         match self {
             Self::Off => [0.0; MOTORS],
-            Self::Run(m) => *m,
+            Self::Run(m) => m.map(|c| q_to_f32(c, 30)),
         }
+    }
+
+    /// Running at `f32` commands 0..1 (converted to Q30 by their bits).
+    pub fn run_f32(commands: [f32; MOTORS]) -> Self {
+        Self::Run(commands.map(|c| f32_to_q(c, 30)))
     }
 
     /// Timer compare values per motor (`CCRn`), the "off" pulse for
@@ -325,7 +332,12 @@ impl Motors {
     pub fn compares(&self, esc: &EscTimer) -> [u16; MOTORS] {
         match self {
             Self::Off => [esc.off_compare(); MOTORS],
-            Self::Run(m) => m.map(|c| esc.compare(c)),
+            Self::Run(m) => [
+                esc.compare_q30(m[0]),
+                esc.compare_q30(m[1]),
+                esc.compare_q30(m[2]),
+                esc.compare_q30(m[3]),
+            ],
         }
     }
 }
@@ -389,8 +401,9 @@ pub struct FlightOutput {
     pub torque: TorqueCommand,
     /// Collective throttle asked of the mixer, 0..1.
     pub collective: f32,
-    /// The mixer's saturation report (`None` when not flying).
-    pub mix: Option<MixOutput>,
+    /// The mixer's saturation report in fixed point (`None` when not
+    /// flying; [`MixOutputQ::to_f32`] for the `f32` form).
+    pub mix: Option<MixOutputQ>,
 }
 
 /// Every tuning of the flight controller.
@@ -990,9 +1003,9 @@ impl FlightController {
         if first {
             out.events.push(Event::MotorTestStarted(t.motor));
         }
-        let mut m = [0.0; MOTORS];
+        let mut m = [0; MOTORS];
         if let Some(v) = m.get_mut(usize::from(t.motor)) {
-            *v = self.cfg.safety.motor_test_command;
+            *v = f32_to_q(self.cfg.safety.motor_test_command, 30);
         }
         out.motors = Motors::Run(m);
         self.motor_test = Some(t);
@@ -1075,8 +1088,7 @@ impl FlightController {
         };
         out.torque = torque_from_q30(torque_q30);
         out.collective = collective;
-        let mix = mix.to_f32();
-        out.motors = Motors::Run(mix.motors);
+        out.motors = Motors::Run(mix.motors_q30);
         out.mix = Some(mix);
     }
 
@@ -1091,7 +1103,7 @@ impl FlightController {
         out.motors = self.last_motors;
         if self.bad_input.us > BAD_INPUT_HOLD_US {
             let even = self.mixer.mix(f32_to_q(self.last_collective, 30), [0; 3]);
-            out.motors = Motors::Run(even.motor_commands());
+            out.motors = Motors::Run(even.motors_q30);
         }
     }
 

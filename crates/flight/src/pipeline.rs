@@ -26,6 +26,7 @@
 
 use calibration::{MagCalibration, MagCalibrationQ16};
 use control::baro::CheapBaro;
+use control::fixed::q_to_f32;
 use control::vertical::{Config as VerticalConfig, VerticalEstimator};
 use fc_ahrs::Quaternion;
 
@@ -540,14 +541,23 @@ impl Pipeline {
     /// The latest gyro sample in body FRD, bias removed, rad/s (the rate
     /// loop's measurement).
     pub fn body_rates(&self) -> control::controllers::BodyRates {
-        // Q16 rad/s per count, in Q16: counts · k / 2³² rad/s.
-        let k = self.gyro_rps_q16_per_lsb_q16 as f32 * (1.0 / 4_294_967_296.0);
-        let g = self.last_gyro_body.map(|c| c as f32 * k);
+        // By the bits (`q_to_f32`), not a soft-float multiply per axis.
+        let g = self.body_rates_q16();
         control::controllers::BodyRates {
-            roll_rps: g[0],
-            pitch_rps: g[1],
-            yaw_rps: g[2],
+            roll_rps: q_to_f32(g[0], 16),
+            pitch_rps: q_to_f32(g[1], 16),
+            yaw_rps: q_to_f32(g[2], 16),
         }
+    }
+
+    /// [`body_rates`](Self::body_rates) in Q16 rad/s: counts · k / 2¹⁶ with
+    /// `k` in Q16 rad/s per count, Q16 (|counts| < 2¹⁷, k < 2²⁴: the
+    /// product fits `i64`; the result, at most ±35 rad/s, fits Q16).
+    pub fn body_rates_q16(&self) -> [i32; 3] {
+        let k = i64::from(self.gyro_rps_q16_per_lsb_q16);
+        let g = &self.last_gyro_body;
+        let rate = |c: i32| ((i64::from(c) * k) >> 16) as i32;
+        [rate(g[0]), rate(g[1]), rate(g[2])]
     }
 
     /// Height (m, up, above the take-off reference) and vertical speed
@@ -719,6 +729,7 @@ mod backend {
     //! count, shifted right 16), accelerometer in counts (the filter's
     //! `gravity_norm` is set to 1 g in counts), magnetometer in 1/16 µT,
     //! dt in cycles → Q31 s with one multiply (`2^47 / cpu_hz`, shifted 16).
+    use control::fixed::q_to_f32;
     use fc_ahrs::fixed::{FixedConfig, MadgwickFixed};
     use fc_ahrs::{Config, Quaternion};
 
@@ -782,8 +793,15 @@ mod backend {
             }
         }
 
+        /// By the bits (`q_to_f32`), not a soft-float multiply each.
         pub fn quaternion(&self) -> Quaternion {
-            self.filter.quaternion_f32()
+            let q = self.filter.quaternion_q30();
+            Quaternion::new(
+                q_to_f32(q[0], 30),
+                q_to_f32(q[1], 30),
+                q_to_f32(q[2], 30),
+                q_to_f32(q[3], 30),
+            )
         }
 
         pub fn quaternion_q30(&self) -> [i32; 4] {

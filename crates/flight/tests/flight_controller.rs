@@ -32,13 +32,10 @@ fn arms_on_switch_edge_with_everything_ready() {
     let mut r = Rig::new();
     r.arm();
     let out = r.step();
-    match out.motors {
-        Motors::Run(m) => {
-            for v in m {
-                assert!((0.05..=0.1).contains(&v), "idle expected, got {m:?}");
-            }
-        }
-        Motors::Off => panic!("armed but motors off"),
+    assert!(matches!(out.motors, Motors::Run(_)), "armed but motors off");
+    let m = out.motors.commands();
+    for v in m {
+        assert!((0.05..=0.1).contains(&v), "idle expected, got {m:?}");
     }
 }
 
@@ -428,9 +425,9 @@ fn sensor_loss_is_bridged_last_motors_then_even_thrust_then_disarm() {
     // A manoeuvre: the rate loop commands a torque (motors uneven).
     r.pilot.sticks.roll = 0.5;
     r.run_ms(30);
-    let Motors::Run(before) = r.step().motors else {
-        panic!("armed")
-    };
+    let motors = r.step().motors;
+    assert!(matches!(motors, Motors::Run(_)), "armed");
+    let before = motors.commands();
     let spread = |m: &[f32; 4]| {
         m.iter().fold(f32::MIN, |a, b| a.max(*b)) - m.iter().fold(f32::MAX, |a, b| a.min(*b))
     };
@@ -441,9 +438,11 @@ fn sensor_loss_is_bridged_last_motors_then_even_thrust_then_disarm() {
         let out = r.step();
         assert!(r.fc.is_armed(), "armed at {ms} ms");
         assert!(out.events.contains(Event::InputRejected));
-        let Motors::Run(m) = out.motors else {
-            panic!("motors off at {ms} ms")
-        };
+        assert!(
+            matches!(out.motors, Motors::Run(_)),
+            "motors off at {ms} ms"
+        );
+        let m = out.motors.commands();
         if ms <= 10 {
             assert_eq!(m, before, "{ms} ms: the last commands");
         } else {
@@ -636,7 +635,7 @@ fn motor_test_spins_one_motor_and_ends_on_stick_movement() {
     let out = r.step();
     assert!(out.events.contains(Event::MotorTestStarted(2)));
     assert_eq!(out.state, FlightState::MotorTest(2));
-    assert_eq!(out.motors, Motors::Run([0.0, 0.0, 0.08, 0.0]));
+    assert_eq!(out.motors, Motors::run_f32([0.0, 0.0, 0.08, 0.0]));
     r.run_ms(500);
     r.pilot.sticks.pitch = 0.05; // inside the tolerance
     r.run_ms(10);
@@ -772,10 +771,8 @@ fn motors_off_whenever_disarmed_under_random_inputs() {
             let _ = r.fc.start_motor_test((rnd() * 5.0) as u8, &r.pilot);
         }
         let out = r.step();
-        if let Motors::Run(m) = out.motors {
-            for v in m {
-                assert!((0.0..=1.0).contains(&v));
-            }
+        for v in out.motors.commands() {
+            assert!((0.0..=1.0).contains(&v));
         }
         if r.fc.is_armed() {
             armed_steps += 1;
@@ -930,7 +927,7 @@ fn vehicle_state_from_the_pipeline_is_body_frd_in_rad_per_s() {
             .unwrap();
     assert_eq!(Motors::Off.compares(&esc), [9_000; 4]);
     assert_eq!(
-        Motors::Run([0.0, 1.0, 0.5, 0.0]).compares(&esc),
+        Motors::run_f32([0.0, 1.0, 0.5, 0.0]).compares(&esc),
         [9_000, 18_000, 13_500, 9_000]
     );
 }
