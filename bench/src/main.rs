@@ -370,17 +370,21 @@ mod suite {
             SystemStatus, VehicleState,
         };
 
-        // (mode, row, throttle, roll stick): the last drives the mixer
-        // into saturation (full throttle and a full roll demand).
-        for (mode, name, throttle, roll) in [
-            (FlightMode::Angle, FC_ANGLE_NAME, 0.5, 0.3),
+        // (mode, row, throttle, roll stick, a new pilot frame every step):
+        // the third drives the mixer into saturation (full throttle and a
+        // full roll demand); the last moves the roll stick every step, so
+        // each step shapes the sticks (a CRSF frame every 4-7 ms does).
+        for (mode, name, throttle, roll, new_frames) in [
+            (FlightMode::Angle, FC_ANGLE_NAME, 0.5, 0.3, false),
             (
                 FlightMode::Acro,
                 "flight::FlightController::step (armed, acro)",
                 0.5,
                 0.3,
+                false,
             ),
-            (FlightMode::Angle, FC_ANGLE_SATURATED_NAME, 0.95, 1.0),
+            (FlightMode::Angle, FC_ANGLE_SATURATED_NAME, 0.95, 1.0, false),
+            (FlightMode::Angle, FC_ANGLE_NEW_FRAME_NAME, 0.5, 0.3, true),
         ] {
             let Ok(mut fc) = FlightController::new(FlightConfig::default()) else {
                 continue;
@@ -412,7 +416,11 @@ mod suite {
                 let _ = fc.step(now_us, &pilot, &status, &still);
             }
             pilot.sticks.roll = roll;
-            let inputs: [(u32, VehicleState); CALLS] = core::array::from_fn(|k| {
+            let inputs: [(u32, VehicleState, PilotInput); CALLS] = core::array::from_fn(|k| {
+                let mut p = pilot;
+                if new_frames {
+                    p.sticks.roll = roll + 0.01 * k as f32;
+                }
                 (
                     now_us + 1000 * (k as u32 + 1),
                     VehicleState {
@@ -424,13 +432,14 @@ mod suite {
                         },
                         altitude: None,
                     },
+                    p,
                 )
             });
             case_checked(
                 name,
                 &mut fc,
                 &inputs,
-                |fc, (t, v)| fc.step(*t, &pilot, &status, v),
+                |fc, (t, v, p)| fc.step(*t, p, &status, v),
                 |o| o.state == FlightState::Armed && matches!(o.motors, Motors::Run(_)),
             );
         }
@@ -440,6 +449,8 @@ mod suite {
     const FC_ANGLE_NAME: &str = "flight::FlightController::step (armed, angle)";
     const FC_ANGLE_SATURATED_NAME: &str =
         "flight::FlightController::step (armed, angle, mixer saturated)";
+    const FC_ANGLE_NEW_FRAME_NAME: &str =
+        "flight::FlightController::step (armed, angle, new pilot frame)";
 
     fn calibration_cases() {
         use calibration::{AccelCalibration, GyroBias, MagCalibration};

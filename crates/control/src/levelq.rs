@@ -141,6 +141,17 @@ impl TiltQ30 {
         let q = tilt.quat();
         Self([q.w, q.x, q.y, q.z].map(|c| f32_to_q(c, 30)))
     }
+
+    /// From its Q30 components `[w, x, y, z]` (a unit `q_y(θ) ⊗ q_x(φ)`,
+    /// as [`crate::shapingq::tilt_q30`] makes it).
+    pub fn from_q30(q: [i32; 4]) -> Self {
+        Self(q)
+    }
+
+    /// The Q30 components `[w, x, y, z]`.
+    pub fn q30(&self) -> [i32; 4] {
+        self.0
+    }
 }
 
 /// The self-level loop in fixed point. Stateless apart from its gains.

@@ -37,6 +37,10 @@
 //!   arithmetic only ([`fixed::AltitudeHoldQ`] is the flight controller's
 //!   altitude hold), and the bit-level `f32` ↔ Q conversions
 //!   ([`fixed::f32_to_q`], [`fixed::q_to_f32`]).
+//! * [`shapingq`] — stick shaping in fixed point, once per pilot frame
+//!   ([`shapingq::StickShapingQ`]: Q30 sticks → Q16 rad/s rates, the Q30
+//!   tilt quaternion from integer sine/cosine, Q30 throttle), the `f32`
+//!   [`shaping::StickShaping`] kept as its reference.
 //! * [`levelq`] — the self-level loop in fixed point on the AHRS's Q30
 //!   quaternion ([`levelq::LevelControllerQ`]: Q30 attitude and tilt
 //!   setpoint → Q16 rad/s rate setpoints, two integer square roots, no
@@ -86,6 +90,7 @@ pub mod mixer;
 pub mod pid;
 pub mod rateq;
 pub mod shaping;
+pub mod shapingq;
 pub mod vertical;
 
 pub use error::Error;

@@ -157,12 +157,13 @@
 
 use control::controllers::{AltitudeHoldConfig, BodyRates, TorqueCommand};
 use control::esc::EscTimer;
-use control::fixed::{f32_to_q, q_to_f32, AltitudeHoldQ};
+use control::fixed::{f32_to_q, q_to_f32, AltitudeHoldQ, ONE_Q30};
 use control::levelq::{LevelControllerQ, QuatQ30, TiltQ30};
-use control::loops::{LevelConfig, Quat, RateConfig, TiltQuat};
+use control::loops::{LevelConfig, Quat, RateConfig};
 use control::mixer::{MixerConfig, MOTORS};
 use control::rateq::{torque_from_q30, MixOutputQ, MixerQ, RateControllerQ};
-use control::shaping::{StickShaping, Sticks, SticksConfig};
+use control::shaping::{Sticks, SticksConfig};
+use control::shapingq::StickShapingQ;
 
 use crate::motortest::{MotorTestSwitch, SwitchRequest};
 use crate::pipeline::Pipeline;
@@ -521,20 +522,17 @@ impl Shaped {
         stick_at_min: false,
     };
 
-    fn new(shaping: &StickShaping, safety: &SafetyConfig, s: &Sticks) -> Self {
-        let acro = shaping.rate_setpoint(s).unwrap_or_default();
-        let (tilt, yaw_rps) = match shaping.level_setpoint(s) {
-            Ok((t, y)) => (TiltQuat::new(&t).unwrap_or(TiltQuat::LEVEL), y),
-            Err(_) => (TiltQuat::LEVEL, 0.0),
-        };
-        let q16 = |x: f32| f32_to_q(x, 16);
+    /// Shapes one frame's sticks (finite: the step checked them) in fixed
+    /// point ([`StickShapingQ`]).
+    fn new(shaping: &StickShapingQ, climb: &ClimbQ, safety: &SafetyConfig, s: &Sticks) -> Self {
+        let q = shaping.shape(s);
         Self {
             sticks: *s,
-            acro_q16: [q16(acro.roll_rps), q16(acro.pitch_rps), q16(acro.yaw_rps)],
-            tilt: TiltQ30::new(&tilt),
-            yaw_q16: q16(yaw_rps),
-            throttle: shaping.throttle(s.throttle).unwrap_or(0.0),
-            climb_q16: q16(stick_climb_mps(safety, s.throttle)),
+            acro_q16: q.acro_q16,
+            tilt: q.tilt,
+            yaw_q16: q.yaw_q16,
+            throttle: q_to_f32(q.throttle_q30, 30),
+            climb_q16: climb.demand_q16(s.throttle),
             stick_at_min: s.throttle <= safety.arm_throttle_max,
         }
     }
@@ -587,7 +585,9 @@ struct Limits {
 pub struct FlightController {
     cfg: FlightConfig,
     lim: Limits,
-    shaping: StickShaping,
+    /// Stick shaping in fixed point, once per new pilot frame.
+    shaping: StickShapingQ,
+    climb: ClimbQ,
     /// The rate loop in fixed point at [`RATE_LOOP_PERIOD_S`].
     rate: RateControllerQ,
     /// The self-level loop in fixed point, on the Q30 quaternion.
@@ -653,11 +653,12 @@ impl FlightController {
             bad_input_us: us(s.bad_input_disarm_s),
             failsafe_descent_q16: f32_to_q(s.failsafe_descent_mps, 16),
         };
-        let shaping = StickShaping::new(cfg.sticks)?;
+        let shaping = StickShapingQ::new(&cfg.sticks)?;
         Ok(Self {
             cfg,
             lim,
             shaping,
+            climb: ClimbQ::new(s),
             rate: RateControllerQ::new(&cfg.rate, RATE_LOOP_PERIOD_S)?,
             level: LevelControllerQ::new(&cfg.level)?,
             alt: AltitudeHoldQ::new(&cfg.altitude_hold, RATE_LOOP_PERIOD_S)?,
@@ -1200,7 +1201,7 @@ impl FlightController {
         out.mode = mode;
         let s = &pilot.sticks;
         if !self.shaped.same_sticks(s) {
-            self.shaped = Shaped::new(&self.shaping, &self.cfg.safety, s);
+            self.shaped = Shaped::new(&self.shaping, &self.climb, &self.cfg.safety, s);
         }
         // By field, not a copy of the whole `Shaped` (a `memcpy` a step).
         self.stick_at_min = self.shaped.stick_at_min;
@@ -1224,17 +1225,38 @@ impl FlightController {
     }
 }
 
-/// Climb-rate demand of the throttle stick in altitude hold, m/s.
-fn stick_climb_mps(s: &SafetyConfig, throttle: f32) -> f32 {
-    let d = throttle - 0.5;
-    let band = s.althold_deadband;
-    let span = 0.5 - band;
-    if d > band {
-        s.althold_max_climb_mps * (d - band) / span
-    } else if d < -band {
-        s.althold_max_climb_mps * (d + band) / span
-    } else {
-        0.0
+/// The throttle stick's climb demand in altitude hold, in fixed point:
+/// centred ± [`SafetyConfig::althold_deadband`] holds, beyond it the
+/// demand grows linearly to [`SafetyConfig::althold_max_climb_mps`] at
+/// either end.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct ClimbQ {
+    /// The deadband, Q30 stick units (≤ 0.3).
+    band_q30: i32,
+    /// `max_climb / (0.5 − band)`, Q16 m/s per stick unit (≤ 25).
+    per_stick_q16: i32,
+}
+
+impl ClimbQ {
+    #[inline(always)]
+    fn new(s: &SafetyConfig) -> Self {
+        Self {
+            band_q30: f32_to_q(s.althold_deadband, 30),
+            per_stick_q16: f32_to_q(s.althold_max_climb_mps / (0.5 - s.althold_deadband), 16),
+        }
+    }
+
+    /// Climb demand, Q16 m/s (up), of a throttle stick 0..1 (clamped).
+    fn demand_q16(&self, throttle: f32) -> i32 {
+        let d = f32_to_q(throttle, 30).clamp(0, ONE_Q30) - ONE_Q30 / 2;
+        let beyond = if d > self.band_q30 {
+            d - self.band_q30
+        } else if d < -self.band_q30 {
+            d + self.band_q30
+        } else {
+            0
+        };
+        ((i64::from(beyond) * i64::from(self.per_stick_q16)) >> 30) as i32
     }
 }
 
@@ -1394,4 +1416,37 @@ fn attitude_q30(v: &VehicleState) -> Option<(QuatQ30, i32)> {
     }
     let q30 = QuatQ30::from_quat(q);
     q30.cos_tilt_q30().ok().map(|c| (q30, c))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The climb demand against its `f32` law: `max · (d ∓ band)/(0.5 −
+    /// band)` beyond the deadband about the centre, 0 inside, clamped at
+    /// the stick's ends.
+    #[test]
+    fn climb_demand_follows_the_stick_law() {
+        let s = SafetyConfig::default();
+        let c = ClimbQ::new(&s);
+        let (band, max) = (s.althold_deadband, s.althold_max_climb_mps);
+        for k in -20..=140 {
+            let stick = k as f32 / 120.0;
+            let d = stick.clamp(0.0, 1.0) - 0.5;
+            let expect = if d > band {
+                max * (d - band) / (0.5 - band)
+            } else if d < -band {
+                max * (d + band) / (0.5 - band)
+            } else {
+                0.0
+            };
+            let got = q_to_f32(c.demand_q16(stick), 16);
+            assert!(
+                (got - expect).abs() < 1e-4,
+                "stick {stick}: {got} vs {expect}"
+            );
+        }
+        assert!((q_to_f32(c.demand_q16(1.0), 16) - max).abs() < 1e-4);
+        assert_eq!(c.demand_q16(0.5), 0);
+    }
 }
