@@ -37,6 +37,9 @@ pub struct Attribution {
     pub by_owner: BTreeMap<Owner, u64>,
     /// Flashed bytes no symbol covers.
     pub unattributed: u64,
+    /// The same per section name (`.rodata`: anonymous constants; `.text`:
+    /// padding between functions).
+    pub unattributed_by_section: BTreeMap<String, u64>,
     /// Every symbol with flashed bytes.
     pub symbols: Vec<SymbolBytes>,
     /// Sum of the flashed sections' sizes.
@@ -60,6 +63,7 @@ impl Attribution {
 /// A flashed section: its address range in the ELF's view (`.data` at its
 /// RAM address; its bytes are flashed at the load address).
 struct FlashSection {
+    name: String,
     start: u64,
     end: u64,
 }
@@ -84,6 +88,7 @@ fn flash_sections(file: &object::File) -> Vec<FlashSection> {
             continue;
         }
         out.push(FlashSection {
+            name: name.to_string(),
             start: addr,
             end: addr + size,
         });
@@ -129,7 +134,12 @@ pub fn attribute(path: &Path) -> Result<Attribution, String> {
     let mut out = Attribution::default();
     for sec in flash_sections(&file) {
         out.total += sec.end - sec.start;
+        let before = out.unattributed;
         sweep(&sec, &syms, &lines, &mut out);
+        let gap = out.unattributed - before;
+        if gap > 0 {
+            *out.unattributed_by_section.entry(sec.name).or_default() += gap;
+        }
     }
     for s in file.symbols() {
         let name = s.name().unwrap_or("");

@@ -221,6 +221,12 @@ fn print_groups(a: &Attribution) -> Vec<String> {
             b.note
         );
     }
+    let gaps: Vec<String> = a
+        .unattributed_by_section
+        .iter()
+        .map(|(name, b)| format!("{name} {b}"))
+        .collect();
+    say!("  (unattributed by section: {})", gaps.join(", "));
     let budget_sum: u64 = budgets.iter().map(|b| b.bytes).sum();
     say!("  {:<18} {:>7} {:>7}", "total", a.total, budget_sum);
     over
