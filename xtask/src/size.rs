@@ -34,37 +34,38 @@ pub struct GroupBudget {
 }
 
 /// Budgets of the flight builds (default CRSF and `ppm`), set from the
-/// default build measured on 2026-11-26 (64,480 B) plus the margin noted.
+/// default build measured on 2026-11-26 (64,008 B, main f03551c: the
+/// flight controller's per-sample path in fixed point) plus the margin noted.
 pub const FLIGHT_BUDGETS: [GroupBudget; 6] = [
     GroupBudget {
         group: Group::SensorsAhrs,
         bytes: 30720,
-        note: "measured 30,352 + 368 (30 KiB)",
+        note: "measured 30,316 + 404 (30 KiB)",
     },
     GroupBudget {
         group: Group::FlightControl,
-        bytes: 11264,
-        note: "measured 11,104 + 160 (11 KiB); TO BE TIGHTENED when the fixed-point loops land",
+        bytes: 10752,
+        note: "measured 10,614 + 138 (10.5 KiB); TO BE TIGHTENED (plan: see ARCHITECTURE.md)",
     },
     GroupBudget {
         group: Group::ReceiversOutputs,
         bytes: 5248,
-        note: "measured 5,064 (CRSF; PPM 4,164) + 184",
+        note: "measured 5,042 (CRSF; PPM 4,142) + 206",
     },
     GroupBudget {
         group: Group::Runtime,
         bytes: 9216,
-        note: "measured 9,036 + 180 (9 KiB)",
+        note: "measured 9,038 + 178 (9 KiB)",
     },
     GroupBudget {
         group: Group::Rest,
-        bytes: 6784,
-        note: "measured 6,553 + 231",
+        bytes: 6656,
+        note: "measured 6,483 + 173 (6.5 KiB)",
     },
     GroupBudget {
         group: Group::Unattributed,
-        bytes: 2560,
-        note: "measured 2,371 (PPM 2,387) + 189",
+        bytes: 2688,
+        note: "measured 2,515 (PPM 2,529) + 173",
     },
 ];
 
@@ -74,12 +75,12 @@ pub const CALIBRATION_BUDGETS: [GroupBudget; 6] = [
     GroupBudget {
         group: Group::SensorsAhrs,
         bytes: 35840,
-        note: "measured 35,502 + 338 (35 KiB): ellipsoid fit 5,826 in",
+        note: "measured 35,516 + 324 (35 KiB): ellipsoid fit 5.8 KiB in",
     },
     GroupBudget {
         group: Group::FlightControl,
         bytes: 2048,
-        note: "measured 1,860 + 188 (2 KiB): no flight controller",
+        note: "measured 1,850 + 198 (2 KiB): no flight controller",
     },
     GroupBudget {
         group: Group::ReceiversOutputs,
@@ -89,17 +90,17 @@ pub const CALIBRATION_BUDGETS: [GroupBudget; 6] = [
     GroupBudget {
         group: Group::Runtime,
         bytes: 9216,
-        note: "measured 8,850 + 366 (9 KiB)",
+        note: "measured 8,862 + 354 (9 KiB)",
     },
     GroupBudget {
         group: Group::Rest,
         bytes: 5376,
-        note: "measured 5,189 + 187",
+        note: "measured 5,167 + 209",
     },
     GroupBudget {
         group: Group::Unattributed,
         bytes: 2816,
-        note: "measured 2,581 + 235",
+        note: "measured 2,575 + 241",
     },
 ];
 
