@@ -2,7 +2,9 @@
 //! one-liner. The check command (`scripts/check`) calls these; `cargo xtask
 //! --help` lists them. Exit status: 0 ok, 1 failed or over budget, 2 bad arguments.
 //!
-//! * `size [ELF]` — text/data/bss of the firmware ELF against the budgets.
+//! * `size [ELF] [--top N] [--modules]` — flash and static RAM of the
+//!   firmware ELF against the budgets, flash per feature group against the
+//!   flash plan (see `size.rs`, `attrib.rs`, `classify.rs`).
 //! * `bench` — instruction counts on an emulated Cortex-M3 (see `bench.rs`).
 //! * `fil ARGS` — what the `cargo fil` alias runs: the emulator's build
 //!   prerequisites checked (one clear line if missing), then `cargo run -p
@@ -15,14 +17,11 @@ use std::{
     process::{Command, ExitCode},
 };
 
+mod attrib;
 mod bench;
+mod classify;
 mod fil;
-
-/// Flash budget for the release firmware: the chip's 64 KiB less the last
-/// 1 KiB page, which holds the calibration.
-const FLASH_BUDGET: u64 = 63 * 1024;
-/// Static RAM (.data + .bss + .uninit) budget; the stack takes the rest.
-const RAM_BUDGET: u64 = 12 * 1024;
+mod size;
 
 /// Project automation (`cargo xtask <command>`).
 #[derive(Parser, Debug)]
@@ -35,10 +34,18 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Task {
     /// Flash and static RAM of the firmware ELF against the budgets
-    /// (flash 63 KiB, static RAM 12 KiB); fails when over.
+    /// (flash 63 KiB, static RAM 12 KiB), every flashed byte attributed to
+    /// a feature group against the group's budget, and the flash plan's
+    /// code region (a warning until it fits); fails when over a budget.
     Size {
         /// The ELF [default: target/thumbv7m-none-eabi/release/firmware].
         elf: Option<PathBuf>,
+        /// Also list the N largest symbols with their groups.
+        #[arg(long, value_name = "N")]
+        top: Option<usize>,
+        /// Also list the flash per crate::module.
+        #[arg(long)]
+        modules: bool,
     },
     /// Instruction counts of the algorithms on an emulated Cortex-M3
     /// (qemu-system-arm), against their budgets; fails when over.
@@ -78,7 +85,7 @@ fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     let result = match cli.command {
-        Task::Size { elf } => size(elf),
+        Task::Size { elf, top, modules } => size::run(elf, size::Options { top, modules }),
         Task::Bench {
             update_doc,
             profile,
@@ -95,6 +102,7 @@ fn main() -> ExitCode {
 
 /// `println!` without the panic on a closed stdout (`cargo xtask size | head`):
 /// output stops, the command's result still decides the exit status.
+#[macro_export]
 macro_rules! say {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
@@ -196,43 +204,4 @@ pub fn elf_sizes(elf: &Path) -> Result<Sizes, String> {
         }
     }
     Ok(sizes)
-}
-
-fn size(elf: Option<PathBuf>) -> Result<(), String> {
-    let elf = elf.unwrap_or_else(|| target_dir().join("thumbv7m-none-eabi/release/firmware"));
-    if !elf.is_file() {
-        return Err(format!(
-            "{}: no such ELF (build the firmware first: `cargo fw`)",
-            elf.display()
-        ));
-    }
-    let s = elf_sizes(&elf)?;
-    say!("firmware size ({})", elf.display());
-    say!("  text  {:>7} B", s.text);
-    say!("  data  {:>7} B", s.data);
-    say!("  bss   {:>7} B", s.bss);
-    say!(
-        "  flash {:>7} B of {} B budget ({:.1} %)",
-        s.flash(),
-        FLASH_BUDGET,
-        100.0 * s.flash() as f64 / FLASH_BUDGET as f64
-    );
-    say!(
-        "  ram   {:>7} B of {} B budget ({:.1} %) static; the stack takes the rest of 20 KiB",
-        s.ram(),
-        RAM_BUDGET,
-        100.0 * s.ram() as f64 / RAM_BUDGET as f64
-    );
-    let mut over = Vec::new();
-    if s.flash() > FLASH_BUDGET {
-        over.push(format!("flash {} B > {} B", s.flash(), FLASH_BUDGET));
-    }
-    if s.ram() > RAM_BUDGET {
-        over.push(format!("static RAM {} B > {} B", s.ram(), RAM_BUDGET));
-    }
-    if over.is_empty() {
-        Ok(())
-    } else {
-        Err(format!("over budget: {}", over.join(", ")))
-    }
 }
