@@ -35,6 +35,7 @@
 //! Every update checks all its inputs first and updates a copy, so an error
 //! leaves the controller untouched.
 
+pub use crate::body::{BodyRates, TorqueCommand};
 use crate::error::{check_dt, check_gain, check_limits, check_positive, finite, Error};
 use crate::loops::{RateConfig, RateController};
 use crate::pid::{clamp, Pid, PidConfig};
@@ -256,18 +257,6 @@ pub struct Attitude {
     pub yaw_rad: f32,
 }
 
-/// Body rates about the FRD axes, rad/s (gyro `p`, `q`, `r`).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct BodyRates {
-    /// About x (forward), rad/s.
-    pub roll_rps: f32,
-    /// About y (right), rad/s.
-    pub pitch_rps: f32,
-    /// About z (down), rad/s.
-    pub yaw_rps: f32,
-}
-
 /// How yaw is commanded.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -288,19 +277,6 @@ pub struct AttitudeTarget {
     pub pitch_rad: f32,
     /// Yaw as angle or rate.
     pub yaw: YawTarget,
-}
-
-/// Normalised torque command per body axis, within each rate PID's output
-/// limits (default −1..1); the mixer turns it into motor outputs.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct TorqueCommand {
-    /// About x (forward).
-    pub roll: f32,
-    /// About y (right).
-    pub pitch: f32,
-    /// About z (down).
-    pub yaw: f32,
 }
 
 /// Attitude controller: per-axis angle P → rate PID.

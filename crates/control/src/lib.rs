@@ -18,6 +18,9 @@
 //!   an innovation gate, re-sync and ground-effect handling.
 //! * [`pid`] — [`pid::Pid`]: anti-windup (clamp + conditional integration),
 //!   derivative on measurement with a low-pass, feed-forward, bumpless reset.
+//! * [`body`] — [`body::BodyRates`] and [`body::TorqueCommand`], the FRD
+//!   body-frame types the stages share (a leaf module: no import cycles
+//!   between `shaping`, `loops` and `controllers`).
 //! * [`controllers`] — [`controllers::AltitudeHold`] (height P → speed PID
 //!   → throttle) and [`controllers::AttitudeController`] (angle P → rate PID
 //!   per axis).
@@ -80,6 +83,7 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod baro;
+pub mod body;
 pub mod controllers;
 mod error;
 pub mod esc;

@@ -27,7 +27,7 @@
 //! # Ok::<(), control::Error>(())
 //! ```
 
-use crate::controllers::{BodyRates, TorqueCommand};
+use crate::body::{BodyRates, TorqueCommand};
 use crate::error::{check_dt, check_positive, finite, Error};
 use crate::pid::{clamp, Pid, PidConfig};
 use crate::shaping::TiltSetpoint;

@@ -61,7 +61,7 @@
 //! # Ok::<(), control::Error>(())
 //! ```
 
-use crate::controllers::TorqueCommand;
+use crate::body::TorqueCommand;
 use crate::error::{finite, Error};
 use crate::pid::clamp;
 

@@ -80,7 +80,7 @@
 //! # Ok::<(), control::Error>(())
 //! ```
 
-use crate::controllers::TorqueCommand;
+use crate::body::TorqueCommand;
 use crate::error::Error;
 use crate::fixed::{q_to_f32, to_q30, PidQ};
 use crate::loops::RateConfig;

@@ -31,7 +31,7 @@
 //! # Ok::<(), control::Error>(())
 //! ```
 
-use crate::controllers::BodyRates;
+use crate::body::BodyRates;
 use crate::error::{finite, Error};
 use crate::pid::clamp;
 
