@@ -81,6 +81,15 @@ fn six_position_calibration_is_saved_and_read_back() {
         .wait_for_line("calibration saved to flash", end)
         .expect("board");
     assert!(saved.is_some(), "{}", tail(&b, 40));
+    // The log names each next face in words, in the order the simulated
+    // builder presents them (level, upside down, nose up, ...), and no
+    // Rust debug text.
+    assert_logged(&b, "0 of 6 faces done; next: lay it flat, the right way up");
+    assert_logged(&b, "1 of 6 faces done; next: lay it upside down");
+    assert_logged(&b, "2 of 6 faces done; next: stand it on its tail, nose up");
+    assert!(lines_with(&b, "accel cal")
+        .iter()
+        .all(|l| !l.contains("Some(")));
     assert_read_back_after_reset(b, ValidParts::ACCEL);
 }
 

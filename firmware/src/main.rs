@@ -950,9 +950,14 @@ mod app {
                 p.bins_needed,
                 p.samples
             ),
-            CalEvent::AccelProgress(p) => {
-                defmt::info!("accel cal: {=u8}/6 positions, next {}", p.captured, p.next)
-            }
+            CalEvent::AccelProgress(p) => match config::MOUNTING.next_face(p.done) {
+                Some(face) => defmt::info!(
+                    "accel cal: {=u8} of 6 faces done; next: {}, and hold it still",
+                    p.captured,
+                    face
+                ),
+                None => defmt::info!("accel cal: all 6 faces done"),
+            },
             CalEvent::MagRefused => defmt::warn!("mag cal: fit refused, keep turning"),
             CalEvent::AccelRestarted => defmt::warn!("accel cal: implausible result, restarting"),
             CalEvent::MagDone { offset_ut } => {

@@ -26,7 +26,7 @@ use crate::storage::{CalibrationRecord, ValidParts};
 use calibration::{
     AccelCalibration, AccelSixPosition, AccelSixPositionConfig, EllipsoidFitConfig,
     EllipsoidFitF32, Error as CalError, MagCalibration, MagMinMax, MagMinMaxConfig, Position,
-    SixPositionEvent, COVERAGE_BINS,
+    Progress, SixPositionEvent, COVERAGE_BINS,
 };
 
 /// Figure-eight magnetometer calibration (samples in µT, MPU frame).
@@ -202,8 +202,12 @@ pub struct AccelCalMode {
 pub struct AccelProgress {
     /// Positions captured (0..=6).
     pub captured: u8,
-    /// The next position to present, if any remain.
+    /// The next position to present, if any remain (the first missing
+    /// in sensor-axis order; [`crate::Mounting::next_face`] names the next
+    /// face for the builder).
     pub next: Option<Position>,
+    /// The positions captured so far.
+    pub done: Progress,
     /// A position captured by this sample.
     pub just_captured: Option<Position>,
     /// The board is moving (window restarted).
@@ -225,6 +229,7 @@ impl AccelCalMode {
         AccelProgress {
             captured: p.count(),
             next: p.next_missing(),
+            done: p,
             just_captured: match r {
                 Ok(SixPositionEvent::Captured(pos)) => Some(pos),
                 _ => None,
@@ -239,6 +244,7 @@ impl AccelCalMode {
         AccelProgress {
             captured: p.count(),
             next: p.next_missing(),
+            done: p,
             just_captured: None,
             moving: false,
         }

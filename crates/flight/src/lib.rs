@@ -60,4 +60,4 @@ pub mod schedule;
 pub mod sensors;
 pub mod storage;
 
-pub use mounting::Mounting;
+pub use mounting::{Face, Mounting};

@@ -177,6 +177,86 @@ impl Mounting {
     }
 }
 
+/// Which way the craft lies for one face of the accelerometer's
+/// six-position calibration, in the body frame (FRD), as the log tells the
+/// builder (README "Calibration on the board"). The defmt form is the
+/// instruction in words: "stand it on its tail, nose up", ...
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Face {
+    /// The nose (body +x) points up.
+    NoseUp,
+    /// The nose points down.
+    NoseDown,
+    /// The right side (body +y) points up: the craft lies on its left side.
+    OnLeftSide,
+    /// The left side points up: the craft lies on its right side.
+    OnRightSide,
+    /// Body down (+z) points up.
+    UpsideDown,
+    /// Level, the right way up.
+    Level,
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Face {
+    // Literal format strings: defmt keeps them on the host, not in flash.
+    fn format(&self, f: defmt::Formatter) {
+        match self {
+            Face::NoseUp => defmt::write!(f, "stand it on its tail, nose up"),
+            Face::NoseDown => defmt::write!(f, "stand it on its nose"),
+            Face::OnLeftSide => defmt::write!(f, "lay it on its left side"),
+            Face::OnRightSide => defmt::write!(f, "lay it on its right side"),
+            Face::UpsideDown => defmt::write!(f, "lay it upside down"),
+            Face::Level => defmt::write!(f, "lay it flat, the right way up"),
+        }
+    }
+}
+
+impl Face {
+    /// The order the log asks for the faces in: the right way up first,
+    /// then upside down, nose up, nose down, on the left and right sides.
+    pub const ORDER: [Face; 6] = [
+        Face::Level,
+        Face::UpsideDown,
+        Face::NoseUp,
+        Face::NoseDown,
+        Face::OnLeftSide,
+        Face::OnRightSide,
+    ];
+}
+
+impl Mounting {
+    /// The face to present next: the first in [`Face::ORDER`] whose
+    /// position is not yet captured in `done` (any face is accepted in
+    /// any order; this is the one the log names). `None` when all six are.
+    // Out of line: called from one log line, not worth inlining there.
+    #[inline(never)]
+    pub fn next_face(&self, done: calibration::Progress) -> Option<Face> {
+        Face::ORDER.into_iter().find(|&f| {
+            calibration::Position::ALL
+                .into_iter()
+                .any(|p| !done.is_done(p) && self.face(p) == f)
+        })
+    }
+
+    /// How the craft lies when the accelerometer's `position` (a sensor
+    /// axis up or down) is presented, through this mounting.
+    pub fn face(&self, position: calibration::Position) -> Face {
+        let mut up = [0i32; 3];
+        if let Some(u) = up.get_mut(usize::from(position.axis())) {
+            *u = if position.is_up() { 1 } else { -1 };
+        }
+        match self.apply_i32(up) {
+            [1, _, _] => Face::NoseUp,
+            [-1, _, _] => Face::NoseDown,
+            [_, 1, _] => Face::OnLeftSide,
+            [_, -1, _] => Face::OnRightSide,
+            [_, _, 1] => Face::UpsideDown,
+            _ => Face::Level,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -227,5 +307,47 @@ mod tests {
         }
         // 24 proper rotations among the 48 signed permutations.
         assert_eq!(proper, 24);
+    }
+
+    #[test]
+    fn faces_in_words_follow_the_mounting() {
+        use calibration::Position;
+        let m = Mounting::FACE_UP_X_FORWARD;
+        let faces = Position::ALL.map(|p| m.face(p));
+        assert_eq!(
+            faces,
+            [
+                Face::NoseUp,      // +x_mpu up: the nose
+                Face::NoseDown,    // −x_mpu up
+                Face::OnRightSide, // +y_mpu is body −y (left) up
+                Face::OnLeftSide,  // −y_mpu up: body +y (right) up
+                Face::Level,       // +z_mpu up: face up is right way up
+                Face::UpsideDown,  // −z_mpu up
+            ]
+        );
+        // The log's order: level first; each capture moves it on.
+        let mut done = calibration::Progress::default();
+        for face in Face::ORDER {
+            assert_eq!(m.next_face(done), Some(face));
+            let p = Position::ALL
+                .into_iter()
+                .find(|&p| m.face(p) == face)
+                .unwrap();
+            done.mask |= p.bit();
+        }
+        assert_eq!(m.next_face(done), None);
+        // A face captured out of order is skipped.
+        let upside_down = calibration::Progress {
+            mask: Position::ZDown.bit(),
+        };
+        assert_eq!(m.next_face(upside_down), Some(Face::Level));
+        // Six positions, six different faces, for every valid mounting.
+        for code in 0..512u16 {
+            if let Ok(m) = Mounting::from_code(code) {
+                let mut f = Position::ALL.map(|p| m.face(p) as u8);
+                f.sort_unstable();
+                assert_eq!(f, [0, 1, 2, 3, 4, 5], "mounting {code}");
+            }
+        }
     }
 }
