@@ -7,8 +7,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use flight::calmode::{
-    CalEvent, CalSession, MagCalibrator, MagMinMaxMode, Mode, RawLogRow, LONG_PRESS_MS,
-    RAW_LOG_HEADER,
+    AccelCalibrator, CalEvent, CalSession, MagCalibrator, MagMinMaxMode, Mode, NotBuilt, RawLogRow,
+    LONG_PRESS_MS, RAW_LOG_HEADER,
 };
 use flight::storage::{CalibrationRecord, ValidParts};
 
@@ -16,7 +16,11 @@ type Session = CalSession<MagMinMaxMode>;
 
 /// Holds the button for `ms` starting at `t`, sampling it every 50 ms as
 /// the log task does; returns the events and the time after release.
-fn press(s: &mut Session, t: &mut u32, ms: u32) -> Vec<CalEvent> {
+fn press<M: MagCalibrator, A: AccelCalibrator>(
+    s: &mut CalSession<M, A>,
+    t: &mut u32,
+    ms: u32,
+) -> Vec<CalEvent> {
     let mut ev = Vec::new();
     let end = *t + ms;
     while *t < end {
@@ -69,6 +73,47 @@ fn button_selects_the_modes() {
     let s = Session::new(true);
     assert_eq!(s.mode(), Mode::AccelCal);
     assert!(s.wants().accel_g);
+}
+
+/// The flight build's session ([`NotBuilt`] for both calibrations): the
+/// button held at boot and a long press are refused with the mode they
+/// asked for, the mode stays normal and no samples are asked for; the raw
+/// log still toggles; nothing is ever written into the record.
+#[test]
+fn a_build_without_calibrations_refuses_them_and_keeps_the_raw_log() {
+    type Flight = CalSession<NotBuilt, NotBuilt>;
+    let s = Flight::new(true);
+    assert!(s.refused_at_boot());
+    assert_eq!(s.mode(), Mode::Normal);
+    assert!(!Flight::new(false).refused_at_boot());
+    let mut s = Flight::new(false);
+    let mut t = 0;
+    let ev = press(&mut s, &mut t, LONG_PRESS_MS + 300);
+    assert_eq!(
+        ev,
+        [CalEvent::Unavailable {
+            wanted: Mode::MagCal
+        }]
+    );
+    assert_eq!(s.mode(), Mode::Normal);
+    let w = s.wants();
+    assert!(!w.mag_ut && !w.accel_g && !w.raw_log);
+    let mut rec = CalibrationRecord::default();
+    s.push_mag([30.0, 0.0, 0.0]);
+    s.push_accel([0.0, 0.0, 1.0]);
+    for _ in 0..100 {
+        assert_eq!(s.poll(&mut rec), None);
+    }
+    assert_eq!(rec, CalibrationRecord::default());
+    let ev = press(&mut s, &mut t, 200);
+    assert_eq!(
+        ev,
+        [CalEvent::ModeChanged {
+            from: Mode::Normal,
+            to: Mode::RawLog
+        }]
+    );
+    assert!(s.wants().raw_log);
 }
 
 #[test]

@@ -6,7 +6,7 @@
 
 use crate::bus::{self, BusHandle};
 use crate::clocks::Source;
-use crate::config::{MagCal, ESC_PROTOCOL, MOUNTING};
+use crate::config::{Session, ESC_PROTOCOL, MOUNTING};
 use crate::delay::{cpu_hz, AsmDelay};
 use crate::outputs::EscOutputs;
 #[cfg(feature = "ppm")]
@@ -18,7 +18,6 @@ use crate::store::FlashPage;
 use control::esc::EscTimer;
 use embedded_hal::delay::DelayNs;
 use flight::boot::{Capabilities, StartupGyroBias};
-use flight::calmode::CalSession;
 use flight::flightctl::FlightController;
 use flight::pipeline::{Pipeline, PipelineConfig};
 use flight::schedule::IMU_RATE_HZ;
@@ -54,7 +53,7 @@ pub fn start_outputs(tim: pac::TIM3) -> EscOutputs {
 
 /// Boot step: the flight controller (disarmed). Without one (an invalid
 /// configuration) the motors stay off.
-#[cfg(not(feature = "mag-ellipsoid"))]
+#[cfg(not(feature = "calibrate"))]
 #[inline(never)]
 pub fn start_flight_controller() -> Option<FlightController> {
     match FlightController::new(crate::config::flight_config()) {
@@ -75,9 +74,9 @@ pub fn start_flight_controller() -> Option<FlightController> {
 }
 
 /// The calibration build has no flight controller: the motors stay off.
-#[cfg(feature = "mag-ellipsoid")]
+#[cfg(feature = "calibrate")]
 pub fn start_flight_controller() -> Option<FlightController> {
-    defmt::warn!("flight controller: not built (mag-ellipsoid calibration build); motors stay off");
+    defmt::warn!("flight controller: not built (calibration build); motors stay off");
     None
 }
 
@@ -228,12 +227,22 @@ pub fn start_gyro_bias(sensors: &Sensors<BusHandle>) -> Option<StartupGyroBias> 
 /// Boot step: the button held at reset starts the accelerometer
 /// calibration.
 #[inline(never)]
-pub fn start_session(button: &PA0<Input<PullUp>>) -> CalSession<MagCal> {
+pub fn start_session(button: &PA0<Input<PullUp>>) -> Session {
     // Let the internal pull-up charge the line (~100 µs) before sampling.
     AsmDelay.delay_us(100);
-    let session = CalSession::new(button.is_low());
+    let session = Session::new(button.is_low());
     if session.mode() == flight::calmode::Mode::AccelCal {
         defmt::info!("button held at boot: accelerometer six-position calibration");
     }
+    if session.refused_at_boot() {
+        log_not_in_this_build();
+    }
     session
+}
+
+/// The flight build runs no calibration session: where they are.
+pub fn log_not_in_this_build() {
+    defmt::warn!(
+        "calibration: not in the flight build; flash the calibration build (cargo embed --release --features calibrate), calibrate, then flash the flight build"
+    );
 }

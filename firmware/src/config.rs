@@ -31,7 +31,7 @@
 
 use control::esc::EscProtocol;
 use flight::Mounting;
-#[cfg(not(feature = "mag-ellipsoid"))]
+#[cfg(not(feature = "calibrate"))]
 use flight::{arming::SafetyConfig, flightctl::FlightConfig};
 use rc_input::ChannelMap;
 
@@ -98,7 +98,7 @@ pub const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
 /// The flight controller's tuning: the `flight`/`control` defaults with
 /// this board's motor-test command. (The `mag-ellipsoid` calibration
 /// build has no flight controller.)
-#[cfg(not(feature = "mag-ellipsoid"))]
+#[cfg(not(feature = "calibrate"))]
 pub fn flight_config() -> FlightConfig {
     FlightConfig {
         safety: SafetyConfig {
@@ -109,14 +109,22 @@ pub fn flight_config() -> FlightConfig {
     }
 }
 
-/// Magnetometer calibration on the board: per-axis min/max in the flight
-/// build. The ellipsoid fit (`flight::calmode::MagCalMode`: integer
-/// moments, an f32 solve, 5.5 KiB) does not fit beside the flight
-/// controller, so it has its own build (`--features mag-ellipsoid`), which
-/// leaves the flight controller out; both store the same record (offset +
-/// full soft-iron matrix), which the flight build applies.
-#[cfg(not(feature = "mag-ellipsoid"))]
-pub type MagCal = flight::calmode::MagMinMaxMode;
-/// The calibration build's magnetometer calibration: the ellipsoid fit.
-#[cfg(feature = "mag-ellipsoid")]
-pub type MagCal = flight::calmode::MagCalMode;
+/// The calibration sessions of this build. The flight build runs none
+/// ([`NotBuilt`](flight::calmode::NotBuilt): the button held at boot or a
+/// long press logs where they are; ~3 KiB of flash the flight build keeps
+/// for what comes next). The calibration build (`--features calibrate`)
+/// runs the six-position accelerometer calibration and the magnetometer
+/// ellipsoid fit (`flight::calmode::MagCalMode`: integer moments, an f32
+/// solve) and saves the record, which the flight build loads and applies.
+#[cfg(not(feature = "calibrate"))]
+pub type Session =
+    flight::calmode::CalSession<flight::calmode::NotBuilt, flight::calmode::NotBuilt>;
+/// The calibration build's sessions: six-position accelerometer and the
+/// magnetometer ellipsoid fit.
+#[cfg(feature = "calibrate")]
+pub type Session =
+    flight::calmode::CalSession<flight::calmode::MagCalMode, flight::calmode::AccelCalMode>;
+
+/// This is the calibration build: its sessions report progress and save
+/// the record; the flight build only loads it.
+pub const CALIBRATION_BUILD: bool = cfg!(feature = "calibrate");

@@ -36,7 +36,8 @@
 //!   refused transfer.
 //! * `log` (priority 1, 20 Hz): attitude, altitude, health, loop timing,
 //!   stack high-water mark over defmt-RTT; the PA0 button and the
-//!   calibration session; saving a calibration; the watchdog is fed only
+//!   calibration session (the calibration build's: saving a calibration
+//!   too); the watchdog is fed only
 //!   while sample steps complete, or while the outputs are off, disarmed,
 //!   with the MPU out of the loop (`flight::outputguard`; the budgets are
 //!   in `watchdog.rs`).
@@ -102,26 +103,23 @@
 //! ESC protocol, the motor-test command and the magnetometer calibration
 //! of the build are in `config.rs`.
 //!
-//! Flash: 64,412 B of the 63 KiB budget with the flight controller
-//! (`cargo fw && cargo xtask size`, release profile at `opt-level = "z"`):
-//! 100 B left, until the fixed-point flight controller frees its float
-//! code; static RAM 5.2 KiB; the `ppm` build (PPM instead of CRSF):
-//! 63,408 B. The output guard (its task, the guarded outputs, the
-//! watchdog rule, the re-initialisation bridge) costs ≈ 1.1 KiB of it, the
-//! stepwise MPU reset with its proof while armed ≈ 0.8 KiB; the constructors inlined so that the constant
-//! configuration folds save 1.2 KiB.
-//! The interrupt-driven sample read costs 1,780 B of it, and `mem.rs`'s
-//! 50 B of `__aeabi_memcpy*`/`__aeabi_memclr*` save 1,560 B over
-//! `compiler_builtins`' own.
+//! Flash: 59,284 B of the flash plan's 60 KiB code region, within the
+//! flight builds' 58 KiB (`cargo fw && cargo xtask size`, release profile
+//! at `opt-level = "z"`; ARCHITECTURE.md "Flash plan" has the groups);
+//! static RAM 5.0 KiB; the `ppm` build (PPM instead of CRSF): 58,312 B.
+//! The flight build runs no calibration session (`config::Session`): the
+//! six-position and magnetometer sessions and the flash save are the
+//! calibration build's (`--features calibrate`, no flight controller),
+//! 4.6 KiB the flight build keeps for what comes next.
 //! To fit, the I2C master is our own register-level driver (`bus.rs`)
 //! rather than the HAL's blocking one, the fixed-point textbook filter is
-//! left out (`fc-ahrs` without its `textbook` feature:
-//! the firmware runs the full filter), the trigonometry is a polynomial
-//! rather than libm's (whose `sinf`/`cosf` reduce the argument in soft f64),
-//! neither `memmove` nor a 64-bit division is linked, and the magnetometer
-//! calibration on the board is the per-axis min/max (`config::MagCal`:
-//! the `mag-ellipsoid` build selects the full ellipsoid fit, ~5.5 KiB more,
-//! which does not fit beside the flight controller).
+//! left out (`fc-ahrs` without its `textbook` feature: the firmware runs
+//! the full filter), the trigonometry is a polynomial rather than libm's
+//! (whose `sinf`/`cosf` reduce the argument in soft f64), neither
+//! `memmove` nor a 64-bit division is linked, `mem.rs`'s 50 B of
+//! `__aeabi_memcpy*`/`__aeabi_memclr*` save 1,560 B over
+//! `compiler_builtins`' own, and the constructors are inlined so that the
+//! constant configuration folds (1.2 KiB).
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
@@ -197,7 +195,7 @@ mod app {
     use crate::boot::*;
     use crate::bus::{self, BusHandle};
     use crate::clocks::{self, Source};
-    use crate::config::{self, MagCal};
+    use crate::config::{self, Session};
     use crate::delay::{cpu_hz, AsmDelay};
     use crate::outputs::GuardedOutputs;
     #[cfg(not(feature = "ppm"))]
@@ -210,7 +208,7 @@ mod app {
     use core::sync::atomic::{AtomicBool, Ordering};
     use cortex_m::peripheral::DWT;
     use flight::boot::BiasStatus;
-    use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
+    use flight::calmode::{CalEvent, RawLogRow, RAW_LOG_HEADER};
     use flight::flightctl::{
         quat_from_ahrs, AltitudeEstimate, Event as FlightEvent, Events, FlightController, Motors,
         PilotInput, SystemStatus, VehicleState,
@@ -269,7 +267,7 @@ mod app {
         pipeline: Option<Pipeline>,
         clock: MicrosClock,
         stats: LoopStats,
-        session: CalSession<MagCal>,
+        session: Session,
         bias: BiasStatus,
         pilot: Pilot,
         outputs: GuardedOutputs,
@@ -558,13 +556,13 @@ mod app {
             }),
             accel_calibrated: state.is_some_and(|(_, cal)| cal),
         };
-        #[cfg(not(feature = "mag-ellipsoid"))]
+        #[cfg(not(feature = "calibrate"))]
         let out = match (cx.local.fc.as_mut(), vehicle) {
             (Some(fc), Some(v)) => Some(fc.step(now_us, &pilot, &status, &v)),
             _ => None,
         };
         // Nothing calls the controller's step, so none of it is linked.
-        #[cfg(feature = "mag-ellipsoid")]
+        #[cfg(feature = "calibrate")]
         let out = {
             let _ = (cx.local.fc.as_mut(), vehicle, status);
             None::<flight::flightctl::FlightOutput>
@@ -943,6 +941,10 @@ mod app {
                     defmt::println!("{=str}", RAW_LOG_HEADER);
                 }
             }
+            CalEvent::Unavailable { .. } => crate::boot::log_not_in_this_build(),
+            // Only a calibration build's sessions report (the flight
+            // build's `CALIBRATION_BUILD` is false: none of this is linked).
+            _ if !config::CALIBRATION_BUILD => {}
             CalEvent::MagProgress(p) => defmt::info!(
                 "mag cal: {=u8}% ({=u8}/{=u8} directions, {=u32} samples): keep turning",
                 p.percent,

@@ -20,7 +20,10 @@
 //! button and the mode, the samples the 1 kHz task hands in, and a
 //! periodic [`CalSession::poll`] that reports progress and, once a
 //! calibration is complete, writes it into the calibration record for the
-//! caller to save.
+//! caller to save. Its type parameters pick the calibrations a build runs:
+//! the calibration build `CalSession<MagCalMode, AccelCalMode>`, the flight
+//! build `CalSession<NotBuilt, NotBuilt>` (the modes are refused with
+//! [`CalEvent::Unavailable`]; the raw log stays).
 
 use crate::storage::{CalibrationRecord, ValidParts};
 use calibration::{
@@ -601,6 +604,83 @@ pub trait MagCalibrator: Sized {
     fn finish(&self) -> Result<MagCalibration, CalError>;
 }
 
+/// An accelerometer calibration [`CalSession`] can run: [`AccelCalMode`],
+/// or [`NotBuilt`] in a build that leaves it out.
+pub trait AccelCalibrator: Sized {
+    /// A fresh session (`None` if its thresholds are refused, or if the
+    /// build leaves this calibration out).
+    fn start() -> Option<Self>;
+    /// Adds a sample (g, MPU frame, uncorrected).
+    fn push(&mut self, accel_g: [f32; 3]) -> AccelProgress;
+    /// Current progress.
+    fn progress(&self) -> AccelProgress;
+    /// `true` once all six faces are captured.
+    fn ready(&self) -> bool;
+    /// The fit.
+    fn finish(&self) -> Result<AccelCalibration, CalError>;
+}
+
+impl AccelCalibrator for AccelCalMode {
+    fn start() -> Option<Self> {
+        Self::new(AccelSixPositionConfig::default()).ok()
+    }
+    fn push(&mut self, accel_g: [f32; 3]) -> AccelProgress {
+        AccelCalMode::push(self, accel_g)
+    }
+    fn progress(&self) -> AccelProgress {
+        AccelCalMode::progress(self)
+    }
+    fn ready(&self) -> bool {
+        AccelCalMode::ready(self)
+    }
+    fn finish(&self) -> Result<AccelCalibration, CalError> {
+        AccelCalMode::finish(self)
+    }
+}
+
+/// A calibration this build leaves out: [`CalSession`] refuses to enter
+/// its mode ([`CalEvent::Unavailable`]) and none of its code is linked.
+/// The flight build runs no calibration session (the calibration build
+/// does: the flash plan in ARCHITECTURE.md), only the gyro bias at boot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NotBuilt {}
+
+impl MagCalibrator for NotBuilt {
+    fn start() -> Option<Self> {
+        None
+    }
+    fn push(&mut self, _: [f32; 3]) -> MagProgress {
+        match *self {}
+    }
+    fn progress(&self) -> MagProgress {
+        match *self {}
+    }
+    fn ready(&self) -> bool {
+        match *self {}
+    }
+    fn finish(&self) -> Result<MagCalibration, CalError> {
+        match *self {}
+    }
+}
+
+impl AccelCalibrator for NotBuilt {
+    fn start() -> Option<Self> {
+        None
+    }
+    fn push(&mut self, _: [f32; 3]) -> AccelProgress {
+        match *self {}
+    }
+    fn progress(&self) -> AccelProgress {
+        match *self {}
+    }
+    fn ready(&self) -> bool {
+        match *self {}
+    }
+    fn finish(&self) -> Result<AccelCalibration, CalError> {
+        match *self {}
+    }
+}
+
 impl MagCalibrator for MagMinMaxMode {
     fn start() -> Option<Self> {
         Self::standard().ok()
@@ -683,6 +763,13 @@ pub enum CalEvent {
     MagRefused,
     /// The accelerometer result was implausible; the session restarted.
     AccelRestarted,
+    /// A press (or the button held at boot) asked for a calibration this
+    /// build leaves out ([`NotBuilt`]: the flight build; calibrate with the
+    /// calibration build); the mode did not change.
+    Unavailable {
+        /// The calibration mode asked for.
+        wanted: Mode,
+    },
 }
 
 /// The button, the operating mode and the calibration in progress, as one
@@ -691,21 +778,23 @@ pub enum CalEvent {
 /// [`push_accel`](Self::push_accel); a slow task feeds the button
 /// ([`on_button`](Self::on_button)) and calls [`poll`](Self::poll).
 #[derive(Clone, Debug)]
-pub struct CalSession<M> {
+pub struct CalSession<M, A = AccelCalMode> {
     mode: Mode,
     button: Button,
     mag: Option<M>,
-    accel: Option<AccelCalMode>,
+    accel: Option<A>,
     polls: u32,
+    refused_at_boot: bool,
 }
 
-impl<M: MagCalibrator> CalSession<M> {
+impl<M: MagCalibrator, A: AccelCalibrator> CalSession<M, A> {
     /// Polls between magnetometer progress reports.
     pub const MAG_PROGRESS_POLLS: u32 = 10;
     /// Polls between accelerometer progress reports.
     pub const ACCEL_PROGRESS_POLLS: u32 = 20;
 
-    /// The session at boot: the button held → accelerometer calibration.
+    /// The session at boot: the button held → accelerometer calibration
+    /// (if this build has it: [`refused_at_boot`](Self::refused_at_boot)).
     pub fn new(button_held_at_boot: bool) -> Self {
         let mut s = Self {
             mode: Mode::Normal,
@@ -717,9 +806,16 @@ impl<M: MagCalibrator> CalSession<M> {
             mag: None,
             accel: None,
             polls: 0,
+            refused_at_boot: false,
         };
-        s.enter(Mode::at_boot(button_held_at_boot));
+        s.refused_at_boot = !s.enter(Mode::at_boot(button_held_at_boot));
         s
+    }
+
+    /// `true` if the button was held at boot for a calibration this build
+    /// leaves out (the session then starts in [`Mode::Normal`]).
+    pub fn refused_at_boot(&self) -> bool {
+        self.refused_at_boot
     }
 
     /// The current mode.
@@ -736,29 +832,41 @@ impl<M: MagCalibrator> CalSession<M> {
         }
     }
 
-    fn enter(&mut self, mode: Mode) {
+    /// Enters `mode`, starting its calibration; `false` (and no change)
+    /// if that calibration cannot start (left out of this build).
+    fn enter(&mut self, mode: Mode) -> bool {
+        let mag = if mode == Mode::MagCal {
+            match M::start() {
+                Some(m) => Some(m),
+                None => return false,
+            }
+        } else {
+            None
+        };
+        let accel = if mode == Mode::AccelCal {
+            match A::start() {
+                Some(a) => Some(a),
+                None => return false,
+            }
+        } else {
+            None
+        };
         self.mode = mode;
-        self.mag = if mode == Mode::MagCal {
-            M::start()
-        } else {
-            None
-        };
-        self.accel = if mode == Mode::AccelCal {
-            AccelCalMode::new(AccelSixPositionConfig::default()).ok()
-        } else {
-            None
-        };
+        self.mag = mag;
+        self.accel = accel;
         self.polls = 0;
+        true
     }
 
     /// A decoded press: changes the mode (and starts or aborts a
-    /// calibration).
+    /// calibration), or says the calibration asked for is unavailable.
     pub fn on_press(&mut self, press: Press) -> CalEvent {
         let from = self.mode;
-        self.enter(from.on_press(press));
-        CalEvent::ModeChanged {
-            from,
-            to: self.mode,
+        let to = from.on_press(press);
+        if self.enter(to) {
+            CalEvent::ModeChanged { from, to }
+        } else {
+            CalEvent::Unavailable { wanted: to }
         }
     }
 
