@@ -1,5 +1,5 @@
-//! The firmware's bus-fault handling (`flight::sensors` maintenance,
-//! `flight::health` recovery) against the simulated bus, driven the way
+//! The firmware's bus-fault handling (`sensor_stack::sensors` maintenance,
+//! `sensor_stack::health` recovery) against the simulated bus, driven the way
 //! the RTIC app drives it: one IMU read per MPU data-ready, one
 //! maintenance step every 10 ms (the `service` task), a bus recovery
 //! through the open-drain pin model when a step asks for one.
@@ -10,9 +10,9 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use e2e::{Rig, StuckSda};
-use flight::boot::{AhrsMode, BootReport, Chip, ProbeFailure};
-use flight::health::{recover_bus, unlock_busy_flag, SensorState};
-use flight::sensors::{Maintenance, Sensors};
+use sensor_stack::boot::{AhrsMode, BootReport, Chip, ProbeFailure};
+use sensor_stack::health::{recover_bus, unlock_busy_flag, SensorState};
+use sensor_stack::sensors::{Maintenance, Sensors};
 use sim::{Fault, SimBus, SimConfig};
 
 const MPU: u8 = 0x68;

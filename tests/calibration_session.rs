@@ -1,16 +1,16 @@
 //! The firmware's button / mode / calibration state machine
-//! (`flight::calmode::CalSession`) and the raw-log row, host-tested: the
+//! (`sensor_stack::calmode::CalSession`) and the raw-log row, host-tested: the
 //! button decoding into modes, a figure-eight and a six-position session
 //! run to completion with the result written into the calibration record,
 //! an abort, and the raw-log column order.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use flight::calmode::{
+use sensor_stack::calmode::{
     AccelCalibrator, CalEvent, CalSession, MagCalibrator, MagMinMaxMode, Mode, NotBuilt, RawLogRow,
     LONG_PRESS_MS, RAW_LOG_HEADER,
 };
-use flight::storage::{CalibrationRecord, ValidParts};
+use sensor_stack::storage::{CalibrationRecord, ValidParts};
 
 type Session = CalSession<MagMinMaxMode>;
 
@@ -141,7 +141,7 @@ fn releasing_the_button_held_at_boot_keeps_the_accelerometer_calibration() {
 #[test]
 fn figure_eight_session_writes_the_hard_iron_into_the_record() {
     let mut s = Session::new(false);
-    s.on_press(flight::calmode::Press::Long);
+    s.on_press(sensor_stack::calmode::Press::Long);
     assert_eq!(s.mode(), Mode::MagCal);
     let offset = [12.0f32, -7.0, 30.0];
     let field = 48.0f32;

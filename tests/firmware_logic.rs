@@ -9,12 +9,12 @@
 
 use e2e::{Rig, StuckSda};
 use embedded_hal::delay::DelayNs;
-use flight::boot::{AhrsMode, BiasStatus, Chip as BootChip, ProbeFailure, StartupGyroBias};
-use flight::health::{recover_bus, SensorState};
-use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
-use flight::schedule::{DtClock, LoopStats, MicrosClock, SampleScheduler};
-use flight::sensors::{MagRead, Sensors};
-use flight::storage::{
+use sensor_stack::boot::{AhrsMode, BiasStatus, Chip as BootChip, ProbeFailure, StartupGyroBias};
+use sensor_stack::health::{recover_bus, SensorState};
+use sensor_stack::pipeline::{ImuInput, Pipeline, PipelineConfig};
+use sensor_stack::schedule::{DtClock, LoopStats, MicrosClock, SampleScheduler};
+use sensor_stack::sensors::{MagRead, Sensors};
+use sensor_stack::storage::{
     self, CalibrationRecord, DecodeError, LoadError, LoadOutcome, RamPage, ValidParts,
 };
 use sim::{Chip, Fault, SimBus, SimConfig};
@@ -23,7 +23,7 @@ const MPU: u8 = 0x68;
 const MS: u8 = 0x77;
 const AK: u8 = 0x0C;
 
-fn boot(rig: &mut Rig) -> (Sensors<SimBus>, flight::boot::BootReport) {
+fn boot(rig: &mut Rig) -> (Sensors<SimBus>, sensor_stack::boot::BootReport) {
     e2e::boot_sensors(rig)
 }
 
@@ -99,7 +99,7 @@ impl Loop {
 
 fn pipeline_for(
     s: &Sensors<SimBus>,
-    report: &flight::boot::BootReport,
+    report: &sensor_stack::boot::BootReport,
     cal: &CalibrationRecord,
 ) -> Pipeline {
     let caps = report.capabilities();

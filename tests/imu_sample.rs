@@ -1,5 +1,5 @@
 //! What the firmware's 1 kHz task does with one sample
-//! (`flight::sample::SampleStep`), host-tested against the simulated
+//! (`sensor_stack::sample::SampleStep`), host-tested against the simulated
 //! board: the start-up gyro bias applied once, the magnetometer and
 //! accelerometer samples handed out only when a calibration wants them,
 //! and raw-log rows at 100 Hz on the magnetometer's tick with the column
@@ -8,13 +8,13 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use e2e::Rig;
-use flight::boot::{BiasStatus, StartupGyroBias};
-use flight::calmode::CalWants;
-use flight::pipeline::{Pipeline, PipelineConfig};
-use flight::sample::{SampleIn, SampleStep};
-use flight::schedule::SampleScheduler;
-use flight::sensors::{MagRead, Sensors, SensorsConfig};
-use flight::storage::CalibrationRecord;
+use sensor_stack::boot::{BiasStatus, StartupGyroBias};
+use sensor_stack::calmode::CalWants;
+use sensor_stack::pipeline::{Pipeline, PipelineConfig};
+use sensor_stack::sample::{SampleIn, SampleStep};
+use sensor_stack::schedule::SampleScheduler;
+use sensor_stack::sensors::{MagRead, Sensors, SensorsConfig};
+use sensor_stack::storage::CalibrationRecord;
 use sim::{SimBus, SimConfig};
 
 fn setup(rig: &mut Rig) -> (Sensors<SimBus>, Pipeline, SampleStep) {

@@ -1,5 +1,5 @@
 //! An armed craft and its MPU-9250's troubles, on the simulated bus: the
-//! sensor stack (`flight::sensors`, told the craft is armed as the
+//! sensor stack (`sensor_stack::sensors`, told the craft is armed as the
 //! firmware tells it) and the flight controller (`flight::flightctl`, fed
 //! a non-finite gyro for every lost sample, as the firmware's
 //! `vehicle_state` does), stepped on every MPU data-ready; a maintenance
@@ -22,7 +22,7 @@ use flight::flightctl::{
     DisarmCause, Event, FlightConfig, FlightController, Motors, PilotInput, SystemStatus,
     VehicleState,
 };
-use flight::sensors::{Maintenance, Sensors, SensorsConfig};
+use sensor_stack::sensors::{Maintenance, Sensors, SensorsConfig};
 use sim::{Chip, Fault, SimBus, SimConfig};
 
 const MPU: u8 = 0x68;

@@ -8,9 +8,11 @@
 
 use e2e::Rig;
 use embedded_hal::i2c::I2c;
-use flight::health::HealthCounters;
-use flight::schedule::{SampleScheduler, MAG_DIVIDER};
-use flight::sensors::{BlockResults, MagRead, SampleBytes, SamplePlan, Sensors, SAMPLE_BYTES};
+use sensor_stack::health::HealthCounters;
+use sensor_stack::schedule::{SampleScheduler, MAG_DIVIDER};
+use sensor_stack::sensors::{
+    BlockResults, MagRead, SampleBytes, SamplePlan, Sensors, SAMPLE_BYTES,
+};
 use sim::{Fault, SimBus, SimBusError, SimConfig};
 
 const MPU: u8 = 0x68;

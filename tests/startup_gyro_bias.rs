@@ -1,4 +1,4 @@
-//! The firmware's start-up gyro bias (`flight::boot::StartupGyroBias`, set
+//! The firmware's start-up gyro bias (`sensor_stack::boot::StartupGyroBias`, set
 //! up as `start_gyro_bias` does: one window of `IMU_RATE_HZ` samples = 1 s,
 //! within 5 windows' worth of samples) on the simulated board: the
 //! simulator's noise is the MPU-9250 datasheet's at the configured filters,
@@ -24,8 +24,8 @@ use std::f64::consts::PI;
 use std::rc::Rc;
 
 use e2e::Rig;
-use flight::boot::{BiasStatus, StartupGyroBias};
-use flight::schedule::IMU_RATE_HZ;
+use sensor_stack::boot::{BiasStatus, StartupGyroBias};
+use sensor_stack::schedule::IMU_RATE_HZ;
 use sim::{Quat, SensorErrors, SimConfig, Trajectory};
 
 /// Windows' worth of samples the firmware allows (`start_gyro_bias`).

@@ -728,11 +728,11 @@ mod suite {
         );
     }
 
-    /// `flight::pipeline::Pipeline` as the firmware schedules it (default
+    /// `sensor_stack::pipeline::Pipeline` as the firmware schedules it (default
     /// features: the fixed-point AHRS): per 10 ms, ten 1 kHz `imu_step`s,
     /// one magnetometer and one barometer sample and one `control_step`.
     fn pipeline_cases() {
-        use flight::pipeline::{Pipeline, PipelineConfig};
+        use sensor_stack::pipeline::{Pipeline, PipelineConfig};
         let (warm, frames) = pipeline_frames();
 
         let mut cfg = PipelineConfig::new();
@@ -742,12 +742,12 @@ mod suite {
         // Steady state (see `ahrs_cases`).
         cfg.ahrs.startup_s = 0.0;
         let Ok(mut p) = Pipeline::new(cfg, &Default::default()) else {
-            hprintln!("FAIL flight::pipeline::Pipeline::new refused the configuration");
+            hprintln!("FAIL sensor_stack::pipeline::Pipeline::new refused the configuration");
             return;
         };
         // The take-off pressure reference first, so the vertical estimator
         // and the altitude hold run in the measured control steps.
-        for _ in 0..flight::pipeline::P0_AVERAGE_SAMPLES {
+        for _ in 0..sensor_stack::pipeline::P0_AVERAGE_SAMPLES {
             p.baro_step(96_000);
         }
         for f in &warm {
@@ -761,7 +761,7 @@ mod suite {
             p.outputs()
         });
         pipeline_step_cases(&mut p, &frames);
-        hprintln!("NOTE pipeline AHRS: {}", flight::pipeline::AHRS_KIND);
+        hprintln!("NOTE pipeline AHRS: {}", sensor_stack::pipeline::AHRS_KIND);
     }
 
     const FRAMES: usize = 3;
@@ -770,14 +770,14 @@ mod suite {
     /// One 10 ms frame: ten IMU samples, one magnetometer sample (AK8963
     /// frame, counts), one pressure (Pa).
     type Frame = (
-        [flight::pipeline::ImuInput; SAMPLES_PER_FRAME],
+        [sensor_stack::pipeline::ImuInput; SAMPLES_PER_FRAME],
         [i16; 3],
         i32,
     );
 
     /// One frame as the firmware schedules it: the magnetometer and the
     /// barometer, ten IMU steps, and the control step they ask for.
-    fn run_frame(p: &mut flight::pipeline::Pipeline, f: &Frame) {
+    fn run_frame(p: &mut sensor_stack::pipeline::Pipeline, f: &Frame) {
         p.mag_step(f.1);
         p.baro_step(f.2);
         let mut control = false;
@@ -792,7 +792,7 @@ mod suite {
     /// Warm-up and measured frames from the generator, in the sensors' own
     /// frames as the drivers deliver them.
     fn pipeline_frames() -> ([Frame; WARM_FRAMES], [Frame; FRAMES]) {
-        use flight::pipeline::ImuInput;
+        use sensor_stack::pipeline::ImuInput;
         // Our generator's body-FRD counts → the sensors' own frames (default
         // mounting: body = (x, −y, −z) of the MPU; AK8963: x_ak = y_mpu,
         // y_ak = x_mpu, z_ak = −z_mpu).
@@ -826,8 +826,8 @@ mod suite {
     }
 
     /// The pipeline's steps one by one, on the frames' samples.
-    fn pipeline_step_cases(p: &mut flight::pipeline::Pipeline, frames: &[Frame; FRAMES]) {
-        use flight::pipeline::ImuInput;
+    fn pipeline_step_cases(p: &mut sensor_stack::pipeline::Pipeline, frames: &[Frame; FRAMES]) {
+        use sensor_stack::pipeline::ImuInput;
         let inputs: [ImuInput; CALLS] = core::array::from_fn(|k| frames[k % FRAMES].0[k / FRAMES]);
         case(
             "flight::Pipeline::imu_step (1 kHz, MARG)",

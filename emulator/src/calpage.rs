@@ -9,7 +9,7 @@
 //! offset and scale (its cross-axis terms stay, as after a six-position
 //! fit), the magnetometer's hard iron and full soft-iron matrix.
 
-use flight::storage::{self, CalibrationRecord, ValidParts};
+use sensor_stack::storage::{self, CalibrationRecord, ValidParts};
 use sim::physics::G0_MPS2;
 use sim::SensorErrors;
 

@@ -16,7 +16,7 @@ mod common;
 use common::*;
 use emulator::crsf::{rc_frame, ticks};
 use emulator::{Board, BoardConfig, BoardFault, ResetCause};
-use flight::storage::{self, CalibrationRecord, ValidParts};
+use sensor_stack::storage::{self, CalibrationRecord, ValidParts};
 use sim::Trajectory;
 
 const PAGE: usize = (storage::PAGE_ADDRESS - 0x0800_0000) as usize;

@@ -17,12 +17,12 @@ use crate::report::log_capabilities;
 use crate::store::FlashPage;
 use control::esc::EscTimer;
 use embedded_hal::delay::DelayNs;
-use flight::boot::{Capabilities, StartupGyroBias};
 use flight::flightctl::FlightController;
-use flight::pipeline::{Pipeline, PipelineConfig};
-use flight::schedule::IMU_RATE_HZ;
-use flight::sensors::{Sensors, SensorsConfig};
-use flight::storage::{self, CalibrationRecord, LoadError, LoadOutcome};
+use sensor_stack::boot::{Capabilities, StartupGyroBias};
+use sensor_stack::pipeline::{Pipeline, PipelineConfig};
+use sensor_stack::schedule::IMU_RATE_HZ;
+use sensor_stack::sensors::{Sensors, SensorsConfig};
+use sensor_stack::storage::{self, CalibrationRecord, LoadError, LoadOutcome};
 use stm32f1xx_hal::{
     flash,
     gpio::{Input, PullUp, PA0},
@@ -119,7 +119,7 @@ pub fn log_boot(source: Source) {
         "boot: {=u32} MHz ({}), I2C1 400 kHz on PB6/PB7, MPU INT on PB5, AHRS: {=str}; a stuck I2C bus is recovered (SCL clocked, STOP, BUSY unlocked), a missing chip is re-probed every 1-32 s, a chip that returns is re-initialised and used",
         cpu_hz() / 1_000_000,
         source,
-        flight::pipeline::AHRS_KIND
+        sensor_stack::pipeline::AHRS_KIND
     );
 }
 
@@ -231,7 +231,7 @@ pub fn start_session(button: &PA0<Input<PullUp>>) -> Session {
     // Let the internal pull-up charge the line (~100 µs) before sampling.
     AsmDelay.delay_us(100);
     let session = Session::new(button.is_low());
-    if session.mode() == flight::calmode::Mode::AccelCal {
+    if session.mode() == sensor_stack::calmode::Mode::AccelCal {
         defmt::info!("button held at boot: accelerometer six-position calibration");
     }
     if session.refused_at_boot() {

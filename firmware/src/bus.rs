@@ -79,8 +79,10 @@ use core::sync::atomic::{AtomicU32, AtomicU8, Ordering};
 use cortex_m::peripheral::{DWT, NVIC};
 use embedded_hal::delay::DelayNs;
 use embedded_hal::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Operation};
-use flight::health::{recover_bus, unlock_busy_flag, RecoveryError, RecoveryPins, RecoveryReport};
-use flight::sensors::{BlockRead, BlockResults, SampleBytes, SamplePlan, SAMPLE_BYTES};
+use sensor_stack::health::{
+    recover_bus, unlock_busy_flag, RecoveryError, RecoveryPins, RecoveryReport,
+};
+use sensor_stack::sensors::{BlockRead, BlockResults, SampleBytes, SamplePlan, SAMPLE_BYTES};
 use stm32f1xx_hal::pac;
 
 use crate::delay::AsmDelay;
@@ -509,9 +511,9 @@ impl RecoveryPins for Pb67<'_> {
 
 /// Frees a stuck bus and unlocks the BUSY flag: PE off, PB6/PB7 as
 /// open-drain GPIO, SCL clocked until the slave releases SDA and a STOP
-/// generated ([`flight::health::recover_bus`]), then the ES096 2.13.7
+/// generated ([`sensor_stack::health::recover_bus`]), then the ES096 2.13.7
 /// sequence that forces a transition through each analog filter
-/// ([`flight::health::unlock_busy_flag`]), pins back to alternate
+/// ([`sensor_stack::health::unlock_busy_flag`]), pins back to alternate
 /// function, SWRST and reprogramming. Call with the `sensors` resource
 /// locked. Takes ≈ 0.25 ms with 9 clocks (10 µs per clock); interrupts
 /// stay enabled.

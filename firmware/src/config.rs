@@ -30,10 +30,10 @@
 //! the stick and arm channels.
 
 use control::esc::EscProtocol;
-use flight::Mounting;
 #[cfg(not(feature = "calibrate"))]
 use flight::{arming::SafetyConfig, flightctl::FlightConfig};
 use rc_input::ChannelMap;
+use sensor_stack::Mounting;
 
 /// Sticks and arm switch: AETR on channels 1-4, arm on channel 5 (AUX1,
 /// which ExpressLRS always sends at full rate) in the high position.
@@ -110,20 +110,24 @@ pub fn flight_config() -> FlightConfig {
 }
 
 /// The calibration sessions of this build. The flight build runs none
-/// ([`NotBuilt`](flight::calmode::NotBuilt): the button held at boot or a
+/// ([`NotBuilt`](sensor_stack::calmode::NotBuilt): the button held at boot or a
 /// long press logs where they are; ~3 KiB of flash the flight build keeps
 /// for what comes next). The calibration build (`--features calibrate`)
 /// runs the six-position accelerometer calibration and the magnetometer
-/// ellipsoid fit (`flight::calmode::MagCalMode`: integer moments, an f32
+/// ellipsoid fit (`sensor_stack::calmode::MagCalMode`: integer moments, an f32
 /// solve) and saves the record, which the flight build loads and applies.
 #[cfg(not(feature = "calibrate"))]
-pub type Session =
-    flight::calmode::CalSession<flight::calmode::NotBuilt, flight::calmode::NotBuilt>;
+pub type Session = sensor_stack::calmode::CalSession<
+    sensor_stack::calmode::NotBuilt,
+    sensor_stack::calmode::NotBuilt,
+>;
 /// The calibration build's sessions: six-position accelerometer and the
 /// magnetometer ellipsoid fit.
 #[cfg(feature = "calibrate")]
-pub type Session =
-    flight::calmode::CalSession<flight::calmode::MagCalMode, flight::calmode::AccelCalMode>;
+pub type Session = sensor_stack::calmode::CalSession<
+    sensor_stack::calmode::MagCalMode,
+    sensor_stack::calmode::AccelCalMode,
+>;
 
 /// This is the calibration build: its sessions report progress and save
 /// the record; the flight build only loads it.

@@ -17,7 +17,7 @@
 //!   as errata ES096 §2.13.2 asks) step the read; its end pends
 //!   `sample_done` (CAN_RX1's vector, priority 3): the bytes parsed by the
 //!   drivers (a failure is counted and the sample skipped, never retried),
-//!   `flight::sample::SampleStep`, the flight controller, the ESC outputs.
+//!   `sensor_stack::sample::SampleStep`, the flight controller, the ESC outputs.
 //!   CPU per sample on the emulated board (`cargo fil -t hover -d 10`, one
 //!   instruction per cycle): mean 5,605, worst 7,174 cycles of 72,000
 //!   (cpu 7.7 %), against 34,953 / 57,156 (48.5 %) with the task waiting
@@ -207,27 +207,27 @@ mod app {
     use crate::watchdog::{Watchdog, BOOT_MIN_TIMEOUT_MS, RUN_MIN_TIMEOUT_MS};
     use core::sync::atomic::{AtomicBool, Ordering};
     use cortex_m::peripheral::DWT;
-    use flight::boot::BiasStatus;
-    use flight::calmode::{CalEvent, RawLogRow, RAW_LOG_HEADER};
     use flight::flightctl::{
         quat_from_ahrs, AltitudeEstimate, Event as FlightEvent, Events, FlightController, Motors,
         PilotInput, SystemStatus, VehicleState,
     };
-    use flight::health::SensorState;
     use flight::motortest::MotorPosition;
     use flight::outputguard::{ForceOffReason, TickAction, CHECK_PERIOD_US};
-    use flight::pipeline::Pipeline;
-    use flight::sample::{SampleIn, SampleStep};
-    use flight::schedule::{
-        DtClock, LoopStats, MicrosClock, Periodic, SampleScheduler, IMU_RATE_HZ, MAG_DIVIDER,
-    };
-    use flight::sensors::{Maintenance, Sensors};
-    use flight::storage::{self, CalibrationRecord, SaveError};
     use rc_input::LinkStatus;
     use rtic::Mutex;
     use rtic_monotonics::fugit::ExtU32;
     use rtic_monotonics::rtic_time::monotonic::TimerQueueBasedInstant;
     use rtic_monotonics::systick::prelude::*;
+    use sensor_stack::boot::BiasStatus;
+    use sensor_stack::calmode::{CalEvent, RawLogRow, RAW_LOG_HEADER};
+    use sensor_stack::health::SensorState;
+    use sensor_stack::pipeline::Pipeline;
+    use sensor_stack::sample::{SampleIn, SampleStep};
+    use sensor_stack::schedule::{
+        DtClock, LoopStats, MicrosClock, Periodic, SampleScheduler, IMU_RATE_HZ, MAG_DIVIDER,
+    };
+    use sensor_stack::sensors::{Maintenance, Sensors};
+    use sensor_stack::storage::{self, CalibrationRecord, SaveError};
     use stm32f1xx_hal::{
         flash,
         gpio::{Edge, ExtiPin, Input, Output, PinState, PullUp, PushPull, PA0, PB5, PC13},
@@ -551,7 +551,7 @@ mod app {
             calibration_running: cx.shared.session.lock(|c| {
                 matches!(
                     c.mode(),
-                    flight::calmode::Mode::MagCal | flight::calmode::Mode::AccelCal
+                    sensor_stack::calmode::Mode::MagCal | sensor_stack::calmode::Mode::AccelCal
                 )
             }),
             accel_calibrated: state.is_some_and(|(_, cal)| cal),
@@ -902,7 +902,7 @@ mod app {
             }
 
             link = log_pilot(tick, link, &mut cx.shared.pilot, &mut cx.shared.clock);
-            if mode == flight::calmode::Mode::Normal {
+            if mode == sensor_stack::calmode::Mode::Normal {
                 log_status(
                     tick,
                     &mut cx.shared.sensors,
@@ -914,7 +914,7 @@ mod app {
             // Heartbeat: 1 Hz normally, 5 Hz while calibrating.
             let calibrating = matches!(
                 mode,
-                flight::calmode::Mode::MagCal | flight::calmode::Mode::AccelCal
+                sensor_stack::calmode::Mode::MagCal | sensor_stack::calmode::Mode::AccelCal
             );
             if tick.is_multiple_of(if calibrating { 2 } else { 10 }) {
                 cx.local.led.toggle();
@@ -937,7 +937,7 @@ mod app {
         match ev {
             CalEvent::ModeChanged { from, to } => {
                 defmt::info!("mode {} -> {}", from, to);
-                if to == flight::calmode::Mode::RawLog {
+                if to == sensor_stack::calmode::Mode::RawLog {
                     defmt::println!("{=str}", RAW_LOG_HEADER);
                 }
             }

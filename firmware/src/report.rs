@@ -6,12 +6,12 @@ use crate::bus::BusHandle;
 use crate::receiver::Pilot;
 use crate::stack;
 use cortex_m::peripheral::DWT;
-use flight::boot::{AhrsMode, BiasStatus, Capabilities};
-use flight::health::{HealthCounters, SensorState};
-use flight::pipeline::Pipeline;
-use flight::schedule::{LoopStats, MicrosClock};
-use flight::sensors::Sensors;
 use rc_input::LinkStatus;
+use sensor_stack::boot::{AhrsMode, BiasStatus, Capabilities};
+use sensor_stack::health::{HealthCounters, SensorState};
+use sensor_stack::pipeline::Pipeline;
+use sensor_stack::schedule::{LoopStats, MicrosClock};
+use sensor_stack::sensors::Sensors;
 
 /// The chips' capabilities (at boot and when a chip appears).
 pub fn log_capabilities(caps: &Capabilities) {

@@ -1,11 +1,11 @@
 //! The calibration flash page (`0x0800_FC00`, the last 1 KiB page) through
 //! the HAL's flash writer.
 
-use flight::storage::CalibrationStore;
+use sensor_stack::storage::CalibrationStore;
 use stm32f1xx_hal::flash::{Error, FlashSize, FlashWriter, Parts, SectorSize};
 
 /// Offset of the calibration page from the start of flash.
-pub const PAGE_OFFSET: u32 = flight::storage::PAGE_ADDRESS - 0x0800_0000;
+pub const PAGE_OFFSET: u32 = sensor_stack::storage::PAGE_ADDRESS - 0x0800_0000;
 
 /// The calibration page.
 pub struct FlashPage<'a> {
@@ -14,7 +14,7 @@ pub struct FlashPage<'a> {
 
 impl<'a> FlashPage<'a> {
     /// A writer for the 64 KiB part with 1 KiB pages. The HAL's per-word
-    /// verification is off: `flight::storage::save` reads the whole record
+    /// verification is off: `sensor_stack::storage::save` reads the whole record
     /// back and compares it anyway.
     pub fn new(flash: &'a mut Parts) -> Self {
         let mut writer = flash.writer(SectorSize::Sz1K, FlashSize::Sz64K);

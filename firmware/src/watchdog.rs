@@ -1,6 +1,6 @@
 //! The independent watchdog (IWDG), programmed from its prescaler and
 //! reload directly so the timeout is known at the LSI's whole 30–60 kHz
-//! range (`flight::schedule::iwdg_config`), not only at the nominal
+//! range (`sensor_stack::schedule::iwdg_config`), not only at the nominal
 //! 40 kHz a period in milliseconds assumes.
 //!
 //! Budgets, at the LSI's fastest 60 kHz (the shortest timeout; at 30 kHz
@@ -35,7 +35,7 @@
 //!   reporting healthy (its INT line dead): reset 0.5–1 s after the last
 //!   feed, into the off pulse (`flight::outputguard`).
 
-use flight::schedule::iwdg_config;
+use sensor_stack::schedule::iwdg_config;
 use stm32f1xx_hal::pac;
 
 /// Shortest watchdog timeout while booting, ms (see the module docs).

@@ -31,9 +31,9 @@ datasheet-size sensor errors, driven by the real drivers.
 What runs, in order (each a separate session of the same simulated board):
   1. accelerometer six-position calibration (the board held still on each face);
   2. magnetometer calibration on a figure-eight dance (--mag-dance seconds);
-  both go into the firmware's flash record (flight::storage);
+  both go into the firmware's flash record (sensor_stack::storage);
   3. the flight: boot probe, start-up gyro bias while still, then every MPU
-     data-ready through flight::pipeline::Pipeline (raw counts -> calibration ->
+     data-ready through sensor_stack::pipeline::Pipeline (raw counts -> calibration ->
      mounting -> AHRS -> vertical estimator -> controllers), the code the
      firmware runs. Errors are scored against the truth after the first second.
 
@@ -245,7 +245,7 @@ fn check_filter(want: FilterArg) -> Result<(), String> {
     }
     Err(format!(
         "--filter: this build runs the {}; the AHRS is chosen at compile time like the firmware's: {}",
-        flight::pipeline::AHRS_KIND,
+        sensor_stack::pipeline::AHRS_KIND,
         if want == Filter::F32 {
             "cargo run --release -p sim --features f32-ahrs -- ..."
         } else {
@@ -286,7 +286,7 @@ fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
             "sim: {} seed {} ({})",
             opts.trajectory.name(),
             opts.seed,
-            flight::pipeline::AHRS_KIND
+            sensor_stack::pipeline::AHRS_KIND
         );
         demo::plot::write_plot(out.temp_path(), &title, &series, &result.mag_cal)
             .map_err(|e| format!("plotting {}: {e}", out.target().display()))?;
@@ -317,7 +317,7 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
         opts.seed,
         opts.board_seed,
         scenario.duration_s(),
-        flight::pipeline::AHRS_KIND,
+        sensor_stack::pipeline::AHRS_KIND,
         fc.name()
     );
     let log = fly(&opts, &mut fc)?;
@@ -354,7 +354,7 @@ fn print_summary(opts: &RunOptions, r: &RunResult) {
         opts.trajectory.name(),
         opts.seed,
         opts.board_seed,
-        flight::pipeline::AHRS_KIND
+        sensor_stack::pipeline::AHRS_KIND
     );
     print_calibrations(opts, r);
     let s = &r.summary;

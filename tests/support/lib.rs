@@ -1,9 +1,9 @@
 //! Shared helpers for the end-to-end tests in this folder: a simulated board
 //! (clock, bus, delay) and small statistics.
 
-use flight::boot::BootReport;
-use flight::health::RecoveryPins;
-use flight::sensors::{Sensors, SensorsConfig};
+use sensor_stack::boot::BootReport;
+use sensor_stack::health::RecoveryPins;
+use sensor_stack::sensors::{Sensors, SensorsConfig};
 use sim::{SimBus, SimClock, SimConfig, SimDelay};
 
 /// A simulated board: one clock, one bus with the three chips, one delay.

@@ -1,7 +1,7 @@
 //! Which feature group of the flash plan a piece of code belongs to, from a
 //! demangled symbol name or from the source file the DWARF line table names.
 //!
-//! An [`Owner`] is a crate and its first module (`flight::pipeline`,
+//! An [`Owner`] is a crate and its first module (`sensor_stack::pipeline`,
 //! `core::fmt`); [`group_of`] maps it to a [`Group`]. The mapping is the
 //! flash plan's (ARCHITECTURE.md, "Flash plan"): a module moved between
 //! groups is moved here.
@@ -10,9 +10,10 @@
 /// covers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Group {
-    /// Sensor drivers, calibration, the AHRS and `flight`'s sample side.
+    /// Sensor drivers, calibration, the AHRS and the sensor stack
+    /// (`sensor_stack`).
     SensorsAhrs,
-    /// The `control` crate and `flight`'s flight controller modules.
+    /// The flight controller (`flight`) and the loops it calls (`control`).
     FlightControl,
     /// The pilot's receiver, the ESC outputs and the sensor bus driver.
     ReceiversOutputs,
@@ -82,7 +83,7 @@ impl std::fmt::Display for Owner {
 }
 
 /// The project's crates; any other crate is a library (runtime group).
-const WORKSPACE_CRATES: [&str; 9] = [
+const WORKSPACE_CRATES: [&str; 10] = [
     "mpu9250",
     "ak8963",
     "ms5611",
@@ -90,19 +91,10 @@ const WORKSPACE_CRATES: [&str; 9] = [
     "fc_ahrs",
     "control",
     "flight",
+    "sensor_stack",
     "rc_input",
     "firmware",
 ];
-
-/// `flight`'s modules on the sample side (sensors+AHRS group).
-const FLIGHT_SENSOR_MODULES: [&str; 11] = [
-    "pipeline", "sensors", "health", "schedule", "calmode", "storage", "sample", "mounting",
-    "angles", "boot", "crc32",
-];
-
-/// `flight`'s flight controller modules (flight control group).
-const FLIGHT_CONTROL_MODULES: [&str; 5] =
-    ["flightctl", "arming", "runaway", "motortest", "outputguard"];
 
 /// `firmware`'s receiver, output and bus modules.
 const FIRMWARE_IO_MODULES: [&str; 4] = ["receiver", "ppm", "outputs", "bus"];
@@ -110,11 +102,11 @@ const FIRMWARE_IO_MODULES: [&str; 4] = ["receiver", "ppm", "outputs", "bus"];
 /// The flash plan's group of `krate::module`.
 pub fn group_of(krate: &str, module: &str) -> Group {
     match krate {
-        "mpu9250" | "ak8963" | "ms5611" | "calibration" | "fc_ahrs" => Group::SensorsAhrs,
-        "control" => Group::FlightControl,
+        "mpu9250" | "ak8963" | "ms5611" | "calibration" | "fc_ahrs" | "sensor_stack" => {
+            Group::SensorsAhrs
+        }
+        "control" | "flight" => Group::FlightControl,
         "rc_input" => Group::ReceiversOutputs,
-        "flight" if FLIGHT_SENSOR_MODULES.contains(&module) => Group::SensorsAhrs,
-        "flight" if FLIGHT_CONTROL_MODULES.contains(&module) => Group::FlightControl,
         "firmware" if FIRMWARE_IO_MODULES.contains(&module) => Group::ReceiversOutputs,
         // The compact memcpy/memset that replace compiler_builtins'.
         "firmware" if module == "mem" => Group::Runtime,
@@ -125,7 +117,7 @@ pub fn group_of(krate: &str, module: &str) -> Group {
 
 /// The owner of a symbol from its demangled name (hash suffix removed).
 ///
-/// Paths (`flight::pipeline::Pipeline::new`) give their first two parts;
+/// Paths (`sensor_stack::pipeline::Pipeline::new`) give their first two parts;
 /// trait impls (`<flight::x::T as core::fmt::Debug>::fmt`) the implementing
 /// type's path, or the trait's when the type is not a path (`<&T as ..>`);
 /// `core::ptr::drop_in_place<T>` its `T`. Names without a path are C-ABI
@@ -281,6 +273,7 @@ fn workspace_file_owner(path: &str) -> Option<Owner> {
         let krate = match dir {
             "ahrs" => "fc_ahrs",
             "rc" => "rc_input",
+            "sensor-stack" => "sensor_stack",
             d => d,
         };
         (krate, rest)
@@ -302,7 +295,10 @@ mod tests {
 
     #[test]
     fn paths_by_crate_and_module() {
-        assert_eq!(group("flight::pipeline::Pipeline::new"), Group::SensorsAhrs);
+        assert_eq!(
+            group("sensor_stack::pipeline::Pipeline::new"),
+            Group::SensorsAhrs
+        );
         assert_eq!(
             group("flight::flightctl::Shaped::new"),
             Group::FlightControl
@@ -333,13 +329,14 @@ mod tests {
         );
         assert_eq!(group("stm32f1xx_hal::rcc::Cfgr::freeze"), Group::Runtime);
         assert_eq!(group("defmt::export::istr"), Group::Runtime);
-        assert_eq!(group("flight::lib_item"), Group::Rest);
+        assert_eq!(group("sensor_stack::lib_item"), Group::SensorsAhrs);
+        assert_eq!(group("flight::lib_item"), Group::FlightControl);
     }
 
     #[test]
     fn impls_by_their_type_then_trait() {
-        let s = "<flight::health::Health as defmt::traits::Format>::format";
-        assert_eq!(symbol_owner(s), Owner::new("flight", "health"));
+        let s = "<sensor_stack::health::Health as defmt::traits::Format>::format";
+        assert_eq!(symbol_owner(s), Owner::new("sensor_stack", "health"));
         let s = "<&T as core::fmt::Debug>::fmt";
         assert_eq!(symbol_owner(s), Owner::new("core", "fmt"));
         let s = "<[f32; 3] as core::fmt::Debug>::fmt";
@@ -393,8 +390,8 @@ mod tests {
             Some("rc_input::crsf")
         );
         assert_eq!(
-            f("/w/crates/flight/src/calmode.rs").as_deref(),
-            Some("flight::calmode")
+            f("/w/crates/sensor-stack/src/calmode.rs").as_deref(),
+            Some("sensor_stack::calmode")
         );
         assert_eq!(
             f("/w/firmware/src/bus.rs").as_deref(),

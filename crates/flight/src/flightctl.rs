@@ -6,7 +6,7 @@
 //! ```
 //! use control::esc::{EscProtocol, EscTimer};
 //! use flight::flightctl::*;
-//! use flight::pipeline::{Pipeline, PipelineConfig};
+//! use sensor_stack::pipeline::{Pipeline, PipelineConfig};
 //!
 //! let pipeline = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
 //! let esc = EscTimer::for_clock(EscProtocol::Pwm, 400, 72_000_000).unwrap();
@@ -151,7 +151,7 @@
 //! # Time
 //!
 //! `now_us` is a free-running, wrapping microsecond clock (e.g.
-//! [`crate::schedule::MicrosClock`]). The step's `dt` is the wrapped
+//! [`sensor_stack::schedule::MicrosClock`]). The step's `dt` is the wrapped
 //! difference, limited to [`MAX_DT_US`] (a stalled loop does not integrate
 //! a huge step); two calls with the same time do not run the loops again.
 
@@ -166,8 +166,8 @@ use control::shaping::{Sticks, SticksConfig};
 use control::shapingq::StickShapingQ;
 
 use crate::motortest::{MotorTestSwitch, SwitchRequest};
-use crate::pipeline::Pipeline;
 use crate::runaway::RunawayCheck;
+use sensor_stack::pipeline::Pipeline;
 
 pub use crate::arming::{
     ArmBlockers, ArmRefusal, DisarmCause, Event, Events, MotorTestEnd, MotorTestRefusal,
@@ -188,6 +188,8 @@ pub const FAILSAFE_BLIND_RAMP_PER_S: f32 = 0.05;
 /// 0.5 N thrust differential (10 % of a 0.5 kg quad's hover thrust) on a
 /// 250-class quad (≈ 2·10⁻³ kg·m², 0.09 m lever) builds ≈ 13 °/s.
 pub const BAD_INPUT_HOLD_US: u32 = 10_000;
+// The sensor stack calls the MPU-9250 suspect after the same gap.
+const _: () = assert!(BAD_INPUT_HOLD_US == sensor_stack::sensors::MPU_STALL_US);
 /// Time constant of the hover-collective estimate's low-pass, s: long
 /// enough that a manoeuvre of a second or two moves it by less than half
 /// its excursion, short enough to follow the battery's sag.

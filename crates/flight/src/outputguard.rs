@@ -38,7 +38,7 @@
 //!   being re-checked, reset or is settling after its reset (a brown-out
 //!   on the sensor board put its registers back to their defaults, so its
 //!   data-ready interrupt stopped), the steps stop for the reset's length,
-//!   which the sensor stack flies through (`crate::sensors`, "Armed").
+//!   which the sensor stack flies through (`sensor_stack::sensors`, "Armed").
 //!   Then the outputs go to even thrust at the last collective (the mean
 //!   of the four commands: the quad-X mixer's torques cancel in it) once
 //!   no step came for [`BAD_INPUT_HOLD_US`], as the flight controller's

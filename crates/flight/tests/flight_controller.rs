@@ -135,8 +135,8 @@ fn self_levelling_modes_refuse_to_arm_without_accel_calibration_acro_arms() {
 
 #[test]
 fn the_pipeline_reports_whether_its_record_holds_an_accel_calibration() {
-    use flight::pipeline::{Pipeline, PipelineConfig};
-    use flight::storage::{CalibrationRecord, ValidParts};
+    use sensor_stack::pipeline::{Pipeline, PipelineConfig};
+    use sensor_stack::storage::{CalibrationRecord, ValidParts};
     // A blank flash page loads the defaults: no fitted accelerometer.
     let mut p = Pipeline::new(PipelineConfig::new(), &CalibrationRecord::default()).unwrap();
     assert!(!p.accel_calibrated());
@@ -904,7 +904,7 @@ fn altitude_lost_during_failsafe_descent_still_lands() {
 
 #[test]
 fn vehicle_state_from_the_pipeline_is_body_frd_in_rad_per_s() {
-    use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
+    use sensor_stack::pipeline::{ImuInput, Pipeline, PipelineConfig};
     let mut p = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
     p.set_gyro_bias_counts([0; 3]);
     // 328 counts at 32.8 counts/(°/s) = 10 °/s about each MPU axis.

@@ -13,7 +13,7 @@ use super::radio::Radio;
 use super::stack::{self, Stack};
 pub use flight::flightctl::FlightMode as Mode;
 use flight::flightctl::{PilotInput, VehicleState};
-use flight::storage::CalibrationRecord;
+use sensor_stack::storage::CalibrationRecord;
 use sim::faults::{FaultSchedule, FaultSpec};
 use sim::quad::QuadState;
 pub use sim::scenario::*;

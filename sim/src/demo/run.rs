@@ -146,7 +146,7 @@ pub fn run(opts: &RunOptions, sinks: &mut [&mut dyn RecordSink]) -> Result<RunRe
         opts.seed,
         opts.board_seed,
         opts.duration_s,
-        flight::pipeline::AHRS_KIND
+        sensor_stack::pipeline::AHRS_KIND
     );
     let (accel_cal, mag_cal) = ground_calibrations(&base, opts.mag_dance_s)?;
     let record = stack::calibration_record(&accel_cal.calibration, &mag_cal.calibration)?;
@@ -187,7 +187,7 @@ struct Flight {
 fn fly(
     opts: &RunOptions,
     base: &SimConfig,
-    record: &flight::storage::CalibrationRecord,
+    record: &sensor_stack::storage::CalibrationRecord,
     sinks: &mut [&mut dyn RecordSink],
     wall: std::time::Instant,
 ) -> Result<Flight, String> {

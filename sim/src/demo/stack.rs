@@ -7,9 +7,9 @@
 //!   and `calibration`'s estimators. [`calibration_record`] packs them into
 //!   the firmware's flash record (and through its byte encoding).
 //! * The flight: [`Stack`] is the firmware's per-sample path without the
-//!   RTIC wiring — `flight::sensors::Sensors` (boot probe, health, reads),
-//!   `flight::boot::StartupGyroBias`, `flight::schedule` (magnetometer
-//!   divider, cycle-counter dt) and `flight::pipeline::Pipeline` (raw counts
+//!   RTIC wiring — `sensor_stack::sensors::Sensors` (boot probe, health, reads),
+//!   `sensor_stack::boot::StartupGyroBias`, `sensor_stack::schedule` (magnetometer
+//!   divider, cycle-counter dt) and `sensor_stack::pipeline::Pipeline` (raw counts
 //!   → calibration → mounting → AHRS → vertical estimator → controllers),
 //!   called in the same order as the firmware's `imu` and `baro` tasks.
 
@@ -19,15 +19,15 @@ use calibration::{
     MagCalibration, MagMinMax, MagMinMaxConfig, Position, SixPositionEvent,
 };
 use embedded_hal::delay::DelayNs;
-use flight::boot::{BiasStatus, BootReport, StartupGyroBias};
-use flight::calmode::CalWants;
-use flight::pipeline::{Pipeline, PipelineConfig, G_MPS2};
-use flight::sample::{SampleIn, SampleStep};
-use flight::schedule::{DtClock, SampleScheduler, IMU_RATE_HZ, MAG_DIVIDER};
-use flight::sensors::{MagRead, Sensors as FlightSensors, SensorsConfig};
-use flight::storage::{CalibrationRecord, ValidParts};
 use host_console::note;
 use mpu9250::{Address, Config as MpuConfig, Mpu9250};
+use sensor_stack::boot::{BiasStatus, BootReport, StartupGyroBias};
+use sensor_stack::calmode::CalWants;
+use sensor_stack::pipeline::{Pipeline, PipelineConfig, G_MPS2};
+use sensor_stack::sample::{SampleIn, SampleStep};
+use sensor_stack::schedule::{DtClock, SampleScheduler, IMU_RATE_HZ, MAG_DIVIDER};
+use sensor_stack::sensors::{MagRead, Sensors as FlightSensors, SensorsConfig};
+use sensor_stack::storage::{CalibrationRecord, ValidParts};
 use sim::{SimBus, SimConfig, SimDelay, Trajectory};
 
 /// CPU clock of the simulated Blue Pill (its DWT cycle counter), Hz.
@@ -213,8 +213,8 @@ pub fn calibration_record(
         mag_soft_iron: mag.soft_iron,
         ..CalibrationRecord::default()
     };
-    flight::storage::validate(&rec).map_err(|f| format!("calibration record: bad {f:?}"))?;
-    flight::storage::decode(&flight::storage::encode(&rec))
+    sensor_stack::storage::validate(&rec).map_err(|f| format!("calibration record: bad {f:?}"))?;
+    sensor_stack::storage::decode(&sensor_stack::storage::encode(&rec))
         .map_err(|e| format!("calibration record: {e:?}"))
 }
 
@@ -248,7 +248,7 @@ pub struct Stack {
 }
 
 impl Stack {
-    /// Boots the chips (`flight::sensors::Sensors::boot`: probe with
+    /// Boots the chips (`sensor_stack::sensors::Sensors::boot`: probe with
     /// retries, configure) and builds the pipeline from their scales, the
     /// capabilities found and the stored calibration `record` — as the
     /// firmware's `init` does.

@@ -28,7 +28,7 @@ pub struct Tick {
 /// sample (every [`MAG_DIVIDER`]th).
 ///
 /// ```
-/// use flight::schedule::SampleScheduler;
+/// use sensor_stack::schedule::SampleScheduler;
 /// let mut s = SampleScheduler::new(10);
 /// let mags = (0..100).filter(|_| s.on_imu_sample().read_mag).count();
 /// assert_eq!(mags, 10);
@@ -133,7 +133,7 @@ impl Periodic {
 /// [`max_ms`](Self::new).
 ///
 /// ```
-/// use flight::schedule::Backoff;
+/// use sensor_stack::schedule::Backoff;
 /// let mut b = Backoff::new(1_000, 8_000);
 /// assert!(!b.due(0));            // first call arms it: due at 1 s
 /// assert!(b.due(1_000));
@@ -211,7 +211,7 @@ pub const LSI_MAX_HZ: u32 = 60_000;
 /// largest representable timeout (PR = 6, RLR = 4095) caps it.
 ///
 /// ```
-/// use flight::schedule::{iwdg_config, iwdg_timeout_range_ms};
+/// use sensor_stack::schedule::{iwdg_config, iwdg_timeout_range_ms};
 /// assert_eq!(iwdg_config(500), (1, 3_749));
 /// assert_eq!(iwdg_timeout_range_ms(1, 3_749), (500, 1_000));
 /// ```
@@ -315,7 +315,7 @@ pub struct LoopReport {
 /// [`report`](Self::report) closes the window.
 ///
 /// ```
-/// use flight::schedule::LoopStats;
+/// use sensor_stack::schedule::LoopStats;
 /// let mut s = LoopStats::new(0);
 /// s.record(100);
 /// s.record(300);
@@ -431,7 +431,7 @@ impl WatchdogGate {
 /// least once per counter wrap (the 1 kHz IMU task does).
 ///
 /// ```
-/// use flight::schedule::MicrosClock;
+/// use sensor_stack::schedule::MicrosClock;
 /// let mut c = MicrosClock::new(72_000_000, 0);
 /// assert_eq!(c.now_us(72_000), 1_000);
 /// assert_eq!(c.now_us(72_036), 1_000); // half a µs kept as remainder

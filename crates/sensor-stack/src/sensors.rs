@@ -43,7 +43,7 @@
 //!
 //! An MPU-9250 reset costs its samples for the reset and the 100 ms
 //! settle after it, which the flight controller flies open loop (its
-//! sensor-loss bridge, 0.25 s, in [`crate::flightctl`]); a glitch or a
+//! sensor-loss bridge, 0.25 s, in `flight::flightctl`); a glitch or a
 //! NACK burst costs a few samples at most. So while the caller says the
 //! craft is armed ([`Sensors::set_armed`]) the MPU-9250 is reset only once
 //! it is proven lost ([`crate::health::ResetPolicy`]): a failed read
@@ -57,7 +57,7 @@
 //! past [`MPU_STALL_US`] the chip is re-checked at once; while it answers
 //! wrong, is reset or settles ([`Sensors::mpu_recovering`]), the caller's
 //! output guard bridges the missing samples
-//! (`crate::outputguard`).
+//! (`flight::outputguard`).
 //! Measured on the simulator's 400 kHz bus (`tests/mpu_reset_in_flight.rs`):
 //! the longest step 0.82 ms (the reset poll with the configuration
 //! writes), the configuration check 0.55 ms. The AK8963's and MS5611's
@@ -174,11 +174,12 @@ pub enum Maintenance {
 }
 
 /// No sample step for this long while the MPU-9250 counts as healthy:
-/// it is suspect ([`Sensors::mpu_sample_gap`]). The flight controller's
-/// hold of its last commands (`crate::flightctl::BAD_INPUT_HOLD_US`): a
-/// healthy board's gaps are shorter but for a flash page erase (≤ 40 ms),
-/// which costs one re-check that finds the chip right.
-pub const MPU_STALL_US: u32 = crate::flightctl::BAD_INPUT_HOLD_US;
+/// it is suspect ([`Sensors::mpu_sample_gap`]). 10 ms: the flight
+/// controller's hold of its last commands (`flight::flightctl::BAD_INPUT_HOLD_US`,
+/// which asserts the two equal; this crate does not depend on the
+/// controller); a healthy board's gaps are shorter but for a flash page
+/// erase (≤ 40 ms), which costs one re-check that finds the chip right.
+pub const MPU_STALL_US: u32 = 10_000;
 
 /// Longest wait for the MPU-9250's H_RESET to clear, ms (the driver's
 /// blocking `init` polls as long).
@@ -846,7 +847,7 @@ impl<I: I2c> Sensors<I> {
     /// `true` while the MPU-9250 answered wrong and is being re-checked,
     /// reset or settled after its reset: its samples stop or are not used
     /// for that long, which the caller bridges
-    /// (`crate::outputguard::OutputGuard::set_mpu_recovering`). `false`
+    /// (`flight::outputguard::OutputGuard::set_mpu_recovering`). `false`
     /// for a chip that does not answer at all.
     pub fn mpu_recovering(&self) -> bool {
         self.mpu_gate.answered_wrong()

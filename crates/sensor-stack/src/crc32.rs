@@ -37,7 +37,7 @@ fn update(mut crc: u32, data: &[u8]) -> u32 {
 /// CRC-32/IEEE of `data`.
 ///
 /// ```
-/// assert_eq!(flight::crc32::crc32(b"123456789"), 0xCBF4_3926);
+/// assert_eq!(sensor_stack::crc32::crc32(b"123456789"), 0xCBF4_3926);
 /// ```
 pub fn crc32(data: &[u8]) -> u32 {
     !update(0xFFFF_FFFF, data)

@@ -149,7 +149,7 @@ pub enum DecodeError {
 /// Encodes a record into its [`RECORD_LEN`]-byte flash image.
 ///
 /// ```
-/// use flight::storage::{decode, encode, CalibrationRecord};
+/// use sensor_stack::storage::{decode, encode, CalibrationRecord};
 /// let rec = CalibrationRecord::default();
 /// assert_eq!(decode(&encode(&rec)), Ok(rec));
 /// ```

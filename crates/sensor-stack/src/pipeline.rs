@@ -18,7 +18,7 @@
 //!   Q30 quaternion in integer arithmetic ([`crate::angles`], within
 //!   1.2e-4 rad of the exact angles); only the vertical estimator runs in
 //!   f32. The attitude, rate and altitude-hold loops that drive the motors
-//!   are [`crate::flightctl`]'s, at the IMU rate, on
+//!   are `flight::flightctl`'s, at the IMU rate, on
 //!   [`Pipeline::quaternion`], [`Pipeline::body_rates`] and
 //!   [`Pipeline::altitude_estimate`].
 //!
@@ -346,7 +346,7 @@ impl Pipeline {
     /// [`control_step`](Self::control_step) is due.
     ///
     /// ```
-    /// use flight::pipeline::{ImuInput, Pipeline, PipelineConfig};
+    /// use sensor_stack::pipeline::{ImuInput, Pipeline, PipelineConfig};
     /// let mut p = Pipeline::new(PipelineConfig::new(), &Default::default()).unwrap();
     /// // Flat, face up, still: +1 g on z_mpu (8192 counts at ±4 g).
     /// let s = ImuInput { accel: [0, 0, 8192], gyro: [0; 3], dt_cycles: 72_000 };

@@ -17,7 +17,7 @@ pub struct AxisMap {
 /// forward: body = (x_mpu, −y_mpu, −z_mpu).
 ///
 /// ```
-/// use flight::Mounting;
+/// use sensor_stack::Mounting;
 /// let m = Mounting::default();
 /// assert_eq!(m.apply_i32([1, 2, 3]), [1, -2, -3]);
 /// ```
@@ -71,7 +71,7 @@ impl Mounting {
     /// board's mounting can be checked when the firmware is compiled:
     ///
     /// ```
-    /// use flight::mounting::{AxisMap, Mounting};
+    /// use sensor_stack::mounting::{AxisMap, Mounting};
     /// // Face up, x arrow pointing right: forward = y_mpu, right = x_mpu,
     /// // down = −z_mpu.
     /// const M: Mounting = match Mounting::new([

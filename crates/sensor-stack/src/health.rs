@@ -86,7 +86,7 @@ pub enum Action {
 /// Health of one sensor: state, counters, and the policy's memory.
 ///
 /// ```
-/// use flight::health::{Action, HealthPolicy, SensorHealth, SensorState};
+/// use sensor_stack::health::{Action, HealthPolicy, SensorHealth, SensorState};
 /// let mut h = SensorHealth::new(HealthPolicy::default());
 /// let r: Result<u8, ()> = h.with_retries(|| Ok(7));
 /// assert_eq!(r, Ok(7));
@@ -365,7 +365,7 @@ pub enum ResetVerdict {
 /// not at all.
 ///
 /// ```
-/// use flight::health::{ResetGate, ResetPolicy, ResetVerdict};
+/// use sensor_stack::health::{ResetGate, ResetPolicy, ResetVerdict};
 /// let mut g = ResetGate::new(ResetPolicy::default());
 /// g.suspect(0);
 /// assert!(g.due(0));

@@ -423,7 +423,7 @@ impl RawLogRow {
     ///
     /// ```
     /// let mut s = String::new();
-    /// flight::calmode::RawLogRow { t_s: 0.5, ..Default::default() }.write_csv(&mut s).unwrap();
+    /// sensor_stack::calmode::RawLogRow { t_s: 0.5, ..Default::default() }.write_csv(&mut s).unwrap();
     /// assert_eq!(s, "0.5,0,0,0,0,0,0,0,0,0,nan,nan,nan,nan,0");
     /// ```
     pub fn write_csv<W: core::fmt::Write>(&self, w: &mut W) -> core::fmt::Result {

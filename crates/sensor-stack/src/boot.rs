@@ -67,7 +67,7 @@ impl ProbeResult {
 /// count.
 ///
 /// ```
-/// use flight::boot::{probe_with_retries, ProbeFailure};
+/// use sensor_stack::boot::{probe_with_retries, ProbeFailure};
 /// # struct D; impl embedded_hal::delay::DelayNs for D { fn delay_ns(&mut self, _: u32) {} }
 /// let mut n = 0;
 /// let r = probe_with_retries(3, 1, &mut D, |_| { n += 1; if n < 2 { Err(()) } else { Ok(5) } },
