@@ -12,7 +12,7 @@
 //!   [`closed_loop::FlightControl`] ([`flight_fc`]: the firmware's flight
 //!   controller) flies it through the
 //!   scripted pilot of a [`closed_loop::Scenario`]; [`figures`] scores it,
-//!   [`plot_closed`] draws it.
+//!   [`timeline`] lists its events, [`plot_closed`] draws it.
 //!
 //! Printing that survives a closed pipe is `host_console`, shared with `replay`.
 
@@ -26,6 +26,7 @@ pub mod plot_closed;
 pub mod radio;
 pub mod run;
 pub mod stack;
+pub mod timeline;
 
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
