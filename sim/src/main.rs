@@ -44,7 +44,7 @@ FlightController flies it (scripted pilot), and the scenario's figures
 
 /// Command-line options (see `--help`).
 #[derive(Parser, Debug)]
-#[command(name = "sim", version, about = ABOUT, after_help = sim::faults::help(Rig::Sim), allow_negative_numbers = true)]
+#[command(name = "sim", version, about = ABOUT, after_help = after_help(), allow_negative_numbers = true)]
 struct Cli {
     /// The flight to simulate.
     #[arg(short, long, value_name = "NAME", default_value = "hover",
@@ -65,11 +65,15 @@ struct Cli {
     /// firmware's (fixed point by default; f32 with `--features f32-ahrs`).
     #[arg(long, value_enum, value_name = "KIND")]
     filter: Option<FilterArg>,
-    /// Per-sample CSV in the BROAD columns (for `replay`); `-` = stdout. Parent folders are created.
+    /// Per-sample CSV; `-` = stdout. Parent folders are created. A
+    /// trajectory's is in the BROAD columns (for `replay`); a scenario's has
+    /// the columns listed below (truth, estimate, setpoints, motors, events).
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
-    /// Plot of attitude, error and height against the truth, and the
-    /// magnetometer calibration; .png or .svg. Parent folders are created.
+    /// Plot; .png or .svg. Parent folders are created. A trajectory's:
+    /// attitude, error and height against the truth, and the magnetometer
+    /// calibration. A scenario's: its figures, its events on the time axis,
+    /// attitude, yaw rate, height, horizontal position, motors, battery.
     #[arg(long, value_name = "FILE")]
     plot: Option<PathBuf>,
     /// A status line every this many simulated seconds, >= 0 (0 = never).
@@ -87,8 +91,9 @@ struct Cli {
     /// Fly the quadcopter model in a closed loop instead of a trajectory:
     /// the chips read its motion, the firmware's pipeline estimates it, the
     /// flight controller flies it through a scripted pilot. Prints the
-    /// scenario's figures; --plot draws the responses.
-    #[arg(long, value_name = "NAME", conflicts_with_all = ["trajectory", "csv", "duration"],
+    /// scenario's figures and events; --plot draws them, --csv logs every
+    /// sample.
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["trajectory", "duration"],
           value_parser = clap::builder::PossibleValuesParser::new(demo::closed_loop::Scenario::NAMES))]
     scenario: Option<String>,
     /// No progress line on stderr.
@@ -102,6 +107,15 @@ enum FilterArg {
     F32,
     /// Fixed-point (Q2.30) Madgwick.
     Fixed,
+}
+
+/// The text after the options: the fault kinds, the scenario CSV's columns.
+fn after_help() -> String {
+    format!(
+        "{}\n{}",
+        sim::faults::help(Rig::Sim),
+        demo::scenario_csv::help()
+    )
 }
 
 /// A parser for seconds in `(lo, hi]` (`lo` itself allowed when 0 means "never").
@@ -132,9 +146,29 @@ fn seconds_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone 
 /// succeeded (`host_console::SafeFile`): a failed or interrupted run leaves
 /// an existing file as it was.
 struct Outputs {
-    /// The CSV writer, and its file unless it writes to stdout.
-    csv: Option<(CsvWriter, Option<SafeFile>)>,
+    csv: Option<CsvOut>,
     plot: Option<SafeFile>,
+}
+
+/// Where the CSV goes.
+enum CsvOut {
+    /// Standard output (`--csv -`).
+    Stdout,
+    /// A file: its temporary file, open.
+    File(SafeFile, std::fs::File),
+}
+
+impl CsvOut {
+    /// The stream to write and its name in errors, and the file to commit.
+    fn open(self) -> (Box<dyn std::io::Write>, String, Option<SafeFile>) {
+        match self {
+            Self::Stdout => (Box::new(std::io::stdout()), "stdout".into(), None),
+            Self::File(out, file) => {
+                let name = out.target().display().to_string();
+                (Box::new(file), name, Some(out))
+            }
+        }
+    }
 }
 
 impl Outputs {
@@ -209,12 +243,11 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
     let csv = match &cli.csv {
         Some(p) if is_stdout(p) => {
             host_console::use_stderr();
-            Some((CsvWriter::new(Box::new(std::io::stdout()), "stdout")?, None))
+            Some(CsvOut::Stdout)
         }
         Some(p) => {
             let (out, file) = create(p, "--csv")?;
-            let name = p.display().to_string();
-            Some((CsvWriter::new(Box::new(file), &name)?, Some(out)))
+            Some(CsvOut::File(out, file))
         }
         None => None,
     };
@@ -266,7 +299,10 @@ fn create(path: &Path, what: &str) -> Result<(SafeFile, std::fs::File), String> 
 
 fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
     let Outputs { csv, plot } = outputs;
-    let (mut csv, csv_file) = csv.unzip();
+    let (mut csv, csv_file) = match csv.map(CsvOut::open) {
+        Some((out, name, file)) => (Some(CsvWriter::new(out, &name)?), file),
+        None => (None, None),
+    };
     let mut series = PlotSeries::default();
     let result = {
         let mut sinks: Vec<&mut dyn RecordSink> = Vec::new();
@@ -291,7 +327,7 @@ fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
         demo::plot::write_plot(out.temp_path(), &title, &series, &result.mag_cal)
             .map_err(|e| format!("plotting {}: {e}", out.target().display()))?;
     }
-    Outputs::commit(csv_file.flatten(), plot)?;
+    Outputs::commit(csv_file, plot)?;
     print_summary(opts, &result);
     if result.summary.samples == 0 {
         return Err(format!(
@@ -302,7 +338,8 @@ fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
     Ok(())
 }
 
-/// A closed-loop scenario: fly it, print its figures, plot it.
+/// A closed-loop scenario: fly it, write its outputs, print its events and
+/// figures.
 fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), String> {
     use demo::closed_loop::{fly, ClosedLoopOptions, FlightControl, Scenario};
     let scenario = Scenario::from_name(name).ok_or_else(|| format!("unknown scenario `{name}`"))?;
@@ -321,17 +358,64 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
         fc.name()
     );
     let log = fly(&opts, &mut fc)?;
-    if let Some(out) = outputs.plot {
-        let title = format!("sim closed loop: {} seed {}", scenario.name(), opts.seed);
-        demo::plot_closed::write_plot(out.temp_path(), &title, &log)
-            .map_err(|e| format!("plotting {}: {e}", out.target().display()))?;
-        Outputs::commit(None, Some(out))?;
+    if log.samples.is_empty() {
+        return Err(format!(
+            "the flight produced no samples ({} data-ready interrupts, every IMU read failed)",
+            log.missed
+        ));
     }
+    let title = format!("sim closed loop: {} seed {}", scenario.name(), opts.seed);
+    write_scenario_outputs(&log, &title, outputs)?;
+    print_scenario(&log, &opts);
+    Ok(())
+}
+
+/// Writes the scenario's plot and CSV beside their targets, then renames
+/// both over them (neither when either failed).
+fn write_scenario_outputs(
+    log: &demo::closed_loop::FlightLog,
+    title: &str,
+    outputs: Outputs,
+) -> Result<(), String> {
+    if let Some(out) = &outputs.plot {
+        demo::plot_closed::write_plot(out.temp_path(), title, log)
+            .map_err(|e| format!("plotting {}: {e}", out.target().display()))?;
+    }
+    let csv_file = match outputs.csv.map(CsvOut::open) {
+        Some((stream, name, file)) => {
+            write_scenario_csv(stream, &name, log)?;
+            file
+        }
+        None => None,
+    };
+    Outputs::commit(csv_file, outputs.plot)
+}
+
+/// The scenario CSV into `stream`; a reader that went away (a closed
+/// stdout) is not an error.
+fn write_scenario_csv(
+    stream: Box<dyn std::io::Write>,
+    name: &str,
+    log: &demo::closed_loop::FlightLog,
+) -> Result<(), String> {
+    use std::io::Write;
+    let events = demo::timeline::timeline(log);
+    let mut w = std::io::BufWriter::new(stream);
+    let res = demo::scenario_csv::write(&mut w, log, &events).and_then(|()| w.flush());
+    match res {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(format!("writing {name}: {e}")),
+        Ok(()) => Ok(()),
+    }
+}
+
+/// The scenario's events and figures on the status lines.
+fn print_scenario(log: &demo::closed_loop::FlightLog, opts: &demo::closed_loop::ClosedLoopOptions) {
     for (t, e) in &log.events {
         say!("t {t:7.3} s: {e}");
     }
-    say!("== figures: {} seed {} ==", scenario.name(), opts.seed);
-    for line in demo::figures::figures(&log).lines() {
+    say!("== figures: {} seed {} ==", opts.scenario.name(), opts.seed);
+    for line in demo::figures::figures(log).lines() {
         say!("{line}");
     }
     say!(
@@ -345,7 +429,6 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
             String::new()
         }
     );
-    Ok(())
 }
 
 fn print_summary(opts: &RunOptions, r: &RunResult) {

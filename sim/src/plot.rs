@@ -2,7 +2,13 @@
 //! `cargo fil`: the output-path checks, the building blocks (a time-series
 //! chart with its legend strip, autoscaling, the embedded font) and a
 //! figure of stacked time-series [`Panel`]s, which is what both tools'
-//! `--scenario … --plot` draw.
+//! `--scenario … --plot` draw, optionally with notes under the title (the
+//! run's figures) and an event timeline ([`Marker`]s: a labelled strip
+//! under the notes and a vertical line on every panel).
+//!
+//! A series breaks its line at a non-finite value ([`BREAK`]);
+//! [`wrap_series_deg`] uses that to keep an angle within ±180° without a
+//! vertical line across the panel where it wraps.
 //!
 //! The font (DejaVu Sans) is compiled in, so the text does not depend on
 //! what the machine has installed. PNG or SVG by the file's extension.
@@ -116,6 +122,44 @@ pub fn time_chart<'a, DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
+    let solid: Vec<(&str, LineStyle)> = legend
+        .iter()
+        .map(|(name, style)| (*name, LineStyle::solid(*style)))
+        .collect();
+    styled_time_chart(area, caption, t_max, y, y_desc, &solid)
+}
+
+/// A line's look: its stroke, and whether it is dashed.
+#[derive(Clone, Copy, Debug)]
+pub struct LineStyle {
+    /// Colour and width.
+    pub stroke: ShapeStyle,
+    /// Drawn in dashes (6 px on, 4 px off), in the legend too.
+    pub dashed: bool,
+}
+
+impl LineStyle {
+    /// A solid line.
+    pub fn solid(stroke: ShapeStyle) -> Self {
+        Self {
+            stroke,
+            dashed: false,
+        }
+    }
+}
+
+/// [`time_chart`] with legend samples that may be dashed, as drawn.
+pub fn styled_time_chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    t_max: f64,
+    y: Range<f64>,
+    y_desc: &str,
+    legend: &[(&str, LineStyle)],
+) -> Result<Chart<'a, DB>, Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
     let (plot_area, legend_area) = area.split_horizontally(area.dim_in_pixel().0 - LEGEND_W);
     draw_legend(&legend_area, legend)?;
     let mut c = ChartBuilder::on(&plot_area)
@@ -132,37 +176,109 @@ where
     Ok(c)
 }
 
-/// Legend entries (a line sample and a name) stacked in their own strip.
+/// Legend entries (a line sample drawn as the line is, and a name)
+/// stacked in their own strip.
 fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    entries: &[(&str, ShapeStyle)],
+    entries: &[(&str, LineStyle)],
 ) -> Res
 where
     DB::ErrorType: 'static,
 {
     for (i, (name, style)) in entries.iter().enumerate() {
         let y = 50 + 24 * i as i32;
-        area.draw(&PathElement::new(vec![(10, y), (40, y)], *style))?;
+        if style.dashed {
+            for x in [8, 18, 28, 38] {
+                area.draw(&PathElement::new(vec![(x, y), (x + 6, y)], style.stroke))?;
+            }
+        } else {
+            area.draw(&PathElement::new(vec![(10, y), (40, y)], style.stroke))?;
+        }
         area.draw(&Text::new(name.to_string(), (48, y - 8), (FONT, 15)))?;
     }
     Ok(())
 }
 
-/// One named line of a panel: `(t in s, value)` points in time order.
+/// The value that breaks a series' line: the points on either side are
+/// not joined.
+pub const BREAK: f64 = f64::NAN;
+
+/// Wraps an angle into [−180°, 180°).
+pub fn wrap_deg(a: f64) -> f64 {
+    let w = (a + 180.0).rem_euclid(360.0) - 180.0;
+    // rem_euclid may round up to the modulus itself (for a tiny negative).
+    if w >= 180.0 {
+        w - 360.0
+    } else {
+        w
+    }
+}
+
+/// An angle series wrapped into [−180°, 180°), with a [`BREAK`] where
+/// the wrapped angle jumps by more than 180° between two points (where it
+/// went through ±180°), so the line is not drawn across the panel.
+pub fn wrap_series_deg(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut out = Vec::with_capacity(points.len() + 8);
+    let mut prev: Option<f64> = None;
+    for &(t, a) in points {
+        let w = wrap_deg(a);
+        if prev.is_some_and(|p| (w - p).abs() > 180.0) {
+            out.push((t, BREAK));
+        }
+        prev = w.is_finite().then_some(w);
+        out.push((t, w));
+    }
+    out
+}
+
+/// The runs of finite points of `points` (the pieces of a line broken at
+/// each [`BREAK`]), each evenly decimated to at most 4,000 points (its
+/// last point kept).
+pub fn segments(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
+    let stride = points.len().div_ceil(MAX_POINTS).max(1);
+    points
+        .split(|p| !p.1.is_finite() || !p.0.is_finite())
+        .filter(|run| !run.is_empty())
+        .map(|run| {
+            let mut v: Vec<(f64, f64)> = run.iter().step_by(stride).copied().collect();
+            if let (Some(last), Some(kept)) = (run.last(), v.last()) {
+                if last != kept {
+                    v.push(*last);
+                }
+            }
+            v
+        })
+        .collect()
+}
+
+/// One named line of a panel: `(t in s, value)` points in time order; a
+/// non-finite value ([`BREAK`]) breaks the line.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Series {
     /// The legend's name.
     pub name: String,
     /// The points.
     pub points: Vec<(f64, f64)>,
+    /// A reference the others are judged against (a setpoint, a target):
+    /// drawn dashed black whatever its place in the panel.
+    pub reference: bool,
 }
 
 impl Series {
-    /// A series named `name`.
+    /// A series named `name`, styled by its place in the panel ([`Look`]).
     pub fn new(name: &str, points: Vec<(f64, f64)>) -> Self {
         Self {
             name: name.to_string(),
             points,
+            reference: false,
+        }
+    }
+
+    /// A reference series (setpoint, target): dashed black.
+    pub fn reference(name: &str, points: Vec<(f64, f64)>) -> Self {
+        Self {
+            reference: true,
+            ..Self::new(name, points)
         }
     }
 }
@@ -214,99 +330,309 @@ impl Panel {
     }
 }
 
+/// An instant of the run worth seeing on every panel (an event).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Marker {
+    /// When (s).
+    pub t_s: f64,
+    /// What, in a few words.
+    pub label: String,
+}
+
+/// A whole figure: panels, and what [`write_figure`] draws above them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Figure {
+    /// Lines of text under the title (the run's figures), wrapped to the
+    /// figure's width.
+    pub notes: Vec<String>,
+    /// The event timeline: a labelled strip above the panels and a
+    /// vertical line on each panel.
+    pub markers: Vec<Marker>,
+    /// The time-series panels, stacked.
+    pub panels: Vec<Panel>,
+}
+
 /// Draws `panels` stacked under `title` into `path` (.png or .svg, by the
 /// extension). An error if no series has a point.
 pub fn write_panels(path: &Path, title: &str, panels: &[Panel]) -> Result<(), String> {
+    let figure = Figure {
+        panels: panels.to_vec(),
+        ..Figure::default()
+    };
+    write_figure(path, title, &figure)
+}
+
+/// Draws `figure` under `title` into `path` (.png or .svg, by the
+/// extension): the notes, the event strip (when there are markers), then
+/// the panels. An error if no series has a point.
+pub fn write_figure(path: &Path, title: &str, figure: &Figure) -> Result<(), String> {
     let format = PlotFormat::from_path(path)?;
-    let points = panels.iter().flat_map(|p| &p.series);
+    let points = figure.panels.iter().flat_map(|p| &p.series);
     if points.clone().all(|s| s.points.is_empty()) {
         return Err("nothing to plot: the flight produced no samples".into());
     }
     load_font()?;
-    let size = (WIDTH, TITLE_H + PANEL_H * panels.len() as u32);
+    let layout = Layout::of(figure);
+    let size = (WIDTH, layout.height());
     let res = match format {
-        PlotFormat::Png => draw_panels(
+        PlotFormat::Png => draw_figure(
             BitMapBackend::new(path, size).into_drawing_area(),
             title,
-            panels,
+            figure,
+            &layout,
         ),
-        PlotFormat::Svg => draw_panels(
+        PlotFormat::Svg => draw_figure(
             SVGBackend::new(path, size).into_drawing_area(),
             title,
-            panels,
+            figure,
+            &layout,
         ),
     };
     res.map_err(|e| e.to_string())
 }
 
-fn draw_panels<DB: DrawingBackend>(
+/// Height of a line of notes (px).
+const NOTE_LINE_H: u32 = 20;
+/// Characters of a line of notes before it wraps (14 px DejaVu Sans is
+/// about 8 px a character on average).
+const NOTE_CHARS: usize = (WIDTH as usize - 40) / 8;
+/// Rows of the event strip (labels in all but the last, which holds the
+/// ticks of markers left unlabelled), and the height of one (px).
+const EVENT_ROWS: usize = 4;
+const EVENT_ROW_H: u32 = 19;
+
+/// The figure's strips, top to bottom (px).
+struct Layout {
+    notes: Vec<String>,
+    notes_h: u32,
+    events_h: u32,
+    panels: u32,
+}
+
+impl Layout {
+    fn of(figure: &Figure) -> Self {
+        let notes: Vec<String> = figure
+            .notes
+            .iter()
+            .flat_map(|n| wrap_words(n, NOTE_CHARS))
+            .collect();
+        let notes_h = if notes.is_empty() {
+            0
+        } else {
+            NOTE_LINE_H * notes.len() as u32 + 10
+        };
+        let events_h = if figure.markers.is_empty() {
+            0
+        } else {
+            EVENT_ROW_H * EVENT_ROWS as u32 + 60
+        };
+        Self {
+            notes,
+            notes_h,
+            events_h,
+            panels: figure.panels.len() as u32,
+        }
+    }
+
+    fn height(&self) -> u32 {
+        TITLE_H + self.notes_h + self.events_h + PANEL_H * self.panels
+    }
+}
+
+/// `text` in lines of at most `width` characters, broken between words
+/// (a longer word gets a line of its own).
+fn wrap_words(text: &str, width: usize) -> Vec<String> {
+    let mut lines = vec![String::new()];
+    for word in text.split_whitespace() {
+        let Some(line) = lines.last_mut() else { break };
+        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
+            lines.push(word.to_string());
+        } else {
+            if !line.is_empty() {
+                line.push(' ');
+            }
+            line.push_str(word);
+        }
+    }
+    lines
+}
+
+fn draw_figure<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     title: &str,
-    panels: &[Panel],
+    figure: &Figure,
+    layout: &Layout,
 ) -> Res
 where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
     let root = root.titled(title, (FONT, 26))?;
-    let t_max = panels
+    let t_max = figure
+        .panels
         .iter()
         .flat_map(|p| &p.series)
         .filter_map(|s| s.points.last().map(|p| p.0))
         .fold(1.0, f64::max);
-    let breaks: Vec<u32> = (1..panels.len() as u32).map(|i| i * PANEL_H).collect();
-    let rows = root.split_by_breakpoints([] as [u32; 0], breaks);
-    for (panel, area) in panels.iter().zip(&rows) {
-        draw_panel(area, panel, t_max)?;
+    let (notes, rest) = root.split_vertically(layout.notes_h);
+    for (i, line) in layout.notes.iter().enumerate() {
+        let y = 4 + (NOTE_LINE_H * i as u32) as i32;
+        notes.draw(&Text::new(line.as_str(), (20, y), (FONT, 14)))?;
+    }
+    let (events, panels_area) = rest.split_vertically(layout.events_h);
+    if layout.events_h > 0 {
+        draw_events(&events, &figure.markers, t_max)?;
+    }
+    let breaks: Vec<u32> = (1..layout.panels).map(|i| i * PANEL_H).collect();
+    let rows = panels_area.split_by_breakpoints([] as [u32; 0], breaks);
+    for (panel, area) in figure.panels.iter().zip(&rows) {
+        draw_panel(area, panel, t_max, &figure.markers)?;
     }
     root.present()?;
     Ok(())
 }
 
-/// The style of series `i` in a panel of `look`.
-fn style(look: Look, i: usize) -> ShapeStyle {
-    match look {
+/// The colour of the event lines.
+const EVENT_COLOR: RGBColor = RGBColor(120, 60, 160);
+
+/// The event strip: a time axis like the panels', a line at each marker,
+/// labels in rows so they do not overlap (a label with no room left is
+/// counted in the caption instead, its marker a tick in the last row).
+fn draw_events<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    markers: &[Marker],
+    t_max: f64,
+) -> Res
+where
+    DB::ErrorType: 'static,
+{
+    let mut placed = Vec::new();
+    let mut row_end = [i32::MIN; EVENT_ROWS - 1];
+    let (plot_area, _) = area.split_horizontally(area.dim_in_pixel().0 - LEGEND_W);
+    let px = |t: f64| {
+        // The panels' plot area: 8 px margin and the 60 px y-label area on
+        // the left, 8 px on the right.
+        let (l, r) = (68.0, f64::from(plot_area.dim_in_pixel().0) - 8.0);
+        (l + (r - l) * t / t_max) as i32
+    };
+    for m in markers {
+        let x = px(m.t_s);
+        let text = format!("{} ({:.2} s)", m.label, m.t_s);
+        let w = 8 * text.chars().count() as i32;
+        if let Some(row) = row_end.iter().position(|end| x > *end + 6) {
+            row_end[row] = x + w;
+            placed.push((m.t_s, row, text));
+        }
+    }
+    let unlabelled = markers.len() - placed.len();
+    let caption = if unlabelled == 0 {
+        "events".to_string()
+    } else {
+        format!("events ({unlabelled} not labelled for want of room; all are in the --csv file)")
+    };
+    draw_event_chart(&plot_area, &caption, markers, &placed, t_max)
+}
+
+/// The chart of [`draw_events`]: the lines, and the placed labels.
+fn draw_event_chart<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    markers: &[Marker],
+    placed: &[(f64, usize, String)],
+    t_max: f64,
+) -> Res
+where
+    DB::ErrorType: 'static,
+{
+    let rows = EVENT_ROWS as f64;
+    let mut c = ChartBuilder::on(area)
+        .margin(8)
+        .caption(caption, (FONT, 17))
+        .x_label_area_size(22)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..t_max, 0.0..rows)?;
+    c.configure_mesh()
+        .disable_mesh()
+        .disable_y_axis()
+        .label_style((FONT, 13))
+        .draw()?;
+    let line = EVENT_COLOR.stroke_width(1);
+    // Each line rises to its own label's row only, so it never crosses
+    // the labels above it; an unlabelled marker is a tick in the last row.
+    for m in markers {
+        c.draw_series(LineSeries::new([(m.t_s, 0.0), (m.t_s, 0.6)], line))?;
+    }
+    for (t, row, text) in placed {
+        let y = rows - *row as f64 - 0.15;
+        c.draw_series(LineSeries::new([(*t, 0.0), (*t, y + 0.15)], line))?;
+        let font = (FONT, 14).into_font().color(&EVENT_COLOR);
+        c.draw_series(std::iter::once(
+            EmptyElement::at((*t, y)) + Text::new(text.clone(), (4, 0), font),
+        ))?;
+    }
+    Ok(())
+}
+
+/// The style of series `i` of `panel`.
+fn style(panel: &Panel, i: usize) -> LineStyle {
+    let reference = LineStyle {
+        stroke: BLACK.mix(0.8).stroke_width(1),
+        dashed: true,
+    };
+    if panel.series.get(i).is_some_and(|s| s.reference) {
+        return reference;
+    }
+    match panel.look {
         Look::Tracking(color) => match i {
-            0 => color.mix(0.35).stroke_width(5),
-            1 => color.stroke_width(1),
-            _ => BLACK.mix(0.8).stroke_width(1),
+            0 => LineStyle::solid(color.mix(0.35).stroke_width(5)),
+            1 => LineStyle::solid(color.stroke_width(1)),
+            2 => reference,
+            _ => LineStyle::solid(BLACK.mix(0.8).stroke_width(1)),
         },
         Look::Channels => {
             let colors = [COLORS[0], COLORS[1], COLORS[2], ORANGE, BLACK];
-            colors[i % colors.len()].stroke_width(1)
+            LineStyle::solid(colors[i % colors.len()].stroke_width(1))
         }
     }
 }
 
-fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &Panel, t_max: f64) -> Res
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    panel: &Panel,
+    t_max: f64,
+    markers: &[Marker],
+) -> Res
 where
     DB::ErrorType: 'static,
 {
-    let lines: Vec<Vec<(f64, f64)>> = panel
-        .series
-        .iter()
-        .map(|s| {
-            let stride = s.points.len().div_ceil(MAX_POINTS).max(1);
-            s.points.iter().step_by(stride).copied().collect()
-        })
-        .collect();
-    let y = panel
-        .y_range
-        .clone()
-        .unwrap_or_else(|| autoscale(lines.iter().flatten().map(|(_, v)| v), panel.min_span));
-    let styles: Vec<ShapeStyle> = (0..lines.len()).map(|i| style(panel.look, i)).collect();
-    let legend: Vec<(&str, ShapeStyle)> = panel
+    let lines: Vec<Vec<Vec<(f64, f64)>>> =
+        panel.series.iter().map(|s| segments(&s.points)).collect();
+    let y = panel.y_range.clone().unwrap_or_else(|| {
+        autoscale(
+            lines.iter().flatten().flatten().map(|(_, v)| v),
+            panel.min_span,
+        )
+    });
+    let styles: Vec<LineStyle> = (0..lines.len()).map(|i| style(panel, i)).collect();
+    let legend: Vec<(&str, LineStyle)> = panel
         .series
         .iter()
         .map(|s| s.name.as_str())
         .zip(styles.iter().copied())
         .collect();
-    let mut c = time_chart(area, &panel.caption, t_max, y, &panel.unit, &legend)?;
-    for (i, (l, style)) in lines.into_iter().zip(styles).enumerate() {
-        if matches!(panel.look, Look::Tracking(_)) && i == 2 {
-            c.draw_series(DashedLineSeries::new(l, 6, 4, style))?;
-        } else {
-            c.draw_series(LineSeries::new(l, style))?;
+    let mut c = styled_time_chart(area, &panel.caption, t_max, y.clone(), &panel.unit, &legend)?;
+    let event_line = EVENT_COLOR.mix(0.6).stroke_width(1);
+    for m in markers {
+        let l = [(m.t_s, y.start), (m.t_s, y.end)];
+        c.draw_series(DashedLineSeries::new(l, 3, 3, event_line))?;
+    }
+    for (segs, style) in lines.into_iter().zip(styles) {
+        for l in segs {
+            if style.dashed {
+                c.draw_series(DashedLineSeries::new(l, 6, 4, style.stroke))?;
+            } else {
+                c.draw_series(LineSeries::new(l, style.stroke))?;
+            }
         }
     }
     Ok(())
@@ -337,6 +663,80 @@ mod tests {
         assert!(check_plot_path(Path::new("x.txt"))
             .unwrap_err()
             .starts_with("--plot x.txt"));
+    }
+
+    proptest::proptest! {
+        /// Wrapped angles stay in [−180°, 180°), equal the input modulo
+        /// 360°, and the line breaks exactly where it would jump by more
+        /// than half a turn.
+        #[test]
+        fn wrapped_series_stay_within_half_a_turn(
+            angles in proptest::collection::vec(-1e5f64..1e5, 0..200),
+            tiny in -1e-12f64..0.0,
+        ) {
+            let mut pts: Vec<(f64, f64)> = angles
+                .iter()
+                .enumerate()
+                .map(|(i, a)| (i as f64, *a))
+                .collect();
+            // Just below −180°, where rem_euclid may round to the modulus.
+            pts.push((pts.len() as f64, -180.0 + tiny));
+            let out = wrap_series_deg(&pts);
+            let kept: Vec<&(f64, f64)> = out.iter().filter(|p| p.1.is_finite()).collect();
+            proptest::prop_assert_eq!(kept.len(), pts.len());
+            for (w, p) in kept.iter().zip(&pts) {
+                proptest::prop_assert!((-180.0..180.0).contains(&w.1), "{} -> {}", p.1, w.1);
+                let turns = (p.1 - w.1) / 360.0;
+                proptest::prop_assert!((turns - turns.round()).abs() < 1e-9, "{} -> {}", p.1, w.1);
+            }
+            for seg in segments(&out) {
+                for pair in seg.windows(2) {
+                    proptest::prop_assert!((pair[1].1 - pair[0].1).abs() <= 180.0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_steady_roll_through_a_loop_wraps_once_per_turn() {
+        let pts: Vec<(f64, f64)> = (0..=720).map(|i| (f64::from(i), f64::from(i))).collect();
+        let out = wrap_series_deg(&pts);
+        // 0..720° crosses +180° twice (at 180° and 540°).
+        assert_eq!(out.iter().filter(|p| p.1.is_nan()).count(), 2);
+        assert_eq!(segments(&out).len(), 3);
+        assert_eq!(wrap_deg(180.0), -180.0);
+        assert_eq!(wrap_deg(-180.0), -180.0);
+        // Just below −180°: rem_euclid rounds up to 360°, which must not
+        // give +180°.
+        let w = wrap_deg(-180.0 - 3e-14);
+        assert!((-180.0..180.0).contains(&w), "{w}");
+    }
+
+    #[test]
+    fn a_reference_series_is_dashed_in_the_legend_as_drawn() {
+        let panel = Panel::new(
+            "p",
+            "deg",
+            Look::Tracking(BLACK),
+            vec![
+                Series::new("truth", vec![]),
+                Series::reference("setpoint", vec![]),
+                Series::new("other", vec![]),
+            ],
+        );
+        let styles: Vec<bool> = (0..3).map(|i| style(&panel, i).dashed).collect();
+        // Position 2 of a tracking panel is dashed by place (the emulator's
+        // plots rely on it); the reference at 1 by its role.
+        assert_eq!(styles, [false, true, true]);
+        let channels = Panel::new("c", "", Look::Channels, panel.series.clone());
+        assert!(style(&channels, 1).dashed && !style(&channels, 2).dashed);
+    }
+
+    #[test]
+    fn notes_wrap_between_words() {
+        let lines = wrap_words("aaa bbb ccc dddddddddd e", 7);
+        assert_eq!(lines, ["aaa bbb", "ccc", "dddddddddd", "e"]);
+        assert!(wrap_words("a b", 7) == ["a b"]);
     }
 
     #[test]

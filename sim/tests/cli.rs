@@ -158,7 +158,7 @@ fn a_closed_loop_scenario_prints_its_figures_and_plots() {
 fn a_scenario_refuses_the_open_loop_options() {
     refused(&["--scenario", "hover"], "invalid value");
     refused(
-        &["--scenario", "steps", "--csv", "x.csv"],
+        &["--scenario", "steps", "--duration", "5"],
         "cannot be used with",
     );
     refused(
@@ -241,4 +241,88 @@ fn an_interrupted_run_leaves_the_existing_plot_intact() {
     assert_eq!(std::fs::read(&png).unwrap(), b"an old plot");
     assert_eq!(names(&d), ["keep.png"]);
     let _ = std::fs::remove_dir_all(d);
+}
+
+/// A scenario that fails (every IMU read fails: no sample to log or plot)
+/// leaves the existing plot and CSV byte-identical, no temporary file.
+#[test]
+fn a_failed_scenario_leaves_existing_outputs_intact() {
+    let d = dir("scenario-failed");
+    let (png, csv) = (d.join("keep.png"), d.join("keep.csv"));
+    std::fs::write(&png, b"an old plot").unwrap();
+    std::fs::write(&csv, b"an old csv").unwrap();
+    let o = sim(&[
+        "--scenario",
+        "takeoff",
+        "--mag-dance",
+        "10",
+        "--fault",
+        "0:scl-stuck",
+        "--plot",
+        png.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no samples"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&png).unwrap(), b"an old plot");
+    assert_eq!(std::fs::read(&csv).unwrap(), b"an old csv");
+    assert_eq!(names(&d), ["keep.csv", "keep.png"]);
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// `--scenario NAME --csv FILE` writes the documented columns (the header
+/// `--help` lists), one row per sample, and replaces an old file.
+#[test]
+fn a_scenario_csv_has_the_documented_columns() {
+    let d = dir("scenario-csv");
+    let csv = d.join("out/steps.csv");
+    std::fs::create_dir_all(d.join("out")).unwrap();
+    std::fs::write(&csv, b"an old csv").unwrap();
+    let o = sim(&[
+        "--scenario",
+        "steps",
+        "--mag-dance",
+        "10",
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let help = String::from_utf8_lossy(&sim(&["--help"]).stdout).into_owned();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    assert_eq!(header.first(), Some(&"t_s"));
+    assert_eq!(header.last(), Some(&"events"));
+    for name in &header {
+        assert!(
+            help.contains(&format!("  {name} ")),
+            "`{name}` not in --help"
+        );
+    }
+    let out = String::from_utf8_lossy(&o.stdout);
+    // The status line `N samples, M CRSF frames ...`.
+    let samples: usize = out
+        .lines()
+        .find_map(|l| l.split_once(" samples, ").and_then(|(n, _)| n.parse().ok()))
+        .unwrap();
+    assert_eq!(text.lines().count(), samples + 1);
+    assert!(text.lines().all(|l| l.split(',').count() == header.len()));
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// The scenario CSV to a stdout that closes: no panic, status 0, the
+/// status lines on stderr.
+#[test]
+fn a_scenario_csv_to_a_closed_stdout_is_not_a_panic() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sim"))
+        .args(["--scenario", "takeoff", "--mag-dance", "10", "--csv", "-"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("== figures"), "{}", stderr(&o));
 }

@@ -12,7 +12,8 @@
 //!   [`closed_loop::FlightControl`] ([`flight_fc`]: the firmware's flight
 //!   controller) flies it through the
 //!   scripted pilot of a [`closed_loop::Scenario`]; [`figures`] scores it,
-//!   [`plot_closed`] draws it.
+//!   [`timeline`] lists its events, [`plot_closed`] draws it,
+//!   [`scenario_csv`] logs it sample by sample.
 //!
 //! Printing that survives a closed pipe is `host_console`, shared with `replay`.
 
@@ -25,7 +26,9 @@ pub mod plot;
 pub mod plot_closed;
 pub mod radio;
 pub mod run;
+pub mod scenario_csv;
 pub mod stack;
+pub mod timeline;
 
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]

@@ -1,7 +1,8 @@
 //! The plot of a run (plotters): roll, pitch and yaw against the truth, each
-//! on its own autoscaled axis (angles unwrapped, so a yaw through ±180° is a
-//! continuous line and the estimate is drawn on the truth's side of the
-//! wrap), the attitude error, the height, and the magnetometer samples
+//! on its own autoscaled axis (roll kept within ±180°, its line broken
+//! where it wraps, so a looping trajectory stays readable; yaw unwrapped,
+//! so a heading through ±180° is a continuous line and the estimate is
+//! drawn on the truth's side of the wrap), the attitude error, the height, and the magnetometer samples
 //! before/after calibration as XY / YZ / XZ scatter plots. Legends sit in
 //! a strip right of the data.
 //!
@@ -12,7 +13,9 @@ use super::run::{attitude_errors, Record, RecordSink};
 use super::stack::MagCalRun;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use sim::plot::{autoscale, load_font, time_chart, PlotFormat, Res, COLORS, FONT};
+use sim::plot::{
+    autoscale, load_font, segments, time_chart, wrap_series_deg, PlotFormat, Res, COLORS, FONT,
+};
 use std::path::Path;
 
 /// One plotted instant.
@@ -186,16 +189,29 @@ fn draw_angle<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    let (truth, est) = unwrapped(p, axis);
-    let y = autoscale(truth.iter().chain(&est).map(|(_, v)| v), 2.0);
+    let (truth, est) = if axis == 0 {
+        let wrapped = |f: &dyn Fn(&Point) -> f64| {
+            let line: Line = p.iter().map(|r| (r.t_s, f(r))).collect();
+            wrap_series_deg(&line)
+        };
+        (wrapped(&|r| r.truth_deg[0]), wrapped(&|r| r.est_deg[0]))
+    } else {
+        unwrapped(p, axis)
+    };
+    let (truth, est) = (segments(&truth), segments(&est));
+    let y = autoscale(truth.iter().chain(&est).flatten().map(|(_, v)| v), 2.0);
     let color = COLORS[axis];
     let truth_style = color.mix(0.35).stroke_width(5);
     let est_style = color.stroke_width(1);
     let caption = format!("{name}: estimate vs truth [deg]");
     let legend = [("truth", truth_style), ("estimate", est_style)];
     let mut c = time_chart(area, &caption, t_max, y, "deg", &legend)?;
-    c.draw_series(LineSeries::new(truth, truth_style))?;
-    c.draw_series(LineSeries::new(est, est_style))?;
+    for line in truth {
+        c.draw_series(LineSeries::new(line, truth_style))?;
+    }
+    for line in est {
+        c.draw_series(LineSeries::new(line, est_style))?;
+    }
     Ok(())
 }
 

@@ -1,12 +1,24 @@
-//! The plot of a closed-loop flight: roll and pitch (truth, AHRS estimate,
-//! setpoint), yaw rate (truth, setpoint), height (truth, estimate, target),
-//! the four motor commands, and the battery. PNG or SVG by extension;
-//! drawn by `sim::plot::write_panels`, as `cargo fil --scenario … --plot`
-//! draws the emulated board's flight.
+//! The plot of a closed-loop flight, for a pilot to read: the scenario's
+//! figures under the title, the event timeline (the flight controller's
+//! events, the link, a failed motor, lift-off and touch-down) as a
+//! labelled strip and a line on every panel, then roll and pitch (truth,
+//! AHRS estimate, setpoint; roll wrapped into ±180°), yaw rate (truth,
+//! setpoint), height (truth, estimate, altitude-hold target), the
+//! horizontal position (north, east), the four motor commands and the
+//! battery. PNG or SVG by extension; drawn by `sim::plot::write_figure`,
+//! the plotter `cargo fil --scenario … --plot` uses for the emulated
+//! board's flight.
 
 use super::closed_loop::{FlightLog, Sample};
-use sim::plot::{write_panels, Look, Panel, Series, BLACK, COLORS};
+use super::figures::figures;
+use super::timeline::{label, timeline};
+use sim::plot::{
+    wrap_series_deg, write_figure, Figure, Look, Marker, Panel, RGBColor, Series, COLORS,
+};
 use std::path::Path;
+
+/// The height panel's colour (purple: the other colours are the axes').
+const HEIGHT_COLOR: RGBColor = RGBColor(148, 103, 189);
 
 fn line(log: &FlightLog, f: impl Fn(&Sample) -> Option<f64>) -> Vec<(f64, f64)> {
     log.samples
@@ -15,13 +27,44 @@ fn line(log: &FlightLog, f: impl Fn(&Sample) -> Option<f64>) -> Vec<(f64, f64)> 
         .collect()
 }
 
+/// The figure of `log`: its figures as notes, its events as markers, its
+/// panels.
+pub fn figure(log: &FlightLog) -> Figure {
+    let mut notes = figures(log).lines();
+    if target_below_ground(log) {
+        notes.push(TARGET_NOTE.to_string());
+    }
+    let markers = timeline(log)
+        .iter()
+        .map(|e| Marker {
+            t_s: e.t_s,
+            label: label(e),
+        })
+        .collect();
+    Figure {
+        notes,
+        markers,
+        panels: panels(log),
+    }
+}
+
+/// Why the height panel's target may lie below the ground.
+const TARGET_NOTE: &str = "height target below 0 m: that is the controller's state. Armed in altitude hold with the throttle stick low (before the take-off), or in the failsafe descent after touch-down (until the landing disarm), the hold target moves down at the commanded descent rate while the craft rests on the ground.";
+
+/// Whether the altitude-hold target is ever below the ground.
+fn target_below_ground(log: &FlightLog) -> bool {
+    log.samples
+        .iter()
+        .any(|s| s.out.height_target_m.is_some_and(|h| h < 0.0))
+}
+
 /// The panels of `log`.
 pub fn panels(log: &FlightLog) -> Vec<Panel> {
     let mut panels = attitude(log);
     let height = vec![
         Series::new("truth", line(log, |s| Some(s.truth.height_m))),
         Series::new("estimate", line(log, |s| s.est_height_m)),
-        Series::new(
+        Series::reference(
             "target",
             line(log, |s| s.out.height_target_m.map(f64::from)),
         ),
@@ -29,9 +72,10 @@ pub fn panels(log: &FlightLog) -> Vec<Panel> {
     panels.push(Panel::new(
         "height: truth, estimate, altitude-hold target [m]",
         "m",
-        Look::Tracking(BLACK),
+        Look::Tracking(HEIGHT_COLOR),
         height,
     ));
+    panels.push(horizontal(log));
     panels.push(motors(log));
     let battery = vec![Series::new(
         "voltage",
@@ -53,9 +97,15 @@ fn attitude(log: &FlightLog) -> Vec<Panel> {
     let mut panels = Vec::new();
     for (axis, name) in [(0usize, "roll"), (1, "pitch")] {
         let series = vec![
-            Series::new("truth", line(log, |s| Some(euler(s)[axis]))),
-            Series::new("estimate", line(log, |s| Some(est(s)[axis]))),
             Series::new(
+                "truth",
+                wrap_series_deg(&line(log, |s| Some(euler(s)[axis]))),
+            ),
+            Series::new(
+                "estimate",
+                wrap_series_deg(&line(log, |s| Some(est(s)[axis]))),
+            ),
+            Series::reference(
                 "setpoint",
                 line(log, |s| {
                     s.out
@@ -77,7 +127,7 @@ fn attitude(log: &FlightLog) -> Vec<Panel> {
             "truth",
             line(log, |s| Some(s.truth.omega_body_rps[2].to_degrees())),
         ),
-        Series::new(
+        Series::reference(
             "setpoint",
             line(log, |s| {
                 s.out
@@ -93,6 +143,21 @@ fn attitude(log: &FlightLog) -> Vec<Panel> {
         yaw,
     ));
     panels
+}
+
+/// North and east of the take-off point (truth): the drift nothing holds.
+fn horizontal(log: &FlightLog) -> Panel {
+    let series = ["north", "east"]
+        .iter()
+        .enumerate()
+        .map(|(i, name)| Series::new(name, line(log, |s| Some(s.truth.position_ned_m[i]))))
+        .collect();
+    Panel::new(
+        "horizontal position from the take-off point, truth [m]",
+        "m",
+        Look::Channels,
+        series,
+    )
 }
 
 fn motors(log: &FlightLog) -> Panel {
@@ -115,5 +180,54 @@ pub fn write_plot(path: &Path, title: &str, log: &FlightLog) -> Result<(), Strin
     if log.samples.is_empty() {
         return Err("nothing to plot: the flight produced no samples".into());
     }
-    write_panels(path, title, &panels(log))
+    write_figure(path, title, &figure(log))
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+mod tests {
+    use super::*;
+    use crate::demo::closed_loop::{fly, ClosedLoopOptions, Scenario};
+    use crate::demo::flight_fc::FirmwareFc;
+    use flight::flightctl::FlightConfig;
+
+    /// Every scenario's plot is written: a PNG, with its figures as notes,
+    /// its events as markers and the horizontal-position panel.
+    #[test]
+    fn every_scenario_is_plotted() {
+        let dir = std::env::temp_dir().join(format!("sim-plots-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for name in Scenario::NAMES {
+            let scenario = Scenario::from_name(name).unwrap();
+            let mut fc = FirmwareFc::new(FlightConfig::default()).unwrap();
+            let mut o = ClosedLoopOptions::new(scenario, 1);
+            o.mag_dance_s = 20.0;
+            let log = fly(&o, &mut fc).unwrap();
+            let f = figure(&log);
+            assert!(f.notes.len() >= 2, "{name}: {:?}", f.notes);
+            // Every scenario arms: at least that event is marked.
+            assert!(f.markers.iter().any(|m| m.label == "armed"), "{name}");
+            assert!(f.panels.iter().any(|p| p.caption.starts_with("horizontal")));
+            let path = dir.join(format!("{name}.png"));
+            write_plot(&path, name, &log).unwrap();
+            let len = std::fs::metadata(&path).unwrap().len();
+            assert!(len > 10_000, "{name}: {len} B");
+        }
+        let _ = std::fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn setpoints_and_targets_are_reference_lines() {
+        let mut fc = FirmwareFc::new(FlightConfig::default()).unwrap();
+        let mut o = ClosedLoopOptions::new(Scenario::Takeoff, 1);
+        o.mag_dance_s = 10.0;
+        o.duration_s = Some(0.3);
+        let log = fly(&o, &mut fc).unwrap();
+        for p in panels(&log) {
+            for s in &p.series {
+                let is_ref = ["setpoint", "target"].contains(&s.name.as_str());
+                assert_eq!(s.reference, is_ref, "{}: {}", p.caption, s.name);
+            }
+        }
+    }
 }
