@@ -512,7 +512,11 @@ impl Pipeline {
         self.accel_sum = [0; 3];
         self.accel_n = 0;
         self.dt_sum_cycles = 0;
-        // Up acceleration = −f_down − g.
+        // |f_down| ≤ 3 · 2⁴⁵ · n / 2²² < 2²⁵ · n: an i32 up to n = 63 (10
+        // normally); saturated beyond, and converted from i32 (`i64 as
+        // f32` would link the soft-float `__aeabi_l2f`, 120 B, for this
+        // one line). Up acceleration = −f_down − g.
+        let f_down = f_down.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
         let accel_up = -(f_down as f32 * k) - G_MPS2;
         if self.cfg.altitude && self.vertical.is_initialized() {
             let _ = self.vertical.predict(accel_up, dt_s);
