@@ -585,7 +585,9 @@ struct Limits {
 /// The flight controller. See the [module docs](self).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FlightController {
-    cfg: FlightConfig,
+    /// The safety rules' thresholds (the rest of [`FlightConfig`] lives on
+    /// in its fixed-point forms below, not as `f32`).
+    safety: SafetyConfig,
     lim: Limits,
     /// Stick shaping in fixed point, once per new pilot frame.
     shaping: StickShapingQ,
@@ -657,7 +659,7 @@ impl FlightController {
         };
         let shaping = StickShapingQ::new(&cfg.sticks)?;
         Ok(Self {
-            cfg,
+            safety: cfg.safety,
             lim,
             shaping,
             climb: ClimbQ::new(s),
@@ -690,9 +692,10 @@ impl FlightController {
         })
     }
 
-    /// The configuration in use.
-    pub fn config(&self) -> &FlightConfig {
-        &self.cfg
+    /// The safety rules in use (arming, crash and landing checks,
+    /// failsafe, motor test).
+    pub fn safety(&self) -> &SafetyConfig {
+        &self.safety
     }
 
     /// The current state.
@@ -754,7 +757,7 @@ impl FlightController {
     /// Throttle stick at or below [`SafetyConfig::arm_throttle_max`].
     fn throttle_low(&self, pilot: &PilotInput) -> bool {
         let t = pilot.sticks.throttle;
-        t.is_finite() && t <= self.cfg.safety.arm_throttle_max
+        t.is_finite() && t <= self.safety.arm_throttle_max
     }
 
     /// Starts the props-off motor test on motor index `motor` (0..=3, mixer
@@ -974,7 +977,7 @@ impl FlightController {
         t.elapsed_us = t.elapsed_us.saturating_add(dt_us);
         let moved = |a: f32, b: f32| {
             let d = a - b;
-            d.abs() > self.cfg.safety.motor_test_stick_tolerance
+            d.abs() > self.safety.motor_test_stick_tolerance
         };
         let s = &pilot.sticks;
         let end = if !pilot.link_ok {
@@ -1008,7 +1011,7 @@ impl FlightController {
         }
         let mut m = [0; MOTORS];
         if let Some(v) = m.get_mut(usize::from(t.motor)) {
-            *v = f32_to_q(self.cfg.safety.motor_test_command, 30);
+            *v = f32_to_q(self.safety.motor_test_command, 30);
         }
         out.motors = Motors::Run(m);
         self.motor_test = Some(t);
@@ -1203,7 +1206,7 @@ impl FlightController {
         out.mode = mode;
         let s = &pilot.sticks;
         if !self.shaped.same_sticks(s) {
-            self.shaped = Shaped::new(&self.shaping, &self.climb, &self.cfg.safety, s);
+            self.shaped = Shaped::new(&self.shaping, &self.climb, &self.safety, s);
         }
         // By field, not a copy of the whole `Shaped` (a `memcpy` a step).
         self.stick_at_min = self.shaped.stick_at_min;
@@ -1298,7 +1301,7 @@ impl FlightController {
         alt: Option<AltitudeEstimate>,
         out: &mut FlightOutput,
     ) {
-        let s = self.cfg.safety;
+        let s = self.safety;
         let g = &vehicle.gyro;
         let max_rate = mag(g.roll_rps).max(mag(g.pitch_rps)).max(mag(g.yaw_rps));
         if self.runaway.update(dt_us, &out.torque, g, collective) {
@@ -1347,7 +1350,7 @@ impl FlightController {
     fn looks_landed(&self, max_rate: u32, collective: f32, alt: Option<AltitudeEstimate>) -> bool {
         let no_rotation = max_rate < self.lim.land_rate;
         let no_descent = match alt {
-            Some(a) => a.vertical_speed_mps.abs() < self.cfg.safety.land_vertical_speed_max_mps,
+            Some(a) => a.vertical_speed_mps.abs() < self.safety.land_vertical_speed_max_mps,
             None if matches!(self.state, FlightState::Failsafe(_)) => collective <= 0.0,
             None => self.stick_at_min,
         };
@@ -1380,7 +1383,7 @@ impl FlightController {
     /// and [`SafetyConfig::failsafe_collective_max`] (the lower bound when
     /// there is no estimate yet).
     fn hover_estimate(&self) -> f32 {
-        let s = &self.cfg.safety;
+        let s = &self.safety;
         let h = self.hover_collective().unwrap_or(s.land_collective_max);
         // max/min, not clamp (see `altitude_collective`).
         h.max(s.land_collective_max).min(s.failsafe_collective_max)
