@@ -276,6 +276,42 @@ fn every_crsf_frame_is_parsed_while_the_firmware_logs() {
     assert_no_reset(&b);
 }
 
+/// A receiver that never links up is diagnosable from the log: with
+/// nothing on PA10 the board says so every second; with a receiver on the
+/// wrong baud rate (CRSF frames at 115,200 baud) it counts the bytes and
+/// their framing errors and parses no frame; with the right one the
+/// diagnosis stops and the link comes up.
+#[test]
+fn a_receiver_that_never_links_is_diagnosed_in_the_log() {
+    let Some(mut b) = board() else { return };
+    boot_ok(&mut b);
+    run_until(&mut b, 3 * S);
+    let silent = lines_with(&b, "rc: no link: no bytes at all on PA10");
+    assert!(silent.len() >= 2, "once a second\n{}", tail(&b, 30));
+    let t0 = b.now_ns();
+    let frame = sticks(1000, false);
+    let mut next = t0;
+    while b.now_ns() < t0 + 3 * S {
+        while next < b.now_ns() + 50 * MS {
+            b.usart1_send_at(&frame, 115_200, next);
+            next += 4 * MS;
+        }
+        run_for(&mut b, 2 * MS);
+    }
+    let wrong = lines_after(&b, t0 + 1_100 * MS, "rc: no link: PA10");
+    let last = wrong.last().unwrap_or_else(|| panic!("{}", tail(&b, 30)));
+    assert!(field(last, "bytes ") > 100, "{last}");
+    assert_eq!(field(last, "frames "), 0, "{last}");
+    assert!(field(last, "fe ") > 10, "{last}");
+    assert!(lines_after(&b, t0 + 1_100 * MS, "no bytes at all").is_empty());
+    let t1 = b.now_ns();
+    let up = stream_until(&mut b, &frame, "rc: link up", S);
+    assert!(up.is_some(), "{}", tail(&b, 20));
+    stream_until(&mut b, &frame, "never logged", 1_500 * MS);
+    let since = lines_after(&b, t1 + 600 * MS, "rc: no link");
+    assert!(since.is_empty(), "{since:?}");
+}
+
 /// A byte with a framing error early in a burst long enough to cross a
 /// half-ring mark: the handover at the mark reads SR (FE set), the DMA's
 /// next DR read completes FE's clear sequence before the burst's IDLE, and

@@ -180,6 +180,27 @@ fn ppm_frames_reach_the_firmware_and_loss_is_detected() {
     assert_no_reset(&b);
 }
 
+/// A PPM receiver that never sends is diagnosable from the log: with no
+/// pulse on PB8 the board says so every second; once a frame has been
+/// decoded it counts the frames instead, and the link comes up.
+#[test]
+fn a_silent_ppm_receiver_is_diagnosed_in_the_log() {
+    let Some(mut b) = ppm_board(false) else {
+        return;
+    };
+    let start = b.now_ns();
+    run_until(&mut b, start + 2_100 * MS);
+    let silent = lines_after(&b, start, "rc: no link: no PPM pulses at all on PB8");
+    assert!(silent.len() >= 2, "once a second\n{}", tail(&b, 30));
+    let mut ppm = Ppm::new(&b);
+    let up = ppm.stream_until(&mut b, &EIGHT, "rc: link up", S);
+    assert!(up.is_some(), "{}", tail(&b, 20));
+    let t = b.now_ns();
+    ppm.stream(&mut b, &EIGHT, t + 1_200 * MS);
+    let since = lines_after(&b, t + 100 * MS, "rc: no link");
+    assert!(since.is_empty(), "{since:?}");
+}
+
 /// Negative PPM (idle high, low separator pulses): the firmware captures
 /// rising edges, which end the pulses instead of starting them; the
 /// pulses' constant width makes every interval the same.

@@ -98,6 +98,9 @@ pub struct UartErrors {
     /// on). Bytes may then have been overwritten before they were read; the
     /// parser resynchronises on the bytes that follow.
     pub late: u32,
+    /// Bytes handed to the parser since boot (wrapping): with no link, zero
+    /// says nothing reaches PA10 at all.
+    pub bytes: u32,
 }
 
 /// [`UartErrors::late`], counted in the DMA interrupt.
@@ -173,6 +176,7 @@ impl CrsfRx {
                 framing: 0,
                 noise: 0,
                 late: 0,
+                bytes: 0,
             },
         }
     }
@@ -219,6 +223,7 @@ impl CrsfRx {
         // The DMA's writes up to `write_pos` happened before CNDTR said so.
         compiler_fence(Ordering::Acquire);
         let mut after = write_pos.wrapping_sub(self.read_pos) & (RING_BYTES - 1);
+        self.errors.bytes = self.errors.bytes.wrapping_add(after as u32);
         while self.read_pos != write_pos {
             let i = self.read_pos & (RING_BYTES - 1);
             // SAFETY: `i` is inside the ring; a volatile read because the
@@ -304,6 +309,7 @@ impl Pilot {
                 framing: 0,
                 noise: 0,
                 late: 0,
+                bytes: 0,
             },
             #[cfg(feature = "ppm")]
             ppm: crate::ppm::PpmCounters::ZERO,

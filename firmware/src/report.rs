@@ -68,6 +68,9 @@ pub fn log_pilot(
             other => defmt::warn!("rc: link lost ({})", other),
         }
     }
+    if tick.is_multiple_of(20) && status != LinkStatus::Ok {
+        log_no_link(pilot);
+    }
     #[cfg(feature = "ppm")]
     let _ = (stats, uart, lq);
     #[cfg(feature = "ppm")]
@@ -105,6 +108,48 @@ pub fn log_pilot(
         }
     }
     status
+}
+
+/// Every second without a link: what reaches the receiver's pin, so a
+/// silent or miswired receiver, or one on the wrong protocol or baud rate,
+/// can be told apart from the log.
+#[cfg(not(feature = "ppm"))]
+fn log_no_link(pilot: &mut impl rtic::Mutex<T = Pilot>) {
+    let (s, u) = pilot.lock(|p| (p.stats, p.uart));
+    if u.bytes == 0 {
+        defmt::warn!(
+            "rc: no link: no bytes at all on PA10 (USART1 RX): check the receiver's TX wire to PA10, the common ground, its power and binding"
+        );
+    } else {
+        defmt::warn!(
+            "rc: no link: PA10 (USART1 RX) since boot: bytes {=u32} frames {=u32} crc_err {=u32} fe {=u32} | CRSF at 420000 baud is expected: bytes with no frames and with framing errors (fe) mean another protocol or baud rate, frames with crc_err a noisy line",
+            u.bytes,
+            s.rc_frames,
+            s.crc_errors,
+            u.framing
+        );
+    }
+}
+
+/// Every second without a link: what reaches PB8, so a silent or
+/// miswired PPM receiver can be told apart from the log.
+#[cfg(feature = "ppm")]
+fn log_no_link(pilot: &mut impl rtic::Mutex<T = Pilot>) {
+    let n = pilot.lock(|p| p.ppm);
+    let d = n.decoder;
+    if d.frames == 0 && d.dropped() == 0 && n.overcaptures == 0 {
+        defmt::warn!(
+            "rc: no link: no PPM pulses at all on PB8 (TIM4_CH3): check the receiver's PPM wire to PB8, the common ground, its power and binding"
+        );
+    } else {
+        defmt::warn!(
+            "rc: no link: PB8 (TIM4_CH3) since boot: frames {=u32} dropped {=u32} (bad_pulse {=u32} bad_count {=u32}) | a PPM sum signal is expected",
+            d.frames,
+            d.dropped(),
+            d.bad_pulse,
+            d.bad_count
+        );
+    }
 }
 
 /// The live log: attitude every call; loop timing, health, bus counters
