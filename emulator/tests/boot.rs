@@ -34,11 +34,14 @@ fn startup_gyro_bias_completes_at_datasheet_noise() {
     run_until(&mut b, 3 * S);
     let lines = lines_with(&b, "gyro bias:");
     assert!(
-        lines.iter().any(|l| l.contains("gyro bias: Done(")),
+        lines.iter().any(|l| l.contains("gyro bias: done: [")),
         "{}",
         tail(&b, 30)
     );
-    assert!(!lines.iter().any(|l| l.contains("GaveUp")), "{lines:?}");
+    assert!(
+        !lines.iter().any(|l| l.contains("gyro bias: gave up")),
+        "{lines:?}"
+    );
     assert_no_reset(&b);
 }
 

@@ -72,7 +72,10 @@ fn blank_page_gives_defaults() {
     let Some(mut b) = board() else { return };
     boot_ok(&mut b);
     run_until(&mut b, S);
-    assert_logged(&b, "calibration: using defaults (Blank)");
+    assert_logged(
+        &b,
+        "calibration: using defaults (the page is blank: never calibrated)",
+    );
 }
 
 /// A valid record with one flipped payload byte: defaults and a CRC
@@ -101,7 +104,10 @@ fn corrupt_page_gives_defaults_with_the_reason() {
     .expect("board");
     boot_ok(&mut b);
     run_until(&mut b, S);
-    assert_logged(&b, "calibration: using defaults (CrcMismatch");
+    assert_logged(
+        &b,
+        "calibration: using defaults (the record is corrupt (CRC stored",
+    );
     assert_eq!(&b.flash_image()[PAGE..PAGE + 1024], &before[..]);
 }
 

@@ -41,10 +41,10 @@ fn datasheet_board(seed: u64, trajectory: Trajectory) -> Option<Board> {
     })
 }
 
-/// The bias in the first `gyro bias: Done([x, y, z])` line, counts.
+/// The bias in the first `gyro bias: done: [x, y, z] counts` line.
 fn done_bias(b: &Board) -> Option<[i16; 3]> {
-    let line = lines_with(b, "gyro bias: Done(").into_iter().next()?;
-    let inner = line.split("Done([").nth(1)?.split(']').next()?;
+    let line = lines_with(b, "gyro bias: done: [").into_iter().next()?;
+    let inner = line.split("done: [").nth(1)?.split(']').next()?;
     let v: Vec<i16> = inner
         .split(',')
         .filter_map(|s| s.trim().parse().ok())
@@ -93,14 +93,14 @@ fn measures_the_true_bias_in_its_first_window_at_datasheet_errors() {
         run_until(&mut b, FIRST_WINDOW_BY_NS);
         let lines = lines_with(&b, "gyro bias:");
         assert!(
-            lines.iter().any(|l| l.contains("gyro bias: Done(")),
+            lines.iter().any(|l| l.contains("gyro bias: done: [")),
             "seed {seed}: not done by 3 s\n{}",
             tail(&b, 30)
         );
         assert!(
             !lines
                 .iter()
-                .any(|l| l.contains("Moved") || l.contains("GaveUp")),
+                .any(|l| l.contains("the board moved") || l.contains("gyro bias: gave up")),
             "seed {seed}: {lines:?}"
         );
         assert_bias_matches(&b, &format!("seed {seed}"));
@@ -124,7 +124,7 @@ fn a_slowly_yawing_board_is_refused() {
         return;
     };
     assert!(!wait_for_gyro_bias(&mut b), "{}", tail(&b, 30));
-    assert_logged(&b, "gyro bias: GaveUp");
+    assert_logged(&b, "gyro bias: gave up");
     assert_no_reset(&b);
 }
 
@@ -152,22 +152,22 @@ fn a_bump_in_the_first_window_restarts_it() {
         boot_s < BUMP_AT_S && BUMP_AT_S < boot_s + 1.0,
         "first window from {boot_s} s"
     );
-    // The first `Collecting { have: n` line after the bump began counts
+    // The first `measuring, hold still: n of` line after the bump began counts
     // fewer samples than were taken since boot: the window restarted.
     let (logged_ns, have) = b
         .log_lines()
         .iter()
         .find(|l| {
-            l.host_time_ns as f64 * 1e-9 > BUMP_AT_S && l.text.contains("gyro bias: Collecting")
+            l.host_time_ns as f64 * 1e-9 > BUMP_AT_S && l.text.contains("gyro bias: measuring")
         })
-        .map(|l| (l.host_time_ns, field(&l.text.replace(',', " "), "have:")))
-        .unwrap_or_else(|| panic!("no Collecting line\n{}", tail(&b, 30)));
+        .map(|l| (l.host_time_ns, field(&l.text, "hold still: ")))
+        .unwrap_or_else(|| panic!("no measuring line\n{}", tail(&b, 30)));
     let since_boot_ms = (logged_ns as f64 * 1e-9 - boot_s) * 1e3;
     assert!(
         (have as f64) < since_boot_ms - 100.0,
         "{have} samples at {logged_ns} ns: no restart"
     );
-    let done_s = first_line_ns(&b, "gyro bias: Done(").unwrap_or(0) as f64 * 1e-9;
+    let done_s = first_line_ns(&b, "gyro bias: done: [").unwrap_or(0) as f64 * 1e-9;
     assert!(
         done_s >= BUMP_AT_S + BUMP_S + 1.0,
         "done at {done_s} s: a window with the bump in it was taken"

@@ -706,6 +706,15 @@ mod app {
         }
     }
 
+    /// A check's outcome in the log.
+    fn passed(ok: bool) -> &'static str {
+        if ok {
+            "passed"
+        } else {
+            "FAILED"
+        }
+    }
+
     /// The flight controller's events (arming, refusals with their reason,
     /// disarms with their cause, failsafe, motor test).
     #[task(priority = 1)]
@@ -729,6 +738,14 @@ mod app {
                     pilot.sticks.throttle
                 ),
                 (FlightEvent::Disarmed(c), _) => defmt::warn!("flight: disarmed: {}", c),
+                (FlightEvent::FailsafeHold { altitude }, _) => defmt::warn!(
+                    "flight: failsafe: no link, holding level and {=str}",
+                    if altitude {
+                        "the height"
+                    } else {
+                        "the last collective (no altitude estimate)"
+                    }
+                ),
                 (other, _) => defmt::warn!("flight: {}", other),
             }
         }
@@ -835,10 +852,13 @@ mod app {
                 }
             }
             Maintenance::Reinitialised { chip, ok } => {
-                defmt::info!("re-init {}: {=bool}", chip, ok)
+                defmt::info!("re-init {}: {=str}", chip, passed(ok))
             }
             Maintenance::Settled { ok } => {
-                defmt::info!("MPU-9250 check (WHO_AM_I, PWR_MGMT_1, config): {=bool}", ok)
+                defmt::info!(
+                    "MPU-9250 check (WHO_AM_I, PWR_MGMT_1, config): {=str}",
+                    passed(ok)
+                )
             }
             Maintenance::StillMissing { chip, retry_in_ms } => {
                 defmt::info!(

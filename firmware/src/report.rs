@@ -95,9 +95,9 @@ pub fn log_pilot(
         if let Some(f) = frame {
             let c = f.channels();
             defmt::info!(
-                "rc: ch1-8 {} us | lq {} % | frames {=u32} crc_err {=u32} dropped {=u32} | uart ore {=u32} fe {=u32} late {=u32}",
+                "rc: ch1-8 {} us | {} | frames {=u32} crc_err {=u32} dropped {=u32} | uart ore {=u32} fe {=u32} late {=u32}",
                 c.get(..8).unwrap_or(c),
-                lq,
+                Lq(lq),
                 stats.rc_frames,
                 stats.crc_errors,
                 stats.dropped(),
@@ -149,6 +149,21 @@ fn log_no_link(pilot: &mut impl rtic::Mutex<T = Pilot>) {
             d.bad_pulse,
             d.bad_count
         );
+    }
+}
+
+/// The link quality in the channel line: the receiver's figure from its
+/// link-statistics frames, or that it sends none.
+#[cfg(not(feature = "ppm"))]
+struct Lq(Option<u8>);
+
+#[cfg(not(feature = "ppm"))]
+impl defmt::Format for Lq {
+    fn format(&self, f: defmt::Formatter) {
+        match self.0 {
+            Some(p) => defmt::write!(f, "lq {=u8} %", p),
+            None => defmt::write!(f, "lq unknown (no link-statistics frames)"),
+        }
     }
 }
 

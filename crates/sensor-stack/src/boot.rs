@@ -154,9 +154,10 @@ impl BootReport {
     }
 }
 
-/// Progress of the start-up gyro bias measurement.
+/// Progress of the start-up gyro bias measurement. The log writes it in
+/// words (`measuring, hold still: 969 of 1000 samples`, `done: [-46, 54,
+/// -71] counts`, ...).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BiasStatus {
     /// Collecting: samples accepted so far of the window.
     Collecting {
@@ -176,6 +177,36 @@ pub enum BiasStatus {
     /// `max_attempts` windows' worth of samples: keep the fallback bias
     /// (stored calibration or zero).
     GaveUp,
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for BiasStatus {
+    fn format(&self, f: defmt::Formatter) {
+        match *self {
+            Self::Collecting { have, need } => defmt::write!(
+                f,
+                "measuring, hold still: {=u32} of {=u32} samples",
+                have,
+                need
+            ),
+            Self::Moved { attempt } => defmt::write!(
+                f,
+                "the board moved; measuring again (attempt {=u8})",
+                attempt
+            ),
+            Self::Done([x, y, z]) => defmt::write!(
+                f,
+                "done: [{=i16}, {=i16}, {=i16}] counts (x, y, z; 32.8 counts per °/s at ±1000 °/s)",
+                x,
+                y,
+                z
+            ),
+            Self::GaveUp => defmt::write!(
+                f,
+                "gave up: the board never held still for a whole window; using the stored bias, or zero"
+            ),
+        }
+    }
 }
 
 /// Start-up gyro bias from raw counts: wraps

@@ -109,9 +109,8 @@ pub enum Field {
     Mounting(MountingError),
 }
 
-/// Why a page did not decode to a record.
+/// Why a page did not decode to a record (the log writes it in words).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DecodeError {
     /// The page is erased (the header reads all 0xFF): never calibrated.
     Blank,
@@ -144,6 +143,40 @@ pub enum DecodeError {
     },
     /// The CRC is right but a value is implausible.
     InvalidValue(Field),
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for DecodeError {
+    fn format(&self, f: defmt::Formatter) {
+        match *self {
+            Self::Blank => defmt::write!(f, "the page is blank: never calibrated"),
+            Self::TooShort { len } => defmt::write!(f, "the page is too short ({=usize} B)", len),
+            Self::BadMagic { found } => defmt::write!(
+                f,
+                "the page holds no calibration record (magic {=u32:#x})",
+                found
+            ),
+            Self::UnsupportedVersion { found } => defmt::write!(
+                f,
+                "the record is format version {=u16}, which this firmware does not read",
+                found
+            ),
+            Self::BadLength { found } => defmt::write!(
+                f,
+                "the record's payload is {=u16} B, wrong for its version",
+                found
+            ),
+            Self::CrcMismatch { stored, computed } => defmt::write!(
+                f,
+                "the record is corrupt (CRC stored {=u32:#x}, computed {=u32:#x})",
+                stored,
+                computed
+            ),
+            Self::InvalidValue(field) => {
+                defmt::write!(f, "the record holds an implausible {}", field)
+            }
+        }
+    }
 }
 
 /// Encodes a record into its [`RECORD_LEN`]-byte flash image.

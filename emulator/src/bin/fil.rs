@@ -37,6 +37,15 @@ struct Args {
     /// Seed of the simulated sensor noise (as in `cargo sim`).
     #[arg(short, long, value_name = "N", default_value_t = 1, value_parser = seed)]
     seed: u64,
+    /// The simulated chips' errors on a trajectory: `noise` (white noise
+    /// at the datasheets' densities, nothing else: a start-up gyro bias of
+    /// [0, 0, 0] counts is expected) or `datasheet` (also the bias, scale,
+    /// cross-axis and temperature errors a real chip has within its
+    /// datasheet, drawn from the seed, as `cargo sim` and the scenarios use;
+    /// the emulated flash holds no calibration for them).
+    #[arg(long, value_name = "PROFILE", default_value = "noise",
+          value_parser = ["noise", "datasheet"], conflicts_with = "scenario")]
+    sensors: String,
     /// Simulated seconds to run, in (0, 3600] (as in `cargo sim`;
     /// default 5, or the scenario's length). `--seconds` is an alias.
     #[arg(short, long, value_name = "SECONDS", visible_alias = "seconds")]
@@ -259,6 +268,9 @@ fn board_runner(args: &Args, elf: &Path) -> Result<Runner, String> {
     }
     config.sim.trajectory = trajectory;
     config.sim.seed = args.seed;
+    if args.sensors == "datasheet" {
+        config.sim.errors = sim::SensorErrors::datasheet(args.seed);
+    }
     if let Some(m) = &args.rtt_mode {
         config.rtt_mode = RttMode::from_name(m);
     }
