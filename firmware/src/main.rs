@@ -582,12 +582,7 @@ mod app {
 
     /// The flight controller's view of the pilot at `now_us`.
     fn pilot_input(p: &mut Pilot, now_us: u32) -> PilotInput {
-        p.input(
-            now_us,
-            &config::channel_map(),
-            config::MODE_CHANNEL,
-            config::MOTOR_TEST_CHANNEL,
-        )
+        p.input(now_us)
     }
 
     /// A channel frame's arm switch and link to the output guard, which
