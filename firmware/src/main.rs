@@ -212,8 +212,8 @@ mod app {
     use flight::boot::BiasStatus;
     use flight::calmode::{CalEvent, CalSession, RawLogRow, RAW_LOG_HEADER};
     use flight::flightctl::{
-        quat_from_ahrs, AltitudeEstimate, Event as FlightEvent, Events, FlightController, Motors,
-        PilotInput, SystemStatus, VehicleState,
+        Event as FlightEvent, Events, FlightController, Motors, PilotInput, SystemStatus,
+        VehicleState,
     };
     use flight::health::SensorState;
     use flight::motortest::MotorPosition;
@@ -683,24 +683,16 @@ mod app {
         }
     }
 
-    /// The flight controller's view of the vehicle. Without a fresh sample
-    /// the gyro is NaN: the controller keeps the last commands for a single
-    /// miss and disarms when samples stay away.
+    /// The flight controller's view of the vehicle, in the pipeline's own
+    /// fixed-point forms. Without a fresh sample there is no gyro: the
+    /// controller keeps the last commands for a single miss and disarms
+    /// when samples stay away.
     fn vehicle_state(p: &Pipeline, fresh: bool) -> VehicleState {
-        let mut gyro = p.body_rates();
+        let mut v = VehicleState::from_pipeline(p);
         if !fresh {
-            gyro.roll_rps = f32::NAN;
+            v.gyro_rps_q16 = None;
         }
-        VehicleState {
-            attitude: quat_from_ahrs(&p.quaternion()),
-            gyro,
-            altitude: p.altitude_estimate().map(|(height_m, vertical_speed_mps)| {
-                AltitudeEstimate {
-                    height_m,
-                    vertical_speed_mps,
-                }
-            }),
-        }
+        v
     }
 
     /// The flight controller's events (arming, refusals with their reason,
