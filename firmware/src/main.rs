@@ -569,15 +569,18 @@ mod app {
             let _ = (cx.local.fc.as_mut(), vehicle, status);
             None::<flight::flightctl::FlightOutput>
         };
-        if let Some(mut o) = out {
-            if let Some(e) = disarmed {
-                o.events.push(e);
-            }
-            if !o.events.is_empty() {
-                flight_log::spawn(o.events, pilot).ok();
-            }
+        // Taken apart in place: a copy of the whole output is a `memcpy`.
+        let Some(o) = out else {
+            return Motors::Off;
+        };
+        let mut events = o.events;
+        if let Some(e) = disarmed {
+            events.push(e);
         }
-        out.map_or(Motors::Off, |o| o.motors)
+        if !events.is_empty() {
+            flight_log::spawn(events, pilot).ok();
+        }
+        o.motors
     }
 
     /// The flight controller's view of the pilot at `now_us`.

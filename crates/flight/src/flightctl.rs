@@ -1360,7 +1360,6 @@ impl FlightController {
         alt: Option<AltitudeEstimate>,
         out: &mut FlightOutput,
     ) {
-        let s = self.cfg.safety;
         let max_rate_q16 = gyro_q16.iter().map(|r| r.unsigned_abs()).fold(0, u32::max);
         if self
             .runaway
@@ -1382,7 +1381,9 @@ impl FlightController {
         ) {
             return self.disarm(DisarmCause::CrashRate, out);
         }
-        let low = collective < s.land_collective_max;
+        // The one field, not a copy of the whole `SafetyConfig` (a
+        // byte-wise `memcpy` a step).
+        let low = collective < self.cfg.safety.land_collective_max;
         if !low {
             self.took_off = true;
         }
