@@ -15,7 +15,7 @@
 use std::cell::Cell;
 use std::rc::Rc;
 
-use control::loops::Quat;
+use control::levelq::QuatQ30;
 use e2e::Rig;
 use embedded_hal::i2c::{ErrorType, I2c, Operation};
 use flight::flightctl::{
@@ -173,17 +173,8 @@ impl Flight {
         }
         let now_us = self.rig.clock.now_us() as u32;
         let vehicle = VehicleState {
-            attitude: Quat {
-                w: 1.0,
-                x: 0.0,
-                y: 0.0,
-                z: 0.0,
-            },
-            gyro: control::controllers::BodyRates {
-                roll_rps: if fresh { 0.0 } else { f32::NAN },
-                pitch_rps: 0.0,
-                yaw_rps: 0.0,
-            },
+            attitude_q30: QuatQ30::IDENTITY,
+            gyro_rps_q16: fresh.then_some([0; 3]),
             altitude: None,
         };
         let status = SystemStatus {

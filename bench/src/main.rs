@@ -402,11 +402,7 @@ mod suite {
                 link_ok: true,
                 motor_test_switch: false,
             };
-            let still = VehicleState {
-                attitude: Quat::IDENTITY,
-                gyro: BodyRates::default(),
-                altitude: None,
-            };
+            let still = VehicleState::from_f32(&Quat::IDENTITY, &BodyRates::default(), None);
             // Arm (switch off → on), then fly at hover throttle.
             let mut now_us = 0u32;
             for k in 0..(2 + WARM_CALLS) {
@@ -423,15 +419,17 @@ mod suite {
                 }
                 (
                     now_us + 1000 * (k as u32 + 1),
-                    VehicleState {
-                        attitude: q[k],
-                        gyro: BodyRates {
+                    // Built before the timed calls: the firmware hands the
+                    // pipeline's Q30/Q16 values over as they are.
+                    VehicleState::from_f32(
+                        &q[k],
+                        &BodyRates {
                             roll_rps: 0.1 * k as f32,
                             pitch_rps: -0.05,
                             yaw_rps: 0.02,
                         },
-                        altitude: None,
-                    },
+                        None,
+                    ),
                     p,
                 )
             });

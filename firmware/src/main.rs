@@ -208,8 +208,8 @@ mod app {
     use core::sync::atomic::{AtomicBool, Ordering};
     use cortex_m::peripheral::DWT;
     use flight::flightctl::{
-        quat_from_ahrs, AltitudeEstimate, Event as FlightEvent, Events, FlightController, Motors,
-        PilotInput, SystemStatus, VehicleState,
+        Event as FlightEvent, Events, FlightController, Motors, PilotInput, SystemStatus,
+        VehicleState,
     };
     use flight::motortest::MotorPosition;
     use flight::outputguard::{ForceOffReason, TickAction, CHECK_PERIOD_US};
@@ -567,25 +567,23 @@ mod app {
             let _ = (cx.local.fc.as_mut(), vehicle, status);
             None::<flight::flightctl::FlightOutput>
         };
-        if let Some(mut o) = out {
-            if let Some(e) = disarmed {
-                o.events.push(e);
-            }
-            if !o.events.is_empty() {
-                flight_log::spawn(o.events, pilot).ok();
-            }
+        // Taken apart in place: a copy of the whole output is a `memcpy`.
+        let Some(o) = out else {
+            return Motors::Off;
+        };
+        let mut events = o.events;
+        if let Some(e) = disarmed {
+            events.push(e);
         }
-        out.map_or(Motors::Off, |o| o.motors)
+        if !events.is_empty() {
+            flight_log::spawn(events, pilot).ok();
+        }
+        o.motors
     }
 
     /// The flight controller's view of the pilot at `now_us`.
     fn pilot_input(p: &mut Pilot, now_us: u32) -> PilotInput {
-        p.input(
-            now_us,
-            &config::channel_map(),
-            config::MODE_CHANNEL,
-            config::MOTOR_TEST_CHANNEL,
-        )
+        p.input(now_us)
     }
 
     /// A channel frame's arm switch and link to the output guard, which
@@ -686,24 +684,16 @@ mod app {
         }
     }
 
-    /// The flight controller's view of the vehicle. Without a fresh sample
-    /// the gyro is NaN: the controller keeps the last commands for a single
-    /// miss and disarms when samples stay away.
+    /// The flight controller's view of the vehicle, in the pipeline's own
+    /// fixed-point forms. Without a fresh sample there is no gyro: the
+    /// controller keeps the last commands for a single miss and disarms
+    /// when samples stay away.
     fn vehicle_state(p: &Pipeline, fresh: bool) -> VehicleState {
-        let mut gyro = p.body_rates();
+        let mut v = VehicleState::from_pipeline(p);
         if !fresh {
-            gyro.roll_rps = f32::NAN;
+            v.gyro_rps_q16 = None;
         }
-        VehicleState {
-            attitude: quat_from_ahrs(&p.quaternion()),
-            gyro,
-            altitude: p.altitude_estimate().map(|(height_m, vertical_speed_mps)| {
-                AltitudeEstimate {
-                    height_m,
-                    vertical_speed_mps,
-                }
-            }),
-        }
+        v
     }
 
     /// A check's outcome in the log.

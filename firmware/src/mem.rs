@@ -1,10 +1,14 @@
 //! Compact `__aeabi_memcpy*` and `__aeabi_memclr*`, the routines LLVM
 //! calls for struct copies and zeroing on ARM: a word loop for the
-//! aligned variants, a byte loop otherwise (50 B in all). They take the
-//! place of `compiler_builtins`' (1.6 KiB: an unrolled, alignment-fixing
-//! `memcpy` and six entry points around it), which the flash budget cannot
-//! pay for. The price is speed on long unaligned copies (about 4 cycles a
-//! byte), measured in the firmware's own loop figures (BENCHMARKS.md).
+//! aligned variants and for a plain `__aeabi_memcpy` whose pointers are
+//! both word-aligned at run time (LLVM calls it for struct copies whose
+//! alignment it lost track of, on the 1 kHz path among them: 2 cycles a
+//! byte instead of about 8 on the emulator's cycle model), a byte loop
+//! otherwise (58 B in all). They take the place of `compiler_builtins`'
+//! (1.6 KiB: an unrolled, alignment-fixing `memcpy` and six entry points
+//! around it), which the flash budget cannot pay for. The price is speed
+//! on long copies of unaligned data (about 4 cycles a byte), measured in
+//! the firmware's own loop figures (BENCHMARKS.md).
 //!
 //! Arguments and clobbers are the run-time ABI's (ARM IHI 0043, §4.3.4):
 //! `memcpy(dest r0, src r1, n r2)`, `memclr(dest r0, n r1)`, no result,
@@ -26,6 +30,16 @@
 core::arch::global_asm!(
     ".syntax unified",
     ".section .text.fc_aeabi_mem,\"ax\",%progbits",
+    // Both pointers word-aligned (the low two bits of their OR clear):
+    // on into the word loop; otherwise to the byte loop.
+    ".global __aeabi_memcpy",
+    ".type __aeabi_memcpy,%function",
+    ".thumb_func",
+    "__aeabi_memcpy:",
+    "    mov r3, r0",
+    "    orrs r3, r1",
+    "    lsls r3, r3, #30",
+    "    bne 3f",
     ".global __aeabi_memcpy8",
     ".type __aeabi_memcpy8,%function",
     ".thumb_func",
@@ -41,16 +55,12 @@ core::arch::global_asm!(
     "    subs r2, r2, #4",
     "    bcs 1b",
     "2:  adds r2, r2, #4",
-    ".global __aeabi_memcpy",
-    ".type __aeabi_memcpy,%function",
-    ".thumb_func",
-    "__aeabi_memcpy:",
-    "    cbz r2, 4f",
-    "3:  ldrb r3, [r1], #1",
+    "3:  cbz r2, 5f",
+    "4:  ldrb r3, [r1], #1",
     "    strb r3, [r0], #1",
     "    subs r2, r2, #1",
-    "    bne 3b",
-    "4:  bx lr",
+    "    bne 4b",
+    "5:  bx lr",
     ".global __aeabi_memclr8",
     ".type __aeabi_memclr8,%function",
     ".thumb_func",

@@ -53,6 +53,8 @@ use rc_input::{ChannelMap, SwitchPosition};
 use rc_input::{CrsfParser, CrsfStats, Event, LinkMonitor, LinkStatus, RcFrame};
 use stm32f1xx_hal::pac;
 
+use crate::config;
+
 /// CRSF line rate (ExpressLRS/Crossfire receivers to a flight controller).
 pub const CRSF_BAUD: u32 = rc_input::crsf::CRSF_BAUD;
 
@@ -279,6 +281,13 @@ pub fn on_dma_half_or_complete() {
 pub struct Pilot {
     /// The last channel frame.
     pub frame: Option<RcFrame>,
+    /// The last channel frame through the board's channel map
+    /// ([`map_frame`]), mapped once per frame rather than at every 1 kHz
+    /// sample; `None` without a frame or when it lacks a stick or the arm
+    /// switch.
+    mapped: Option<PilotInput>,
+    /// A frame came since `mapped` was made.
+    remap: bool,
     /// Signal-loss detection.
     pub link: LinkMonitor,
     /// Uplink link quality from the last link statistics, %.
@@ -297,6 +306,8 @@ impl Pilot {
     pub const fn new() -> Self {
         Self {
             frame: None,
+            mapped: None,
+            remap: false,
             link: if cfg!(feature = "ppm") {
                 LinkMonitor::ppm()
             } else {
@@ -321,6 +332,7 @@ impl Pilot {
         match event {
             Event::Channels(frame) => {
                 self.frame = Some(frame);
+                self.remap = true;
                 self.link.on_frame(now_us);
             }
             Event::LinkStatistics(s) => {
@@ -343,43 +355,59 @@ impl Pilot {
 }
 
 impl Pilot {
-    /// The flight controller's view of the pilot at `now_us`: sticks and
-    /// the arm switch through `map`, the flight mode from `mode_channel`
-    /// (low: angle, middle: altitude hold, high: acro; angle if absent),
-    /// the motor-test switch from `motor_test_channel` (high: on; off if
-    /// absent), and whether the link is up. A frame missing a stick or the
-    /// arm switch counts as no link.
-    pub fn input(
-        &mut self,
-        now_us: u32,
-        map: &ChannelMap,
-        mode_channel: u8,
-        motor_test_channel: u8,
-    ) -> PilotInput {
+    /// The flight controller's view of the pilot at `now_us`: the last
+    /// channel frame through the board's channel map and switches
+    /// (`config`; [`map_frame`], once per frame), while the link is up; no
+    /// link otherwise (also for a frame missing a stick or the arm switch).
+    pub fn input(&mut self, now_us: u32) -> PilotInput {
+        if core::mem::take(&mut self.remap) {
+            self.mapped = self.frame.as_ref().and_then(|f| {
+                map_frame(
+                    f,
+                    &config::channel_map(),
+                    config::MODE_CHANNEL,
+                    config::MOTOR_TEST_CHANNEL,
+                )
+            });
+        }
         let link_up = !self.link.is_lost(now_us);
-        let Some(frame) = self.frame.filter(|_| link_up) else {
-            return PilotInput::default();
-        };
-        let (Ok(s), Ok(arm_switch)) = (map.sticks(&frame), map.arm_switch(&frame)) else {
-            return PilotInput::default();
-        };
-        let mode = match ChannelMap::switch(&frame, mode_channel) {
-            Ok(SwitchPosition::Middle) => FlightMode::AltitudeHold,
-            Ok(SwitchPosition::High) => FlightMode::Acro,
-            _ => FlightMode::Angle,
-        };
-        PilotInput {
-            sticks: Sticks {
-                roll: s.roll,
-                pitch: s.pitch,
-                yaw: s.yaw,
-                throttle: s.throttle,
-            },
-            arm_switch,
-            mode,
-            link_ok: true,
-            motor_test_switch: ChannelMap::switch(&frame, motor_test_channel)
-                == Ok(SwitchPosition::High),
+        match self.mapped {
+            Some(input) if link_up => input,
+            _ => PilotInput::default(),
         }
     }
+}
+
+/// A channel frame as the flight controller sees it, with the link up:
+/// sticks and the arm switch through `map`, the flight mode from
+/// `mode_channel` (low: angle, middle: altitude hold, high: acro; angle if
+/// absent), the motor-test switch from `motor_test_channel` (high: on; off
+/// if absent). `None` for a frame missing a stick or the arm switch.
+fn map_frame(
+    frame: &RcFrame,
+    map: &ChannelMap,
+    mode_channel: u8,
+    motor_test_channel: u8,
+) -> Option<PilotInput> {
+    let (Ok(s), Ok(arm_switch)) = (map.sticks(frame), map.arm_switch(frame)) else {
+        return None;
+    };
+    let mode = match ChannelMap::switch(frame, mode_channel) {
+        Ok(SwitchPosition::Middle) => FlightMode::AltitudeHold,
+        Ok(SwitchPosition::High) => FlightMode::Acro,
+        _ => FlightMode::Angle,
+    };
+    Some(PilotInput {
+        sticks: Sticks {
+            roll: s.roll,
+            pitch: s.pitch,
+            yaw: s.yaw,
+            throttle: s.throttle,
+        },
+        arm_switch,
+        mode,
+        link_ok: true,
+        motor_test_switch: ChannelMap::switch(frame, motor_test_channel)
+            == Ok(SwitchPosition::High),
+    })
 }

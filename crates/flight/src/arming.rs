@@ -535,3 +535,13 @@ impl SafetyConfig {
 fn cos_deg(a_deg: f32) -> f32 {
     control::loops::half_angle_sin_cos(2.0 * a_deg * RAD_PER_DEG).1
 }
+
+/// A validated (positive, finite) limit in Q16, rounded to nearest as
+/// [`control::fixed::f32_to_q`] rounds the values compared with it (a
+/// value equal to the limit in `f32` is equal in Q16), by a multiply that
+/// folds at compile time for the firmware's constant configuration (`as`
+/// saturates).
+#[inline(always)]
+pub(crate) fn q16_limit(x: f32) -> u32 {
+    (x * 65_536.0 + 0.5) as u32
+}

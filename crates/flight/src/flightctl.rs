@@ -70,8 +70,9 @@
 //! while turning for 75 ms before 0.5 s of normal flight,
 //! [`crate::runaway`]). The motors are [`Motors::Off`] whenever disarmed.
 //!
-//! **Sensor loss** while armed (attitude or gyro not finite: the sample
-//! was lost, the MPU-9250 is being re-initialised or settling): the last
+//! **Sensor loss** while armed (no gyro sample, or an unusable attitude;
+//! see [`VehicleState`]: the sample was lost, the MPU-9250 is being
+//! re-initialised or settling): the last
 //! motor commands for [`BAD_INPUT_HOLD_US`] (10 ms: single lost samples
 //! pass unnoticed), then even thrust at the last collective (the mixer with
 //! no torque, so the craft keeps the attitude and rate it had and nothing
@@ -169,6 +170,7 @@ use crate::motortest::{MotorTestSwitch, SwitchRequest};
 use crate::runaway::RunawayCheck;
 use sensor_stack::pipeline::Pipeline;
 
+use crate::arming::q16_limit;
 pub use crate::arming::{
     ArmBlockers, ArmRefusal, DisarmCause, Event, Events, MotorTestEnd, MotorTestRefusal,
     SafetyConfig, SafetyField,
@@ -281,24 +283,52 @@ pub struct SystemStatus {
     pub accel_calibrated: bool,
 }
 
-/// Vertical state from the estimator.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// Vertical state from the estimator, in Q16 (the altitude hold's
+/// format: ±32 768 m, m/s).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AltitudeEstimate {
-    /// Height above the take-off reference, m, up.
-    pub height_m: f32,
-    /// Vertical speed, m/s, up.
-    pub vertical_speed_mps: f32,
+    /// Height above the take-off reference, Q16 m, up.
+    pub height_m_q16: i32,
+    /// Vertical speed, Q16 m/s, up.
+    pub vertical_speed_mps_q16: i32,
 }
 
-/// What the pipeline knows about the vehicle.
-#[derive(Debug, Clone, Copy, PartialEq)]
+impl AltitudeEstimate {
+    /// From the estimator's `f32` height (m) and vertical speed (m/s), by
+    /// the bits ([`f32_to_q`], saturating); `None` unless both are finite.
+    pub fn from_f32(height_m: f32, vertical_speed_mps: f32) -> Option<Self> {
+        (height_m.is_finite() && vertical_speed_mps.is_finite()).then(|| Self {
+            height_m_q16: f32_to_q(height_m, 16),
+            vertical_speed_mps_q16: f32_to_q(vertical_speed_mps, 16),
+        })
+    }
+
+    /// Height, m, up (logs, plots, tests).
+    pub fn height_m(&self) -> f32 {
+        q_to_f32(self.height_m_q16, 16)
+    }
+
+    /// Vertical speed, m/s, up (logs, plots, tests).
+    pub fn vertical_speed_mps(&self) -> f32 {
+        q_to_f32(self.vertical_speed_mps_q16, 16)
+    }
+}
+
+/// What the pipeline knows about the vehicle, in the fixed-point forms the
+/// pipeline keeps and the per-sample path flies on (no `f32` round trip
+/// between them); [`from_f32`](Self::from_f32) builds it on a host.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct VehicleState {
-    /// Attitude `q_ned_from_body`.
-    pub attitude: Quat,
-    /// Gyro body rates (bias removed), rad/s, FRD.
-    pub gyro: BodyRates,
+    /// Attitude `q_ned_from_body` in Q30 (`[w, x, y, z]`). Unusable, as a
+    /// lost attitude is, when a component is beyond ±1.5 or `|q|²` outside
+    /// 0.25..2 ([`QuatQ30::norm2_q60`]), for example
+    /// [`VehicleState::NO_ATTITUDE`].
+    pub attitude_q30: QuatQ30,
+    /// Gyro body rates (bias removed), Q16 rad/s, FRD (roll, pitch, yaw);
+    /// `None` without a usable sample.
+    pub gyro_rps_q16: Option<[i32; 3]>,
     /// Height and vertical speed, when a barometer is running.
     pub altitude: Option<AltitudeEstimate>,
 }
@@ -346,19 +376,54 @@ impl Motors {
 }
 
 impl VehicleState {
-    /// The pipeline's latest attitude, gyro and (when the barometer runs)
-    /// altitude.
+    /// An attitude the controller refuses (zero norm).
+    pub const NO_ATTITUDE: QuatQ30 = QuatQ30([0; 4]);
+
+    /// The pipeline's latest attitude (Q30) and gyro (Q16 rad/s) as it
+    /// keeps them, and (when the barometer runs) the altitude.
     pub fn from_pipeline(p: &Pipeline) -> Self {
         Self {
-            attitude: quat_from_ahrs(&p.quaternion()),
-            gyro: p.body_rates(),
-            altitude: p.altitude_estimate().map(|(height_m, vertical_speed_mps)| {
-                AltitudeEstimate {
-                    height_m,
-                    vertical_speed_mps,
-                }
-            }),
+            attitude_q30: QuatQ30(p.quaternion_q30()),
+            gyro_rps_q16: Some(p.body_rates_q16()),
+            altitude: p
+                .altitude_estimate()
+                .and_then(|(h, v)| AltitudeEstimate::from_f32(h, v)),
         }
+    }
+
+    /// From `f32` values (hosts, tests): the attitude to Q30 and the rates
+    /// to Q16 rad/s by the bits ([`f32_to_q`]); a non-finite attitude
+    /// becomes [`NO_ATTITUDE`](Self::NO_ATTITUDE), non-finite rates `None`.
+    pub fn from_f32(attitude: &Quat, gyro: &BodyRates, altitude: Option<AltitudeEstimate>) -> Self {
+        let q = [attitude.w, attitude.x, attitude.y, attitude.z];
+        let g = [gyro.roll_rps, gyro.pitch_rps, gyro.yaw_rps];
+        Self {
+            attitude_q30: if q.iter().all(|c| c.is_finite()) {
+                QuatQ30(q.map(|c| f32_to_q(c, 30)))
+            } else {
+                Self::NO_ATTITUDE
+            },
+            gyro_rps_q16: g
+                .iter()
+                .all(|r| r.is_finite())
+                .then(|| g.map(|r| f32_to_q(r, 16))),
+            altitude,
+        }
+    }
+
+    /// The attitude as an `f32` quaternion (logs, tests).
+    pub fn attitude(&self) -> Quat {
+        let [w, x, y, z] = self.attitude_q30.0.map(|c| q_to_f32(c, 30));
+        Quat { w, x, y, z }
+    }
+
+    /// The gyro in `f32` rad/s, `None` without a usable sample (logs, tests).
+    pub fn gyro(&self) -> Option<BodyRates> {
+        self.gyro_rps_q16.map(|[r, p, y]| BodyRates {
+            roll_rps: q_to_f32(r, 16),
+            pitch_rps: q_to_f32(p, 16),
+            yaw_rps: q_to_f32(y, 16),
+        })
     }
 }
 
@@ -567,10 +632,12 @@ struct Limits {
     arm_cos_tilt: i32,
     /// Q30.
     crash_cos_tilt: i32,
-    /// The crash rate as the bits of an `f32` magnitude ([`mag`]).
-    crash_rate: u32,
-    /// The landing detector's rate limit, likewise.
-    land_rate: u32,
+    /// The crash rate, Q16 rad/s.
+    crash_rate_q16: u32,
+    /// The landing detector's rate limit, Q16 rad/s.
+    land_rate_q16: u32,
+    /// The landing detector's vertical speed limit, Q16 m/s.
+    land_speed_q16: u32,
     crash_tilt_us: u32,
     crash_rate_us: u32,
     land_us: u32,
@@ -646,8 +713,9 @@ impl FlightController {
         let lim = Limits {
             arm_cos_tilt: f32_to_q(s.arm_cos_tilt(), 30),
             crash_cos_tilt: f32_to_q(s.crash_cos_tilt(), 30),
-            crash_rate: mag(s.crash_rate_dps * RAD_PER_DEG),
-            land_rate: mag(s.land_rate_max_dps * RAD_PER_DEG),
+            crash_rate_q16: q16_limit(s.crash_rate_dps * RAD_PER_DEG),
+            land_rate_q16: q16_limit(s.land_rate_max_dps * RAD_PER_DEG),
+            land_speed_q16: q16_limit(s.land_vertical_speed_max_mps),
             crash_tilt_us: us(s.crash_tilt_time_s),
             crash_rate_us: us(s.crash_rate_time_s),
             land_us: us(s.land_time_s),
@@ -734,9 +802,9 @@ impl FlightController {
         if !status.gyro_bias_done {
             b.insert(ArmRefusal::GyroBiasPending);
         }
-        match attitude_q30(vehicle) {
+        match usable_input(vehicle) {
             None => b.insert(ArmRefusal::AttitudeInvalid),
-            Some((_, c)) if c < self.lim.arm_cos_tilt => b.insert(ArmRefusal::NotLevel),
+            Some((_, c, _)) if c < self.lim.arm_cos_tilt => b.insert(ArmRefusal::NotLevel),
             Some(_) => {}
         }
         if !self.throttle_low(pilot) {
@@ -1033,7 +1101,7 @@ impl FlightController {
                 self.failsafe_us = 0;
                 self.alt_engaged = false;
                 out.events.push(Event::FailsafeHold {
-                    altitude: usable_altitude(vehicle).is_some(),
+                    altitude: vehicle.altitude.is_some(),
                 });
             }
             (FlightState::Failsafe(_), true) => {
@@ -1049,42 +1117,39 @@ impl FlightController {
         }
 
         // Vehicle input.
-        let Some((att, cos_t)) = attitude_q30(vehicle) else {
+        let Some((att, cos_t, gyro_q16)) = usable_input(vehicle) else {
             return self.bridge_bad_input(dt_us, out);
         };
         self.bad_input = Hold::default();
 
-        let alt = usable_altitude(vehicle);
+        let alt = vehicle.altitude;
         let (rate_sp, collective, self_level) = match self.setpoints(dt_us, pilot, &att, alt, out) {
             Some(x) => x,
             None => return, // disarmed inside (failsafe without altitude)
         };
 
-        let g = &vehicle.gyro;
         // On the ground nothing can follow the setpoint: integrating
         // would only wind up and tip the vehicle at take-off.
         if !self.took_off {
             self.rate.clear();
         }
-        self.fly_rates(rate_sp, g, collective, out);
+        self.fly_rates(rate_sp, gyro_q16, collective, out);
         self.last_collective = collective;
 
-        self.safety_checks(dt_us, cos_t, self_level, collective, vehicle, alt, out);
+        self.safety_checks(dt_us, cos_t, self_level, collective, &gyro_q16, alt, out);
         self.track_hover(dt_us, cos_t, collective);
     }
 
     /// The rate loop and mixer, in fixed point from here to the motor
-    /// commands (`control::rateq`): the gyro converted by its bits, one
+    /// commands (`control::rateq`): Q16 rad/s setpoint and gyro, one
     /// period per step; the torques, mix and motors into `out`.
     fn fly_rates(
         &mut self,
         sp_q16: [i32; 3],
-        g: &BodyRates,
+        gyro_q16: [i32; 3],
         collective: f32,
         out: &mut FlightOutput,
     ) {
-        let q16 = |x: f32| f32_to_q(x, 16);
-        let gyro_q16 = [q16(g.roll_rps), q16(g.pitch_rps), q16(g.yaw_rps)];
         let torque_q30 = self.rate.update(sp_q16, gyro_q16);
         let mix = self.mixer.mix(f32_to_q(collective, 30), torque_q30);
         out.rate_setpoint = BodyRates {
@@ -1273,8 +1338,7 @@ impl FlightController {
     /// a vehicle that cannot follow.
     fn altitude_collective(&mut self, a: AltitudeEstimate, climb_q16: i32, dt_us: u32) -> f32 {
         const LEASH_Q16: i32 = 2 << 16;
-        let h = f32_to_q(a.height_m, 16);
-        let v = f32_to_q(a.vertical_speed_mps, 16);
+        let (h, v) = (a.height_m_q16, a.vertical_speed_mps_q16);
         if !self.alt_engaged {
             self.alt_target_q16 = h;
             self.alt.reset(v, f32_to_q(self.last_collective, 30));
@@ -1297,14 +1361,15 @@ impl FlightController {
         cos_tilt_q30: i32,
         self_level: bool,
         collective: f32,
-        vehicle: &VehicleState,
+        gyro_q16: &[i32; 3],
         alt: Option<AltitudeEstimate>,
         out: &mut FlightOutput,
     ) {
-        let s = self.safety;
-        let g = &vehicle.gyro;
-        let max_rate = mag(g.roll_rps).max(mag(g.pitch_rps)).max(mag(g.yaw_rps));
-        if self.runaway.update(dt_us, &out.torque, g, collective) {
+        let max_rate_q16 = gyro_q16.iter().map(|r| r.unsigned_abs()).fold(0, u32::max);
+        if self
+            .runaway
+            .update(dt_us, &out.torque, gyro_q16, collective)
+        {
             return self.disarm(DisarmCause::RunawayTakeoff, out);
         }
         if self.crash_tilt.update(
@@ -1315,17 +1380,19 @@ impl FlightController {
             return self.disarm(DisarmCause::CrashTilt, out);
         }
         if self.crash_rate.update(
-            max_rate >= self.lim.crash_rate,
+            max_rate_q16 >= self.lim.crash_rate_q16,
             dt_us,
             self.lim.crash_rate_us,
         ) {
             return self.disarm(DisarmCause::CrashRate, out);
         }
-        let low = collective < s.land_collective_max;
+        // The one field, not a copy of the whole `SafetyConfig` (a
+        // byte-wise `memcpy` a step).
+        let low = collective < self.safety.land_collective_max;
         if !low {
             self.took_off = true;
         }
-        let landed = self.took_off && low && self.looks_landed(max_rate, collective, alt);
+        let landed = self.took_off && low && self.looks_landed(max_rate_q16, collective, alt);
         if self.landed.update(landed, dt_us, self.lim.land_us) {
             let cause = if matches!(self.state, FlightState::Failsafe(_)) {
                 DisarmCause::FailsafeLanded
@@ -1347,10 +1414,15 @@ impl FlightController {
     /// altitude estimate, no vertical speed; without one, under pilot
     /// control the throttle stick at its minimum, in a failsafe the blind
     /// descent's collective ramped to zero.
-    fn looks_landed(&self, max_rate: u32, collective: f32, alt: Option<AltitudeEstimate>) -> bool {
-        let no_rotation = max_rate < self.lim.land_rate;
+    fn looks_landed(
+        &self,
+        max_rate_q16: u32,
+        collective: f32,
+        alt: Option<AltitudeEstimate>,
+    ) -> bool {
+        let no_rotation = max_rate_q16 < self.lim.land_rate_q16;
         let no_descent = match alt {
-            Some(a) => a.vertical_speed_mps.abs() < self.safety.land_vertical_speed_max_mps,
+            Some(a) => a.vertical_speed_mps_q16.unsigned_abs() < self.lim.land_speed_q16,
             None if matches!(self.state, FlightState::Failsafe(_)) => collective <= 0.0,
             None => self.stick_at_min,
         };
@@ -1396,36 +1468,118 @@ impl FlightController {
     }
 }
 
-/// `|x|` as its IEEE 754 bit pattern: for finite values these order as
-/// the magnitudes do (one integer compare instead of a soft-float one).
-#[inline(always)]
-fn mag(x: f32) -> u32 {
-    x.to_bits() & 0x7fff_ffff
-}
-
-/// Altitude estimate if finite.
-fn usable_altitude(v: &VehicleState) -> Option<AltitudeEstimate> {
-    v.altitude
-        .filter(|a| a.height_m.is_finite() && a.vertical_speed_mps.is_finite())
-}
-
-/// The attitude in Q30 and the cosine of its tilt (body down · earth
-/// down, Q30), or `None` if the attitude or gyro is unusable: not finite,
-/// or `|q|²` outside 0.25..2 ([`QuatQ30::norm2_q60`]).
-fn attitude_q30(v: &VehicleState) -> Option<(QuatQ30, i32)> {
-    let q = &v.attitude;
-    let g = &v.gyro;
-    let all = [q.w, q.x, q.y, q.z, g.roll_rps, g.pitch_rps, g.yaw_rps];
-    if !all.iter().all(|x| x.is_finite()) {
-        return None;
-    }
-    let q30 = QuatQ30::from_quat(q);
-    q30.cos_tilt_q30().ok().map(|c| (q30, c))
+/// The attitude in Q30, the cosine of its tilt (body down · earth down,
+/// Q30) and the gyro in Q16 rad/s, or `None` if the attitude or gyro is
+/// unusable: no gyro sample, or the attitude refused by
+/// [`QuatQ30::cos_tilt_q30`] (a component beyond ±1.5, `|q|²` outside
+/// 0.25..2).
+fn usable_input(v: &VehicleState) -> Option<(QuatQ30, i32, [i32; 3])> {
+    let g = v.gyro_rps_q16?;
+    let q = v.attitude_q30;
+    q.cos_tilt_q30().ok().map(|c| (q, c, g))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// xorshift32: values in −1..1.
+    struct Rng(u32);
+    impl Rng {
+        fn f(&mut self) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 17;
+            self.0 ^= self.0 << 5;
+            self.0 as f32 / u32::MAX as f32 * 2.0 - 1.0
+        }
+    }
+
+    /// The fixed-point vehicle state against its `f32` source: the
+    /// attitude within 2⁻³⁰, rates within 2⁻¹⁶ rad/s, height and speed
+    /// within 2⁻¹⁶; the cosine of the tilt the controller checks against
+    /// the `f32` quaternion's within 3e-4 (one `SDIV` of 15-bit operands).
+    #[test]
+    fn vehicle_state_follows_its_f32_values() {
+        let mut rng = Rng(0x1234_5678);
+        for _ in 0..2_000 {
+            let q = Quat::from_euler(3.2 * rng.f(), 1.6 * rng.f(), 3.2 * rng.f());
+            let g = BodyRates {
+                roll_rps: 30.0 * rng.f(),
+                pitch_rps: 30.0 * rng.f(),
+                yaw_rps: 30.0 * rng.f(),
+            };
+            let (h, vz) = (500.0 * rng.f(), 20.0 * rng.f());
+            let v = VehicleState::from_f32(&q, &g, AltitudeEstimate::from_f32(h, vz));
+            let back = v.attitude();
+            for (a, b) in [(back.w, q.w), (back.x, q.x), (back.y, q.y), (back.z, q.z)] {
+                assert!((a - b).abs() <= 2e-7, "{back:?} vs {q:?}");
+            }
+            let gb = v.gyro().unwrap();
+            for (a, b) in [
+                (gb.roll_rps, g.roll_rps),
+                (gb.pitch_rps, g.pitch_rps),
+                (gb.yaw_rps, g.yaw_rps),
+            ] {
+                assert!((a - b).abs() <= 2e-5, "{gb:?} vs {g:?}");
+            }
+            let a = v.altitude.unwrap();
+            assert!((a.height_m() - h).abs() <= 1e-4, "{a:?} vs {h}");
+            assert!((a.vertical_speed_mps() - vz).abs() <= 2e-5, "{a:?} vs {vz}");
+            let (_, cos_q30, gyro_q16) = usable_input(&v).unwrap();
+            assert_eq!(Some(gyro_q16), v.gyro_rps_q16);
+            let cos_f32 = 1.0 - 2.0 * (q.x * q.x + q.y * q.y);
+            assert!((q_to_f32(cos_q30, 30) - cos_f32).abs() < 3e-4);
+        }
+    }
+
+    /// A non-finite value from a host is unusable, as a lost sample is:
+    /// no attitude, no gyro, no altitude.
+    #[test]
+    fn vehicle_state_refuses_non_finite_values() {
+        let g = BodyRates::default();
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let q = Quat {
+                x: bad,
+                ..Quat::IDENTITY
+            };
+            let v = VehicleState::from_f32(&q, &g, None);
+            assert_eq!(v.attitude_q30, VehicleState::NO_ATTITUDE);
+            assert!(usable_input(&v).is_none());
+            let r = BodyRates { yaw_rps: bad, ..g };
+            let v = VehicleState::from_f32(&Quat::IDENTITY, &r, None);
+            assert_eq!(v.gyro_rps_q16, None);
+            assert!(usable_input(&v).is_none());
+            assert_eq!(AltitudeEstimate::from_f32(bad, 0.0), None);
+            assert_eq!(AltitudeEstimate::from_f32(0.0, bad), None);
+        }
+        let v = VehicleState::from_f32(&Quat::IDENTITY, &g, None);
+        assert!(usable_input(&v).is_some());
+    }
+
+    /// The rate and vertical-speed limits in Q16 decide as the `f32`
+    /// limits they come from, except within 2⁻¹⁵ of the limit.
+    #[test]
+    fn q16_limits_decide_as_their_f32_limits() {
+        let s = SafetyConfig::default();
+        let fc = FlightController::new(FlightConfig::default()).unwrap();
+        let lim = fc.lim;
+        let cases = [
+            (s.crash_rate_dps * RAD_PER_DEG, lim.crash_rate_q16),
+            (s.land_rate_max_dps * RAD_PER_DEG, lim.land_rate_q16),
+            (s.land_vertical_speed_max_mps, lim.land_speed_q16),
+        ];
+        let mut rng = Rng(99);
+        for (limit, limit_q16) in cases {
+            for _ in 0..5_000 {
+                let x = limit * (1.0 + 0.2 * rng.f());
+                if (x.abs() - limit).abs() < 1.0 / 32_768.0 {
+                    continue;
+                }
+                let q16 = f32_to_q(x, 16).unsigned_abs();
+                assert_eq!(q16 >= limit_q16, x.abs() >= limit, "{x} vs {limit}");
+            }
+        }
+    }
 
     /// The climb demand against its `f32` law: `max · (d ∓ band)/(0.5 −
     /// band)` beyond the deadband about the centre, 0 inside, clamped at

@@ -38,25 +38,27 @@
 //! starts afresh at every arming rather than once per battery: a hard
 //! landing can knock a propeller loose.
 //!
-//! Cost: a few integer comparisons per 1 kHz step while active (the
-//! magnitudes' bit patterns), one after it; 308 B of flash and 64 B of RAM
+//! Cost: a few integer comparisons per 1 kHz step while active (the Q16
+//! gyro's magnitudes, the torques' bit patterns), one after it; 308 B of flash and 64 B of RAM
 //! (its state and limits, and the seven `SafetyConfig` fields) in the firmware.
 
-use control::controllers::{BodyRates, TorqueCommand};
+use control::controllers::TorqueCommand;
 
-use crate::arming::SafetyConfig;
+use crate::arming::{q16_limit, SafetyConfig};
 
 const RAD_PER_DEG: f32 = core::f32::consts::PI / 180.0;
 
 /// The runaway-takeoff check of one flight (see the [module docs](self)).
 ///
-/// Magnitudes are compared as their IEEE 754 bit patterns: integer
-/// comparisons instead of the M3's soft-float calls.
+/// Rates are compared in Q16 rad/s, torques as their IEEE 754 bit
+/// patterns: integer comparisons instead of the M3's soft-float calls.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RunawayCheck {
     torque_min: u32,
-    rate_rp: u32,
-    rate_yaw: u32,
+    /// Q16 rad/s.
+    rate_rp_q16: u32,
+    /// Q16 rad/s.
+    rate_yaw_q16: u32,
     trigger_us: u32,
     off_collective: f32,
     off_torque: u32,
@@ -86,8 +88,8 @@ impl RunawayCheck {
     pub fn new(s: &SafetyConfig) -> Self {
         Self {
             torque_min: mag(s.runaway_torque_min),
-            rate_rp: mag(s.runaway_rate_roll_pitch_dps * RAD_PER_DEG),
-            rate_yaw: mag(s.runaway_rate_yaw_dps * RAD_PER_DEG),
+            rate_rp_q16: q16_limit(s.runaway_rate_roll_pitch_dps * RAD_PER_DEG),
+            rate_yaw_q16: q16_limit(s.runaway_rate_yaw_dps * RAD_PER_DEG),
             trigger_us: us(s.runaway_time_s),
             off_collective: s.runaway_off_collective_min,
             off_torque: mag(s.runaway_off_torque_max),
@@ -108,8 +110,9 @@ impl RunawayCheck {
         self.normal_us < self.off_us
     }
 
-    /// One step of `dt_us` with the rate loop's `torque`, the `gyro` (rad/s,
-    /// FRD) and the `collective` asked of the mixer; true: runaway, disarm.
+    /// One step of `dt_us` with the rate loop's `torque`, the gyro
+    /// (`gyro_q16`, Q16 rad/s, FRD) and the `collective` asked of the
+    /// mixer; true: runaway, disarm.
     // Out of line: inlined into the flight controller's step, the firmware
     // measured 20 B larger.
     #[inline(never)]
@@ -117,7 +120,7 @@ impl RunawayCheck {
         &mut self,
         dt_us: u32,
         torque: &TorqueCommand,
-        gyro: &BodyRates,
+        gyro_q16: &[i32; 3],
         collective: f32,
     ) -> bool {
         if !self.active() {
@@ -128,8 +131,8 @@ impl RunawayCheck {
         if t < self.off_torque && collective >= self.off_collective {
             self.normal_us = self.normal_us.saturating_add(dt_us);
         }
-        let turning = mag(gyro.roll_rps).max(mag(gyro.pitch_rps)) > self.rate_rp
-            || mag(gyro.yaw_rps) > self.rate_yaw;
+        let [roll, pitch, yaw] = gyro_q16.map(i32::unsigned_abs);
+        let turning = roll.max(pitch) > self.rate_rp_q16 || yaw > self.rate_yaw_q16;
         self.runaway_us = if t >= self.torque_min && turning {
             self.runaway_us.saturating_add(dt_us)
         } else {
@@ -147,12 +150,10 @@ mod tests {
         RunawayCheck::new(&SafetyConfig::default())
     }
 
-    fn rates_dps(roll: f32, pitch: f32, yaw: f32) -> BodyRates {
-        BodyRates {
-            roll_rps: roll * RAD_PER_DEG,
-            pitch_rps: pitch * RAD_PER_DEG,
-            yaw_rps: yaw * RAD_PER_DEG,
-        }
+    use control::fixed::f32_to_q;
+
+    fn rates_dps(roll: f32, pitch: f32, yaw: f32) -> [i32; 3] {
+        [roll, pitch, yaw].map(|r| f32_to_q(r * RAD_PER_DEG, 16))
     }
 
     /// Steps of 1 ms until it fires; the ms count, or `None` within `max`.
@@ -160,7 +161,7 @@ mod tests {
         c: &mut RunawayCheck,
         max: u32,
         tq: TorqueCommand,
-        g: BodyRates,
+        g: [i32; 3],
         coll: f32,
     ) -> Option<u32> {
         (1..=max).find(|_| c.update(1_000, &tq, &g, coll))

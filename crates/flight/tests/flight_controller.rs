@@ -15,10 +15,7 @@ type Setup = fn(&mut Rig);
 /// The vertical estimator's output at `height_m`, moving at
 /// `vertical_speed_mps` (up positive).
 fn altitude(height_m: f32, vertical_speed_mps: f32) -> Option<AltitudeEstimate> {
-    Some(AltitudeEstimate {
-        height_m,
-        vertical_speed_mps,
-    })
+    AltitudeEstimate::from_f32(height_m, vertical_speed_mps)
 }
 
 fn tilted_deg(deg: f32) -> Quat {
@@ -117,7 +114,7 @@ fn self_levelling_modes_refuse_to_arm_without_accel_calibration_acro_arms() {
             r.status.accel_calibrated = false;
             r.pilot.mode = mode;
         });
-        let blockers = r.fc.arm_blockers(&r.pilot, &r.status, &r.vehicle);
+        let blockers = r.fc.arm_blockers(&r.pilot, &r.status, &r.vehicle.state());
         if arms {
             assert_eq!(ev, vec![Event::Armed], "{mode:?}");
             assert!(blockers.is_empty(), "{mode:?}: {blockers:?}");
@@ -196,7 +193,7 @@ fn blockers_list_link_loss_and_motor_test() {
     r.fc.start_motor_test(1, &r.pilot).unwrap();
     r.pilot.link_ok = false;
     r.status.sensors_healthy = false;
-    let b = r.fc.arm_blockers(&r.pilot, &r.status, &r.vehicle);
+    let b = r.fc.arm_blockers(&r.pilot, &r.status, &r.vehicle.state());
     assert!(b.contains(ArmRefusal::LinkLost));
     assert!(b.contains(ArmRefusal::SensorsUnhealthy));
     assert!(b.contains(ArmRefusal::MotorTestActive));
@@ -205,7 +202,7 @@ fn blockers_list_link_loss_and_motor_test() {
     let ok = Rig::new();
     assert!(ok
         .fc
-        .arm_blockers(&ok.pilot, &ok.status, &ok.vehicle)
+        .arm_blockers(&ok.pilot, &ok.status, &ok.vehicle.state())
         .is_empty());
 }
 
@@ -736,7 +733,7 @@ fn time_standing_still_does_not_rerun_the_loops() {
     let mut r = Rig::new();
     r.take_off();
     let a = r.step();
-    let b = r.fc.step(r.now_us, &r.pilot, &r.status, &r.vehicle);
+    let b = r.fc.step(r.now_us, &r.pilot, &r.status, &r.vehicle.state());
     assert_eq!(a.motors, b.motors);
 }
 
@@ -916,12 +913,16 @@ fn vehicle_state_from_the_pipeline_is_body_frd_in_rad_per_s() {
     let v = VehicleState::from_pipeline(&p);
     let ten = 10f32.to_radians();
     // Default mounting: body = (x, −y, −z) of the MPU.
-    assert!((v.gyro.roll_rps - ten).abs() < 1e-3, "{:?}", v.gyro);
-    assert!((v.gyro.pitch_rps + ten).abs() < 1e-3);
-    assert!((v.gyro.yaw_rps + ten).abs() < 1e-3);
+    let g = v.gyro().unwrap();
+    assert!((g.roll_rps - ten).abs() < 1e-3, "{g:?}");
+    assert!((g.pitch_rps + ten).abs() < 1e-3);
+    assert!((g.yaw_rps + ten).abs() < 1e-3);
+    assert_eq!(v.gyro_rps_q16, Some(p.body_rates_q16()));
     assert!(v.altitude.is_none(), "no barometer reading yet");
-    let n = v.attitude.w * v.attitude.w + v.attitude.x * v.attitude.x;
-    assert!(n > 0.99);
+    let q = v.attitude();
+    assert!(q.w * q.w + q.x * q.x > 0.99);
+    // The pipeline's own Q30 quaternion, no f32 round trip.
+    assert_eq!(v.attitude_q30.0, p.quaternion_q30());
     let esc =
         control::esc::EscTimer::for_clock(control::esc::EscProtocol::OneShot125, 2_000, 72_000_000)
             .unwrap();

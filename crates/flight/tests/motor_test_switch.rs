@@ -147,7 +147,7 @@ fn arming_is_refused_while_the_test_switch_is_on() {
         r.flip_arm_switch(),
         vec![Event::ArmRefused(ArmRefusal::MotorTestSwitchOn)]
     );
-    let blockers = r.fc.arm_blockers(&r.pilot, &r.status, &r.vehicle);
+    let blockers = r.fc.arm_blockers(&r.pilot, &r.status, &r.vehicle.state());
     assert!(blockers.contains(ArmRefusal::MotorTestSwitchOn));
     assert_eq!(r.motors(), Motors::Off);
     // Test switch off: arming works.

@@ -542,6 +542,12 @@ impl Pipeline {
         self.ahrs.quaternion()
     }
 
+    /// The AHRS quaternion `q_ned_from_body` as `[w, x, y, z]` in Q30, the
+    /// form the fixed-point AHRS keeps (the flight controller's input).
+    pub fn quaternion_q30(&self) -> [i32; 4] {
+        self.ahrs.quaternion_q30()
+    }
+
     /// The latest gyro sample in body FRD, bias removed, rad/s (the rate
     /// loop's measurement).
     pub fn body_rates(&self) -> control::controllers::BodyRates {

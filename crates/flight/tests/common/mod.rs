@@ -23,7 +23,7 @@ pub struct Rig {
     pub now_us: u32,
     pub pilot: PilotInput,
     pub status: SystemStatus,
-    pub vehicle: VehicleState,
+    pub vehicle: Vehicle,
     pub last: Option<FlightOutput>,
 }
 
@@ -38,9 +38,29 @@ pub fn ready_status() -> SystemStatus {
     }
 }
 
+/// The vehicle as a test sets it, in `f32` (a NaN or infinity for a
+/// lost sample); the controller gets it through
+/// [`VehicleState::from_f32`] at every step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vehicle {
+    /// Attitude `q_ned_from_body`.
+    pub attitude: Quat,
+    /// Gyro body rates, rad/s, FRD.
+    pub gyro: BodyRates,
+    /// Height and vertical speed.
+    pub altitude: Option<AltitudeEstimate>,
+}
+
+impl Vehicle {
+    /// What the controller is handed.
+    pub fn state(&self) -> VehicleState {
+        VehicleState::from_f32(&self.attitude, &self.gyro, self.altitude)
+    }
+}
+
 /// Level and still, no altitude estimate.
-pub fn level() -> VehicleState {
-    VehicleState {
+pub fn level() -> Vehicle {
+    Vehicle {
         attitude: Quat::IDENTITY,
         gyro: BodyRates::default(),
         altitude: None,
@@ -70,9 +90,12 @@ impl Rig {
     /// One 1 kHz step; checks the motors are off whenever disarmed.
     pub fn step(&mut self) -> FlightOutput {
         self.now_us = self.now_us.wrapping_add(STEP_US);
-        let out = self
-            .fc
-            .step(self.now_us, &self.pilot, &self.status, &self.vehicle);
+        let out = self.fc.step(
+            self.now_us,
+            &self.pilot,
+            &self.status,
+            &self.vehicle.state(),
+        );
         if out.state == FlightState::Disarmed {
             assert_eq!(out.motors, Motors::Off, "motors must be off when disarmed");
         }
