@@ -94,7 +94,7 @@ fn the_worst_boot_fits_the_boot_watchdog_at_the_fastest_lsi() {
         panic!("no capabilities line\n{}", tail(&b, 40));
     };
     assert_eq!(attempts, 3, "{}", tail(&b, 40));
-    assert_logged(&b, "probe Mpu9250: FAILED");
+    assert_logged(&b, "probe MPU-9250: FAILED");
     println!("worst boot: capabilities at {} ms", booted_at / MS);
     // The attempts took their longest path (the waits alone are 1.03 s).
     assert!(

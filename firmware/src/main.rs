@@ -219,7 +219,7 @@ mod app {
     use rtic_monotonics::rtic_time::monotonic::TimerQueueBasedInstant;
     use rtic_monotonics::systick::prelude::*;
     use sensor_stack::boot::BiasStatus;
-    use sensor_stack::calmode::{CalEvent, RawLogRow, RAW_LOG_HEADER};
+    use sensor_stack::calmode::{CalEvent, RawLogRow};
     use sensor_stack::health::SensorState;
     use sensor_stack::pipeline::Pipeline;
     use sensor_stack::sample::{SampleIn, SampleStep};
@@ -696,15 +696,6 @@ mod app {
         v
     }
 
-    /// A check's outcome in the log.
-    fn passed(ok: bool) -> &'static str {
-        if ok {
-            "passed"
-        } else {
-            "FAILED"
-        }
-    }
-
     /// The flight controller's events (arming, refusals with their reason,
     /// disarms with their cause, failsafe, motor test).
     #[task(priority = 1)]
@@ -721,21 +712,13 @@ mod app {
                     p,
                     (config::MOTOR_TEST_COMMAND * 100.0) as u8
                 ),
-                (FlightEvent::Armed, _) => defmt::warn!("flight: ARMED"),
                 (FlightEvent::ArmRefused(r), _) => defmt::warn!(
-                    "flight: arm refused: {} (throttle {=f32})",
+                    "flight: arm refused: {} (throttle stick {=f32})",
                     r,
                     pilot.sticks.throttle
                 ),
-                (FlightEvent::Disarmed(c), _) => defmt::warn!("flight: disarmed: {}", c),
-                (FlightEvent::FailsafeHold { altitude }, _) => defmt::warn!(
-                    "flight: failsafe: no link, holding level and {=str}",
-                    if altitude {
-                        "the height"
-                    } else {
-                        "the last collective (no altitude estimate)"
-                    }
-                ),
+                // ARMED, disarmed with its cause, failsafe, ...: in words
+                // (`flight::arming::Event`'s log format).
                 (other, _) => defmt::warn!("flight: {}", other),
             }
         }
@@ -841,14 +824,17 @@ mod app {
                     Err(e) => defmt::error!("I2C stuck: recovery failed: {} (recovery {=u32})", e, n),
                 }
             }
-            Maintenance::Reinitialised { chip, ok } => {
-                defmt::info!("re-init {}: {=str}", chip, passed(ok))
+            Maintenance::Reinitialised { chip, ok: true } => {
+                defmt::info!("re-init {}: passed", chip)
             }
-            Maintenance::Settled { ok } => {
-                defmt::info!(
-                    "MPU-9250 check (WHO_AM_I, PWR_MGMT_1, config): {=str}",
-                    passed(ok)
-                )
+            Maintenance::Reinitialised { chip, ok: false } => {
+                defmt::info!("re-init {}: FAILED", chip)
+            }
+            Maintenance::Settled { ok: true } => {
+                defmt::info!("MPU-9250 check (WHO_AM_I, PWR_MGMT_1, config): passed")
+            }
+            Maintenance::Settled { ok: false } => {
+                defmt::info!("MPU-9250 check (WHO_AM_I, PWR_MGMT_1, config): FAILED")
             }
             Maintenance::StillMissing { chip, retry_in_ms } => {
                 defmt::info!(
@@ -948,7 +934,12 @@ mod app {
             CalEvent::ModeChanged { from, to } => {
                 defmt::info!("mode {} -> {}", from, to);
                 if to == sensor_stack::calmode::Mode::RawLog {
-                    defmt::println!("{=str}", RAW_LOG_HEADER);
+                    // `RAW_LOG_HEADER` as an interned literal (a `{=str}`
+                    // argument would put its 125 bytes in flash); the
+                    // emulated board's raw-log test checks the two agree.
+                    defmt::println!(
+                        "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving"
+                    );
                 }
             }
             CalEvent::Unavailable { .. } => crate::boot::log_not_in_this_build(),

@@ -12,10 +12,33 @@ use core::f32::consts::PI;
 
 const RAD_PER_DEG: f32 = PI / 180.0;
 
+/// Words for a field-less enum, from one table: `Display` for the host
+/// and `defmt::Format` for the board's log (one interned format string per
+/// variant: the text stays in the ELF's `.defmt` table, not in flash).
+macro_rules! words {
+    ($ty:ident { $($v:ident => $text:literal,)* }) => {
+        impl core::fmt::Display for $ty {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                f.write_str(match self {
+                    $(Self::$v => $text,)*
+                })
+            }
+        }
+
+        #[cfg(feature = "defmt")]
+        impl defmt::Format for $ty {
+            fn format(&self, f: defmt::Formatter) {
+                match self {
+                    $(Self::$v => defmt::write!(f, $text),)*
+                }
+            }
+        }
+    };
+}
+
 /// Why an arm request (arm switch off → on) was refused. Checked in this
 /// order; [`ArmBlockers`] holds all that apply.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ArmRefusal {
     /// The pilot link is down (no valid frames). Only in [`ArmBlockers`]:
     /// without a link there is no trusted switch edge to refuse.
@@ -102,7 +125,6 @@ impl ArmBlockers {
 
 /// Why the controller disarmed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DisarmCause {
     /// The pilot turned the arm switch off.
     Switch,
@@ -143,7 +165,6 @@ pub enum DisarmCause {
 
 /// Why a motor-test request was refused.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MotorTestRefusal {
     /// Only while disarmed.
     Armed,
@@ -160,41 +181,45 @@ pub enum MotorTestRefusal {
     InvalidMotor,
 }
 
-impl core::fmt::Display for MotorTestRefusal {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            Self::Armed => "motor test refused: armed",
-            Self::LinkLost => "motor test refused: pilot link lost",
-            Self::ArmSwitchOn => "motor test refused: arm switch on",
-            Self::ThrottleNotLow => "motor test refused: throttle not low",
-            Self::CalibrationRunning => "motor test refused: calibration running",
-            Self::InvalidMotor => "motor test refused: motor index not 0..=3",
-        })
-    }
-}
+words!(MotorTestRefusal {
+    Armed => "motor test refused: armed",
+    LinkLost => "motor test refused: pilot link lost",
+    ArmSwitchOn => "motor test refused: arm switch on",
+    ThrottleNotLow => "motor test refused: throttle not low",
+    CalibrationRunning => "motor test refused: calibration running",
+    InvalidMotor => "motor test refused: motor index not 0..=3",
+});
 
 impl core::error::Error for MotorTestRefusal {}
 
-impl core::fmt::Display for ArmRefusal {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            Self::LinkLost => "pilot link lost",
-            Self::CalibrationRunning => "calibration running",
-            Self::SensorsUnhealthy => "sensor not healthy",
-            Self::GyroBiasPending => "gyro bias not measured yet",
-            Self::AttitudeInvalid => "attitude or gyro unusable",
-            Self::NotLevel => "not level",
-            Self::ThrottleNotLow => "throttle not low",
-            Self::MotorTestActive => "motor test running",
-            Self::MotorTestSwitchOn => "motor-test switch on",
-            Self::AccelNotCalibrated => "accelerometer not calibrated (self-levelling mode)",
-        })
-    }
-}
+words!(ArmRefusal {
+    LinkLost => "pilot link lost",
+    CalibrationRunning => "calibration running",
+    SensorsUnhealthy => "a sensor is not healthy",
+    GyroBiasPending => "gyro bias not measured yet (keep the craft still)",
+    AttitudeInvalid => "attitude or gyro unusable",
+    NotLevel => "not level",
+    ThrottleNotLow => "throttle not low",
+    MotorTestActive => "motor test running",
+    MotorTestSwitchOn => "motor-test switch on",
+    AccelNotCalibrated => "accelerometer not calibrated (angle and altitude hold need it; acro arms)",
+});
+
+words!(DisarmCause {
+    Switch => "arm switch off",
+    CrashTilt => "crash: tilted past the limit",
+    CrashRate => "crash: tumbling (gyro at its limit)",
+    Landed => "landed",
+    NoTakeOff => "no take-off within the idle time",
+    FailsafeNoAltitude => "failsafe: no altitude estimate to descend on",
+    FailsafeLanded => "failsafe: landed",
+    SensorFault => "sensor fault: attitude or gyro unusable",
+    NoImuSamples => "no IMU samples: outputs were forced off",
+    RunawayTakeoff => "runaway take-off: check the motor order, directions and propellers",
+});
 
 /// Why the motor test stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MotorTestEnd {
     /// A stick moved more than [`SafetyConfig::motor_test_stick_tolerance`].
     StickMoved,
@@ -210,9 +235,17 @@ pub enum MotorTestEnd {
     SwitchOff,
 }
 
+words!(MotorTestEnd {
+    StickMoved => "a stick moved",
+    LinkLost => "pilot link lost",
+    ArmSwitch => "arm switch on",
+    Timeout => "time limit",
+    Stopped => "stopped by the firmware",
+    SwitchOff => "motor-test switch off",
+});
+
 /// Something the flight controller wants logged.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Event {
     /// Armed: motors at idle.
     Armed,
@@ -243,6 +276,66 @@ pub enum Event {
     /// One step's attitude/gyro input was unusable: the previous motor
     /// commands were kept.
     InputRejected,
+}
+
+impl core::fmt::Display for Event {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Armed => f.write_str("ARMED"),
+            Self::ArmRefused(r) => write!(f, "arm refused: {r}"),
+            Self::Disarmed(c) => write!(f, "disarmed: {c}"),
+            Self::FailsafeHold { altitude: true } => {
+                f.write_str("failsafe: no link, holding level and the height")
+            }
+            Self::FailsafeHold { altitude: false } => f.write_str(
+                "failsafe: no link, holding level and the last collective (no altitude estimate)",
+            ),
+            Self::FailsafeDescent => f.write_str("failsafe: descending"),
+            Self::FailsafeCleared => f.write_str("failsafe cleared: the pilot has control"),
+            Self::MotorTestStarted(m) => write!(f, "motor test: motor {} spinning", m + 1),
+            Self::MotorTestEnded(e) => write!(f, "motor test ended: {e}"),
+            Self::MotorTestRefused(r) => write!(f, "{r}"),
+            Self::AltitudeUnavailable => {
+                f.write_str("altitude hold unavailable (no estimate): self-level, manual throttle")
+            }
+            Self::InputRejected => {
+                f.write_str("one step's attitude or gyro unusable: kept the last commands")
+            }
+        }
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Event {
+    fn format(&self, f: defmt::Formatter) {
+        match self {
+            Self::Armed => defmt::write!(f, "ARMED"),
+            Self::ArmRefused(r) => defmt::write!(f, "arm refused: {}", r),
+            Self::Disarmed(c) => defmt::write!(f, "disarmed: {}", c),
+            Self::FailsafeHold { altitude: true } => {
+                defmt::write!(f, "failsafe: no link, holding level and the height")
+            }
+            Self::FailsafeHold { altitude: false } => defmt::write!(
+                f,
+                "failsafe: no link, holding level and the last collective (no altitude estimate)"
+            ),
+            Self::FailsafeDescent => defmt::write!(f, "failsafe: descending"),
+            Self::FailsafeCleared => defmt::write!(f, "failsafe cleared: the pilot has control"),
+            Self::MotorTestStarted(m) => {
+                defmt::write!(f, "motor test: motor {=u8} spinning", m.saturating_add(1))
+            }
+            Self::MotorTestEnded(e) => defmt::write!(f, "motor test ended: {}", e),
+            Self::MotorTestRefused(r) => defmt::write!(f, "{}", r),
+            Self::AltitudeUnavailable => defmt::write!(
+                f,
+                "altitude hold unavailable (no estimate): self-level, manual throttle"
+            ),
+            Self::InputRejected => defmt::write!(
+                f,
+                "one step's attitude or gyro unusable: kept the last commands"
+            ),
+        }
+    }
 }
 
 /// The events of one step (at most [`Events::CAPACITY`]).

@@ -86,12 +86,21 @@ pub const ARM_SWITCH_OFF_BOUND_US: u32 = 5_000;
 
 /// Why the guard forced the outputs off.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ForceOffReason {
     /// The receiver saw the arm switch off (link up) while armed.
     ArmSwitchOff,
     /// No sample step for [`NO_SAMPLE_TIMEOUT_US`] while the outputs ran.
     NoSamples,
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for ForceOffReason {
+    fn format(&self, f: defmt::Formatter) {
+        match self {
+            Self::ArmSwitchOff => defmt::write!(f, "the arm switch went off"),
+            Self::NoSamples => defmt::write!(f, "no IMU sample for 50 ms while the motors ran"),
+        }
+    }
 }
 
 impl ForceOffReason {

@@ -43,9 +43,9 @@ pub const PPM_TIMEOUT_US: u32 = 100_000;
 /// the sticks back, short enough that a pilot waits half a second.
 pub const LINK_RECOVERY_US: u32 = 500_000;
 
-/// Why the link is considered lost, or that it is not.
+/// Why the link is considered lost, or that it is not (the log says it in
+/// words).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum LinkStatus {
     /// A good frame arrived within the timeout.
     Ok,
@@ -59,6 +59,23 @@ pub enum LinkStatus {
     /// ([`LINK_RECOVERY_US`] by default): still lost for control and
     /// arming.
     Recovering,
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for LinkStatus {
+    fn format(&self, f: defmt::Formatter) {
+        match self {
+            Self::Ok => defmt::write!(f, "up"),
+            Self::NeverReceived => defmt::write!(f, "no frame since start-up"),
+            Self::TimedOut => defmt::write!(f, "no good frame within the timeout"),
+            Self::NoLinkQuality => {
+                defmt::write!(f, "the receiver reports 0 % link quality (its failsafe)")
+            }
+            Self::Recovering => {
+                defmt::write!(f, "frames again, not yet for the whole recovery window")
+            }
+        }
+    }
 }
 
 /// Where the current unbroken run of frames stands.

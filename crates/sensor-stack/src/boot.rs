@@ -5,9 +5,9 @@
 use calibration::{Error as CalError, GyroBiasConfig, GyroBiasEstimator};
 use embedded_hal::delay::DelayNs;
 
-/// The three chips on the bus.
+/// The three chips on the bus (the log names them as their datasheets do:
+/// MPU-9250, AK8963, MS5611).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Chip {
     /// MPU-9250 accelerometer + gyroscope.
     Mpu9250,
@@ -17,9 +17,8 @@ pub enum Chip {
     Ms5611,
 }
 
-/// Why a chip did not come up.
+/// Why a chip did not come up (the log says it in words).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ProbeFailure {
     /// No answer on the bus (NACK / bus error on every attempt): not fitted
     /// or not wired.
@@ -40,6 +39,41 @@ pub enum ProbeFailure {
     /// Not probed because a chip it depends on is missing (the AK8963 needs
     /// the MPU-9250's bypass).
     DependencyMissing,
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Chip {
+    fn format(&self, f: defmt::Formatter) {
+        // One interned format string per name: no name text in flash.
+        match self {
+            Self::Mpu9250 => defmt::write!(f, "MPU-9250"),
+            Self::Ak8963 => defmt::write!(f, "AK8963"),
+            Self::Ms5611 => defmt::write!(f, "MS5611"),
+        }
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for ProbeFailure {
+    fn format(&self, f: defmt::Formatter) {
+        match *self {
+            Self::NoResponse => defmt::write!(f, "no answer on the bus (not fitted, or not wired)"),
+            Self::WrongId { found } => defmt::write!(
+                f,
+                "its identity register reads {=u8:#04x}: another chip",
+                found
+            ),
+            Self::Mpu6500 => defmt::write!(f, "it is an MPU-6500 (no magnetometer inside)"),
+            Self::BadProm => defmt::write!(f, "its calibration PROM failed its CRC or reads blank"),
+            Self::InitFailed => defmt::write!(f, "it answered but its configuration failed"),
+            Self::DependencyMissing => {
+                defmt::write!(
+                    f,
+                    "not probed: reached through the MPU-9250, which is missing"
+                )
+            }
+        }
+    }
 }
 
 /// Verdict of one chip's probe: `Ok` or why not, plus attempts used.

@@ -485,9 +485,8 @@ pub struct RecoveryReport {
     pub clocks: u8,
 }
 
-/// Why [`recover_bus`] could not free the bus.
+/// Why [`recover_bus`] could not free the bus (the log says it in words).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum RecoveryError {
     /// SCL stays low even when released (short or a slave stretching forever).
     SclStuckLow,
@@ -498,6 +497,28 @@ pub enum RecoveryError {
     SdaNotDriven,
     /// SCL did not follow the pin when driven low.
     SclNotDriven,
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for RecoveryError {
+    fn format(&self, f: defmt::Formatter) {
+        match self {
+            Self::SclStuckLow => defmt::write!(
+                f,
+                "SCL stays low when released (a short, or a slave stretching it)"
+            ),
+            Self::SdaStuckLow => defmt::write!(
+                f,
+                "SDA still low after 16 SCL clocks (a short, or a slave holding it)"
+            ),
+            Self::SdaNotDriven => {
+                defmt::write!(f, "SDA does not follow the pin (a short to the supply?)")
+            }
+            Self::SclNotDriven => {
+                defmt::write!(f, "SCL does not follow the pin (a short to the supply?)")
+            }
+        }
+    }
 }
 
 /// Upper bound on SCL pulses (9 suffice for a slave mid-byte; margin for a

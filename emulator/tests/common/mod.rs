@@ -140,7 +140,8 @@ pub fn assert_link_times_out(b: &mut Board) {
     run_until(b, stop + 200 * MS);
     let lost = lines_after(b, stop, "rc: link lost");
     assert!(
-        lost.first().is_some_and(|l| l.contains("TimedOut")),
+        lost.first()
+            .is_some_and(|l| l.contains("no good frame within the timeout")),
         "{lost:?}\n{}",
         tail(b, 20)
     );
