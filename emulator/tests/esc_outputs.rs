@@ -470,7 +470,7 @@ fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
     assert!(
         refused
             .as_ref()
-            .is_some_and(|l| l.contains("ThrottleNotLow")),
+            .is_some_and(|l| l.contains("throttle not low")),
         "{refused:?}\n{}",
         tail(&b, 30)
     );
@@ -483,7 +483,7 @@ fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
     assert!(
         refused
             .as_ref()
-            .is_some_and(|l| l.contains("AccelNotCalibrated")),
+            .is_some_and(|l| l.contains("accelerometer not calibrated")),
         "{refused:?}\n{}",
         tail(&b, 30)
     );
@@ -506,7 +506,7 @@ fn arming_refusal_arming_idle_and_failsafe_on_signal_loss() {
     let lost_at = b.now_ns();
     let disarmed = b.wait_for_line("flight: disarmed", 7 * S).unwrap();
     assert!(
-        !lines_after(&b, lost_at, "flight: failsafe: no link, holding level").is_empty(),
+        !lines_after(&b, lost_at, "flight: failsafe: no link: holding level").is_empty(),
         "no failsafe\n{}",
         tail(&b, 40)
     );
@@ -578,7 +578,10 @@ fn motor_test_switch_spins_one_motor_per_flip() {
     );
     assert_off(&mut b, "motor-test switch on since the link came up");
 
-    for (motor, position) in [(1, "RearRight"), (2, "FrontRight")] {
+    for (motor, position) in [
+        (1, "rear right, clockwise"),
+        (2, "front right, counter-clockwise"),
+    ] {
         let t = b.now_ns();
         stream(&mut b, &off, 4 * MS, t + 100 * MS);
         assert_off(&mut b, "switch off");
@@ -606,9 +609,11 @@ fn motor_test_switch_spins_one_motor_per_flip() {
         assert_eq!(spinning(&mut b), s, "motor {motor} after 1 s");
         if motor == 1 {
             let t = b.now_ns();
-            let ended = stream_until(&mut b, &off, "MotorTestEnded", S);
+            let ended = stream_until(&mut b, &off, "motor test ended", S);
             assert!(
-                ended.as_ref().is_some_and(|l| l.contains("SwitchOff")),
+                ended
+                    .as_ref()
+                    .is_some_and(|l| l.contains("motor-test switch off")),
                 "{ended:?}"
             );
             stream(&mut b, &off, 4 * MS, t + 200 * MS);
@@ -616,9 +621,9 @@ fn motor_test_switch_spins_one_motor_per_flip() {
         }
     }
     // Throttle moved with motor 2 running: back to off.
-    let ended = stream_until(&mut b, &motor_test_frame(1300, true), "MotorTestEnded", S);
+    let ended = stream_until(&mut b, &motor_test_frame(1300, true), "motor test ended", S);
     assert!(
-        ended.as_ref().is_some_and(|l| l.contains("StickMoved")),
+        ended.as_ref().is_some_and(|l| l.contains("a stick moved")),
         "{ended:?}\n{}",
         tail(&b, 20)
     );

@@ -473,7 +473,7 @@ fn wiring_errors_at_take_off_end_in_a_runaway_disarm() {
             "fil {}: runaway disarm, pins off at {off:?} s, until then max height {max_h:.2} m, max tilt {max_tilt:.0}°",
             scenario.name()
         );
-        assert_logged(r.board(), "RunawayTakeoff");
+        assert_logged(r.board(), "disarmed: runaway take-off");
         assert!(max_h < 0.5 && max_tilt < 45.0, "{max_h} m {max_tilt}°");
         let t = off.expect("pins never off");
         assert!(window(&r, t, scenario.duration_s()).iter().all(pins_off));

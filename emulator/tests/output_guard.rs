@@ -141,7 +141,7 @@ fn outputs_go_off_when_the_imu_stops_while_armed() {
     );
     run_for(&mut b, 5 * MS);
     assert!(
-        !lines_after(&b, dead_at, "outputs: forced off: NoSamples").is_empty(),
+        !lines_after(&b, dead_at, "outputs: forced off: no IMU sample for 50 ms").is_empty(),
         "{}",
         tail(&b, 30)
     );
@@ -183,7 +183,7 @@ fn arm_switch_off_reaches_the_off_pulse_with_the_imu_dead() {
     );
     run_for(&mut b, 5 * MS);
     assert!(
-        !lines_after(&b, sent_at, "outputs: forced off: ArmSwitchOff").is_empty(),
+        !lines_after(&b, sent_at, "outputs: forced off: the arm switch went off").is_empty(),
         "{}",
         tail(&b, 30)
     );

@@ -371,12 +371,12 @@ fn ppm_arming_idle_and_failsafe_when_the_train_stops() {
         .unwrap()
         .unwrap_or_else(|| panic!("{}", tail(&b, 40)));
     assert!(
-        !lines_after(&b, stopped_at, "flight: failsafe: no link, holding level").is_empty(),
+        !lines_after(&b, stopped_at, "flight: failsafe: no link: holding level").is_empty(),
         "no failsafe\n{}",
         tail(&b, 40)
     );
     assert!(
-        disarmed.text.contains("FailsafeLanded"),
+        disarmed.text.contains("failsafe: landed"),
         "{}",
         disarmed.text
     );

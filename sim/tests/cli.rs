@@ -141,10 +141,10 @@ fn a_closed_loop_scenario_prints_its_figures_and_plots() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     for want in [
         "s: fault 12:nack:baro:20",
-        "Armed",
-        "FailsafeHold",
-        "FailsafeDescent",
-        "Disarmed(FailsafeLanded)",
+        "ARMED",
+        "failsafe: no link: holding level and the height",
+        "failsafe: descending",
+        "disarmed: failsafe: landed",
         "hover height error RMS",
         "link lost at",
     ] {

@@ -12,30 +12,6 @@ use core::f32::consts::PI;
 
 const RAD_PER_DEG: f32 = PI / 180.0;
 
-/// Words for a field-less enum, from one table: `Display` for the host
-/// and `defmt::Format` for the board's log (one interned format string per
-/// variant: the text stays in the ELF's `.defmt` table, not in flash).
-macro_rules! words {
-    ($ty:ident { $($v:ident => $text:literal,)* }) => {
-        impl core::fmt::Display for $ty {
-            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-                f.write_str(match self {
-                    $(Self::$v => $text,)*
-                })
-            }
-        }
-
-        #[cfg(feature = "defmt")]
-        impl defmt::Format for $ty {
-            fn format(&self, f: defmt::Formatter) {
-                match self {
-                    $(Self::$v => defmt::write!(f, $text),)*
-                }
-            }
-        }
-    };
-}
-
 /// Why an arm request (arm switch off → on) was refused. Checked in this
 /// order; [`ArmBlockers`] holds all that apply.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -202,7 +178,7 @@ words!(ArmRefusal {
     ThrottleNotLow => "throttle not low",
     MotorTestActive => "motor test running",
     MotorTestSwitchOn => "motor-test switch on",
-    AccelNotCalibrated => "accelerometer not calibrated (angle and altitude hold need it; acro arms)",
+    AccelNotCalibrated => "accelerometer not calibrated: angle and altitude hold need it (acro does not)",
 });
 
 words!(DisarmCause {
@@ -215,7 +191,7 @@ words!(DisarmCause {
     FailsafeLanded => "failsafe: landed",
     SensorFault => "sensor fault: attitude or gyro unusable",
     NoImuSamples => "no IMU samples: outputs were forced off",
-    RunawayTakeoff => "runaway take-off: check the motor order, directions and propellers",
+    RunawayTakeoff => "runaway take-off: check the motor order and directions and the propellers",
 });
 
 /// Why the motor test stopped.
@@ -285,19 +261,19 @@ impl core::fmt::Display for Event {
             Self::ArmRefused(r) => write!(f, "arm refused: {r}"),
             Self::Disarmed(c) => write!(f, "disarmed: {c}"),
             Self::FailsafeHold { altitude: true } => {
-                f.write_str("failsafe: no link, holding level and the height")
+                f.write_str("failsafe: no link: holding level and the height")
             }
             Self::FailsafeHold { altitude: false } => f.write_str(
-                "failsafe: no link, holding level and the last collective (no altitude estimate)",
+                "failsafe: no link: holding level and the last collective (no altitude estimate)",
             ),
             Self::FailsafeDescent => f.write_str("failsafe: descending"),
             Self::FailsafeCleared => f.write_str("failsafe cleared: the pilot has control"),
             Self::MotorTestStarted(m) => write!(f, "motor test: motor {} spinning", m + 1),
             Self::MotorTestEnded(e) => write!(f, "motor test ended: {e}"),
             Self::MotorTestRefused(r) => write!(f, "{r}"),
-            Self::AltitudeUnavailable => {
-                f.write_str("altitude hold unavailable (no estimate): self-level, manual throttle")
-            }
+            Self::AltitudeUnavailable => f.write_str(
+                "altitude hold unavailable (no estimate): self-level with manual throttle",
+            ),
             Self::InputRejected => {
                 f.write_str("one step's attitude or gyro unusable: kept the last commands")
             }
@@ -313,11 +289,11 @@ impl defmt::Format for Event {
             Self::ArmRefused(r) => defmt::write!(f, "arm refused: {}", r),
             Self::Disarmed(c) => defmt::write!(f, "disarmed: {}", c),
             Self::FailsafeHold { altitude: true } => {
-                defmt::write!(f, "failsafe: no link, holding level and the height")
+                defmt::write!(f, "failsafe: no link: holding level and the height")
             }
             Self::FailsafeHold { altitude: false } => defmt::write!(
                 f,
-                "failsafe: no link, holding level and the last collective (no altitude estimate)"
+                "failsafe: no link: holding level and the last collective (no altitude estimate)"
             ),
             Self::FailsafeDescent => defmt::write!(f, "failsafe: descending"),
             Self::FailsafeCleared => defmt::write!(f, "failsafe cleared: the pilot has control"),
@@ -328,7 +304,7 @@ impl defmt::Format for Event {
             Self::MotorTestRefused(r) => defmt::write!(f, "{}", r),
             Self::AltitudeUnavailable => defmt::write!(
                 f,
-                "altitude hold unavailable (no estimate): self-level, manual throttle"
+                "altitude hold unavailable (no estimate): self-level with manual throttle"
             ),
             Self::InputRejected => defmt::write!(
                 f,

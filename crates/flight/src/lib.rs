@@ -26,6 +26,30 @@
     )
 )]
 
+/// Words for a field-less enum, from one table: `Display` for the host
+/// and `defmt::Format` for the board's log (one interned format string per
+/// variant: the text stays in the ELF's `.defmt` table, not in flash).
+macro_rules! words {
+    ($ty:ident { $($v:ident => $text:literal,)* }) => {
+        impl core::fmt::Display for $ty {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                f.write_str(match self {
+                    $(Self::$v => $text,)*
+                })
+            }
+        }
+
+        #[cfg(feature = "defmt")]
+        impl defmt::Format for $ty {
+            fn format(&self, f: defmt::Formatter) {
+                match self {
+                    $(Self::$v => defmt::write!(f, $text),)*
+                }
+            }
+        }
+    };
+}
+
 pub mod arming;
 pub mod flightctl;
 pub mod motortest;

@@ -29,7 +29,6 @@ use control::mixer::MOTORS;
 /// Where a motor sits on the frame: the layout of [`control::mixer`]
 /// (Betaflight quad-X, seen from above, nose forward).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MotorPosition {
     /// Motor 1 (index 0), clockwise.
     RearRight,
@@ -40,6 +39,13 @@ pub enum MotorPosition {
     /// Motor 4 (index 3), clockwise.
     FrontLeft,
 }
+
+words!(MotorPosition {
+    RearRight => "rear right, clockwise",
+    FrontRight => "front right, counter-clockwise",
+    RearLeft => "rear left, counter-clockwise",
+    FrontLeft => "front left, clockwise",
+});
 
 impl MotorPosition {
     /// The position of motor index `motor` (0..=3, mixer order), `None`

@@ -454,7 +454,7 @@ mod tests {
         assert!(
             log.events
                 .iter()
-                .any(|(_, e)| e == "Disarmed(CrashTilt)" || e == "Disarmed(CrashRate)"),
+                .any(|(_, e)| e.starts_with("disarmed: crash")),
             "{:?}",
             log.events
         );
@@ -483,10 +483,11 @@ mod tests {
         assert!(disarmed < 1.5 && disarmed - lift_off < 0.3, "{r:?}");
         assert!(r.max_tilt_deg < 30.0 && r.max_height_m < 0.5, "{r:?}");
         assert!(r.off_after, "{r:?}");
-        let first_disarm = log.events.iter().find(|(_, e)| e.starts_with("Disarmed"));
+        let first_disarm = log.events.iter().find(|(_, e)| e.starts_with("disarmed"));
+        let runaway = flight::arming::Event::Disarmed(flight::arming::DisarmCause::RunawayTakeoff);
         assert_eq!(
             first_disarm.map(|(_, e)| e.as_str()),
-            Some("Disarmed(RunawayTakeoff)")
+            Some(runaway.to_string().as_str())
         );
         f
     }

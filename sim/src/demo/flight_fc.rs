@@ -44,7 +44,7 @@ impl FlightControl for FirmwareFc {
             .fc
             .step(input.now_us, &input.pilot, &status, &input.vehicle);
         self.events
-            .extend(out.events.iter().map(|e: Event| format!("{e:?}")));
+            .extend(out.events.iter().map(|e: Event| e.to_string()));
         let flying = matches!(out.state, FlightState::Armed | FlightState::Failsafe(_));
         let failsafe = matches!(out.state, FlightState::Failsafe(_));
         // The tilt the self-levelling modes aim at: the sticks' (level in a failsafe).

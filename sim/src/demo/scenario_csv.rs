@@ -46,7 +46,7 @@ pub const COLUMNS: [(&str, &str); 33] = [
     ("battery_v", "battery terminal voltage (V)"),
     (
         "events",
-        "the events of this sample, separated by `; `: the controller's as the status lines print them (Armed, FailsafeHold { altitude: true }, FailsafeDescent, Disarmed(FailsafeLanded), ...), injected faults (fault TIME:KIND), link lost, link back, motor N failed, lift-off, touch-down",
+        "the events of this sample, separated by `; `: the controller's in the words of the status lines and the board's log (ARMED, failsafe: no link: holding level and the height, failsafe: descending, disarmed: failsafe: landed, ...), injected faults (fault TIME:KIND), link lost, link back, motor N failed, lift-off, touch-down",
     ),
 ];
 
@@ -187,18 +187,18 @@ mod tests {
         // The script stops its frames at LINK_LOSS_S; the next 1 kHz sample logs it.
         assert!((LINK_LOSS_S..LINK_LOSS_S + 0.002).contains(&lost), "{lost}");
         let near = |t: f64, want: f64, tol: f64| (t - want).abs() <= tol;
-        let hold = row_time(&rows, "FailsafeHold");
+        let hold = row_time(&rows, "failsafe: no link: holding");
         assert!(
             near(hold, lost + l.detected_s.unwrap(), 1e-3),
             "{hold} {l:?}"
         );
-        let descent = row_time(&rows, "FailsafeDescent");
+        let descent = row_time(&rows, "failsafe: descending");
         assert!(descent > hold, "{descent}");
         // The figures' touch-down is the height falling below 2 cm; the
         // event is ground contact, 2 cm later at 0.5 m/s.
         let down = row_time(&rows, "touch-down");
         assert!(near(down, lost + l.landed_s.unwrap(), 0.1), "{down} {l:?}");
-        let disarm = row_time(&rows, "Disarmed(FailsafeLanded)");
+        let disarm = row_time(&rows, "disarmed: failsafe: landed");
         assert!(
             near(disarm, lost + l.disarmed_s.unwrap(), 1e-3),
             "{disarm} {l:?}"
@@ -207,7 +207,7 @@ mod tests {
         // the link column 0 from the loss on.
         let col = |name: &str| names.iter().position(|n| *n == name).unwrap();
         let (armed, link) = (col("armed"), col("link"));
-        let armed_at = row_time(&rows, "Armed");
+        let armed_at = row_time(&rows, "ARMED");
         for r in rows.iter().skip(1) {
             let t: f64 = r[0].parse().unwrap();
             assert_eq!(r[armed] == "1", (armed_at..disarm).contains(&t), "{r:?}");
@@ -217,7 +217,7 @@ mod tests {
 
     #[test]
     fn a_field_with_a_comma_or_quote_is_quoted() {
-        assert_eq!(quoted("Armed; link lost"), "Armed; link lost");
+        assert_eq!(quoted("ARMED; link lost"), "ARMED; link lost");
         assert_eq!(quoted("a,b"), "\"a,b\"");
         assert_eq!(quoted("say \"x\""), "\"say \"\"x\"\"\"");
         assert_eq!(header().split(',').count(), COLUMNS.len());

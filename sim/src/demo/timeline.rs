@@ -23,9 +23,9 @@ pub enum Source {
 pub struct TimedEvent {
     /// Simulated time (s): the sample at or after which it happened.
     pub t_s: f64,
-    /// What happened: the controller's events as printed in the status
-    /// lines (`Disarmed(FailsafeLanded)`), the others in words
-    /// (`link lost`, `touch-down`).
+    /// What happened: the controller's events as the status lines and the
+    /// board's log word them (`disarmed: failsafe: landed`), the others
+    /// too (`link lost`, `touch-down`).
     pub text: String,
     /// Who says so.
     pub source: Source,
@@ -111,30 +111,29 @@ fn lasts(samples: &[Sample], i: usize) -> bool {
         .all(|x| x.quad.on_ground == s.quad.on_ground)
 }
 
-/// A short label for the plot: the controller's events in words
-/// (`failsafe: hold`, `disarmed: FailsafeLanded`), the others as they are.
+/// A short label for the plot: the controller's events shortened
+/// (`failsafe: hold`, `disarmed: failsafe: landed`), the others as they
+/// are.
 pub fn label(e: &TimedEvent) -> String {
     let t = e.text.as_str();
-    let inner = |prefix: &str| {
-        t.strip_prefix(prefix)
-            .and_then(|r| r.strip_suffix(')'))
-            .map(str::to_string)
-    };
     if e.source != Source::Controller {
         return t.to_string();
     }
-    if let Some(cause) = inner("Disarmed(") {
-        return format!("disarmed: {cause}");
+    if t == "ARMED" {
+        return "armed".into();
     }
-    if let Some(why) = inner("ArmRefused(") {
-        return format!("arm refused: {why}");
+    if t.starts_with("failsafe: no link: holding") {
+        return "failsafe: hold".into();
     }
-    match t {
-        "Armed" => "armed".into(),
-        "FailsafeDescent" => "failsafe: descent".into(),
-        "FailsafeCleared" => "failsafe cleared".into(),
-        "AltitudeUnavailable" => "no altitude: self-level".into(),
-        _ if t.starts_with("FailsafeHold") => "failsafe: hold".into(),
+    if t.starts_with("failsafe cleared") {
+        return "failsafe cleared".into();
+    }
+    if t.starts_with("altitude hold unavailable") {
+        return "no altitude: self-level".into();
+    }
+    // Disarm causes and refusals: up to the first advice after a colon.
+    match t.match_indices(": ").nth(1) {
+        Some((i, _)) if t.starts_with("disarmed: runaway") => t[..i].to_string(),
         _ => t.to_string(),
     }
 }
