@@ -961,10 +961,15 @@ mod app {
                 ),
                 None => defmt::info!("accel cal: all 6 faces done"),
             },
-            CalEvent::MagRefused => defmt::warn!("mag cal: fit refused, keep turning"),
+            CalEvent::MagRefused => defmt::warn!(
+                "mag cal: fit refused (sweep, coverage, fit error or offset uncertainty over its limit), keep turning"
+            ),
             CalEvent::AccelRestarted => defmt::warn!("accel cal: implausible result, restarting"),
             CalEvent::MagDone { offset_ut } => {
-                defmt::info!("mag cal done: offset {} µT", offset_ut);
+                defmt::info!(
+                    "mag cal done: offset {} µT, within 1 µT (3 standard errors)",
+                    offset_ut
+                );
                 save_calibration(flash, record, pipeline);
             }
             CalEvent::AccelDone { offset_g, scale } => {

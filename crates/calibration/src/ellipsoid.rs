@@ -181,16 +181,23 @@ pub struct EllipsoidFitConfig {
     pub min_range: f32,
     /// Largest accepted [`EllipsoidSolution::rms_error`].
     pub max_rms_error: f32,
+    /// Largest accepted [`EllipsoidSolution::offset_std_error`], input unit.
+    pub max_offset_std_error: f32,
 }
 
 impl EllipsoidFitConfig {
     /// Defaults for µT: 300 samples, 12 of 14 directions, every axis spanning at
-    /// least 30 µT, RMS magnitude error at most 5 %.
+    /// least 30 µT, RMS magnitude error at most 5 %, and a centre whose
+    /// standard error is at most 1/3 µT on every axis (three standard errors
+    /// within 1 µT; the AK8963's 0.4 µT noise on a figure eight leaves about
+    /// 0.02 µT, so only samples that leave a side of the sphere to a few
+    /// points reach it).
     pub const MICROTESLA: Self = Self {
         min_samples: 300,
         bins_needed: 12,
         min_range: 30.0,
         max_rms_error: 0.05,
+        max_offset_std_error: 1.0 / 3.0,
     };
 
     /// `Ok` when `bins_needed ≤ 14` and the thresholds are finite and
@@ -199,7 +206,8 @@ impl EllipsoidFitConfig {
         let ok = self.bins_needed <= COVERAGE_BINS
             && self.min_range.is_finite()
             && self.min_range >= 0.0
-            && self.max_rms_error >= 0.0;
+            && self.max_rms_error >= 0.0
+            && self.max_offset_std_error >= 0.0;
         if ok {
             Ok(())
         } else {
@@ -231,6 +239,13 @@ pub struct EllipsoidSolution {
     /// magnitude from `R` (0.01 ≈ 1 % RMS). Computed exactly from the
     /// accumulated moments (no second pass).
     pub rms_error: f32,
+    /// Largest per-axis standard error of the centre, input unit: the
+    /// linearised least-squares covariance of `c = −M⁻¹b` from the normal
+    /// matrix and the RMS regression residual (so it grows with the noise
+    /// and with samples that leave a side of the ellipsoid to a few points).
+    /// Noise of σ per axis on `N` samples spread over the sphere gives about
+    /// `σ·√(3/N)`.
+    pub offset_std_error: f32,
     /// Coverage directions covered (of [`COVERAGE_BINS`]), judged from the
     /// fitted centre.
     pub bins_hit: u8,
@@ -465,7 +480,7 @@ impl EllipsoidFit {
             });
         }
         let moments = self.scaled_moments()?;
-        let fit = solve(&moments)?;
+        let fit = solve(&moments, self.count)?;
         let s = moments.scale;
         let [ox, oy, oz] = self.origin;
         let center = [
@@ -497,12 +512,14 @@ impl EllipsoidFit {
             radius: (s * fit.radius) as f32,
             semi_axes: [(s * a0) as f32, (s * a1) as f32, (s * a2) as f32],
             rms_error: fit.rms_error as f32,
+            offset_std_error: (s * fit.offset_std_error) as f32,
             bins_hit,
             samples: self.count,
         };
         let finite = solution.radius.is_finite()
             && solution.semi_axes.iter().all(|a| a.is_finite())
-            && solution.rms_error.is_finite();
+            && solution.rms_error.is_finite()
+            && solution.offset_std_error.is_finite();
         if !finite {
             return Err(Error::OutOfRange);
         }
@@ -510,6 +527,12 @@ impl EllipsoidFit {
             return Err(Error::PoorFit {
                 rms_error: solution.rms_error,
                 limit: self.config.max_rms_error,
+            });
+        }
+        if solution.offset_std_error > self.config.max_offset_std_error {
+            return Err(Error::UncertainOffset {
+                std_error: solution.offset_std_error,
+                limit: self.config.max_offset_std_error,
             });
         }
         Ok(solution)
@@ -655,23 +678,71 @@ struct Fit {
     radius: f64,
     semi_axes: [f64; 3],
     rms_error: f64,
+    offset_std_error: f64,
 }
 
-fn solve(mom: &Moments) -> Result<Fit, Error> {
-    let u = least_squares(mom)?;
-    let (c, shape) = quadric_centre_and_shape(u)?;
+fn solve(mom: &Moments, count: u32) -> Result<Fit, Error> {
+    let (u, normal) = least_squares(mom)?;
+    let (c, shape, m_inv, k) = quadric_centre_and_shape(u)?;
     let (w, radius, semi_axes) = axes_and_soft_iron(shape)?;
+    let rms_error = rms_residual(mom, &shape, &c);
+    // The regression residual is k·p, p the residual rms_error is the RMS of ×½.
+    let residual = 2.0 * k.abs() * rms_error;
     Ok(Fit {
         center: [c[0], c[1], c[2]],
         w,
         radius,
         semi_axes,
-        rms_error: rms_residual(mom, &shape, &c),
+        rms_error,
+        offset_std_error: centre_std_error(&normal, &m_inv, &c, residual, count),
     })
 }
 
-/// The nine regression coefficients `u` of `REGRESSORS·u ≈ TARGET`.
-fn least_squares(mom: &Moments) -> Result<[f64; 9], Error> {
+/// The equilibrated normal matrix's Cholesky factor `L` (lower triangle)
+/// and the equilibration `D`: `N = D⁻¹LLᵀD⁻¹`.
+struct NormalFactor {
+    l: [[f64; 9]; 9],
+    d: [f64; 9],
+}
+
+/// Largest per-axis standard error of the centre `c = −M⁻¹b` (scaled
+/// units). To first order `dc = −M⁻¹G·du`, where column `k` of `G` is half
+/// the gradient of regressor `k` at `c`; with `Cov(u) = σ²/n · N⁻¹` and
+/// `N⁻¹ = D L⁻ᵀL⁻¹ D`, axis `j`'s variance is `σ²/n · |L⁻¹DGᵀM⁻¹eⱼ|²`.
+fn centre_std_error(
+    f: &NormalFactor,
+    m_inv: &Matrix3<f64>,
+    c: &Vector3<f64>,
+    residual: f64,
+    count: u32,
+) -> f64 {
+    let mut worst = 0.0f64;
+    for j in 0..3 {
+        let v = m_inv.column(j);
+        let (x, y, z) = (c[0], c[1], c[2]);
+        let mut g = [
+            x * v[0] + y * v[1] - 2.0 * z * v[2],
+            x * v[0] - 2.0 * y * v[1] + z * v[2],
+            y * v[0] + x * v[1],
+            z * v[0] + x * v[2],
+            z * v[1] + y * v[2],
+            v[0],
+            v[1],
+            v[2],
+            0.0,
+        ];
+        for (gi, di) in g.iter_mut().zip(&f.d) {
+            *gi *= di;
+        }
+        forward_substitute(&f.l, &mut g);
+        worst = worst.max(g.iter().map(|v| v * v).sum());
+    }
+    residual * libm::sqrt(worst / f64::from(count.max(1)))
+}
+
+/// The nine regression coefficients `u` of `REGRESSORS·u ≈ TARGET`, and
+/// the normal matrix's factor.
+fn least_squares(mom: &Moments) -> Result<([f64; 9], NormalFactor), Error> {
     // Normal matrix N = mean φφᵀ (lower triangle is enough) and right-hand
     // side mean φ·target, then Jacobi equilibration D·N·D (unit diagonal)
     // with D = diag(1/√Nᵢᵢ).
@@ -703,12 +774,16 @@ fn least_squares(mom: &Moments) -> Result<[f64; 9], Error> {
     for (r, di) in rhs.iter_mut().zip(&d) {
         *r *= di;
     }
-    Ok(rhs)
+    Ok((rhs, NormalFactor { l: a, d }))
 }
 
 /// Centre `c` and shape `S` of the ellipsoid `(x − c)ᵀS(x − c) = 1` the
-/// coefficients describe; an error where they describe no ellipsoid.
-fn quadric_centre_and_shape(u: [f64; 9]) -> Result<(Vector3<f64>, Matrix3<f64>), Error> {
+/// coefficients describe, with `M⁻¹` and the scale `k` (`S = M/k`); an
+/// error where they describe no ellipsoid.
+#[allow(clippy::type_complexity)]
+fn quadric_centre_and_shape(
+    u: [f64; 9],
+) -> Result<(Vector3<f64>, Matrix3<f64>, Matrix3<f64>, f64), Error> {
     let [u1, u2, u3, u4, u5, u6, u7, u8, u9] = u;
 
     // Quadric xᵀMx + 2bᵀx + J = 0 (= regressors·u − target).
@@ -735,7 +810,7 @@ fn quadric_centre_and_shape(u: [f64; 9]) -> Result<(Vector3<f64>, Matrix3<f64>),
     if !shape.iter().all(|v| v.is_finite()) {
         return Err(Error::NotEllipsoid);
     }
-    Ok((c, shape))
+    Ok((c, shape, m_inv, k))
 }
 
 /// Soft-iron matrix `W` (maps the ellipsoid onto a sphere of the mean
@@ -828,14 +903,7 @@ fn cholesky_solve(a: &mut [[f64; 9]; 9], b: &mut [f64; 9]) -> Result<(), Error> 
             }
         }
     }
-    // L·y = b
-    for i in 0..N {
-        let mut sum = b[i];
-        for k in 0..i {
-            sum -= a[i][k] * b[k];
-        }
-        b[i] = sum / a[i][i];
-    }
+    forward_substitute(a, b);
     // Lᵀ·x = y
     for i in (0..N).rev() {
         let mut sum = b[i];
@@ -848,6 +916,18 @@ fn cholesky_solve(a: &mut [[f64; 9]; 9], b: &mut [f64; 9]) -> Result<(), Error> 
         Ok(())
     } else {
         Err(Error::Singular)
+    }
+}
+
+/// `L·y = b` in place for the lower triangle `L` of `a` (`b` becomes `y`).
+#[allow(clippy::needless_range_loop)] // index form mirrors the textbook algorithm
+fn forward_substitute(a: &[[f64; 9]; 9], b: &mut [f64; 9]) {
+    for i in 0..9 {
+        let mut sum = b[i];
+        for k in 0..i {
+            sum -= a[i][k] * b[k];
+        }
+        b[i] = sum / a[i][i];
     }
 }
 

@@ -299,7 +299,7 @@ impl EllipsoidFitF32 {
             });
         }
         let mom = self.scaled_moments()?;
-        let fit = solve(&mom)?;
+        let fit = solve(&mom, self.count)?;
         let s = mom.scale * self.quantum;
         let [ox, oy, oz] = self.origin;
         let [cx, cy, cz] = fit.center;
@@ -321,12 +321,14 @@ impl EllipsoidFitF32 {
             radius: s * fit.radius,
             semi_axes: fit.semi_axes.map(|a| s * a),
             rms_error: fit.rms_error,
+            offset_std_error: s * fit.offset_std_error,
             bins_hit,
             samples: self.count,
         };
         let finite = solution.radius.is_finite()
             && solution.semi_axes.iter().all(|a| a.is_finite())
-            && solution.rms_error.is_finite();
+            && solution.rms_error.is_finite()
+            && solution.offset_std_error.is_finite();
         if !finite {
             return Err(Error::OutOfRange);
         }
@@ -334,6 +336,12 @@ impl EllipsoidFitF32 {
             return Err(Error::PoorFit {
                 rms_error: solution.rms_error,
                 limit: self.config.max_rms_error,
+            });
+        }
+        if solution.offset_std_error > self.config.max_offset_std_error {
+            return Err(Error::UncertainOffset {
+                std_error: solution.offset_std_error,
+                limit: self.config.max_offset_std_error,
             });
         }
         Ok(solution)
@@ -397,25 +405,72 @@ struct FitF32 {
     radius: f32,
     semi_axes: [f32; 3],
     rms_error: f32,
+    offset_std_error: f32,
 }
 
 #[inline(never)]
-fn solve(mom: &MomentsF32) -> Result<FitF32, Error> {
-    let u = least_squares(mom)?;
-    let (c, shape) = quadric_centre_and_shape(u)?;
+fn solve(mom: &MomentsF32, count: u32) -> Result<FitF32, Error> {
+    let mut normal = NormalFactorF32 {
+        l: [[0.0; 9]; 9],
+        d: [0.0; 9],
+    };
+    let u = least_squares(mom, &mut normal)?;
+    let (c, shape, m_inv, k) = quadric_centre_and_shape(u)?;
     let (w, radius, semi_axes) = axes_and_soft_iron(shape)?;
+    let rms_error = rms_residual(mom, &shape, c);
+    // The regression residual is k·p; rms_error is the RMS of p/2.
+    let residual = 2.0 * k.abs() * rms_error;
     Ok(FitF32 {
         center: c,
         w,
         radius,
         semi_axes,
-        rms_error: rms_residual(mom, &shape, c),
+        rms_error,
+        offset_std_error: centre_std_error(&normal, &m_inv, c, residual, count),
     })
 }
 
-/// The nine regression coefficients `u` of `REGRESSORS_F32·u ≈ TARGET_F32`.
-fn least_squares(mom: &MomentsF32) -> Result<[f32; 9], Error> {
-    let mut a = [[0.0f32; 9]; 9];
+/// The equilibrated normal matrix's Cholesky factor `L` (lower triangle)
+/// and the equilibration `D`: `N = D⁻¹LLᵀD⁻¹`.
+struct NormalFactorF32 {
+    l: [[f32; 9]; 9],
+    d: [f32; 9],
+}
+
+/// Largest per-axis standard error of the centre (scaled units), as the
+/// host fit's `centre_std_error`: axis `j`'s variance is `σ²/n ·
+/// |L⁻¹DGᵀM⁻¹eⱼ|²`, column `k` of `G` half the gradient of regressor `k`
+/// at `c`.
+#[inline(never)]
+fn centre_std_error(f: &NormalFactorF32, m_inv: &M3, c: [f32; 3], residual: f32, n: u32) -> f32 {
+    let [x, y, z] = c;
+    let mut worst = 0.0f32;
+    // M is symmetric: its rows are the columns M⁻¹eⱼ.
+    for v in m_inv {
+        let mut g = [
+            x * v[0] + y * v[1] - 2.0 * z * v[2],
+            x * v[0] - 2.0 * y * v[1] + z * v[2],
+            y * v[0] + x * v[1],
+            z * v[0] + x * v[2],
+            z * v[1] + y * v[2],
+            v[0],
+            v[1],
+            v[2],
+            0.0,
+        ];
+        for (gi, di) in g.iter_mut().zip(&f.d) {
+            *gi *= di;
+        }
+        forward_substitute(&f.l, &mut g);
+        worst = worst.max(g.iter().map(|v| v * v).sum());
+    }
+    residual * crate::sqrt::sqrtf(worst / n.max(1) as f32)
+}
+
+/// The nine regression coefficients `u` of `REGRESSORS_F32·u ≈ TARGET_F32`;
+/// `f` receives the normal matrix's factor.
+fn least_squares(mom: &MomentsF32, f: &mut NormalFactorF32) -> Result<[f32; 9], Error> {
+    let NormalFactorF32 { l: a, d } = f;
     let mut rhs = [0.0f32; 9];
     for ((row, r), phi_i) in a.iter_mut().zip(&mut rhs).zip(REGRESSORS_F32.iter()) {
         for (aij, phi_j) in row.iter_mut().zip(REGRESSORS_F32.iter()) {
@@ -423,32 +478,32 @@ fn least_squares(mom: &MomentsF32) -> Result<[f32; 9], Error> {
         }
         *r = mom.product(phi_i, TARGET_F32);
     }
-    let mut d = [0.0f32; 9];
-    for (i, (di, row)) in d.iter_mut().zip(&a).enumerate() {
+    for (i, (di, row)) in d.iter_mut().zip(a.iter()).enumerate() {
         let nii = row.get(i).copied().unwrap_or(f32::NAN);
         if !(nii > 0.0 && nii.is_finite()) {
             return Err(Error::Singular);
         }
         *di = 1.0 / crate::sqrt::sqrtf(nii);
     }
-    for (row, di) in a.iter_mut().zip(&d) {
-        for (aij, dj) in row.iter_mut().zip(&d) {
+    for (row, di) in a.iter_mut().zip(d.iter()) {
+        for (aij, dj) in row.iter_mut().zip(d.iter()) {
             *aij *= di * dj;
         }
     }
-    for (r, di) in rhs.iter_mut().zip(&d) {
+    for (r, di) in rhs.iter_mut().zip(d.iter()) {
         *r *= di;
     }
-    cholesky_solve_f32(&mut a, &mut rhs)?;
-    for (r, di) in rhs.iter_mut().zip(&d) {
+    cholesky_solve_f32(a, &mut rhs)?;
+    for (r, di) in rhs.iter_mut().zip(d.iter()) {
         *r *= di;
     }
     Ok(rhs)
 }
 
 /// Centre `c` and shape `S` of the ellipsoid `(x − c)ᵀS(x − c) = 1` the
-/// coefficients describe; an error where they describe no ellipsoid.
-fn quadric_centre_and_shape(u: [f32; 9]) -> Result<([f32; 3], M3), Error> {
+/// coefficients describe, with `M⁻¹` and the scale `k` (`S = M/k`); an
+/// error where they describe no ellipsoid.
+fn quadric_centre_and_shape(u: [f32; 9]) -> Result<([f32; 3], M3, M3, f32), Error> {
     let [u1, u2, u3, u4, u5, u6, u7, u8, u9] = u;
     let m: M3 = [
         [u1 + u2 - 1.0, u3, u4],
@@ -462,7 +517,7 @@ fn quadric_centre_and_shape(u: [f32; 9]) -> Result<([f32; 3], M3), Error> {
     if !(k.is_finite() && k != 0.0) {
         return Err(Error::NotEllipsoid);
     }
-    Ok((c, m.map(|r| r.map(|v| v / k))))
+    Ok((c, m.map(|r| r.map(|v| v / k)), m_inv, k))
 }
 
 /// Soft-iron matrix `W` (maps the ellipsoid onto a sphere of the mean
@@ -527,12 +582,7 @@ fn cholesky_solve_f32(a: &mut [[f32; 9]; 9], b: &mut [f32; 9]) -> Result<(), Err
         }
     }
     // L·y = b, then Lᵀ·x = y.
-    for i in 0..9 {
-        for k in 0..i {
-            b[i] -= a[i][k] * b[k];
-        }
-        b[i] /= a[i][i];
-    }
+    forward_substitute(a, b);
     for i in (0..9).rev() {
         for k in i + 1..9 {
             b[i] -= a[k][i] * b[k];
@@ -543,6 +593,18 @@ fn cholesky_solve_f32(a: &mut [[f32; 9]; 9], b: &mut [f32; 9]) -> Result<(), Err
         Ok(())
     } else {
         Err(Error::Singular)
+    }
+}
+
+/// `L·y = b` in place for the lower triangle `L` of `a` (`b` becomes `y`).
+#[allow(clippy::needless_range_loop)] // as cholesky_solve_f32: provably in range
+#[inline(never)]
+fn forward_substitute(a: &[[f32; 9]; 9], b: &mut [f32; 9]) {
+    for i in 0..9 {
+        for k in 0..i {
+            b[i] -= a[i][k] * b[k];
+        }
+        b[i] /= a[i][i];
     }
 }
 

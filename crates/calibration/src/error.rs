@@ -82,6 +82,17 @@ pub enum Error {
         /// Configured limit.
         limit: f32,
     },
+    /// The fitted centre (hard-iron offset) is too uncertain: its largest
+    /// per-axis standard error, from the fit's residual and the geometry of
+    /// the samples, is above the configured limit (too few samples on some
+    /// side, or a noisy or disturbed field).
+    UncertainOffset {
+        /// Largest per-axis standard error of the centre (see
+        /// [`EllipsoidSolution::offset_std_error`](crate::EllipsoidSolution::offset_std_error)).
+        std_error: f32,
+        /// Configured limit.
+        limit: f32,
+    },
     /// Six-position calibration: the averaged still vector is not close enough
     /// to any ± axis (tilt too large) or its magnitude is implausible.
     NotAxisAligned,
@@ -137,6 +148,10 @@ impl fmt::Display for Error {
                     "poor ellipsoid fit: rms error {rms_error}, limit {limit}"
                 )
             }
+            Error::UncertainOffset { std_error, limit } => write!(
+                f,
+                "uncertain hard-iron offset: standard error {std_error}, limit {limit}"
+            ),
             Error::NotAxisAligned => f.write_str(
                 "still vector is not aligned with an axis or has an implausible magnitude",
             ),

@@ -55,7 +55,7 @@
 //! with 9 multiply-accumulates.
 //!
 //! State sizes (`core::mem::size_of`): [`GyroBiasEstimator`] 152 B,
-//! [`MagMinMax`] 40 B, [`EllipsoidFit`] 696 B, [`EllipsoidFitF32`] 568 B,
+//! [`MagMinMax`] 40 B, [`EllipsoidFit`] 704 B, [`EllipsoidFitF32`] 568 B,
 //! [`AccelSixPosition`] 168 B;
 //! [`MagCalibration`] 48 B, [`AccelCalibration`] 24 B, [`GyroBias`] 12 B.
 #![no_std]
