@@ -91,7 +91,7 @@ fn run_session(samples: &[[f32; 3]]) -> Outcome {
                     refusals,
                 }
             }
-            Some(CalEvent::MagRefused) => refusals += 1,
+            Some(CalEvent::MagRefused(_)) => refusals += 1,
             Some(CalEvent::MagProgress(_)) | None => {}
             Some(e) => panic!("unexpected {e:?}"),
         }

@@ -961,9 +961,9 @@ mod app {
                 ),
                 None => defmt::info!("accel cal: all 6 faces done"),
             },
-            CalEvent::MagRefused => defmt::warn!(
-                "mag cal: fit refused (sweep, coverage, fit error or offset uncertainty over its limit), keep turning"
-            ),
+            CalEvent::MagRefused(e) => {
+                defmt::warn!("mag cal: fit refused: {}; keep turning", e)
+            }
             CalEvent::AccelRestarted => defmt::warn!("accel cal: implausible result, restarting"),
             CalEvent::MagDone { offset_ut } => {
                 defmt::info!(

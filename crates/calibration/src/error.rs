@@ -21,7 +21,6 @@ pub enum MotionCheck {
 /// Axis numbers are 0 = x, 1 = y, 2 = z of the input frame. Values carried in
 /// variants are in the unit of the input samples unless stated otherwise.
 #[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error {
     /// A sample had a NaN or infinite component. It was skipped and counted;
     /// the accumulated state is unchanged.
@@ -167,3 +166,56 @@ impl fmt::Display for Error {
 }
 
 impl core::error::Error for Error {}
+
+/// The board's log: the same sentences as `Display`, in fewer numbers
+/// (the limits are the configuration's, stated in README; each variant one
+/// interned format string).
+#[cfg(feature = "defmt")]
+impl defmt::Format for Error {
+    fn format(&self, f: defmt::Formatter) {
+        match *self {
+            Error::NonFinite => {
+                defmt::write!(f, "a sample has a NaN or infinite component (skipped)")
+            }
+            Error::InputOutOfRange => {
+                defmt::write!(f, "a sample exceeds the input limit (skipped)")
+            }
+            Error::InvalidConfig => defmt::write!(f, "invalid calibration configuration"),
+            Error::TooFewSamples { have, need } => {
+                defmt::write!(f, "too few samples: {=u32} of {=u32}", have, need)
+            }
+            Error::Moved { axis, .. } => defmt::write!(f, "the board moved (axis {=u8})", axis),
+            Error::RangeTooSmall { axis, .. } => {
+                defmt::write!(f, "not enough rotation: axis {=u8} swept too little", axis)
+            }
+            Error::InsufficientCoverage {
+                bins_hit,
+                bins_needed,
+            } => defmt::write!(
+                f,
+                "too few field directions: {=u8} of the {=u8} needed",
+                bins_hit,
+                bins_needed
+            ),
+            Error::Singular => defmt::write!(f, "the samples do not determine the fit"),
+            Error::NotEllipsoid => defmt::write!(f, "the fitted surface is not an ellipsoid"),
+            Error::PoorFit { .. } => defmt::write!(
+                f,
+                "poor fit: the field's magnitude varies more than the limit (a changing field nearby?)"
+            ),
+            Error::UncertainOffset { .. } => defmt::write!(
+                f,
+                "the offset is uncertain: too few samples on some side (turn it through every direction)"
+            ),
+            Error::NotAxisAligned => defmt::write!(f, "the board is not lying on a face"),
+            Error::Incomplete { positions_done } => {
+                defmt::write!(
+                    f,
+                    "not all six faces done (mask {=u8:#08b})",
+                    positions_done
+                )
+            }
+            Error::OutOfRange => defmt::write!(f, "the correction is implausible"),
+        }
+    }
+}

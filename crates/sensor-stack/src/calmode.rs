@@ -759,8 +759,10 @@ pub enum CalEvent {
         /// Scale factors.
         scale: [f32; 3],
     },
-    /// The magnetometer fit was refused; the session goes on (keep turning).
-    MagRefused,
+    /// The magnetometer fit was refused, and why (reported at most every
+    /// [`CalSession::MAG_PROGRESS_POLLS`] polls while it keeps being
+    /// refused); the session goes on (keep turning).
+    MagRefused(CalError),
     /// The accelerometer result was implausible; the session restarted.
     AccelRestarted,
     /// A press (or the button held at boot) asked for a calibration this
@@ -919,7 +921,12 @@ impl<M: MagCalibrator, A: AccelCalibrator> CalSession<M, A> {
                                 offset_ut: c.offset,
                             }
                         }
-                        Err(_) => CalEvent::MagRefused,
+                        Err(e) => {
+                            return self
+                                .polls
+                                .is_multiple_of(Self::MAG_PROGRESS_POLLS)
+                                .then_some(CalEvent::MagRefused(e));
+                        }
                     });
                 }
                 self.polls
