@@ -18,7 +18,10 @@ fn boots_with_all_chips_and_full_capabilities() {
     for chip in ["Mpu9250", "Ak8963", "Ms5611"] {
         assert_logged(&b, &format!("probe {chip}: ok"));
     }
-    assert_logged(&b, "capabilities: AHRS Marg");
+    assert_logged(
+        &b,
+        "capabilities: AHRS gyro, accelerometer and magnetometer",
+    );
     assert_logged(&b, "altitude true");
     run_until(&mut b, 2 * S);
     assert!(health(&b, "mpu", "ok").unwrap_or(0) > 0, "{}", tail(&b, 30));
@@ -123,17 +126,21 @@ fn missing_at_boot(address: u8, chip: &str, caps: &str) {
 /// MPU-9250 absent (its address NACKed from power-up, 3 s simulated).
 #[test]
 fn mpu_missing_at_boot() {
-    missing_at_boot(0x68, "Mpu9250", "capabilities: AHRS None");
+    missing_at_boot(0x68, "MPU-9250", "capabilities: AHRS none (no IMU)");
 }
 
 /// AK8963 absent (address 0x0C NACKed, 3 s simulated): IMU-only AHRS.
 #[test]
 fn magnetometer_missing_at_boot() {
-    missing_at_boot(sim::AK8963_ADDRESS, "Ak8963", "capabilities: AHRS Imu");
+    missing_at_boot(
+        sim::AK8963_ADDRESS,
+        "AK8963",
+        "capabilities: AHRS gyro and accelerometer",
+    );
 }
 
 /// MS5611 absent (address 0x77 NACKed, 3 s simulated): no altitude.
 #[test]
 fn barometer_missing_at_boot() {
-    missing_at_boot(0x77, "Ms5611", "altitude false");
+    missing_at_boot(0x77, "MS5611", "altitude false");
 }

@@ -19,7 +19,10 @@ fn sda_held_low_at_power_up_is_recovered() {
     for chip in ["Mpu9250", "Ak8963", "Ms5611"] {
         assert_logged(&b, &format!("probe {chip}: ok"));
     }
-    assert_logged(&b, "capabilities: AHRS Marg");
+    assert_logged(
+        &b,
+        "capabilities: AHRS gyro, accelerometer and magnetometer",
+    );
 }
 
 /// Errata BUSY lock-up of I2C1's analog filter at power-up: all chips

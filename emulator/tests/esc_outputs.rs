@@ -23,7 +23,7 @@ fn protocol(b: &Board) -> (u64, u64) {
         (500_000, 125_000)
     } else {
         assert!(
-            line.contains("Pwm on TIM3") && line.contains("400 Hz"),
+            line.contains("standard PWM (1000-2000 us) on TIM3") && line.contains("400 Hz"),
             "{line}"
         );
         (2_500_000, 1_000_000)

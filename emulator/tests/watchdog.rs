@@ -42,6 +42,9 @@ fn watchdog_margin_holds_at_the_fastest_lsi() {
     };
     boot_ok(&mut b);
     run_until(&mut b, 5 * S);
-    assert_logged(&b, "capabilities: AHRS Marg");
+    assert_logged(
+        &b,
+        "capabilities: AHRS gyro, accelerometer and magnetometer",
+    );
     assert_no_reset(&b);
 }

@@ -40,13 +40,15 @@ pub fn start_outputs(tim: pac::TIM3) -> EscOutputs {
         Err(e) => defmt::panic!("ESC timer: {}", e),
     };
     let esc = EscOutputs::start(tim, timer);
-    // In 32-bit integers and f32: `EscTimer::period_ns`/`pulse_ns` divide
-    // in u64, which would link a ~0.9 KiB library routine for this line.
+    // In 32-bit integers: `EscTimer::period_ns`/`pulse_ns` divide in u64,
+    // which would link a ~0.9 KiB library routine for this line. The
+    // timer ticks at a whole number of kHz (1 MHz for PWM, 8 MHz for
+    // OneShot125), so the off pulse comes out in whole µs.
     defmt::info!(
-        "outputs: {} on TIM3 CH1-4 (PA6 PA7 PB0 PB1), {=u32} Hz, off pulse {=f32} us",
+        "outputs: {} on TIM3 CH1-4 (PA6 PA7 PB0 PB1), {=u32} Hz, off pulse {=u32} us",
         ESC_PROTOCOL,
         timer.tick_hz() / timer.period_ticks().max(1),
-        f32::from(timer.off_compare()) * 1.0e6 / timer.tick_hz().max(1) as f32
+        u32::from(timer.off_compare()) * 1_000 / (timer.tick_hz() / 1_000).max(1)
     );
     esc
 }

@@ -14,12 +14,21 @@ use crate::delay;
 const HSE_TIMEOUT_HSI_CYCLES: u32 = 8_000_000 / 1_000 * 20;
 
 /// Which oscillator the PLL runs from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Source {
     /// The 8 MHz crystal: SYSCLK 72 MHz, APB1 36 MHz.
     Hse,
     /// The crystal did not start: HSI, SYSCLK 64 MHz, APB1 32 MHz.
     HsiFallback,
+}
+
+impl defmt::Format for Source {
+    fn format(&self, f: defmt::Formatter) {
+        match self {
+            Self::Hse => defmt::write!(f, "8 MHz crystal"),
+            Self::HsiFallback => defmt::write!(f, "internal RC oscillator, no crystal"),
+        }
+    }
 }
 
 /// Starts the crystal (bounded wait) and sets up the PLL and buses;

@@ -167,6 +167,42 @@ impl defmt::Format for Lq {
     }
 }
 
+/// A number printed with 2 or 3 decimals (`r=-0.05`, `alt=1.753`, not
+/// `r=-0.0542043`): defmt has no float precision hint, so it goes as a
+/// scaled integer. Rounded to nearest, saturating (NaN → 0).
+struct Dec {
+    /// The value · 100 (2 decimals) or · 1000 (3).
+    scaled: i32,
+    /// Three decimals, else two.
+    milli: bool,
+}
+
+impl Dec {
+    #[inline(never)]
+    fn new(x: f32, milli: bool) -> Self {
+        let k = if milli { 1000.0 } else { 100.0 };
+        let r = if x < 0.0 { -0.5 } else { 0.5 };
+        Self {
+            scaled: (x * k + r) as i32,
+            milli,
+        }
+    }
+}
+
+impl defmt::Format for Dec {
+    fn format(&self, f: defmt::Formatter) {
+        let a = self.scaled.unsigned_abs();
+        if self.scaled < 0 {
+            defmt::write!(f, "-");
+        }
+        if self.milli {
+            defmt::write!(f, "{=u32}.{=u32:03}", a / 1000, a % 1000);
+        } else {
+            defmt::write!(f, "{=u32}.{=u32:02}", a / 100, a % 100);
+        }
+    }
+}
+
 /// The live log: attitude every call; loop timing, health, bus counters
 /// and the gyro bias every second; the stack every 5 s.
 pub fn log_status(
@@ -178,12 +214,12 @@ pub fn log_status(
 ) {
     if let Some(o) = pipeline.lock(|p| p.as_ref().map(|p| p.outputs())) {
         defmt::info!(
-            "att r={=f32} p={=f32} y={=f32} deg | alt={=f32} m vz={=f32} m/s",
-            o.roll_deg,
-            o.pitch_deg,
-            o.yaw_deg,
-            o.altitude_m,
-            o.vertical_speed_mps
+            "att r={} p={} y={} deg | alt={} m vz={} m/s",
+            Dec::new(o.roll_deg, false),
+            Dec::new(o.pitch_deg, false),
+            Dec::new(o.yaw_deg, false),
+            Dec::new(o.altitude_m, true),
+            Dec::new(o.vertical_speed_mps, true)
         );
     }
     if tick.is_multiple_of(20) {

@@ -18,9 +18,11 @@ pub const RAM_BUDGET: u64 = 12 * 1024;
 /// The flash plan's code region when the ELF does not name it
 /// (`_flash_plan_code_end` in `memory.x`): 60 KiB.
 pub const PLAN_CODE_REGION: u64 = 60 * 1024;
-/// The flight builds' budget (issue 26): 58 KiB, leaving 2 KiB of the
-/// code region for what comes next.
-pub const DEFAULT_BUILD_TARGET: u64 = 58 * 1024;
+/// The flight builds' budget: 58.25 KiB, leaving 1.75 KiB of the code
+/// region for what comes next. Issue 26's aim was 58 KiB (2 KiB left): met
+/// at 59,192 B; the log in words with its numbers' precision (issue 30)
+/// then took 392 B of the reserve.
+pub const DEFAULT_BUILD_TARGET: u64 = 58 * 1024 + 256;
 
 /// A feature group's flash budget.
 #[derive(Debug, Clone, Copy)]
@@ -34,9 +36,10 @@ pub struct GroupBudget {
 }
 
 /// Budgets of the flight builds (default CRSF and `ppm`), set from the
-/// default build measured on 2026-11-27 (59,268 B: the flight controller's
+/// default build measured on 2026-11-27 (59,584 B: the flight controller's
 /// per-sample path in fixed point, the calibration sessions in the
-/// calibration build, the log in words) plus the margin noted.
+/// calibration build, the log in words with two or three decimals) plus the
+/// margin noted.
 pub const FLIGHT_BUDGETS: [GroupBudget; 6] = [
     GroupBudget {
         group: Group::SensorsAhrs,
@@ -60,8 +63,8 @@ pub const FLIGHT_BUDGETS: [GroupBudget; 6] = [
     },
     GroupBudget {
         group: Group::Rest,
-        bytes: 6400,
-        note: "measured 6,179 + 221 (6.25 KiB)",
+        bytes: 6656,
+        note: "measured 6,427 + 229 (6.5 KiB)",
     },
     GroupBudget {
         group: Group::Unattributed,
@@ -257,14 +260,14 @@ fn print_plan(a: &Attribution, s: &Sizes) -> Vec<String> {
     match flash.checked_sub(DEFAULT_BUILD_TARGET) {
         Some(d) if d > 0 => {
             say!(
-                "  flight build {flash} B of {DEFAULT_BUILD_TARGET} B (2 KiB left for what comes \
-                 next): OVER by {d} B"
+                "  flight build {flash} B of {DEFAULT_BUILD_TARGET} B (the rest of the code region is for \
+                 what comes next): OVER by {d} B"
             );
             over.push(format!("flight build {flash} B > {DEFAULT_BUILD_TARGET} B"));
         }
         _ => say!(
-            "  flight build {flash} B of {DEFAULT_BUILD_TARGET} B (2 KiB left for what comes next): \
-             ok ({} B spare)",
+            "  flight build {flash} B of {DEFAULT_BUILD_TARGET} B (the rest of the code region is for what \
+             comes next): ok ({} B spare)",
             DEFAULT_BUILD_TARGET - flash
         ),
     }

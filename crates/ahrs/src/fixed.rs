@@ -518,8 +518,14 @@ pub fn dt_us_to_q31(dt_us: u32) -> i32 {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FixedConfig {
-    /// The physical configuration this was built from.
-    pub cfg: Config,
+    /// [`Algorithm::Textbook`] (else the full filter).
+    textbook: bool,
+    /// [`Config::bias`]`.enabled`: the gyro bias estimator runs.
+    bias_enabled: bool,
+    /// [`Config::accel_rejection`]`.enabled`.
+    accel_rejection_enabled: bool,
+    /// [`Config::mag_rejection`]`.enabled`.
+    mag_rejection_enabled: bool,
     beta_q24: i32,
     inv_heading_tau_q24: i32,
     startup_beta_q24: i32,
@@ -616,7 +622,10 @@ impl FixedConfig {
         let mr = cfg.mag_rejection;
         let (inv_g_q32, acc_pre_shift) = inv_g_parts(g);
         Self {
-            cfg: *cfg,
+            textbook: cfg.algorithm == Algorithm::Textbook,
+            bias_enabled: cfg.bias.enabled,
+            accel_rejection_enabled: cfg.accel_rejection.enabled,
+            mag_rejection_enabled: cfg.mag_rejection.enabled,
             beta_q24: float_to_q(cfg.beta, 24),
             inv_heading_tau_q24: float_to_q(
                 crate::madgwick::inv_heading_tau(cfg.heading_tau_s),
@@ -879,7 +888,7 @@ impl MadgwickFixed {
             st.gyro_invalid = true;
             return st;
         }
-        if self.c.cfg.algorithm == Algorithm::Textbook {
+        if self.c.textbook {
             #[cfg(feature = "textbook")]
             return self.update_textbook(gyro, accel, mag, dt_q31);
             // Built without it (the firmware, which runs the full filter): refuse to
@@ -940,7 +949,7 @@ impl MadgwickFixed {
     ) -> [i32; 3] {
         // By reference: a copy of the whole configuration costs a `memcpy` per update.
         let c = &self.c;
-        if !c.cfg.bias.enabled {
+        if !c.bias_enabled {
             return gyro;
         }
         let w = sub_sat3(gyro, self.bias_q20);
@@ -1073,8 +1082,7 @@ impl MadgwickFixed {
         st: &mut UpdateStatus,
     ) -> bool {
         let c = &self.c;
-        let ar = c.cfg.accel_rejection;
-        if !ar.enabled || initialising {
+        if !c.accel_rejection_enabled || initialising {
             return false;
         }
         let d = a.map(|x| x.saturating_neg());
@@ -1303,7 +1311,7 @@ impl MadgwickFixed {
             self.mag_ref = Some(self.make_ref(n2r.clamp(0, i128::from(u64::MAX)) as u64, hzr));
             return true;
         }
-        if !c.cfg.mag_rejection.enabled {
+        if !c.mag_rejection_enabled {
             return true;
         }
         let ok =

@@ -27,12 +27,21 @@
 
 /// The ESC signalling protocol.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EscProtocol {
     /// Standard servo-style PWM, 1000–2000 µs.
     Pwm,
     /// OneShot125, 125–250 µs.
     OneShot125,
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for EscProtocol {
+    fn format(&self, f: defmt::Formatter) {
+        match self {
+            Self::Pwm => defmt::write!(f, "standard PWM (1000-2000 us)"),
+            Self::OneShot125 => defmt::write!(f, "OneShot125 (125-250 us)"),
+        }
+    }
 }
 
 impl EscProtocol {

@@ -133,7 +133,6 @@ pub fn probe_with_retries<T, E, D: DelayNs>(
 
 /// How the AHRS runs given the sensors found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum AhrsMode {
     /// Gyro + accelerometer + magnetometer: absolute heading.
     Marg,
@@ -141,6 +140,17 @@ pub enum AhrsMode {
     ImuOnly,
     /// No IMU: no attitude at all.
     None,
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for AhrsMode {
+    fn format(&self, f: defmt::Formatter) {
+        match self {
+            Self::Marg => defmt::write!(f, "gyro, accelerometer and magnetometer"),
+            Self::ImuOnly => defmt::write!(f, "gyro and accelerometer (no heading reference)"),
+            Self::None => defmt::write!(f, "none (no IMU)"),
+        }
+    }
 }
 
 /// What the stack can do with the chips that are present.
