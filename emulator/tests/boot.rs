@@ -15,7 +15,7 @@ fn boots_with_all_chips_and_full_capabilities() {
     let Some(mut b) = board() else { return };
     boot_ok(&mut b);
     assert_logged(&b, "boot: ");
-    for chip in ["Mpu9250", "Ak8963", "Ms5611"] {
+    for chip in ["MPU-9250", "AK8963", "MS5611"] {
         assert_logged(&b, &format!("probe {chip}: ok"));
     }
     assert_logged(

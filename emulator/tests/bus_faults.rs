@@ -16,7 +16,7 @@ fn sda_held_low_at_power_up_is_recovered() {
     let Some(mut b) = board() else { return };
     b.sim().inject(Fault::SlaveHoldsSda(Chip::Mpu9250));
     boot_ok(&mut b);
-    for chip in ["Mpu9250", "Ak8963", "Ms5611"] {
+    for chip in ["MPU-9250", "AK8963", "MS5611"] {
         assert_logged(&b, &format!("probe {chip}: ok"));
     }
     assert_logged(
@@ -32,7 +32,7 @@ fn busy_lockup_at_boot_is_unlocked() {
     let Some(mut b) = board() else { return };
     b.apply(BoardFault::I2c(PeripheralFault::BusyLockup));
     boot_ok(&mut b);
-    for chip in ["Mpu9250", "Ak8963", "Ms5611"] {
+    for chip in ["MPU-9250", "AK8963", "MS5611"] {
         assert_logged(&b, &format!("probe {chip}: ok"));
     }
 }
@@ -193,7 +193,7 @@ fn reset_mid_transfer_is_recovered_at_the_next_boot() {
         b.reset(emulator::ResetCause::Watchdog).expect("reset");
         let at = b.now_ns();
         run_until(&mut b, at + 1_500 * MS);
-        for chip in ["Mpu9250", "Ak8963", "Ms5611"] {
+        for chip in ["MPU-9250", "AK8963", "MS5611"] {
             assert!(
                 !lines_after(&b, at, &format!("probe {chip}: ok")).is_empty(),
                 "reset {k}: {chip} not found after the reboot\n{}",

@@ -103,10 +103,11 @@
 //! ESC protocol, the motor-test command and the magnetometer calibration
 //! of the build are in `config.rs`.
 //!
-//! Flash: 59,284 B of the flash plan's 60 KiB code region, within the
-//! flight builds' 58 KiB (`cargo fw && cargo xtask size`, release profile
-//! at `opt-level = "z"`; ARCHITECTURE.md "Flash plan" has the groups);
-//! static RAM 5.0 KiB; the `ppm` build (PPM instead of CRSF): 58,312 B.
+//! Flash: 59,592 B of the flash plan's 60 KiB code region, within the
+//! flight builds' 58.25 KiB (`cargo fw && cargo xtask size`, release
+//! profile at `opt-level = "z"`; ARCHITECTURE.md "Flash plan" has the
+//! groups); static RAM 4.7 KiB; the `ppm` build (PPM instead of CRSF):
+//! 58,548 B.
 //! The flight build runs no calibration session (`config::Session`): the
 //! six-position and magnetometer sessions and the flash save are the
 //! calibration build's (`--features calibrate`, no flight controller),

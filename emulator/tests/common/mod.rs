@@ -152,15 +152,15 @@ pub fn assert_link_times_out(b: &mut Board) {
 /// `Done` (not `GaveUp`, nor still running).
 pub fn wait_for_gyro_bias(b: &mut Board) -> bool {
     let ended = |b: &Board| {
-        !lines_with(b, "gyro bias: Done").is_empty()
-            || !lines_with(b, "gyro bias: GaveUp").is_empty()
+        !lines_with(b, "gyro bias: done: [").is_empty()
+            || !lines_with(b, "gyro bias: gave up").is_empty()
     };
     let mut t = b.now_ns();
     while !ended(b) && t < 8 * S {
         t += 100 * MS;
         run_until(b, t);
     }
-    !lines_with(b, "gyro bias: Done").is_empty()
+    !lines_with(b, "gyro bias: done: [").is_empty()
 }
 
 /// Asserts a line containing `pat` was logged.
