@@ -969,12 +969,16 @@ mod app {
             CalEvent::MagDone { offset_ut } => {
                 defmt::info!(
                     "mag cal done: offset {} µT, within 1 µT (3 standard errors)",
-                    offset_ut
+                    crate::report::Dec3(offset_ut)
                 );
                 save_calibration(flash, record, pipeline);
             }
             CalEvent::AccelDone { offset_g, scale } => {
-                defmt::info!("accel cal done: offset {} g, scale {}", offset_g, scale);
+                defmt::info!(
+                    "accel cal done: offset {} g, scale {}",
+                    crate::report::Dec3(offset_g),
+                    crate::report::Dec3(scale)
+                );
                 save_calibration(flash, record, pipeline);
             }
         }

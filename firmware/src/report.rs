@@ -170,7 +170,7 @@ impl defmt::Format for Lq {
 /// A number printed with 2 or 3 decimals (`r=-0.05`, `alt=1.753`, not
 /// `r=-0.0542043`): defmt has no float precision hint, so it goes as a
 /// scaled integer. Rounded to nearest, saturating (NaN → 0).
-struct Dec {
+pub struct Dec {
     /// The value · 100 (2 decimals) or · 1000 (3).
     scaled: i32,
     /// Three decimals, else two.
@@ -178,14 +178,25 @@ struct Dec {
 }
 
 impl Dec {
+    /// `x` with three decimals if `milli`, else two.
     #[inline(never)]
-    fn new(x: f32, milli: bool) -> Self {
+    pub fn new(x: f32, milli: bool) -> Self {
         let k = if milli { 1000.0 } else { 100.0 };
         let r = if x < 0.0 { -0.5 } else { 0.5 };
         Self {
             scaled: (x * k + r) as i32,
             milli,
         }
+    }
+}
+
+/// Three values with three decimals each, `[x, y, z]`.
+pub struct Dec3(pub [f32; 3]);
+
+impl defmt::Format for Dec3 {
+    fn format(&self, f: defmt::Formatter) {
+        let [x, y, z] = self.0.map(|v| Dec::new(v, true));
+        defmt::write!(f, "[{}, {}, {}]", x, y, z);
     }
 }
 
