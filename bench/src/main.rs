@@ -828,22 +828,22 @@ mod suite {
         use sensor_stack::pipeline::ImuInput;
         let inputs: [ImuInput; CALLS] = core::array::from_fn(|k| frames[k % FRAMES].0[k / FRAMES]);
         case(
-            "flight::Pipeline::imu_step (1 kHz, MARG)",
+            "sensor_stack::Pipeline::imu_step (1 kHz, MARG)",
             p,
             &inputs,
             |p, s| p.imu_step(s),
         );
         let mags: [[i16; 3]; FRAMES] = frames.map(|f| f.1);
-        case("flight::Pipeline::mag_step (100 Hz)", p, &mags, |p, m| {
+        case("sensor_stack::Pipeline::mag_step (100 Hz)", p, &mags, |p, m| {
             p.mag_step(*m)
         });
         let baros: [i32; FRAMES] = frames.map(|f| f.2);
-        case("flight::Pipeline::baro_step (100 Hz)", p, &baros, |p, b| {
+        case("sensor_stack::Pipeline::baro_step (100 Hz)", p, &baros, |p, b| {
             p.baro_step(*b)
         });
         // Each control step after its ten IMU steps (run outside the markers).
         case_full(
-            "flight::Pipeline::control_step (100 Hz)",
+            "sensor_stack::Pipeline::control_step (100 Hz)",
             p,
             frames,
             |p, f| {

@@ -52,7 +52,7 @@ const FIXED_MARG_PLAIN: &str = "fc_ahrs::MadgwickFixed MARG (textbook)";
 const F32_MARG_ON: &str = "fc_ahrs::Madgwick f32 MARG (rejection on)";
 const F32_MARG_PLAIN: &str = "fc_ahrs::Madgwick f32 MARG (textbook)";
 const PIPELINE: &str = "flight pipeline: per 1 kHz sample (frame / 10)";
-const CONTROL_STEP: &str = "flight::Pipeline::control_step (100 Hz)";
+const CONTROL_STEP: &str = "sensor_stack::Pipeline::control_step (100 Hz)";
 const FC_STEP_ANGLE: &str = "flight::FlightController::step (armed, angle)";
 const FC_STEP_SATURATED: &str = "flight::FlightController::step (armed, angle, mixer saturated)";
 /// The armed sample, derived: the per-sample pipeline and the flight step.
@@ -63,9 +63,9 @@ const ARMED_MEAN: &str =
 const ARMED_WORST: &str = "armed sample, worst (imu + mag + baro + control steps + FlightController::step saturated, new frame; maxima)";
 /// The rows the worst armed sample adds up (their maxima).
 const WORST_PARTS: [&str; 5] = [
-    "flight::Pipeline::imu_step (1 kHz, MARG)",
-    "flight::Pipeline::mag_step (100 Hz)",
-    "flight::Pipeline::baro_step (100 Hz)",
+    "sensor_stack::Pipeline::imu_step (1 kHz, MARG)",
+    "sensor_stack::Pipeline::mag_step (100 Hz)",
+    "sensor_stack::Pipeline::baro_step (100 Hz)",
     CONTROL_STEP,
     FC_STEP_SATURATED,
 ];
