@@ -834,13 +834,19 @@ mod suite {
             |p, s| p.imu_step(s),
         );
         let mags: [[i16; 3]; FRAMES] = frames.map(|f| f.1);
-        case("sensor_stack::Pipeline::mag_step (100 Hz)", p, &mags, |p, m| {
-            p.mag_step(*m)
-        });
+        case(
+            "sensor_stack::Pipeline::mag_step (100 Hz)",
+            p,
+            &mags,
+            |p, m| p.mag_step(*m),
+        );
         let baros: [i32; FRAMES] = frames.map(|f| f.2);
-        case("sensor_stack::Pipeline::baro_step (100 Hz)", p, &baros, |p, b| {
-            p.baro_step(*b)
-        });
+        case(
+            "sensor_stack::Pipeline::baro_step (100 Hz)",
+            p,
+            &baros,
+            |p, b| p.baro_step(*b),
+        );
         // Each control step after its ten IMU steps (run outside the markers).
         case_full(
             "sensor_stack::Pipeline::control_step (100 Hz)",
