@@ -53,28 +53,7 @@ fn ak_to_mpu_matrix(s: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
 }
 
 fn dance_samples(errors: SensorErrors, seconds: f64) -> Vec<[f32; 3]> {
-    let mut rig = Rig::new(SimConfig {
-        trajectory: Trajectory::FigureEight,
-        errors,
-        seed: 7,
-        ..SimConfig::default()
-    });
-    let mut imu = Mpu9250::new(rig.bus.clone(), Address::Ad0Low);
-    imu.set_bypass(true).unwrap();
-    imu.init(&mut rig.delay, &Config::default()).unwrap();
-    let mut mag = ak8963::Ak8963::new(rig.bus.clone());
-    mag.init(&mut rig.delay, &ak8963::Config::default())
-        .unwrap();
-    let mut out = Vec::new();
-    while rig.clock.now_s() < seconds {
-        rig.delay.delay_ms(10);
-        match mag.read() {
-            Ok(s) => out.push(s.field_mpu_ut()),
-            Err(ak8963::Error::NotReady) => {}
-            Err(e) => panic!("{e:?}"),
-        }
-    }
-    out
+    e2e::mag_samples(errors, Trajectory::FigureEight, 7, seconds)
 }
 
 #[test]

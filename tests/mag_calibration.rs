@@ -11,15 +11,13 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use calibration::{EllipsoidFitConfig, EllipsoidFitF32, Error as CalError, MagCalibration};
-use e2e::Rig;
-use embedded_hal::delay::DelayNs;
-use mpu9250::{Address, Config, Mpu9250};
+use e2e::mag_samples;
 use sensor_stack::calmode::{AccelCalMode, CalEvent, CalSession, MagCalMode, Press};
 use sensor_stack::storage::{CalibrationRecord, ValidParts};
 use sim::errors::random_soft_iron;
 use sim::math::Mat3;
 use sim::rng::Rng;
-use sim::{SensorErrors, SimConfig, Trajectory};
+use sim::{SensorErrors, Trajectory};
 
 /// The calibration build's session.
 type Session = CalSession<MagCalMode, AccelCalMode>;
@@ -31,37 +29,6 @@ const OFFSET_BOUND_UT: f64 = 3.0 * EllipsoidFitConfig::MICROTESLA.max_offset_std
 /// soft iron of ε turns a heading by at most ε rad (1 % ≈ 0.6°); the noise
 /// leaves about σ/R·√(10/N) ≈ 0.1 % with N ≥ 1000 samples.
 const SOFT_IRON_TOL: f64 = 0.01;
-
-/// Magnetometer samples (µT, MPU frame) read every 10 ms for `seconds`.
-fn mag_samples(
-    errors: SensorErrors,
-    trajectory: Trajectory,
-    seed: u64,
-    seconds: f64,
-) -> Vec<[f32; 3]> {
-    let mut rig = Rig::new(SimConfig {
-        trajectory,
-        errors,
-        seed,
-        ..SimConfig::default()
-    });
-    let mut imu = Mpu9250::new(rig.bus.clone(), Address::Ad0Low);
-    imu.set_bypass(true).unwrap();
-    imu.init(&mut rig.delay, &Config::default()).unwrap();
-    let mut mag = ak8963::Ak8963::new(rig.bus.clone());
-    mag.init(&mut rig.delay, &ak8963::Config::default())
-        .unwrap();
-    let mut out = Vec::new();
-    while rig.clock.now_s() < seconds {
-        rig.delay.delay_ms(10);
-        match mag.read() {
-            Ok(s) => out.push(s.field_mpu_ut()),
-            Err(ak8963::Error::NotReady) => {}
-            Err(e) => panic!("{e:?}"),
-        }
-    }
-    out
-}
 
 /// What a session made of `samples`: the event that ended it (if any),
 /// the record, and the refusals on the way.

@@ -1,10 +1,11 @@
 //! Shared helpers for the end-to-end tests in this folder: a simulated board
 //! (clock, bus, delay) and small statistics.
 
+use embedded_hal::delay::DelayNs;
 use sensor_stack::boot::BootReport;
 use sensor_stack::health::RecoveryPins;
 use sensor_stack::sensors::{Sensors, SensorsConfig};
-use sim::{SimBus, SimClock, SimConfig, SimDelay};
+use sim::{SensorErrors, SimBus, SimClock, SimConfig, SimDelay, Trajectory};
 
 /// A simulated board: one clock, one bus with the three chips, one delay.
 pub struct Rig {
@@ -114,4 +115,39 @@ impl RecoveryPins for StuckSda<'_> {
     fn sda_is_high(&mut self) -> bool {
         self.sda && self.hold == 0
     }
+}
+
+/// Magnetometer samples (µT, MPU frame, AK8963 read through the MPU-9250's
+/// bypass every 10 ms) for `seconds` of `trajectory` with `errors`. A test
+/// helper: a driver error panics, failing the test that called it.
+#[allow(clippy::expect_used, clippy::panic)]
+pub fn mag_samples(
+    errors: SensorErrors,
+    trajectory: Trajectory,
+    seed: u64,
+    seconds: f64,
+) -> Vec<[f32; 3]> {
+    let mut rig = Rig::new(SimConfig {
+        trajectory,
+        errors,
+        seed,
+        ..SimConfig::default()
+    });
+    let mut imu = mpu9250::Mpu9250::new(rig.bus.clone(), mpu9250::Address::Ad0Low);
+    imu.set_bypass(true).expect("bypass");
+    imu.init(&mut rig.delay, &mpu9250::Config::default())
+        .expect("MPU-9250 init");
+    let mut mag = ak8963::Ak8963::new(rig.bus.clone());
+    mag.init(&mut rig.delay, &ak8963::Config::default())
+        .expect("AK8963 init");
+    let mut out = Vec::new();
+    while rig.clock.now_s() < seconds {
+        rig.delay.delay_ms(10);
+        match mag.read() {
+            Ok(s) => out.push(s.field_mpu_ut()),
+            Err(ak8963::Error::NotReady) => {}
+            Err(e) => panic!("AK8963 read: {e:?}"),
+        }
+    }
+    out
 }
