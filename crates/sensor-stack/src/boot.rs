@@ -142,6 +142,16 @@ pub enum AhrsMode {
     None,
 }
 
+impl core::fmt::Display for AhrsMode {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Marg => "gyro, accelerometer and magnetometer",
+            Self::ImuOnly => "gyro and accelerometer (no heading reference)",
+            Self::None => "none (no IMU)",
+        })
+    }
+}
+
 #[cfg(feature = "defmt")]
 impl defmt::Format for AhrsMode {
     fn format(&self, f: defmt::Formatter) {

@@ -22,7 +22,7 @@ impl FirmwareFc {
     pub fn new(cfg: FlightConfig) -> Result<Self, String> {
         Ok(Self {
             fc: FlightController::new(cfg).map_err(|e| e.to_string())?,
-            shaping: StickShaping::new(cfg.sticks).map_err(|e| format!("sticks: {e:?}"))?,
+            shaping: StickShaping::new(cfg.sticks).map_err(|e| format!("sticks: {e}"))?,
             events: Vec::new(),
         })
     }
@@ -57,7 +57,7 @@ impl FlightControl for FirmwareFc {
             let (t, _) = self
                 .shaping
                 .level_setpoint(&sticks)
-                .map_err(|e| format!("sticks: {e:?}"))?;
+                .map_err(|e| format!("sticks: {e}"))?;
             Some([t.roll_rad, t.pitch_rad])
         };
         let r = out.rate_setpoint;

@@ -14,7 +14,7 @@ impl Mag {
     pub fn init(bus: SimBus, delay: &mut impl DelayNs) -> Result<Self, String> {
         let mut dev = Ak8963::new(bus);
         dev.init(delay, &Config::default())
-            .map_err(|e| format!("AK8963 init: {e:?}"))?;
+            .map_err(|e| format!("AK8963 init: {e}"))?;
         Ok(Self { dev })
     }
 
@@ -24,7 +24,7 @@ impl Mag {
         match self.dev.read() {
             Ok(s) => Ok(Some(s.field_mpu_ut())),
             Err(Error::NotReady) => Ok(None),
-            Err(e) => Err(format!("AK8963 read: {e:?}")),
+            Err(e) => Err(format!("AK8963 read: {e}")),
         }
     }
 }

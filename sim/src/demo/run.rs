@@ -390,7 +390,7 @@ fn print_boot(stack: &Stack) {
     let caps = b.capabilities();
     let ok = |present: bool| if present { "ok" } else { "MISSING" };
     say!(
-        "boot: MPU-9250 {}, AK8963 {}, MS5611 {} -> AHRS {:?}, altitude {}",
+        "boot: MPU-9250 {}, AK8963 {}, MS5611 {} -> AHRS {}, altitude {}",
         ok(b.mpu.present()),
         ok(b.mag.present()),
         ok(b.baro.present()),

@@ -101,7 +101,7 @@ pub fn calibrate_accel_six_position(base: &SimConfig) -> Result<AccelCalRun, Str
     let bus = SimBus::new(&clock, config);
     let mut delay = clock.delay();
     let mut sensors = init_sensors(&bus, &mut delay)?;
-    let mut six = AccelSixPosition::new(AccelSixPositionConfig::G).map_err(|e| format!("{e:?}"))?;
+    let mut six = AccelSixPosition::new(AccelSixPositionConfig::G).map_err(|e| format!("{e}"))?;
     let mut captured = Vec::new();
     let mut refused_windows = 0;
     // Generous limit: the sequence itself takes ~40 s.
@@ -126,7 +126,7 @@ pub fn calibrate_accel_six_position(base: &SimConfig) -> Result<AccelCalRun, Str
     }
     let calibration = six
         .finish()
-        .map_err(|e| format!("accel six-position: {e:?}"))?;
+        .map_err(|e| format!("accel six-position: {e}"))?;
     let mut sum2 = 0.0;
     for p in Position::ALL {
         let m = six.captured(p).unwrap_or_default();
@@ -166,9 +166,8 @@ pub fn calibrate_mag_on_dance(base: &SimConfig, duration_s: f64) -> Result<MagCa
     let bus = SimBus::new(&clock, config);
     let mut delay = clock.delay();
     let mut sensors = init_sensors(&bus, &mut delay)?;
-    let mut fit =
-        EllipsoidFit::new(EllipsoidFitConfig::MICROTESLA).map_err(|e| format!("{e:?}"))?;
-    let mut minmax = MagMinMax::new(MagMinMaxConfig::MICROTESLA).map_err(|e| format!("{e:?}"))?;
+    let mut fit = EllipsoidFit::new(EllipsoidFitConfig::MICROTESLA).map_err(|e| format!("{e}"))?;
+    let mut minmax = MagMinMax::new(MagMinMaxConfig::MICROTESLA).map_err(|e| format!("{e}"))?;
     let mut raw = Vec::new();
     while clock.now_s() < duration_s {
         delay.delay_ms(5);
@@ -186,8 +185,8 @@ pub fn calibrate_mag_on_dance(base: &SimConfig, duration_s: f64) -> Result<MagCa
             rms_error: Some(sol.rms_error),
         }),
         Err(e) => {
-            note!("ellipsoid fit failed ({e:?}), falling back to min/max");
-            let calibration = minmax.finish().map_err(|e| format!("min/max: {e:?}"))?;
+            note!("ellipsoid fit failed ({e}), falling back to min/max");
+            let calibration = minmax.finish().map_err(|e| format!("min/max: {e}"))?;
             Ok(MagCalRun {
                 raw_mpu_ut: raw,
                 calibration,

@@ -93,6 +93,29 @@ pub enum Mode {
     Marg,
 }
 
+impl FilterKind {
+    /// The filter in words, for the tool's output.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::F32 => "Madgwick, f32",
+            Self::Fixed => "Madgwick, fixed point (the firmware's)",
+            Self::Textbook => "Madgwick's 2010 filter as published, f32",
+            Self::TextbookFixed => "Madgwick's 2010 filter as published, fixed point",
+            Self::Vqf => "VQF (vqf-rs, its defaults)",
+        }
+    }
+}
+
+impl Mode {
+    /// The sensors used, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Imu => "gyro + accelerometer",
+            Self::Marg => "gyro + accelerometer + magnetometer",
+        }
+    }
+}
+
 /// Runs a filter over one segment; returns `q_enu_from_sensor` per row.
 /// The filter starts from the first sample's accelerometer and magnetometer
 /// (in both modes: IMU mode then keeps that initial heading). dt is taken

@@ -439,9 +439,9 @@ fn main() -> ExitCode {
 /// Replays every job, reporting failures as it goes; returns how many failed.
 fn replay_all(plan: Plan) -> usize {
     say!(
-        "filter {:?}, mode {:?}, beta {}",
-        plan.kind,
-        plan.mode,
+        "filter: {}; {}; beta {}",
+        plan.kind.describe(),
+        plan.mode.describe(),
         plan.cfg.beta
     );
     say!(
