@@ -212,6 +212,20 @@ impl defmt::Format for Face {
     }
 }
 
+/// The face in short words for host tools ("nose up", "left side", ...).
+impl core::fmt::Display for Face {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Face::NoseUp => "nose up",
+            Face::NoseDown => "nose down",
+            Face::OnLeftSide => "left side",
+            Face::OnRightSide => "right side",
+            Face::UpsideDown => "upside down",
+            Face::Level => "level",
+        })
+    }
+}
+
 impl Face {
     /// The order the log asks for the faces in: the right way up first,
     /// then upside down, nose up, nose down, on the left and right sides.

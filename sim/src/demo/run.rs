@@ -337,11 +337,14 @@ fn print_accel_cal(run: &AccelCalRun, errors: &SensorErrors) {
     let order: Vec<String> = run
         .captured
         .iter()
-        .map(|(p, t)| format!("{p:?}@{t:.0}s"))
+        .map(|(p, t)| {
+            let face = sensor_stack::Mounting::default().face(*p);
+            format!("{face} at {t:.0} s")
+        })
         .collect();
     say!(
-        "accel six-position ({}; {} window restarts while moving): residual |a|−1g RMS {:.2} mg",
-        order.join(" "),
+        "accel six-position (faces: {}; {} window restarts while moving): residual |a|−1g RMS {:.2} mg",
+        order.join(", "),
         run.refused_windows,
         run.rms_residual_g * 1000.0
     );
