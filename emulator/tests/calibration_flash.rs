@@ -66,6 +66,18 @@ fn board_of(want: Build, held: bool, f: impl FnOnce(&mut BoardConfig)) -> Option
     Some(b)
 }
 
+/// The calibration build with the button held at power-up and released
+/// after 1 s: the six-position session running, the builder about to
+/// present the faces (`Trajectory::SixPosition`). `None`: skipped.
+fn six_position_started() -> Option<Board> {
+    let mut b = board_of(Build::Calibration, true, |c| {
+        c.sim.trajectory = Trajectory::SixPosition;
+    })?;
+    run_until(&mut b, S);
+    b.apply(BoardFault::Button(false));
+    Some(b)
+}
+
 /// Erased page: defaults, and the log says why (≤ 1 s simulated).
 #[test]
 fn blank_page_gives_defaults() {
@@ -130,13 +142,9 @@ fn assert_read_back_after_reset(mut b: emulator::Board, part: u16) {
 /// the offsets are saved, and read back after a watchdog-style reset.
 #[test]
 fn six_position_calibration_is_saved_and_read_back() {
-    let Some(mut b) = board_of(Build::Calibration, true, |c| {
-        c.sim.trajectory = Trajectory::SixPosition;
-    }) else {
+    let Some(mut b) = six_position_started() else {
         return;
     };
-    run_until(&mut b, S);
-    b.apply(BoardFault::Button(false));
     assert_logged(&b, "accelerometer six-position calibration");
     let end = (Trajectory::six_position_duration_s() + 5.0) as u64 * S;
     let saved = b
@@ -230,13 +238,9 @@ fn sticks(throttle_us: u16, arm: bool) -> Vec<u8> {
 /// timeout) and the frames after it parse.
 #[test]
 fn a_flash_erase_during_reception_is_counted_late_and_the_link_holds() {
-    let Some(mut b) = board_of(Build::Calibration, true, |c| {
-        c.sim.trajectory = Trajectory::SixPosition;
-    }) else {
+    let Some(mut b) = six_position_started() else {
         return;
     };
-    run_until(&mut b, S);
-    b.apply(BoardFault::Button(false));
     let frame = sticks(1000, false);
     let end = (Trajectory::six_position_duration_s() + 5.0) as u64 * S;
     let mut saved_at = None;
