@@ -23,6 +23,29 @@ pub struct Config {
     /// critically damped second-order low-pass (double pole at 1/τ): a linear acceleration
     /// at f is attenuated by (2π·f·τ)² and a residual gyro bias b leaves a tilt of 2·b·τ.
     pub tilt_tau_s: f32,
+    /// Rotor drag of a multirotor per unit mass (1/s; N per m/s of body velocity per
+    /// kg); 0 (the default) for a body that is not a multirotor.
+    ///
+    /// A multirotor's accelerometer measures thrust, along the rotors' axis (body z), and
+    /// rotor drag, in the rotor plane and proportional to the body's velocity through
+    /// the air there: f_xy = −μ·v_xy (Martin & Salaün 2010; Leishman et al. 2014). While
+    /// the craft accelerates sideways the specific force in the estimate's earth frame
+    /// carries that acceleration, and the tilt correction's low-pass lets part of it
+    /// through as a false tilt towards level. With μ > 0 the full filter takes the
+    /// body-plane specific force as a measurement of the velocity, v_xy = −f_xy/μ,
+    /// rotates it into the earth frame and subtracts its rate of change, low-passed by
+    /// the same two stages, from the low-passed specific force: what remains is gravity,
+    /// also while accelerating. Only the rate of change enters, so a steady wind (a
+    /// constant offset between air and ground velocity) does not matter; a μ that is
+    /// wrong by a fraction leaves that fraction of today's error. The filter takes the
+    /// accelerometer's z axis as the rotors' axis (body FRD).
+    pub rotor_drag_per_s: f32,
+    /// Form drag of the multirotor's frame per unit mass (1/m: N per (m/s)² per kg,
+    /// ½·ρ·C_d·A/m), per body axis in the rotor plane, on top of the rotor drag: the
+    /// body-plane specific force is −(μ·v + κ·v·|v|) per axis, which the multirotor mode
+    /// inverts for v. 0 (the default): rotor drag only. Unused without
+    /// [`Config::rotor_drag_per_s`].
+    pub form_drag_per_m: f32,
     /// Time constant (s) of the magnetometer's (heading only) correction of the full
     /// filter: the estimate turns about the earth vertical towards the field's heading at
     /// tan(error)/τ (first order within ±45°, 1/τ rad/s beyond), never past it.
@@ -210,12 +233,32 @@ impl Default for Config {
 }
 
 impl Config {
+    /// [`Config::DEFAULT`] for a multirotor whose rotor drag and form drag per unit
+    /// mass are `rotor_drag_per_s` (1/s, see [`Config::rotor_drag_per_s`]) and
+    /// `form_drag_per_m` (1/m, [`Config::form_drag_per_m`]).
+    ///
+    /// ```
+    /// let c = fc_ahrs::Config::multirotor(0.17, 0.01);
+    /// assert_eq!(c.rotor_drag_per_s, 0.17);
+    /// assert_eq!(c.tilt_tau_s, fc_ahrs::Config::DEFAULT.tilt_tau_s);
+    /// ```
+    #[must_use]
+    pub const fn multirotor(rotor_drag_per_s: f32, form_drag_per_m: f32) -> Config {
+        Config {
+            rotor_drag_per_s,
+            form_drag_per_m,
+            ..Config::DEFAULT
+        }
+    }
+
     /// Defaults, chosen from sensor physics (see the crate README for the rationale
     /// and the BROAD results).
     pub const DEFAULT: Config = Config {
         algorithm: Algorithm::Full,
         beta: 0.02,
         tilt_tau_s: 3.0,
+        rotor_drag_per_s: 0.0,
+        form_drag_per_m: 0.0,
         heading_tau_s: 40.0,
         startup_beta: 2.5,
         startup_s: 3.0,

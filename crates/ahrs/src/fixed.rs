@@ -13,7 +13,8 @@
 //!   accelerometer units;
 //! * unit vectors, rotation-matrix entries, cosines and sines: Q2.30.
 //!
-//! * the earth-frame low-passed specific force of the tilt correction: g in Q26 `i32`.
+//! * the earth-frame low-passed specific force of the tilt correction, and of its
+//!   body-plane part in multirotor mode: g in Q26 `i32`; 1/μ (s) and 1/(μ·τ) in Q16.
 //!
 //! All products are 32×32→64-bit (one `SMULL`/`SMLAL` on the M3) accumulated in `i64`
 //! with one shift per result; every such sum has its overflow bound in a comment instead
@@ -557,6 +558,10 @@ pub struct FixedConfig {
     acc_pre_shift: u32,
     acc_pre_lim: i32,
     max_tilt_step_q26: i32,
+    /// 1/[`Config::rotor_drag_per_s`] in Q16 (s); 0: not a multirotor.
+    inv_drag_q16: i64,
+    /// β of the drag law in Q16 (≤ 2^22; 0: rotor drag only).
+    drag_beta_q16: u32,
 }
 
 /// 1/τ in Q20 (≤ 2000/s; τ ≤ 0 or NaN → 2000/s, so k = dt/τ saturates at 1 per step).
@@ -621,6 +626,7 @@ impl FixedConfig {
         };
         let mr = cfg.mag_rejection;
         let (inv_g_q32, acc_pre_shift) = inv_g_parts(g);
+        let drag = crate::madgwick::drag_model(cfg);
         Self {
             textbook: cfg.algorithm == Algorithm::Textbook,
             bias_enabled: cfg.bias.enabled,
@@ -665,6 +671,8 @@ impl FixedConfig {
             acc_pre_shift,
             acc_pre_lim: i32::MAX >> acc_pre_shift,
             max_tilt_step_q26: float_to_q(crate::madgwick::MAX_TILT_STEP_RAD, 26),
+            inv_drag_q16: drag.map_or(0, |d| i64::from(float_to_q(1.0 / d.mu, 16))),
+            drag_beta_q16: drag.map_or(0, |d| float_to_q(d.beta, 16).unsigned_abs()),
         }
     }
 }
@@ -711,6 +719,13 @@ pub struct MadgwickFixed {
     /// Two first-order low-pass stages of the specific force (g, Q27) in the estimate's
     /// NED frame.
     acc_lp: [[i32; 3]; 2],
+    /// The previous sample's body-plane specific force (g, Q26) in the estimate's NED
+    /// frame, horizontal part (multirotor mode).
+    drag_h: [i32; 2],
+    /// The drag law's linear part of the previous sample, body x and y (g, Q26).
+    drag_p: [i32; 2],
+    /// In flight ([`MadgwickFixed::set_in_flight`]).
+    in_flight: bool,
     acc_lp_valid: bool,
 }
 
@@ -733,6 +748,9 @@ impl MadgwickFixed {
             mag_reject_q20: 0,
             rate_lp_down_q40: 0,
             acc_lp: [[0; 3]; 2],
+            drag_h: [0; 2],
+            drag_p: [0; 2],
+            in_flight: false,
             acc_lp_valid: false,
         }
     }
@@ -796,6 +814,12 @@ impl MadgwickFixed {
     #[must_use]
     pub fn config(&self) -> &FixedConfig {
         &self.c
+    }
+
+    /// Whether the body is flying: the multirotor mode's drag model applies only
+    /// then (see [`crate::Madgwick::set_in_flight`]); false at construction.
+    pub fn set_in_flight(&mut self, in_flight: bool) {
+        self.in_flight = in_flight;
     }
 
     /// Orientation `q_ned_from_body` as (w, x, y, z) in Q30.
@@ -1030,7 +1054,8 @@ impl MadgwickFixed {
             sat32(dot30(r[1], ag)),
             sat32(dot30(r[2], ag)),
         ];
-        if !self.acc_lp_valid {
+        let first = !self.acc_lp_valid;
+        if first {
             self.acc_lp = [u, u];
             self.acc_lp_valid = true;
         }
@@ -1055,10 +1080,11 @@ impl MadgwickFixed {
         *b0 = lp_step(*b0, *a0, k);
         *b1 = lp_step(*b1, *a1, k);
         *b2 = lp_step(*b2, *a2, k);
+        let (y0, y1, yz) = (*b0, *b1, b2.saturating_neg());
+        let c = &self.c;
         // θ = ŷ × (0, 0, −1) with ŷ ≈ y/|y_z| (as the f32 filter), Q26 g → Q30 rad, at
         // most MAX_TILT_STEP per update. 1/|y_z| by one 32-bit division: |y_z| in Q16
         // (≥ 2^6 above 1/1024 g), 2^31/|y_z|_Q16 is 1/|y_z| in Q15.
-        let yz = b2.saturating_neg();
         let d = if yz > 1 << 16 { yz >> 10 } else { 1 << 16 };
         let inv_q15 = i32::MAX.checked_div(d).unwrap_or(0);
         let lim = c.max_tilt_step_q26;
@@ -1068,7 +1094,45 @@ impl MadgwickFixed {
                 .min(i64::from(lim));
             (t as i32) << 4
         };
-        Some([th(b1.saturating_neg()), th(*b0)])
+        let theta = [th(y1.saturating_neg()), th(y0)];
+        // Multirotor mode: −(the drag's acceleration) into the first stage, which the
+        // second takes from the next sample on (as the f32 filter: only in flight,
+        // not during the start-up ramp).
+        if !cfg!(feature = "no-multirotor") && self.c.inv_drag_q16 > 0 {
+            let on = self.in_flight && !initialising;
+            let [d0, d1] = self.drag_rate(r, ag, first, if on { inv_tau } else { 0 });
+            let s1 = &mut self.acc_lp[0];
+            s1[0] = s1[0].saturating_add(d0);
+            s1[1] = s1[1].saturating_add(d1);
+        }
+        Some(theta)
+    }
+
+    /// What the drag's acceleration takes from the first tilt stage this sample (g,
+    /// Q26, NED, horizontal), as the f32 filter's: Δh/(μ·τ) with 1/τ `inv_tau` in Q20
+    /// (0: nothing), `first` starting from this sample. c = 1/(μ·τ) in Q16 is at most
+    /// 2^31 and |Δh| < 2^30 (|h| < 2^29: |p| ≤ 4 g, rows of R < 1.2 in norm), so the
+    /// product is < 2^61.
+    #[inline(never)]
+    fn drag_rate(
+        &mut self,
+        r: &[[i32; 3]; 3],
+        ag: [i32; 3],
+        first: bool,
+        inv_tau: i64,
+    ) -> [i32; 2] {
+        let h = drag_velocity_ned(&self.c, r, ag, &mut self.drag_p);
+        if first {
+            self.drag_h = h;
+        }
+        // Q20·Q16 >> 20 (< 2^31·2^23), at most 2^31.
+        let c_q16 = ((inv_tau * self.c.inv_drag_q16) >> 20).min(i64::from(i32::MAX)) as i32;
+        let [h0, h1] = self.drag_h;
+        self.drag_h = h;
+        [
+            sat32(m64(h[0] - h0, c_q16) >> 16),
+            sat32(m64(h[1] - h1, c_q16) >> 16),
+        ]
     }
 
     /// Accelerometer rejection with its recovery timeout; true if the sample is rejected.
@@ -1429,6 +1493,38 @@ impl MadgwickFixed {
     }
 }
 
+/// The drag law's linear part p of a body-plane specific force x (g, Q26) given the
+/// previous sample's, as [`crate::madgwick::DragModel::linear_part`]: x clamped to
+/// ±4 g (2^28); 1 + β·|p| in Q16 (β ≤ 64 is ≤ 2^22 in Q16, |p| ≤ 2^28: the product
+/// >> 26 is ≤ 2^24); its reciprocal in Q15 by one 32-bit `UDIV`.
+fn drag_linear_part(c: &FixedConfig, x: i32, p_prev: i32) -> i32 {
+    let x = x.max(-(1 << 28)).min(1 << 28);
+    let den =
+        (1 << 16) + ((u64::from(c.drag_beta_q16) * u64::from(p_prev.unsigned_abs())) >> 26) as u32;
+    // `| 1` (at most 1/65536 of den) tells the compiler den ≠ 0: no zero check.
+    let inv_q15 = (1u32 << 31) / (den | 1);
+    ((i64::from(x) * i64::from(inv_q15)) >> 15) as i32
+}
+
+/// h = −μ·v/g (Q26 g) in the estimate's NED frame, horizontal part: the rows of R
+/// (Q30) times (p_x, p_y, 0) of the accelerometer in g (Q26); `p` the body-plane
+/// linear parts, updated.
+fn drag_velocity_ned(
+    c: &FixedConfig,
+    r: &[[i32; 3]; 3],
+    ag: [i32; 3],
+    p: &mut [i32; 2],
+) -> [i32; 2] {
+    let px = drag_linear_part(c, ag[0], p[0]);
+    let py = drag_linear_part(c, ag[1], p[1]);
+    *p = [px, py];
+    // |r| < 2^31, |p| ≤ 2^28: each sum < 2^60, the result < 2^30.
+    [
+        ((m64(r[0][0], px) + m64(r[0][1], py)) >> 30) as i32,
+        ((m64(r[1][0], px) + m64(r[1][1], py)) >> 30) as i32,
+    ]
+}
+
 /// Rows of the rotation matrix R(q) (body -> NED) in Q30; row 2 is "down" in body axes.
 /// Every entry is ≤ 2·‖q‖² − 1 in magnitude: < 2 for the propagated ‖q‖² ≤ 1 + 3/16, so
 /// it fits (see [`down_row`]).
@@ -1519,6 +1615,63 @@ fn quat_from_rows_q30(m: [[i32; 3]; 3]) -> [i32; 4] {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::madgwick::{drag_model, DragModel};
+
+    /// The simulator's 250-class quad (μ = 0.1/0.6 per s, κ = 0.006/0.6 per m).
+    fn quad_drag() -> (Config, DragModel) {
+        let cfg = Config::multirotor(0.1 / 0.6, 0.006 / 0.6);
+        (cfg, drag_model(&cfg).unwrap())
+    }
+
+    #[test]
+    fn the_drag_iteration_converges_on_the_inverse_of_the_drag_law() {
+        // x = p + β·p·|p|: from p = 0, the iteration p ← x/(1 + β|p|) contracts by
+        // β|p|/(1 + β|p|) per step (≤ 0.6 for the quad within 1 g).
+        let (_, d) = quad_drag();
+        assert!((d.beta - 3.53).abs() < 0.01, "{}", d.beta);
+        for i in -100..=100 {
+            let x = i as f32 * 0.01;
+            let mut p = 0.0;
+            for _ in 0..40 {
+                p = d.linear_part(x, p);
+            }
+            let back = p + d.beta * p * p.abs();
+            assert!((back - x).abs() < 1e-5, "x {x}: p {p} gives {back}");
+        }
+    }
+
+    #[test]
+    fn the_fixed_drag_iteration_follows_the_f32_one() {
+        let (cfg, d) = quad_drag();
+        let c = FixedConfig::from_config(&cfg);
+        for i in -40..=40 {
+            let x = i as f32 * 0.05;
+            let (mut p, mut pq) = (0.0f32, 0i32);
+            for _ in 0..40 {
+                p = d.linear_part(x, p);
+                pq = drag_linear_part(&c, float_to_q(x, 26), pq);
+            }
+            let got = pq as f32 / (1u32 << 26) as f32;
+            // The Q15 reciprocal: 2^-15 relative on 1/(1 + β|p|).
+            assert!(
+                (got - p).abs() < 1e-4 * (1.0 + p.abs()),
+                "x {x}: {got} vs {p}"
+            );
+        }
+    }
+
+    #[test]
+    fn no_drag_model_without_a_positive_finite_rotor_drag() {
+        for mu in [0.0, -0.1, f32::NAN, f32::INFINITY] {
+            let cfg = Config::multirotor(mu, 0.01);
+            assert!(drag_model(&cfg).is_none(), "{mu}");
+            assert_eq!(FixedConfig::from_config(&cfg).inv_drag_q16, 0);
+        }
+        // A tiny μ is raised to the smallest, and β stays within its bound.
+        let d = drag_model(&Config::multirotor(1e-6, 1.0)).unwrap();
+        assert_eq!(d.mu, crate::madgwick::MIN_ROTOR_DRAG_PER_S);
+        assert_eq!(d.beta, crate::madgwick::MAX_DRAG_BETA);
+    }
 
     #[test]
     fn f32_to_u64_is_the_cast() {

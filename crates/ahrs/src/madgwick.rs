@@ -45,6 +45,81 @@ pub(crate) const STARTUP_TILT_TAU_S: f32 = 0.2;
 /// converges over several updates instead of one inexact jump.
 pub(crate) const MAX_TILT_STEP_RAD: f32 = 0.05;
 
+/// Smallest rotor drag per unit mass the multirotor mode takes (1/s): a smaller
+/// [`Config::rotor_drag_per_s`] is raised to it (1/μ then fits the fixed filter's
+/// Q16, and the velocity it implies stays bounded).
+pub(crate) const MIN_ROTOR_DRAG_PER_S: f32 = 0.01;
+/// Largest β = κ·g/μ² the drag model takes (1/g; the 250-class quad's is 3.5), so
+/// 1 + β·|p| fits the fixed filter's 32-bit Q16; a β below [`MIN_DRAG_BETA`] is 0.
+pub(crate) const MAX_DRAG_BETA: f32 = 64.0;
+/// Smallest β the drag model keeps (below it the quadratic term is < 0.1 % at 1 g).
+pub(crate) const MIN_DRAG_BETA: f32 = 1.0e-3;
+/// Body-plane specific force the drag model inverts at most (g): larger readings
+/// (a crash, a hand slap) are clamped, as no flight reaches them on drag alone.
+pub(crate) const MAX_DRAG_G: f32 = 4.0;
+
+/// The multirotor mode's drag law, per body axis in the rotor plane: the specific
+/// force (g) is x = p + β·p·|p| with p = −μ·v/g the rotor (linear) part and
+/// β = κ·g/μ² the form drag's share ([`Config::rotor_drag_per_s`] μ,
+/// [`Config::form_drag_per_m`] κ).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct DragModel {
+    /// μ (1/s).
+    pub(crate) mu: f32,
+    /// β (1/g); 0: rotor drag only.
+    pub(crate) beta: f32,
+}
+
+impl DragModel {
+    /// p of a body-plane specific force x (g), x clamped to ±[`MAX_DRAG_G`], given
+    /// the previous sample's p: one step of the fixed-point iteration
+    /// p ← x/(1 + β·|p|) of x = p + β·p·|p|. Its slope is β|p|/(1 + β|p|) < 1, so it
+    /// converges (to within 1 % in 4 samples at β|p| = 0.3), and at 1 kHz the
+    /// previous sample is a close start: one division instead of a square root.
+    pub(crate) fn linear_part(&self, x: f32, p_prev: f32) -> f32 {
+        let x = x.clamp(-MAX_DRAG_G, MAX_DRAG_G);
+        x / (1.0 + self.beta * p_prev.abs())
+    }
+
+    /// h = −μ·v/g in the estimate's NED frame, horizontal part: R·(p_x, p_y, 0) of the
+    /// accelerometer's body-plane axes (`a_g` in g); `p` the body-plane linear parts,
+    /// updated.
+    pub(crate) fn velocity_ned(
+        &self,
+        rot: &[[f32; 3]; 3],
+        a_g: [f32; 2],
+        p: &mut [f32; 2],
+    ) -> [f32; 2] {
+        let px = self.linear_part(a_g[0], p[0]);
+        let py = self.linear_part(a_g[1], p[1]);
+        *p = [px, py];
+        [
+            rot[0][0] * px + rot[0][1] * py,
+            rot[1][0] * px + rot[1][1] * py,
+        ]
+    }
+}
+
+/// The multirotor mode's drag law, `None` if the mode is off
+/// ([`Config::rotor_drag_per_s`] 0, negative or not finite).
+pub(crate) fn drag_model(cfg: &Config) -> Option<DragModel> {
+    let mu = cfg.rotor_drag_per_s;
+    if cfg!(feature = "no-multirotor") || !(mu > 0.0 && mu.is_finite()) {
+        return None;
+    }
+    let mu = mu.max(MIN_ROTOR_DRAG_PER_S);
+    let kappa = cfg.form_drag_per_m;
+    let beta = if kappa.is_finite() {
+        (kappa * STANDARD_GRAVITY_MPS2 / (mu * mu)).min(MAX_DRAG_BETA)
+    } else {
+        0.0
+    };
+    Some(DragModel {
+        mu,
+        beta: if beta < MIN_DRAG_BETA { 0.0 } else { beta },
+    })
+}
+
 /// A magnetic field reference: ‖m‖² in input units, the sine of the dip (hz of the unit
 /// field in NED) and the tolerance on it for the configured dip tolerance.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -88,6 +163,14 @@ pub struct Madgwick {
     /// Two first-order low-pass stages of the specific force (in g) in the estimate's
     /// NED frame.
     acc_lp: [[f32; 3]; 2],
+    /// The previous sample's body-plane specific force (g) rotated into the estimate's
+    /// NED frame, horizontal part: −μ/g times the velocity through the air
+    /// (multirotor mode, [`Config::rotor_drag_per_s`]).
+    drag_h: [f32; 2],
+    /// The drag law's linear part of the previous sample, body x and y (g).
+    drag_p: [f32; 2],
+    /// In flight: the multirotor mode's drag model applies ([`Madgwick::set_in_flight`]).
+    in_flight: bool,
     acc_lp_valid: bool,
     // constants derived from cfg
     cos_accel_angle: f32,
@@ -175,6 +258,9 @@ impl Madgwick {
             mag_reject_s: 0.0,
             rate_lp_down_rps: 0.0,
             acc_lp: [[0.0; 3]; 2],
+            drag_h: [0.0; 2],
+            drag_p: [0.0; 2],
+            in_flight: false,
             acc_lp_valid: false,
             cos_accel_angle: crate::quat::cos_deg(cfg.accel_rejection.angle_deg),
             sin_dip_tol: crate::quat::sin_deg(cfg.mag_rejection.dip_tol_deg),
@@ -251,6 +337,16 @@ impl Madgwick {
     #[must_use]
     pub fn quaternion(&self) -> Quaternion {
         self.q
+    }
+
+    /// Whether the body is flying (the multirotor mode's drag model applies only
+    /// then; false at construction). On the ground the accelerometer's body-plane
+    /// reading is the ground's reaction to gravity on a slope, not drag, and a
+    /// lift-off would read as a sudden change of velocity (sin θ/(μ·τ·e) rad of
+    /// false tilt from a slope θ: 3.7° from 5° for the 250-class quad). The flight
+    /// controller knows: set it once the craft is in the air.
+    pub fn set_in_flight(&mut self, in_flight: bool) {
+        self.in_flight = in_flight;
     }
 
     /// Set the orientation (normalised; ignored if zero or not finite).
@@ -450,23 +546,64 @@ impl Madgwick {
         if !finite3(u) {
             return None;
         }
-        if !self.acc_lp_valid {
+        let first = !self.acc_lp_valid;
+        if first {
             self.acc_lp = [u, u];
             self.acc_lp_valid = true;
         }
-        let k = (dt_s * inv_tilt_tau(&cfg, self.time_s, initialising)).clamp(0.0, 1.0);
+        let inv_tau = inv_tilt_tau(&cfg, self.time_s, initialising);
+        let k = (dt_s * inv_tau).clamp(0.0, 1.0);
         let [s1, s2] = &mut self.acc_lp;
         for i in 0..3 {
             s1[i] += k * (u[i] - s1[i]);
             s2[i] += k * (s1[i] - s2[i]);
         }
+        let y = *s2;
         // θ = ŷ × (0, 0, −1): rotates y onto the vertical (up = −z in NED). y is nearly
         // vertical after every correction, so ŷ ≈ y/|y_z| (a mean specific force far from
         // 1 g must not turn into a loop gain above 1); |y_z| = 1 g if y points down.
-        let y = *s2;
         let n = if -y[2] > 1.0 / 1024.0 { -y[2] } else { 1.0 };
         let lim = MAX_TILT_STEP_RAD;
-        Some([(-y[1] / n).clamp(-lim, lim), (y[0] / n).clamp(-lim, lim)])
+        let theta = [(-y[1] / n).clamp(-lim, lim), (y[0] / n).clamp(-lim, lim)];
+        // Multirotor mode: −(the drag's acceleration) into the first stage, which the
+        // second takes from the next sample on, so the stages low-pass the specific
+        // force less the acceleration: gravity. Only in flight, and not during the
+        // start-up ramp (the identity in `drag_rate` needs a constant τ); the state
+        // follows the accelerometer regardless, so switching on adds no step.
+        if let Some(d) = drag_model(&cfg) {
+            let on = self.in_flight && !initialising;
+            let [d0, d1] =
+                self.drag_rate(d, rot, accel, inv_g, first, if on { inv_tau } else { 0.0 });
+            self.acc_lp[0][0] += d0;
+            self.acc_lp[0][1] += d1;
+        }
+        Some(theta)
+    }
+
+    /// What the drag's acceleration takes from the first tilt stage this sample (g,
+    /// NED, horizontal), with `inv_tau` = 1/τ of the stages (0: nothing) and `first`
+    /// starting from this sample: the stage's step k·(x − s) with k = dt/τ applied to
+    /// −a/g, and a/g = −(1/μ)·dh/dt for h = −μ·v/g ([`DragModel::velocity_ned`]), is
+    /// k·(1/μ)·Δh/dt = Δh/(μ·τ). The second stage smooths the sample-to-sample
+    /// difference (a vibrating accelerometer's noise reaches its output as about
+    /// √(k/2)/(μ·τ) of it).
+    fn drag_rate(
+        &mut self,
+        d: DragModel,
+        rot: &[[f32; 3]; 3],
+        accel: [f32; 3],
+        inv_g: f32,
+        first: bool,
+        inv_tau: f32,
+    ) -> [f32; 2] {
+        let h = d.velocity_ned(rot, [accel[0] * inv_g, accel[1] * inv_g], &mut self.drag_p);
+        if first {
+            self.drag_h = h;
+        }
+        let c = inv_tau / d.mu;
+        let out = [c * (h[0] - self.drag_h[0]), c * (h[1] - self.drag_h[1])];
+        self.drag_h = h;
+        out
     }
 
     /// Accelerometer rejection with its recovery timeout; true if the sample is rejected.
