@@ -190,6 +190,11 @@ pub const FAILSAFE_BLIND_RAMP_PER_S: f32 = 0.05;
 /// 0.5 N thrust differential (10 % of a 0.5 kg quad's hover thrust) on a
 /// 250-class quad (≈ 2·10⁻³ kg·m², 0.09 m lever) builds ≈ 13 °/s.
 pub const BAD_INPUT_HOLD_US: u32 = 10_000;
+/// How long after the collective first rises above the landing threshold
+/// the craft counts as flying ([`FlightController::in_flight`], µs): the
+/// altitude hold's take-off spins the motors up to lift-off in about 1 s of
+/// it, a manual one is quicker.
+pub const IN_FLIGHT_AFTER_US: u32 = 1_500_000;
 // The sensor stack calls the MPU-9250 suspect after the same gap.
 const _: () = assert!(BAD_INPUT_HOLD_US == sensor_stack::sensors::MPU_STALL_US);
 /// Time constant of the hover-collective estimate's low-pass, s: long
@@ -672,6 +677,9 @@ pub struct FlightController {
     /// after a link loss, so a switch found on never arms).
     prev_switch: Option<bool>,
     took_off: bool,
+    /// [`FlightController::armed_us`] when the collective first rose above the
+    /// landing threshold.
+    took_off_us: u32,
     /// Altitude hold engaged (its target is valid).
     alt_engaged: bool,
     /// Altitude hold requested but unavailable (reported once per episode).
@@ -739,6 +747,7 @@ impl FlightController {
             last_us: None,
             prev_switch: None,
             took_off: false,
+            took_off_us: 0,
             alt_engaged: false,
             alt_fallback: false,
             alt_target_q16: 0,
@@ -774,6 +783,17 @@ impl FlightController {
     /// True while the motors may spin under flight control.
     pub fn is_armed(&self) -> bool {
         matches!(self.state, FlightState::Armed | FlightState::Failsafe(_))
+    }
+
+    /// Whether the craft is flying: armed, and [`IN_FLIGHT_AFTER_US`] since the
+    /// collective first rose above the landing threshold (a take-off is in the
+    /// air by then). For the AHRS's multirotor mode
+    /// (`sensor_stack::pipeline::Pipeline::set_in_flight`), whose drag model
+    /// does not hold on the ground.
+    pub fn in_flight(&self) -> bool {
+        self.is_armed()
+            && self.took_off
+            && self.armed_us.saturating_sub(self.took_off_us) >= IN_FLIGHT_AFTER_US
     }
 
     /// The height altitude hold is holding (m, up), while it is engaged.
@@ -1389,8 +1409,9 @@ impl FlightController {
         // The one field, not a copy of the whole `SafetyConfig` (a
         // byte-wise `memcpy` a step).
         let low = collective < self.safety.land_collective_max;
-        if !low {
+        if !low && !self.took_off {
             self.took_off = true;
+            self.took_off_us = self.armed_us;
         }
         let landed = self.took_off && low && self.looks_landed(max_rate_q16, collective, alt);
         if self.landed.update(landed, dt_us, self.lim.land_us) {

@@ -953,3 +953,24 @@ fn receiver_sticks_map_with_the_same_signs() {
     assert!(out.rate_setpoint.roll_rps > 8.0);
     assert!(out.rate_setpoint.pitch_rps < -8.0);
 }
+
+#[test]
+fn in_flight_once_the_take_off_has_had_time_to_leave_the_ground() {
+    use flight::flightctl::IN_FLIGHT_AFTER_US;
+    let mut r = Rig::new();
+    assert!(!r.fc.in_flight(), "disarmed");
+    r.arm();
+    r.run_ms(1_000);
+    assert!(!r.fc.in_flight(), "armed at idle, on the ground");
+    // The collective rises above the landing threshold with the throttle.
+    r.pilot.sticks.throttle = 0.5;
+    let after_ms = IN_FLIGHT_AFTER_US / 1_000;
+    r.run_ms(after_ms - 10);
+    assert!(!r.fc.in_flight(), "still taking off");
+    r.run_ms(20);
+    assert!(r.fc.in_flight());
+    // Landed: disarmed, and no longer flying.
+    r.pilot.sticks.throttle = 0.0;
+    r.expect_event_within(Event::Disarmed(DisarmCause::Landed), 5_000);
+    assert!(!r.fc.in_flight());
+}
