@@ -64,6 +64,19 @@ pub struct ImuInput {
     pub dt_cycles: u32,
 }
 
+/// Rotor drag per unit mass of the airframe (1/s: N per m/s of velocity in the
+/// rotor plane, per kg), for the AHRS's multirotor mode
+/// ([`fc_ahrs::Config::rotor_drag_per_s`]): the simulator's 250-class quad,
+/// 0.1 N per m/s on 0.60 kg. Published small quadrotors measure 0.1–0.6/s
+/// (Leishman et al. 2014); a value wrong by a fraction leaves that fraction
+/// of the tilt error a filter without the drag model has while the craft
+/// accelerates.
+pub const ROTOR_DRAG_PER_S: f32 = 0.1 / 0.60;
+/// Form drag of the airframe per unit mass (1/m: ½·ρ·C_d·A per kg), for the
+/// same mode ([`fc_ahrs::Config::form_drag_per_m`]): the simulator's quad,
+/// 0.006 N per (m/s)² (C_d ≈ 1 on 0.01 m²) on 0.60 kg.
+pub const FORM_DRAG_PER_M: f32 = 0.006 / 0.60;
+
 /// Fixed settings of the pipeline.
 #[derive(Clone, Copy, Debug)]
 pub struct PipelineConfig {
@@ -84,7 +97,8 @@ pub struct PipelineConfig {
     pub control_divider: u16,
     /// Nominal IMU sample rate, Hz.
     pub imu_rate_hz: u32,
-    /// AHRS tuning.
+    /// AHRS tuning: by default the multirotor mode with [`ROTOR_DRAG_PER_S`]
+    /// and [`FORM_DRAG_PER_M`].
     pub ahrs: fc_ahrs::Config,
     /// Vertical estimator tuning.
     pub vertical: VerticalConfig,
@@ -103,7 +117,7 @@ impl PipelineConfig {
             altitude: true,
             control_divider: 10,
             imu_rate_hz: 1000,
-            ahrs: fc_ahrs::Config::default(),
+            ahrs: fc_ahrs::Config::multirotor(ROTOR_DRAG_PER_S, FORM_DRAG_PER_M),
             vertical: VerticalConfig::default(),
         }
     }
@@ -283,6 +297,13 @@ impl Pipeline {
         if let Ok(m) = mag_counts_to_body_q16(&self.cfg, cal) {
             self.mag_q16 = m;
         }
+    }
+
+    /// Whether the craft is flying, from the flight controller: the AHRS's
+    /// multirotor mode applies its drag model only then
+    /// ([`fc_ahrs::Madgwick::set_in_flight`]).
+    pub fn set_in_flight(&mut self, in_flight: bool) {
+        self.ahrs.set_in_flight(in_flight);
     }
 
     /// The accelerometer correction in use was fitted (the record's
@@ -703,6 +724,10 @@ mod backend {
             self.mag = body_q4.map(|m| m as f32 * (1.0 / 16.0));
         }
 
+        pub fn set_in_flight(&mut self, in_flight: bool) {
+            self.filter.set_in_flight(in_flight);
+        }
+
         #[inline]
         pub fn update(
             &mut self,
@@ -782,6 +807,10 @@ mod backend {
 
         pub fn set_mag_q4(&mut self, body_q4: [i32; 3]) {
             self.mag = body_q4;
+        }
+
+        pub fn set_in_flight(&mut self, in_flight: bool) {
+            self.filter.set_in_flight(in_flight);
         }
 
         #[inline]
