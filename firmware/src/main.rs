@@ -541,9 +541,14 @@ mod app {
         disarmed: Option<FlightEvent>,
     ) -> Motors {
         let pilot = cx.shared.pilot.lock(|p| pilot_input(p, now_us));
+        // The AHRS's drag model holds in the air only: the controller's
+        // verdict of the previous step (1 ms late) is the AHRS's next.
+        let in_flight = cx.local.fc.as_ref().is_some_and(|fc| fc.in_flight());
         let state = cx.shared.pipeline.lock(|p| {
-            p.as_ref()
-                .map(|p| (vehicle_state(p, fresh), p.accel_calibrated()))
+            p.as_mut().map(|p| {
+                p.set_in_flight(in_flight);
+                (vehicle_state(p, fresh), p.accel_calibrated())
+            })
         });
         let vehicle = state.map(|(v, _)| v);
         let status = SystemStatus {
