@@ -97,6 +97,17 @@ pub fn features_on() -> Config {
     c
 }
 
+/// [`features_on`] in the multirotor mode, with the firmware's drag
+/// coefficients (`sensor_stack::pipeline::ROTOR_DRAG_PER_S`,
+/// `FORM_DRAG_PER_M`).
+pub fn multirotor() -> Config {
+    Config {
+        rotor_drag_per_s: sensor_stack::pipeline::ROTOR_DRAG_PER_S,
+        form_drag_per_m: sensor_stack::pipeline::FORM_DRAG_PER_M,
+        ..features_on()
+    }
+}
+
 /// Madgwick's 2010 filter as published (`Algorithm::Textbook`): one β, the
 /// joint gradient, no extensions.
 pub fn plain() -> Config {

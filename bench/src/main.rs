@@ -637,8 +637,35 @@ mod suite {
         };
         for (on, cfg) in [(true, steady(features_on())), (false, steady(plain()))] {
             f32_filter_cases(on, cfg, &warm_raw.to_si(), &s);
-            fixed_filter_cases(on, cfg, &warm_raw.to_fixed(), &fx);
+            fixed_filter_cases(filter_names(on), cfg, &warm_raw.to_fixed(), &fx);
         }
+        let multirotor = [
+            "fc_ahrs::MadgwickFixed MARG (multirotor)",
+            "fc_ahrs::MadgwickFixed IMU (multirotor)",
+        ];
+        fixed_filter_cases(
+            multirotor,
+            steady(bench::multirotor()),
+            &warm_raw.to_fixed(),
+            &fx,
+        );
+    }
+
+    /// The fixed-point filter's MARG and IMU row names, rejection on (`on`) or
+    /// the textbook filter.
+    fn filter_names(on: bool) -> [&'static str; 2] {
+        [
+            filter_name(
+                on,
+                "fc_ahrs::MadgwickFixed MARG (rejection on)",
+                "fc_ahrs::MadgwickFixed MARG (textbook)",
+            ),
+            filter_name(
+                on,
+                "fc_ahrs::MadgwickFixed IMU (rejection on)",
+                "fc_ahrs::MadgwickFixed IMU (textbook)",
+            ),
+        ]
     }
 
     /// Row name for the filter with rejection on (`on`) or the textbook one.
@@ -685,10 +712,10 @@ mod suite {
         );
     }
 
-    /// The fixed-point filter on raw counts, MARG and IMU: warmed up on `w`,
-    /// measured on `fx`.
+    /// The fixed-point filter on raw counts, MARG and IMU (rows `names`):
+    /// warmed up on `w`, measured on `fx`.
     fn fixed_filter_cases(
-        on: bool,
+        names: [&'static str; 2],
         cfg: fc_ahrs::Config,
         w: &bench::FixedSample,
         fx: &[bench::FixedSample; CALLS],
@@ -703,22 +730,14 @@ mod suite {
         }
         let mut imu = f.clone();
         case_checked(
-            filter_name(
-                on,
-                "fc_ahrs::MadgwickFixed MARG (rejection on)",
-                "fc_ahrs::MadgwickFixed MARG (textbook)",
-            ),
+            names[0],
             &mut f,
             fx,
             |f, s| f.update_marg(s.gyro_rps_q20, s.accel, s.mag, dt_q31),
             |st| st.path == UpdatePath::Marg,
         );
         case_checked(
-            filter_name(
-                on,
-                "fc_ahrs::MadgwickFixed IMU (rejection on)",
-                "fc_ahrs::MadgwickFixed IMU (textbook)",
-            ),
+            names[1],
             &mut imu,
             fx,
             |f, s| f.update_imu(s.gyro_rps_q20, s.accel, dt_q31),

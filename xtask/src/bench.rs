@@ -49,6 +49,7 @@ const SIZE_END: &str = "<!-- firmware-size:end -->";
 /// Names of the rows with budgets (as printed by the bench binary).
 const FIXED_MARG_ON: &str = "fc_ahrs::MadgwickFixed MARG (rejection on)";
 const FIXED_MARG_PLAIN: &str = "fc_ahrs::MadgwickFixed MARG (textbook)";
+const FIXED_MARG_MULTIROTOR: &str = "fc_ahrs::MadgwickFixed MARG (multirotor)";
 const F32_MARG_ON: &str = "fc_ahrs::Madgwick f32 MARG (rejection on)";
 const F32_MARG_PLAIN: &str = "fc_ahrs::Madgwick f32 MARG (textbook)";
 const PIPELINE: &str = "flight pipeline: per 1 kHz sample (frame / 10)";
@@ -102,6 +103,8 @@ fn budgets() -> Vec<(&'static str, Vec<Limit>)> {
             FIXED_MARG_PLAIN,
             vec![Limit::Max(1_000), Limit::FractionOf(F32_MARG_PLAIN, 5)],
         ),
+        // The multirotor mode's drag model on top of the full filter.
+        (FIXED_MARG_MULTIROTOR, vec![Limit::Max(2_200)]),
         (PIPELINE, vec![Limit::Max(3_000)]),
         (CONTROL_STEP, vec![Limit::Max(4_000)]),
         (MAG_APPLY, vec![Limit::Max(300)]),
