@@ -96,9 +96,42 @@ struct Cli {
     #[arg(long, value_name = "NAME", conflicts_with_all = ["trajectory", "duration"],
           value_parser = clap::builder::PossibleValuesParser::new(demo::closed_loop::Scenario::NAMES))]
     scenario: Option<String>,
+    /// Scenario only: the airframe's drag (rotor and form) times this, in
+    /// (0, 10]; the AHRS's drag model stays the airframe's nominal one.
+    #[arg(long, value_name = "FACTOR", requires = "scenario",
+          value_parser = seconds_in(0.0, 10.0))]
+    drag_scale: Option<f64>,
+    /// Scenario only: the rotor drag grows with the rotors' speed (as
+    /// measured by Leishman et al. 2014) instead of a constant coefficient.
+    #[arg(long, requires = "scenario")]
+    thrust_drag: bool,
+    /// Scenario only: a steady wind, NORTH,EAST in m/s (each within ±20).
+    #[arg(long, value_name = "NORTH,EAST", requires = "scenario",
+          value_parser = parse_wind, allow_hyphen_values = true)]
+    wind: Option<[f64; 2]>,
     /// No progress line on stderr.
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// `NORTH,EAST` wind in m/s, each within ±20.
+fn parse_wind(s: &str) -> Result<[f64; 2], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let [n, e] = parts.as_slice() else {
+        return Err(format!("`{s}` is not NORTH,EAST (two numbers in m/s)"));
+    };
+    let num = |x: &str| -> Result<f64, String> {
+        let v: f64 = x
+            .trim()
+            .parse()
+            .map_err(|_| format!("`{x}` is not a number of m/s"))?;
+        if v.is_finite() && v.abs() <= 20.0 {
+            Ok(v)
+        } else {
+            Err(format!("{v} m/s is outside ±20 m/s"))
+        }
+    };
+    Ok([num(n)?, num(e)?])
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -347,6 +380,12 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
     opts.board_seed = cli.board_seed.unwrap_or(cli.seed);
     opts.mag_dance_s = cli.mag_dance;
     opts.faults = cli.fault.clone();
+    let drag = &mut opts.airframe.drag;
+    *drag = drag.scaled(cli.drag_scale.unwrap_or(1.0));
+    drag.linear_scales_with_rotor_speed = cli.thrust_drag;
+    if let Some([n, e]) = cli.wind {
+        drag.wind_ned_mps = [n, e, 0.0];
+    }
     let mut fc = demo::flight_fc::FirmwareFc::new(flight::flightctl::FlightConfig::default())?;
     say!(
         "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",

@@ -28,8 +28,12 @@
 //!   settles on the feet, roll and pitch level; beyond it the body stays at
 //!   the attitude it hit the ground with, as a crashed quad on its side).
 //!
+//! * wind: a constant air-mass velocity ([`DragParams::wind_ned_mps`]); the
+//!   rotor drag optionally growing with the rotors' speed
+//!   ([`DragParams::linear_scales_with_rotor_speed`]).
+//!
 //! Not modelled: propeller inertia torque on speed changes, blade flapping,
-//! ground effect, wind, ESC non-linearity.
+//! ground effect, gusts, ESC non-linearity.
 //!
 //! [`QuadParams::class_250`] is a typical 250-class racer; its sources are
 //! given field by field. [`QuadLink`] hands the body's motion to a
@@ -148,6 +152,26 @@ pub struct DragParams {
     pub quadratic_n_per_mps2: Vec3,
     /// Angular damping per body axis (N·m per rad/s).
     pub angular_nm_per_rps: Vec3,
+    /// Whether the linear (rotor) drag grows with the rotors' speed: Leishman
+    /// et al. (2014) measured rotor drag proportional to the sum of the rotor
+    /// speeds; with this set the linear coefficients are the hover's and scale
+    /// with Σω / (4·ω_hover). Off: constant coefficients.
+    pub linear_scales_with_rotor_speed: bool,
+    /// Velocity of the air mass (m/s, NED): drag acts on the velocity relative
+    /// to it. Zero: still air.
+    pub wind_ned_mps: Vec3,
+}
+
+impl DragParams {
+    /// The same drag with both coefficients (linear and quadratic, not the
+    /// angular damping) times `scale`.
+    pub fn scaled(self, scale: f64) -> Self {
+        Self {
+            linear_n_per_mps: math::scale(self.linear_n_per_mps, scale),
+            quadratic_n_per_mps2: math::scale(self.quadratic_n_per_mps2, scale),
+            ..self
+        }
+    }
 }
 
 /// Everything about the airframe.
@@ -248,6 +272,8 @@ impl QuadParams {
                 linear_n_per_mps: [0.1, 0.1, 0.1],
                 quadratic_n_per_mps2: [0.006, 0.006, 0.018],
                 angular_nm_per_rps: [2e-4, 2e-4, 3e-4],
+                linear_scales_with_rotor_speed: false,
+                wind_ned_mps: [0.0; 3],
             },
         }
     }
@@ -255,6 +281,12 @@ impl QuadParams {
     /// Weight (N).
     pub fn weight_n(&self) -> f64 {
         self.mass_kg * G0_MPS2
+    }
+
+    /// Rotor speed at which the four correct propellers carry the weight
+    /// (rad/s): T = 4·k_f·ω².
+    pub fn hover_rotor_rps(&self) -> f64 {
+        (self.weight_n() / (4.0 * self.propulsion.k_f_n_per_rps2)).sqrt()
     }
 
     /// The ESC signal wires of motor indices `a` and `b` swapped at the
@@ -534,10 +566,16 @@ impl Quadcopter {
             (b.open_circuit_v(s.battery_used_ah) - current * b.r_internal_ohm).max(0.0);
 
         // Forces in the body frame: thrust and drag on the air-relative velocity.
-        let v_body = s.q_ned_from_body.conj().rotate(s.velocity_ned_mps);
+        let v_air = math::sub(s.velocity_ned_mps, p.drag.wind_ned_mps);
+        let v_body = s.q_ned_from_body.conj().rotate(v_air);
         let mut f_body = [0.0, 0.0, -thrust_total];
+        let linear_scale = if p.drag.linear_scales_with_rotor_speed {
+            s.rotor_rps.iter().sum::<f64>() / (4.0 * p.hover_rotor_rps())
+        } else {
+            1.0
+        };
         for k in 0..3 {
-            f_body[k] -= p.drag.linear_n_per_mps[k] * v_body[k]
+            f_body[k] -= linear_scale * p.drag.linear_n_per_mps[k] * v_body[k]
                 + p.drag.quadratic_n_per_mps2[k] * v_body[k] * v_body[k].abs();
         }
         let f_ned = s.q_ned_from_body.rotate(f_body);

@@ -13,6 +13,7 @@ use super::radio::Radio;
 use super::stack::{self, Stack};
 pub use flight::flightctl::FlightMode as Mode;
 use flight::flightctl::{PilotInput, VehicleState};
+use sensor_stack::pipeline::PipelineConfig;
 use sensor_stack::storage::CalibrationRecord;
 use sim::faults::{FaultSchedule, FaultSpec};
 use sim::quad::QuadState;
@@ -56,6 +57,9 @@ pub struct ControlOutput {
     pub height_target_m: Option<f32>,
     /// The controller flies a failsafe (link lost).
     pub failsafe: bool,
+    /// The controller counts the craft as flying (the AHRS's multirotor
+    /// mode takes it, as the firmware wires it).
+    pub in_flight: bool,
 }
 
 /// A flight controller as the closed loop sees it.
@@ -163,7 +167,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     let clock = SimClock::new();
     let bus = SimBus::new(&clock, base);
     let mut delay = clock.delay();
-    let mut stack = Stack::boot(&bus, &mut delay, &record)?;
+    let mut stack = Stack::boot(&bus, &mut delay, &record, PipelineConfig::new().ahrs)?;
     let duration_s = opts.duration_s.unwrap_or(opts.scenario.duration_s());
     let mut escs = Escs::new(opts.esc_rate_hz);
     let mut out = ControlOutput::default();
@@ -194,6 +198,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
         let now_us = clock.now_us() as u32;
         let input = ControlInput::from_stack(&stack, now_us, radio.poll(now_s, now_us, pilot));
         out = fc.step(&input)?;
+        stack.set_in_flight(out.in_flight);
         events.extend(fc.drain_events().into_iter().map(|e| (now_s, e)));
         let q = est.q_ned_from_body.map(f64::from);
         let est = (
@@ -306,7 +311,7 @@ mod tests {
     //! expects of a well-behaved flight controller.
 
     use super::*;
-    use crate::demo::figures::{figures, Figures, RunawayFigures};
+    use crate::demo::figures::{figures, Figures, RunawayFigures, TiltErrorFigures};
     use crate::demo::flight_fc::FirmwareFc;
     use flight::flightctl::FlightConfig;
 
@@ -354,6 +359,27 @@ mod tests {
         }
     }
 
+    /// `scenario` flown with seeds 1–8, two at a time (the machine's cores).
+    fn flown_with_eight_seeds(scenario: Scenario) -> Vec<(u64, Figures)> {
+        let mut out = Vec::new();
+        for pair in [[1, 2], [3, 4], [5, 6], [7, 8]] {
+            std::thread::scope(|s| {
+                let runs = pair.map(|seed| s.spawn(move || (seed, flown(scenario, seed).1)));
+                out.extend(runs.map(|r| r.join().unwrap()));
+            });
+        }
+        out
+    }
+
+    /// The estimator's tilt error through a stick step: within 0.5° RMS
+    /// over the hold and back within 0.5° within 1 s of the release (the
+    /// multirotor mode's drag model; without it 1–2° and seconds).
+    fn assert_tilt_held(seed: u64, e: Option<TiltErrorFigures>) {
+        let e = e.unwrap();
+        assert!(e.hold_rms_deg < 0.5, "seed {seed}: {e:?}");
+        assert!(e.recovered_s < 1.0, "seed {seed}: {e:?}");
+    }
+
     #[test]
     fn stick_steps_are_followed_quickly_and_without_much_overshoot() {
         // The self-level loop is a P on the angle error: with an ideal rate
@@ -361,23 +387,32 @@ mod tests {
         // rate loop and motors may add a fifth to it.
         let kp = f64::from(FlightConfig::default().level.kp_per_s);
         let rise_max_s = 1.2 * 9f64.ln() / kp;
-        for seed in [1, 3] {
-            let (_, f) = flown(Scenario::Steps, seed);
+        for (seed, f) in flown_with_eight_seeds(Scenario::Steps) {
             for s in [f.roll.unwrap(), f.pitch.unwrap()] {
                 // Half stick in angle mode: 15° of tilt, roll right / nose down.
-                assert!((s.to.abs() - 15.0).abs() < 1.0, "{s:?}");
+                assert!((s.to.abs() - 15.0).abs() < 1.0, "seed {seed}: {s:?}");
                 assert!(
                     s.rise_s < rise_max_s && s.overshoot_pct < 30.0,
-                    "{s:?} {rise_max_s}"
+                    "seed {seed}: {s:?} {rise_max_s}"
                 );
-                // What is left is the AHRS's tilt error under sustained acceleration.
-                assert!(s.final_error.abs() < 4.0, "{s:?}");
+                // The true angle against the shaped setpoint: what is left is
+                // the static calibration residue and the estimator's error.
+                assert!(s.final_error.abs() < 2.0, "seed {seed}: {s:?}");
             }
+            assert_tilt_held(seed, f.roll_tilt_error);
+            assert_tilt_held(seed, f.pitch_tilt_error);
             assert!(f.roll.unwrap().to > 0.0 && f.pitch.unwrap().to < 0.0);
             let y = f.yaw_rate.unwrap();
             assert!(y.to > 60.0, "{y:?}");
             assert!(y.rise_s < 0.5 && y.overshoot_pct < 30.0, "{y:?}");
             assert!(y.final_error.abs() < 0.1 * y.to, "{y:?}");
+        }
+    }
+
+    #[test]
+    fn the_estimator_holds_tilt_through_20_degree_forward_flight() {
+        for (seed, f) in flown_with_eight_seeds(Scenario::AltHold) {
+            assert_tilt_held(seed, f.pitch_tilt_error);
         }
     }
 

@@ -97,6 +97,61 @@ fn tilt_deg(s: &Sample) -> f64 {
     (r.cos() * p.cos()).clamp(-1.0, 1.0).acos().to_degrees()
 }
 
+/// Degrees within which the estimator's tilt error counts as recovered
+/// after a stick is released.
+pub const TILT_RECOVERED_DEG: f64 = 0.5;
+/// How long after the release the recovery is watched (s).
+pub const TILT_WATCH_S: f64 = 2.0;
+
+/// The estimator's tilt error through a stick step on one axis (roll or
+/// pitch): truth − estimate (°), relative to its mean over the 0.5 s of
+/// hover before the step, so the static calibration residue does not
+/// count; the craft's attitude as the controller sees it against the
+/// model's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TiltErrorFigures {
+    /// RMS over the hold (°).
+    pub hold_rms_deg: f64,
+    /// Largest |error| over the hold (°).
+    pub hold_max_deg: f64,
+    /// Largest |error| over the [`TILT_WATCH_S`] after the release (°).
+    pub after_max_deg: f64,
+    /// Time after the release from which the error stays within
+    /// [`TILT_RECOVERED_DEG`] until the end of the watch (s).
+    pub recovered_s: f64,
+}
+
+/// The tilt error of the step on `axis` (0 roll, 1 pitch) held from `t0`
+/// for `len`; `None` if the flight does not cover it.
+pub fn tilt_error(samples: &[Sample], t0: f64, len: f64, axis: usize) -> Option<TiltErrorFigures> {
+    let err = |s: &Sample| euler_deg(s)[axis] - s.est_q.to_euler()[axis].to_degrees();
+    let within = |a: f64, b: f64| samples.iter().filter(move |s| s.t_s >= a && s.t_s < b);
+    let before: Vec<f64> = within(t0 - 0.5, t0).map(err).collect();
+    if before.is_empty() {
+        return None;
+    }
+    let offset = mean(&before);
+    let hold: Vec<f64> = within(t0, t0 + len).map(|s| err(s) - offset).collect();
+    let release = t0 + len;
+    let after: Vec<(f64, f64)> = within(release, release + TILT_WATCH_S)
+        .map(|s| (s.t_s, err(s) - offset))
+        .collect();
+    if hold.is_empty() || after.last()?.0 < release + TILT_WATCH_S - 0.1 {
+        return None;
+    }
+    let recovered_s = after
+        .iter()
+        .rev()
+        .find(|(_, e)| e.abs() > TILT_RECOVERED_DEG)
+        .map_or(0.0, |(t, _)| t - release);
+    Some(TiltErrorFigures {
+        hold_rms_deg: rms(hold.iter().copied()),
+        hold_max_deg: hold.iter().map(|e| e.abs()).fold(0.0, f64::max),
+        after_max_deg: after.iter().map(|p| p.1.abs()).fold(0.0, f64::max),
+        recovered_s,
+    })
+}
+
 /// Height hold in a window: RMS and largest |true height − target| (m).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HoldFigures {
@@ -319,6 +374,11 @@ pub struct Figures {
     pub pitch: Option<StepFigures>,
     /// Yaw stick step (true yaw rate, °/s).
     pub yaw_rate: Option<StepFigures>,
+    /// The estimator's roll error through the roll step.
+    pub roll_tilt_error: Option<TiltErrorFigures>,
+    /// The estimator's pitch error through the pitch step, or through
+    /// the forward flight of the altitude-hold script.
+    pub pitch_tilt_error: Option<TiltErrorFigures>,
     /// Altitude hold: overshoot above the target after the climb stops (m).
     pub climb_overshoot_m: Option<f64>,
     /// Altitude hold during and 3 s after the forward flight.
@@ -373,6 +433,8 @@ pub fn figures(log: &FlightLog) -> Figures {
                 |x| euler_deg(x)[1],
                 tilt_sp(1),
             );
+            f.roll_tilt_error = tilt_error(s, ROLL_STEP_S, STEP_HOLD_S, 0);
+            f.pitch_tilt_error = tilt_error(s, PITCH_STEP_S, STEP_HOLD_S, 1);
             f.yaw_rate = step_response(
                 s,
                 YAW_STEP_S,
@@ -386,6 +448,7 @@ pub fn figures(log: &FlightLog) -> Figures {
             );
         }
         Scenario::AltHold => {
+            f.pitch_tilt_error = tilt_error(s, FORWARD_S, FORWARD_HOLD_S, 1);
             let stop = CLIMB2_S + CLIMB2_HOLD_S;
             let target = s
                 .iter()
@@ -436,6 +499,18 @@ impl Figures {
         }
         if let Some(s) = &self.yaw_rate {
             out.push(step("yaw rate", "°/s", s));
+        }
+        let tilt = |name: &str, e: &TiltErrorFigures| {
+            format!(
+                "estimator {name} error (truth - estimate) in the hold RMS {:.2}°, max {:.2}°; after the release max {:.2}°, within {TILT_RECOVERED_DEG}° from +{:.2} s",
+                e.hold_rms_deg, e.hold_max_deg, e.after_max_deg, e.recovered_s
+            )
+        };
+        if let Some(e) = &self.roll_tilt_error {
+            out.push(tilt("roll", e));
+        }
+        if let Some(e) = &self.pitch_tilt_error {
+            out.push(tilt("pitch", e));
         }
         if let Some(o) = self.climb_overshoot_m {
             out.push(format!(

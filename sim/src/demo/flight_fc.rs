@@ -69,6 +69,7 @@ impl FlightControl for FirmwareFc {
             height_target_m: self.fc.altitude_target_m(),
             failsafe: failsafe
                 || matches!(out.state, FlightState::Failsafe(FailsafePhase::Descend)),
+            in_flight: self.fc.in_flight(),
         })
     }
 

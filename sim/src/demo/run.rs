@@ -194,7 +194,7 @@ fn fly(
     let clock = SimClock::new();
     let bus = SimBus::new(&clock, base.clone());
     let mut delay = clock.delay();
-    let mut stack = Stack::boot(&bus, &mut delay, record)?;
+    let mut stack = Stack::boot(&bus, &mut delay, record, fc_ahrs::Config::DEFAULT)?;
     print_boot(&stack);
     let mut faults = FaultSchedule::new(&opts.faults);
     let mut progress = Progress::new(opts.duration_s, opts.progress, wall);

@@ -250,11 +250,14 @@ impl Stack {
     /// Boots the chips (`sensor_stack::sensors::Sensors::boot`: probe with
     /// retries, configure) and builds the pipeline from their scales, the
     /// capabilities found and the stored calibration `record` — as the
-    /// firmware's `init` does.
+    /// firmware's `init` does — with the AHRS configured as `ahrs` (the
+    /// firmware's multirotor mode for the quad model, the hand-held filter for
+    /// the scripted trajectories, which no rotor drag shapes).
     pub fn boot(
         bus: &SimBus,
         delay: &mut SimDelay,
         record: &CalibrationRecord,
+        ahrs: fc_ahrs::Config,
     ) -> Result<Self, String> {
         let (sensors, boot) = FlightSensors::boot(
             bus.clone(),
@@ -276,6 +279,7 @@ impl Stack {
             },
             ahrs_mode: caps.ahrs,
             altitude: caps.altitude,
+            ahrs,
             ..PipelineConfig::new()
         };
         let pipeline = Pipeline::new(cfg, record).map_err(|e| format!("pipeline: {e:?}"))?;
@@ -302,6 +306,12 @@ impl Stack {
     /// The pipeline (for the flight controller's inputs).
     pub fn pipeline(&self) -> &Pipeline {
         &self.pipeline
+    }
+
+    /// Tells the pipeline whether the craft is flying (the flight
+    /// controller's verdict), as the firmware's sample task does.
+    pub fn set_in_flight(&mut self, in_flight: bool) {
+        self.pipeline.set_in_flight(in_flight);
     }
 
     /// The boot probe's verdicts.
