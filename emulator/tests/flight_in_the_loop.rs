@@ -326,6 +326,7 @@ fn stick_steps_tilt_the_craft_and_it_levels_again() {
     let tilt_after = level.iter().map(tilt_deg).fold(0.0, f64::max);
     println!("fil steps seed 1: roll {roll:.1}°, pitch {pitch:.1}° at the ends of the holds; tilt 1 s after {tilt_after:.1}°");
     assert_step_figures(&r);
+    assert_estimator_tilt(&r);
     assert!((roll - 15.0).abs() < 4.0, "roll {roll}°");
     assert!((pitch + 15.0).abs() < 4.0, "pitch {pitch}°");
     assert!(tilt_after < 6.0, "tilt {tilt_after}°");
@@ -365,6 +366,58 @@ fn assert_step_figures(r: &FlightRig) {
         println!("fil steps seed 1: {name} truth rise {:.3} s overshoot {:.1} %; estimate rise {:.3} s overshoot {:.1} %", t.0, t.1, e.0, e.1);
         assert!(t.0 < 0.5 && e.0 < 0.5, "{name} rise {t:?} {e:?}");
         assert!(e.1 < 15.0, "{name} estimate overshoot {e:?}");
+    }
+}
+
+/// The estimator's tilt error through the steps, as `cargo sim`'s figure:
+/// truth − the firmware's own estimate (its 20 Hz log), relative to the
+/// mean over the 0.5 s of hover before the step; within 0.5° RMS over the
+/// hold and back within 0.5° within 1 s of the release (the AHRS's
+/// multirotor mode).
+fn assert_estimator_tilt(r: &FlightRig) {
+    use sim::scenario::{PITCH_STEP_S, ROLL_STEP_S, STEP_HOLD_S};
+    let samples = r.samples();
+    // The true ZYX Euler angle (°) at `t`: the rig's step that ends there.
+    let truth = |t: f64, axis: usize| {
+        let i = samples
+            .partition_point(|s| s.t_s < t)
+            .min(samples.len() - 1);
+        samples[i].truth.q_ned_from_body.to_euler()[axis].to_degrees()
+    };
+    for (name, axis, t0) in [("roll", 0, ROLL_STEP_S), ("pitch", 1, PITCH_STEP_S)] {
+        let err: Vec<(f64, f64)> = r
+            .board()
+            .log_lines()
+            .iter()
+            .filter_map(|l| {
+                let t = l.host_time_ns as f64 * 1e-9;
+                Some((t, truth(t, axis) - attitude(&l.text)?[axis]))
+            })
+            .collect();
+        let mean = |a: f64, b: f64| {
+            let w: Vec<f64> = err
+                .iter()
+                .filter(|p| p.0 >= a && p.0 < b)
+                .map(|p| p.1)
+                .collect();
+            (w.iter().sum::<f64>() / w.len() as f64, w)
+        };
+        let (offset, _) = mean(t0 - 0.5, t0);
+        let (_, hold) = mean(t0, t0 + STEP_HOLD_S);
+        let rms =
+            (hold.iter().map(|e| (e - offset).powi(2)).sum::<f64>() / hold.len() as f64).sqrt();
+        let release = t0 + STEP_HOLD_S;
+        let recovered = err
+            .iter()
+            .filter(|p| p.0 >= release && p.0 < release + 2.0)
+            .filter(|p| (p.1 - offset).abs() > 0.5)
+            .map(|p| p.0 - release)
+            .fold(0.0, f64::max);
+        println!("fil steps seed 1: estimator {name} error (truth - estimate) in the hold RMS {rms:.2}°, within 0.5° from +{recovered:.2} s after the release");
+        assert!(
+            rms < 0.5 && recovered < 1.0,
+            "{name}: RMS {rms}°, recovered +{recovered} s"
+        );
     }
 }
 
