@@ -167,6 +167,10 @@ fn a_weak_magnet_riding_at_6_cm_is_never_rejected_and_turns_heading_not_tilt() {
         let (c, _, _) = scored(&clean, FilterKind::Fixed, &cfg);
         let (f, _, rejected) = scored(&magnet, FilterKind::Fixed, &cfg);
         let (f32s, _, _) = scored(&magnet, FilterKind::F32, &cfg);
+        print(
+            &format!("seed {seed} handheld, magnet 6 cm (VQF, for comparison)"),
+            &scored(&magnet, FilterKind::Vqf, &cfg).0,
+        );
         print(&format!("seed {seed} handheld, no magnet (fixed)"), &c);
         print(
             &format!(
@@ -264,6 +268,13 @@ fn magnets_at_3_and_4_5_cm_leave_heading_within_the_compass_error() {
         let (f32s, _, _) = scored(&samples, FilterKind::F32, &cfg);
         print(
             &format!(
+                "handheld, magnet {:.1} cm (VQF, for comparison)",
+                r_m * 100.0
+            ),
+            &scored(&samples, FilterKind::Vqf, &cfg).0,
+        );
+        print(
+            &format!(
                 "handheld, magnet {:.1} cm, |d| {:.1} µT, {:.1} % rejected (fixed)",
                 r_m * 100.0,
                 math::norm(d),
@@ -315,6 +326,13 @@ fn fast_turns_within_the_25_c_scale_tolerance_are_recovered_in_each_rest() {
         let (f, est, _) = scored(&samples, FilterKind::Fixed, &cfg);
         let (f32s, _, _) = scored(&samples, FilterKind::F32, &cfg);
         print(
+            &format!(
+                "fastturns, gyro scale {:+.0} % (VQF, for comparison)",
+                scale * 100.0
+            ),
+            &scored(&samples, FilterKind::Vqf, &cfg).0,
+        );
+        print(
             &format!("fastturns, gyro scale {:+.0} % (fixed)", scale * 100.0),
             &f,
         );
@@ -343,8 +361,59 @@ fn fast_turns_beyond_the_scale_tolerance_leave_the_excess_after_a_rest() {
         - (Trajectory::FAST_TURN_CYCLE_S / f64::from(cfg.heading_tau_s)).to_degrees();
     let samples = fast_turns(s, 3);
     let (f, est, _) = scored(&samples, FilterKind::Fixed, &cfg);
+    print(
+        "fastturns, gyro scale +7 % (VQF, for comparison)",
+        &scored(&samples, FilterKind::Vqf, &cfg).0,
+    );
     print("fastturns, gyro scale +7 % (fixed)", &f);
     let after = heading_after_rests(&samples, &est);
     println!("  heading error after each rest: {after:.2?}° (floor {floor:.1}°)");
     assert!(after[0] >= floor, "{after:?}");
+}
+
+/// Heading RMS (deg) with `cfg` on the 6 cm magnet class (seed 1), and the mean
+/// heading error (deg) after the rests of the +7 % fast turns.
+fn class_figures(cfg: &Config) -> (f64, f64) {
+    let m = ndfeb_disc_moment_am2() / 2f64.sqrt();
+    let d = dipole_field_ut([m, 0.0, m], [0.0, 0.06, 0.0]);
+    let samples = record(
+        &mut world(
+            Trajectory::HandHeld,
+            SensorErrors::noise_only(),
+            vec![riding(d)],
+            1,
+        ),
+        HAND_HELD_S,
+    );
+    let magnet = scored(&samples, FilterKind::Fixed, cfg).0.heading_deg;
+    let samples = fast_turns(0.07, 1);
+    let (_, est, _) = scored(&samples, FilterKind::Fixed, cfg);
+    let after = heading_after_rests(&samples, &est);
+    (magnet, after.iter().sum::<f64>() / after.len() as f64)
+}
+
+#[test]
+fn more_magnetometer_trust_trades_the_magnet_class_against_fast_turns() {
+    // Both classes ask opposite things of the same gains: the magnet's error is
+    // a compass error, followed the more the more the magnetometer is trusted;
+    // the fast turns' error is the gyro's, removed the more the more it is.
+    // The scale term's capacity tol·A covers s = 7 % only with tol = 7 %.
+    let default = Config::DEFAULT;
+    let wide_tol = Config {
+        gyro_scale_tol: 0.07,
+        ..default
+    };
+    let calibrated = Config {
+        gyro_scale_tol: 0.01,
+        heading_tau_s: 80.0,
+        ..default
+    };
+    let (m0, f0) = class_figures(&default);
+    let (m1, f1) = class_figures(&wide_tol);
+    let (m2, f2) = class_figures(&calibrated);
+    println!("magnet 6 cm heading RMS / +7 % fast turns after rest (°): defaults {m0:.2} / {f0:.1}, tol 7 % {m1:.2} / {f1:.1}, tol 1 % τ_h 80 s {m2:.2} / {f2:.1}");
+    assert!(m1 > m0 && f1 < f0, "more trust: worse magnet, better turns");
+    assert!(m2 < m0 && f2 > f0, "less trust: better magnet, worse turns");
+    // With tol ≥ s the rests end within the linear zone.
+    assert!(f1 <= 2.9);
 }
