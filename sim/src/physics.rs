@@ -444,7 +444,7 @@ impl Trajectory {
     }
 
     /// Built-in by name: `rest`, `spin` (rest, then yaw at 90°/s), `slow`, `figure8`,
-    /// `hover`, `aggressive`, `sixpos`.
+    /// `hover`, `aggressive`, `sixpos`, `whirl`, `vibration`, `handheld`, `fastturns`.
     pub fn from_name(name: &str) -> Option<Self> {
         Some(match name {
             "rest" => Self::at_rest(),
