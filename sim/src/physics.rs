@@ -79,6 +79,16 @@ pub enum Trajectory {
     /// Slow rotations with broadband translational vibration: seven tones of
     /// 50–300 Hz, 1 m/s² each (about 2.6 m/s² RMS, a motor-driven frame).
     Vibration,
+    /// Hand-held: the board turned from one attitude to the next of
+    /// [`Trajectory::HAND_HELD_POSES`] (roll/pitch up to ±60°, headings all
+    /// round) in [`Trajectory::HAND_HELD_MOVE_S`] (peak ~70 °/s), held there for
+    /// [`Trajectory::HAND_HELD_HOLD_S`] with a 1.5° hand tremor at 0.4 Hz.
+    HandHeld,
+    /// Fast turns with rest breaks: level, 2.5 turns (900°) about the vertical
+    /// at [`Trajectory::FAST_TURN_RATES_DPS`] (300–500 °/s, 0.25 s smooth
+    /// ramps), then still until the next [`Trajectory::FAST_TURN_CYCLE_S`]
+    /// cycle; three turns one way, then three the other.
+    FastTurns,
     /// A user-supplied pose function of time (s).
     Custom(Rc<dyn Fn(f64) -> Pose>),
 }
@@ -206,12 +216,85 @@ fn vibration_pose(tau: f64, env: f64) -> Pose {
     (pos, Quat::from_euler(roll, pitch, yaw))
 }
 
+/// The hand-held attitude `tau` s after the rest phase: a smooth turn from one of
+/// [`Trajectory::HAND_HELD_POSES`] to the next, then a hold with a hand's tremor.
+fn hand_held_attitude(tau: f64) -> Quat {
+    let seg = Trajectory::HAND_HELD_MOVE_S + Trajectory::HAND_HELD_HOLD_S;
+    let pose = |k: usize| {
+        let [r, p, y] = Trajectory::HAND_HELD_POSES[k % Trajectory::HAND_HELD_POSES.len()];
+        Quat::from_euler(r.to_radians(), p.to_radians(), y.to_radians())
+    };
+    if tau <= 0.0 {
+        return pose(0);
+    }
+    let k = (tau / seg).floor();
+    let x = tau - k * seg;
+    let k = k as usize;
+    let s = smoothstep(x, 0.0, Trajectory::HAND_HELD_MOVE_S);
+    let base = pose(k).slerp(&pose(k + 1), s);
+    // The tremor fades in after the move and out before the next, so the attitude
+    // stays smooth.
+    let hold = smoothstep(
+        x,
+        Trajectory::HAND_HELD_MOVE_S,
+        Trajectory::HAND_HELD_MOVE_S + 0.5,
+    ) * (1.0 - smoothstep(x, seg - 0.5, seg));
+    let a = hold * 1.5f64.to_radians();
+    base.mul(&Quat::from_euler(
+        a * sin_hz(x, 0.4, 0.0),
+        a * sin_hz(x, 0.4, 1.6),
+        0.0,
+    ))
+}
+
+/// Heading (rad) `tau` s after the rest phase of [`Trajectory::FastTurns`].
+fn fast_turns_yaw(tau: f64) -> f64 {
+    if tau <= 0.0 {
+        return 0.0;
+    }
+    let cycle = Trajectory::FAST_TURN_CYCLE_S;
+    let k = (tau / cycle).floor() as usize;
+    let x = tau - k as f64 * cycle;
+    let dir = |k: usize| if k % 6 < 3 { 1.0 } else { -1.0 };
+    // Whole turns before this cycle (the six-cycle pattern's net angle is 0).
+    let done: f64 = (6 * (k / 6)..k)
+        .map(|j| dir(j) * Trajectory::FAST_TURN_ANGLE_RAD)
+        .sum();
+    // Rate ω·(S(x; 0, r) − S(x; T − r, T)), S the smoothstep; ∫S in closed form
+    // as for the whirl.
+    let r = Trajectory::FAST_TURN_RAMP_S;
+    let ramp_int = |x: f64, a: f64| {
+        let u = ((x - a) / r).clamp(0.0, 1.0);
+        r * u * u * u * u * (u * (u - 3.0) + 2.5) + (x - a - r).max(0.0)
+    };
+    let t = Trajectory::fast_turn_duration_s(k);
+    let rate = Trajectory::FAST_TURN_RATES_DPS[k % 6].to_radians();
+    done + dir(k) * rate * (ramp_int(x, 0.0) - ramp_int(x, t - r))
+}
+
+/// The field (µT) at the sensor of a magnetic dipole of moment `moment_am2` (A·m²)
+/// at `offset_m` (m) from it, both in the body frame:
+/// B = μ0/(4π)·(3(m·r̂)r̂ − m)/r³ (the same at −r). A dipole fixed to the body
+/// adds a body-fixed field: to the magnetometer, a hard-iron offset. Zero at
+/// r = 0 (no field is defined there).
+pub fn dipole_field_ut(moment_am2: Vec3, offset_m: Vec3) -> Vec3 {
+    let r = math::norm(offset_m);
+    if r <= 0.0 {
+        return [0.0; 3];
+    }
+    let u = math::scale(offset_m, 1.0 / r);
+    // μ0/(4π) = 1e-7 T·m/A; ×1e6 for µT.
+    let k = 1e-7 * 1e6 / (r * r * r);
+    let radial = math::scale(u, 3.0 * math::dot(moment_am2, u));
+    math::scale(math::sub(radial, moment_am2), k)
+}
+
 impl Trajectory {
     /// Length of the rest phase at the start of the moving built-ins (s).
     pub const REST_S: f64 = 3.0;
 
     /// Names accepted by [`Trajectory::from_name`].
-    pub const NAMES: [&'static str; 9] = [
+    pub const NAMES: [&'static str; 11] = [
         "rest",
         "spin",
         "slow",
@@ -221,7 +304,44 @@ impl Trajectory {
         "sixpos",
         "whirl",
         "vibration",
+        "handheld",
+        "fastturns",
     ];
+
+    /// The attitudes of [`Trajectory::HandHeld`], (roll, pitch, yaw) in degrees,
+    /// visited in turn (then again from the first).
+    pub const HAND_HELD_POSES: [[f64; 3]; 10] = [
+        [0.0, 0.0, 0.0],
+        [30.0, -20.0, 90.0],
+        [-40.0, 10.0, 200.0],
+        [10.0, 50.0, 300.0],
+        [60.0, 0.0, 45.0],
+        [-20.0, -45.0, 150.0],
+        [0.0, 30.0, 260.0],
+        [-60.0, 20.0, 10.0],
+        [20.0, -30.0, 120.0],
+        [0.0, 0.0, 330.0],
+    ];
+    /// Time to turn from one hand-held attitude to the next (s).
+    pub const HAND_HELD_MOVE_S: f64 = 2.5;
+    /// Time each hand-held attitude is held (s).
+    pub const HAND_HELD_HOLD_S: f64 = 3.5;
+    /// Turn rates of the cycles of [`Trajectory::FastTurns`] (°/s), in turn;
+    /// the first three turn nose right, the next three nose left.
+    pub const FAST_TURN_RATES_DPS: [f64; 6] = [400.0, 300.0, 500.0, 400.0, 300.0, 500.0];
+    /// Angle of each fast turn (rad): 2.5 turns.
+    pub const FAST_TURN_ANGLE_RAD: f64 = 5.0 * PI;
+    /// Length of one fast-turn cycle, the turn and the rest after it (s).
+    pub const FAST_TURN_CYCLE_S: f64 = 11.0;
+    /// Length of each smooth rate ramp of a fast turn (s).
+    pub const FAST_TURN_RAMP_S: f64 = 0.25;
+
+    /// Duration of the turn of fast-turn cycle `k` (s), ramps included: the
+    /// rate's integral is [`Trajectory::FAST_TURN_ANGLE_RAD`].
+    pub fn fast_turn_duration_s(k: usize) -> f64 {
+        let rate = Self::FAST_TURN_RATES_DPS[k % 6].to_radians();
+        Self::FAST_TURN_ANGLE_RAD / rate + Self::FAST_TURN_RAMP_S
+    }
 
     /// How long each face is held still in [`Trajectory::SixPosition`] (s).
     pub const SIX_POSITION_HOLD_S: f64 = 4.0;
@@ -324,7 +444,7 @@ impl Trajectory {
     }
 
     /// Built-in by name: `rest`, `spin` (rest, then yaw at 90°/s), `slow`, `figure8`,
-    /// `hover`, `aggressive`, `sixpos`.
+    /// `hover`, `aggressive`, `sixpos`, `whirl`, `vibration`, `handheld`, `fastturns`.
     pub fn from_name(name: &str) -> Option<Self> {
         Some(match name {
             "rest" => Self::at_rest(),
@@ -336,6 +456,8 @@ impl Trajectory {
             "sixpos" | "six-position" => Trajectory::SixPosition,
             "whirl" => Trajectory::Whirl,
             "vibration" => Trajectory::Vibration,
+            "handheld" => Trajectory::HandHeld,
+            "fastturns" => Trajectory::FastTurns,
             _ => return None,
         })
     }
@@ -352,6 +474,8 @@ impl Trajectory {
             Trajectory::SixPosition => "sixpos",
             Trajectory::Whirl => "whirl",
             Trajectory::Vibration => "vibration",
+            Trajectory::HandHeld => "handheld",
+            Trajectory::FastTurns => "fastturns",
             Trajectory::Custom(_) => "custom/spin",
         }
     }
@@ -381,6 +505,8 @@ impl Trajectory {
             Trajectory::SixPosition => ([0.0; 3], Self::six_position_at(t_s)),
             Trajectory::Whirl => whirl_pose(tau, env),
             Trajectory::Vibration => vibration_pose(tau, env),
+            Trajectory::HandHeld => ([0.0; 3], hand_held_attitude(tau)),
+            Trajectory::FastTurns => ([0.0; 3], Quat::from_euler(0.0, 0.0, fast_turns_yaw(tau))),
             Trajectory::Custom(f) => f(t_s),
         }
     }
@@ -536,6 +662,71 @@ mod tests {
             "{:?}",
             s.omega_body_rps
         );
+    }
+
+    #[test]
+    fn dipole_field_matches_the_textbook_axial_and_equatorial_values() {
+        // 1 A·m² at 0.1 m: μ0/(4π)·m/r³ = 1e-7/1e-3 T = 100 µT equatorial,
+        // twice that on the axis, pointing along the moment on the axis and
+        // against it in the equatorial plane.
+        let m = [0.0, 0.0, 1.0];
+        let axial = dipole_field_ut(m, [0.0, 0.0, 0.1]);
+        let equatorial = dipole_field_ut(m, [0.1, 0.0, 0.0]);
+        assert!((axial[2] - 200.0).abs() < 1e-9 && axial[0].abs() < 1e-12);
+        assert!((equatorial[2] + 100.0).abs() < 1e-9 && equatorial[0].abs() < 1e-12);
+        // r⁻³: twice as far, an eighth.
+        let far = dipole_field_ut(m, [0.2, 0.0, 0.0]);
+        assert!((far[2] * 8.0 - equatorial[2]).abs() < 1e-9);
+        assert_eq!(dipole_field_ut(m, [0.0; 3]), [0.0; 3]);
+    }
+
+    #[test]
+    fn fast_turns_turn_900_degrees_per_cycle_at_their_rate_and_rest_between() {
+        let tr = Trajectory::FastTurns;
+        let r0 = Trajectory::REST_S;
+        let cycle = Trajectory::FAST_TURN_CYCLE_S;
+        let mut yaw0 = 0.0;
+        for k in 0..7 {
+            let start = r0 + k as f64 * cycle;
+            let t = Trajectory::fast_turn_duration_s(k);
+            let mid = tr.sample(start + 0.5 * t);
+            let rate = Trajectory::FAST_TURN_RATES_DPS[k % 6];
+            let dir = if k % 6 < 3 { 1.0 } else { -1.0 };
+            assert!((mid.omega_body_rps[2].to_degrees() - dir * rate).abs() < 1e-3);
+            let rest = tr.sample(start + t + 1.0);
+            assert!(math::norm(rest.omega_body_rps) < 1e-6 && !rest.moving);
+            let yaw = rest.q_ned_from_body.to_euler()[2];
+            // 2.5 turns: the heading ends 180° from where it started.
+            let turned = (yaw - yaw0 - PI).rem_euclid(2.0 * PI);
+            assert!(turned.min(2.0 * PI - turned) < 1e-6, "cycle {k}");
+            assert!(t < cycle - 7.0, "each rest lasts at least 7 s");
+            yaw0 = yaw;
+        }
+    }
+
+    #[test]
+    fn hand_held_reaches_each_pose_and_keeps_a_hand_rate() {
+        let tr = Trajectory::HandHeld;
+        let seg = Trajectory::HAND_HELD_MOVE_S + Trajectory::HAND_HELD_HOLD_S;
+        let mut peak = 0.0f64;
+        for i in 0..(60.0 / 0.01) as usize {
+            let s = tr.sample(Trajectory::REST_S + i as f64 * 0.01);
+            peak = peak.max(math::norm(s.omega_body_rps));
+        }
+        assert!(
+            peak.to_degrees() > 40.0 && peak.to_degrees() < 150.0,
+            "{} °/s",
+            peak.to_degrees()
+        );
+        for k in 1..10 {
+            let [r, p, y] = Trajectory::HAND_HELD_POSES[k];
+            let want = Quat::from_euler(r.to_radians(), p.to_radians(), y.to_radians());
+            // At the end of the move, before the tremor starts.
+            let got = tr
+                .pose(Trajectory::REST_S + (k - 1) as f64 * seg + Trajectory::HAND_HELD_MOVE_S)
+                .1;
+            assert!(got.angle_to(&want) < 1e-6, "pose {k}");
+        }
     }
 
     #[test]
