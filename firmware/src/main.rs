@@ -542,10 +542,13 @@ mod app {
     ) -> Motors {
         let pilot = cx.shared.pilot.lock(|p| pilot_input(p, now_us));
         // The AHRS's drag model holds in the air only: the controller's
-        // verdict of the previous step (1 ms late) is the AHRS's next.
+        // verdict of the previous step (1 ms late) is the AHRS's next. (The
+        // calibration build never flies and leaves the model out.)
+        #[cfg(not(feature = "calibrate"))]
         let in_flight = cx.local.fc.as_ref().is_some_and(|fc| fc.in_flight());
         let state = cx.shared.pipeline.lock(|p| {
             p.as_mut().map(|p| {
+                #[cfg(not(feature = "calibrate"))]
                 p.set_in_flight(in_flight);
                 (vehicle_state(p, fresh), p.accel_calibrated())
             })
