@@ -369,13 +369,20 @@ fn assert_step_figures(r: &FlightRig) {
     }
 }
 
-/// The estimator's tilt error through the steps, as `cargo sim`'s figure:
-/// truth − the firmware's own estimate (its 20 Hz log), relative to the
-/// mean over the 0.5 s of hover before the step; within 0.5° RMS over the
-/// hold and back within 0.5° within 1 s of the release (the AHRS's
-/// multirotor mode).
+/// The estimator's tilt error through the steps (see [`assert_tilt_held`]).
 fn assert_estimator_tilt(r: &FlightRig) {
     use sim::scenario::{PITCH_STEP_S, ROLL_STEP_S, STEP_HOLD_S};
+    for (name, axis, t0) in [("roll", 0, ROLL_STEP_S), ("pitch", 1, PITCH_STEP_S)] {
+        assert_tilt_held(r, "steps", name, axis, t0, STEP_HOLD_S);
+    }
+}
+
+/// The estimator's tilt error on `axis` (0 roll, 1 pitch) through a stick
+/// held from `t0` for `len`, as `cargo sim`'s figure: truth − the
+/// firmware's own estimate (its 20 Hz log), relative to the mean over the
+/// 0.5 s of hover before; within 0.5° RMS over the hold and back within
+/// 0.5° within 1 s of the release (the AHRS's multirotor mode).
+fn assert_tilt_held(r: &FlightRig, scenario: &str, name: &str, axis: usize, t0: f64, len: f64) {
     let samples = r.samples();
     // The true ZYX Euler angle (°) at `t`: the rig's step that ends there.
     let truth = |t: f64, axis: usize| {
@@ -384,7 +391,7 @@ fn assert_estimator_tilt(r: &FlightRig) {
             .min(samples.len() - 1);
         samples[i].truth.q_ned_from_body.to_euler()[axis].to_degrees()
     };
-    for (name, axis, t0) in [("roll", 0, ROLL_STEP_S), ("pitch", 1, PITCH_STEP_S)] {
+    {
         let err: Vec<(f64, f64)> = r
             .board()
             .log_lines()
@@ -403,17 +410,17 @@ fn assert_estimator_tilt(r: &FlightRig) {
             (w.iter().sum::<f64>() / w.len() as f64, w)
         };
         let (offset, _) = mean(t0 - 0.5, t0);
-        let (_, hold) = mean(t0, t0 + STEP_HOLD_S);
+        let (_, hold) = mean(t0, t0 + len);
         let rms =
             (hold.iter().map(|e| (e - offset).powi(2)).sum::<f64>() / hold.len() as f64).sqrt();
-        let release = t0 + STEP_HOLD_S;
+        let release = t0 + len;
         let recovered = err
             .iter()
             .filter(|p| p.0 >= release && p.0 < release + 2.0)
             .filter(|p| (p.1 - offset).abs() > 0.5)
             .map(|p| p.0 - release)
             .fold(0.0, f64::max);
-        println!("fil steps seed 1: estimator {name} error (truth - estimate) in the hold RMS {rms:.2}°, within 0.5° from +{recovered:.2} s after the release");
+        println!("fil {scenario} seed 1: estimator {name} error (truth - estimate) in the hold RMS {rms:.2}°, within 0.5° from +{recovered:.2} s after the release");
         assert!(
             rms < 0.5 && recovered < 1.0,
             "{name}: RMS {rms}°, recovered +{recovered} s"
@@ -479,6 +486,7 @@ fn altitude_hold_stops_a_climb_and_holds_through_forward_flight() {
         tail(r.board(), 40)
     );
     assert!(peak - held < 0.3, "overshoot {} m", peak - held);
+    assert_tilt_held(&r, "althold", "pitch", 1, FORWARD_S, FORWARD_HOLD_S);
     assert!(
         rms < 0.15 && max < 0.3,
         "forward flight: RMS {rms} m, max {max} m"

@@ -76,6 +76,7 @@ const LEVEL_Q: &str = "control::levelq::LevelControllerQ::rate_setpoint_q16 (fix
 const RATE_MIX_Q: &str = "control::rateq rate loop + mixer, fixed (f32 in, Q16/Q30; unsaturated)";
 const RATE_MIX_Q_SAT: &str = "control::rateq rate loop + mixer, fixed (f32 in, Q16/Q30; saturated)";
 const MAG_APPLY: &str = "calibration::MagCalibrationQ16::apply (pipeline form)";
+const GYRO_FILTERS: &str = "filters: gyro path per sample (3 x biquad low-pass + notch, 3 x PT1)";
 /// The CRSF receive interrupt's worst byte, and an ordinary one.
 const CRSF_COMPLETING_BYTE: &str = "rc_input::CrsfParser::push (byte completing an RC frame)";
 const CRSF_MID_BYTE: &str = "rc_input::CrsfParser::push (byte inside a frame)";
@@ -108,6 +109,8 @@ fn budgets() -> Vec<(&'static str, Vec<Limit>)> {
         (PIPELINE, vec![Limit::Max(3_000)]),
         (CONTROL_STEP, vec![Limit::Max(4_000)]),
         (MAG_APPLY, vec![Limit::Max(300)]),
+        // The gyro path's filters, all three axes, per 1 kHz sample.
+        (GYRO_FILTERS, vec![Limit::Max(300)]),
         // The per-sample rate loop and mixer in fixed point: half of the
         // 3,000 that issue 26 gives the whole flight-control step, the
         // saturated mix included.
