@@ -44,6 +44,7 @@ pub mod aux_master;
 pub mod bus;
 pub mod clock;
 pub mod device;
+pub mod dlpf;
 pub mod errors;
 pub mod faults;
 pub mod math;

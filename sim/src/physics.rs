@@ -81,6 +81,10 @@ pub enum Trajectory {
     Vibration,
     /// A user-supplied pose function of time (s).
     Custom(Rc<dyn Fn(f64) -> Pose>),
+    /// A user-supplied truth function of time (s): the pose with its
+    /// derivatives given, not differentiated numerically (for motion with
+    /// content too fast for the differences, such as a frame's vibration).
+    Motion(Rc<dyn Fn(f64) -> TruthSample>),
 }
 
 impl fmt::Debug for Trajectory {
@@ -353,6 +357,7 @@ impl Trajectory {
             Trajectory::Whirl => "whirl",
             Trajectory::Vibration => "vibration",
             Trajectory::Custom(_) => "custom/spin",
+            Trajectory::Motion(_) => "motion",
         }
     }
 
@@ -382,11 +387,18 @@ impl Trajectory {
             Trajectory::Whirl => whirl_pose(tau, env),
             Trajectory::Vibration => vibration_pose(tau, env),
             Trajectory::Custom(f) => f(t_s),
+            Trajectory::Motion(f) => {
+                let s = f(t_s);
+                (s.position_ned_m, s.q_ned_from_body)
+            }
         }
     }
 
     /// Full truth at `t_s`: pose plus its derivatives.
     pub fn sample(&self, t_s: f64) -> TruthSample {
+        if let Trajectory::Motion(f) = self {
+            return f(t_s);
+        }
         let (p0, q0) = self.pose(t_s);
         // Angular rate: ω_body = 2·vec(q* ⊗ dq/dt).
         let h = 1e-4;
