@@ -9,8 +9,7 @@
 //! * a first-order low-pass `y += a·(x − y)` at the filter's rate whose
 //!   3-dB point is exactly the table's bandwidth (`a` in closed form from
 //!   `|H(e^{jωT})|² = ½`); its equivalent noise bandwidth is then the
-//!   bandwidth · π/2 for bandwidths well below the rate, the figure the
-//!   sensor noise is scaled by;
+//!   bandwidth · π/2 for bandwidths well below the rate;
 //! * in series, a pure delay making up the rest of the table's delay: whole
 //!   samples plus a first-order Thiran all-pass for the fraction (unit
 //!   magnitude, so the 3-dB point stays the low-pass's, and exactly the

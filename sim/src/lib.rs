@@ -55,6 +55,7 @@ pub mod plot;
 pub mod quad;
 pub mod rng;
 pub mod scenario;
+pub mod spectrum;
 pub mod spi;
 pub mod wire;
 pub mod world;

@@ -96,9 +96,30 @@ struct Cli {
     #[arg(long, value_name = "NAME", conflicts_with_all = ["trajectory", "duration"],
           value_parser = clap::builder::PossibleValuesParser::new(demo::closed_loop::Scenario::NAMES))]
     scenario: Option<String>,
+    /// The quad model's vibration as a multiple of its well-balanced
+    /// default (rotor imbalance, blade pass, frame mode; 0 = none), >= 0:
+    /// for --scenario and --spectrum.
+    #[arg(long, value_name = "SCALE", default_value_t = 1.0,
+          value_parser = scale_in_range)]
+    vibration: f64,
+    /// Draw the simulated gyro's spectrum (Welch PSD of the chip's output
+    /// after its DLPF, set up as the firmware does) with the quad model at
+    /// hover and at full throttle, .png or .svg, and print its summary;
+    /// flies nothing else.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["scenario", "csv", "plot", "trajectory", "duration"])]
+    spectrum: Option<PathBuf>,
     /// No progress line on stderr.
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// A vibration scale: finite, in [0, 100].
+fn scale_in_range(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if !(0.0..=100.0).contains(&v) {
+        return Err(format!("{s} is out of range: must be in [0, 100]"));
+    }
+    Ok(v)
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -148,6 +169,7 @@ fn seconds_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone 
 struct Outputs {
     csv: Option<CsvOut>,
     plot: Option<SafeFile>,
+    spectrum: Option<SafeFile>,
 }
 
 /// Where the CSV goes.
@@ -192,9 +214,10 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let done = match &cli.scenario {
-        Some(name) => execute_scenario(name, &cli, outputs),
-        None => execute(&opts, outputs),
+    let done = match (&cli.scenario, outputs.spectrum.is_some()) {
+        (_, true) => execute_spectrum(&cli, outputs),
+        (Some(name), false) => execute_scenario(name, &cli, outputs),
+        (None, false) => execute(&opts, outputs),
     };
     match done {
         Ok(()) if host_console::stdout_failed() => {
@@ -255,6 +278,13 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
         Some(p) => Some(create(p, "--plot")?.0),
         None => None,
     };
+    let spectrum = match &cli.spectrum {
+        Some(p) => {
+            sim::plot::check_plot_path(p)?;
+            Some(create(p, "--spectrum")?.0)
+        }
+        None => None,
+    };
     let opts = RunOptions {
         trajectory,
         seed: cli.seed,
@@ -265,7 +295,14 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
         faults: cli.fault.clone(),
         progress: !cli.quiet,
     };
-    Ok((opts, Outputs { csv, plot }))
+    Ok((
+        opts,
+        Outputs {
+            csv,
+            plot,
+            spectrum,
+        },
+    ))
 }
 
 fn check_filter(want: FilterArg) -> Result<(), String> {
@@ -297,8 +334,23 @@ fn create(path: &Path, what: &str) -> Result<(SafeFile, std::fs::File), String> 
     SafeFile::create(path).map_err(|e| format!("{what} {}: {e}", path.display()))
 }
 
+/// `--spectrum`: the gyro's spectrum at hover and full throttle.
+fn execute_spectrum(cli: &Cli, outputs: Outputs) -> Result<(), String> {
+    let Some(out) = outputs.spectrum else {
+        return Ok(());
+    };
+    let airframe = sim::QuadParams::class_250().with_vibration_scale(cli.vibration);
+    let title = format!("sim: simulated gyro spectrum, seed {}", cli.seed);
+    let lines = demo::spectrum::write(out.temp_path(), airframe, cli.seed, &title)
+        .map_err(|e| format!("spectrum {}: {e}", out.target().display()))?;
+    for l in lines {
+        say!("{l}");
+    }
+    Outputs::commit(None, Some(out))
+}
+
 fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
-    let Outputs { csv, plot } = outputs;
+    let Outputs { csv, plot, .. } = outputs;
     let (mut csv, csv_file) = match csv.map(CsvOut::open) {
         Some((out, name, file)) => (Some(CsvWriter::new(out, &name)?), file),
         None => (None, None),
@@ -347,6 +399,7 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
     opts.board_seed = cli.board_seed.unwrap_or(cli.seed);
     opts.mag_dance_s = cli.mag_dance;
     opts.faults = cli.fault.clone();
+    opts.airframe = opts.airframe.with_vibration_scale(cli.vibration);
     let mut fc = demo::flight_fc::FirmwareFc::new(flight::flightctl::FlightConfig::default())?;
     say!(
         "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",

@@ -24,9 +24,11 @@
 //! signal sampled at that rate. The output registers take every
 //! (1 + SMPLRT_DIV)-th filtered sample (DLPF_CFG 1-6; otherwise every
 //! one) and hold it: a component above half the output rate aliases, as on
-//! the chip. White noise is added to each output sample with the noise
-//! density scaled by the filter's equivalent noise bandwidth (3-dB
-//! bandwidth · π/2, a first-order low-pass's), not run through the filter.
+//! the chip. The sensor's white noise (the datasheet's density over the
+//! internal rate's Nyquist band) is added at each internal sample and
+//! passes through the filter with the signal: the output's noise has the
+//! filter's shape and a variance of density² × the filter's equivalent
+//! noise bandwidth (about the 3-dB bandwidth · π/2).
 //!
 //! Not modelled: DMP, self-test responses, wake-on-motion, start-up
 //! transients (a filter starts settled on its first input).
@@ -192,13 +194,20 @@ impl Filters {
         self.tick_index += skip;
         let g_every = (self.gyro.period_ns() / self.tick_ns).max(1);
         let a_every = (self.accel.period_ns() / self.tick_ns).max(1);
+        // White noise over each filter's Nyquist band: the density times
+        // the square root of half its rate per sample.
+        let g_band = 0.5 * self.gyro.spec().rate_hz;
+        let a_band = 0.5 * self.accel.spec().rate_hz;
         for _ in skip..n {
             let phys = world.imu_signal(self.next_tick_ns as f64 * 1e-9);
+            let noise = world.imu_noise(g_band, a_band);
             if self.tick_index % g_every == 0 {
-                self.gyro_out = self.gyro.step(phys.gyro_mpu_dps);
+                let x = crate::math::add(phys.gyro_mpu_dps, noise.gyro_mpu_dps);
+                self.gyro_out = self.gyro.step(x);
             }
             if self.tick_index % a_every == 0 {
-                self.accel_out = self.accel.step(phys.accel_mpu_mps2);
+                let x = crate::math::add(phys.accel_mpu_mps2, noise.accel_mpu_mps2);
+                self.accel_out = self.accel.step(x);
             }
             self.temp_c = phys.temp_c;
             self.next_tick_ns += self.tick_ns;
@@ -365,12 +374,13 @@ impl Mpu9250Model {
             self.filters.rebuild(key, t_ns);
         }
         self.filters.run_to(t_ns, world);
-        let noise = world.imu_noise(self.gyro_enbw_hz(), self.accel_enbw_hz());
+        // The temperature is not filtered: its own noise per output sample.
+        let temp_noise_c = world.imu_noise(0.0, 0.0).temp_c;
         let f = &self.filters;
         crate::world::ImuPhysical {
-            gyro_mpu_dps: crate::math::add(f.gyro_out, noise.gyro_mpu_dps),
-            accel_mpu_mps2: crate::math::add(f.accel_out, noise.accel_mpu_mps2),
-            temp_c: f.temp_c + noise.temp_c,
+            gyro_mpu_dps: f.gyro_out,
+            accel_mpu_mps2: f.accel_out,
+            temp_c: f.temp_c + temp_noise_c,
         }
     }
 

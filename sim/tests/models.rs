@@ -568,3 +568,26 @@ fn mpu_sample_rate_divider_decimates_and_aliases() {
     assert!(alias > 0.6 * 50.0 && alias < 0.8 * 50.0, "{alias}");
     assert!(other < 1.0, "{other}");
 }
+
+#[test]
+fn mpu_noise_passes_the_dlpf_with_its_noise_bandwidth() {
+    // White noise through the 41 Hz low-pass: variance density² × π/2 ×
+    // 41 Hz (a first-order low-pass's noise bandwidth), within 10 %.
+    let errors = SensorErrors::datasheet(3);
+    let density = errors.gyro_dps.noise_density;
+    let (clock, mut bus, _d) = rig(SimConfig {
+        errors,
+        ..SimConfig::default()
+    });
+    wr(&mut bus, MPU, mpu::PWR_MGMT_1, 0x00);
+    wr(&mut bus, MPU, mpu::CONFIG, 3);
+    let mut x = Vec::new();
+    while clock.now_s() < 20.0 {
+        bus.advance_to_next_mpu_sample();
+        x.push(f64::from(burst14(&mut bus)[4]) / 131.0);
+    }
+    let mean = x.iter().sum::<f64>() / x.len() as f64;
+    let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / x.len() as f64;
+    let expect = density * density * 41.0 * std::f64::consts::FRAC_PI_2;
+    assert!((var / expect - 1.0).abs() < 0.1, "{var} vs {expect}");
+}
