@@ -784,7 +784,10 @@ pub fn write_spectrum(
     panels: &[(String, Vec<Series>)],
 ) -> Result<(), String> {
     let format = PlotFormat::from_path(path)?;
-    if panels.iter().all(|(_, s)| s.iter().all(|s| s.points.is_empty())) {
+    if panels
+        .iter()
+        .all(|(_, s)| s.iter().all(|s| s.points.is_empty()))
+    {
         return Err("nothing to plot: no spectrum".into());
     }
     load_font()?;
@@ -835,7 +838,12 @@ where
         let legend: Vec<(&str, LineStyle)> = series
             .iter()
             .enumerate()
-            .map(|(i, s)| (s.name.as_str(), LineStyle::solid(COLORS[i % 3].stroke_width(2))))
+            .map(|(i, s)| {
+                (
+                    s.name.as_str(),
+                    LineStyle::solid(COLORS[i % 3].stroke_width(2)),
+                )
+            })
             .collect();
         let (plot_area, legend_area) = area.split_horizontally(WIDTH - LEGEND_W);
         draw_legend(&legend_area, &legend)?;

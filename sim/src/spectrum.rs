@@ -155,7 +155,10 @@ mod tests {
         let total: f64 = psd.iter().map(|(_, p)| p * df).sum();
         // Parseval with the window's power normalisation: mean square A²/2.
         assert!((total - a * a / 2.0).abs() < 0.02 * a * a / 2.0, "{total}");
-        let peak = psd.iter().cloned().fold((0.0, 0.0), |m, v| if v.1 > m.1 { v } else { m });
+        let peak = psd
+            .iter()
+            .cloned()
+            .fold((0.0, 0.0), |m, v| if v.1 > m.1 { v } else { m });
         assert!((peak.0 - f0).abs() <= df, "{peak:?}");
     }
 

@@ -71,6 +71,9 @@ pub struct World {
     accel_bias_mps2: Vec3,
     last_imu_t_s: Option<f64>,
     rng: Rng,
+    /// The IMU's own stream (noise, bias walks): how often the MPU-9250
+    /// model samples does not change the other chips' noise.
+    imu_rng: Rng,
     vib_phase: [f64; 6],
 }
 
@@ -82,6 +85,7 @@ impl World {
         for p in &mut vib_phase {
             *p = rng.range(0.0, 2.0 * PI);
         }
+        let imu_rng = rng.fork(0x494D_55);
         Self {
             trajectory,
             env,
@@ -92,6 +96,7 @@ impl World {
             magnets: Vec::new(),
             last_imu_t_s: None,
             rng,
+            imu_rng,
             vib_phase,
         }
     }
@@ -128,8 +133,8 @@ impl World {
         if dt > 0.0 {
             let sg = e.gyro_dps.bias_walk * dt.sqrt();
             let sa = e.accel_mps2.bias_walk * dt.sqrt();
-            self.gyro_bias_dps = math::add(self.gyro_bias_dps, self.rng.normal3(sg));
-            self.accel_bias_mps2 = math::add(self.accel_bias_mps2, self.rng.normal3(sa));
+            self.gyro_bias_dps = math::add(self.gyro_bias_dps, self.imu_rng.normal3(sg));
+            self.accel_bias_mps2 = math::add(self.accel_bias_mps2, self.imu_rng.normal3(sa));
         }
         let truth = self.truth(t_s);
         let w_mpu_dps = math::scale(math::body_to_mpu(truth.omega_body_rps), 180.0 / PI);
@@ -162,12 +167,12 @@ impl World {
         let e = self.errors;
         ImuPhysical {
             gyro_mpu_dps: self
-                .rng
+                .imu_rng
                 .normal3(e.gyro_dps.noise_density * gyro_enbw_hz.sqrt()),
             accel_mpu_mps2: self
-                .rng
+                .imu_rng
                 .normal3(e.accel_mps2.noise_density * accel_enbw_hz.sqrt()),
-            temp_c: self.rng.normal(e.temp_noise_c),
+            temp_c: self.imu_rng.normal(e.temp_noise_c),
         }
     }
 

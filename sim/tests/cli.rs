@@ -61,7 +61,10 @@ fn bad_values_are_refused_before_work() {
     refused(&["--vibration", "-1"], "out of range");
     refused(&["--vibration=nan"], "out of range");
     refused(&["--spectrum", "x.jpg"], "unsupported plot format `.jpg`");
-    refused(&["--spectrum", "x.png", "--scenario", "takeoff"], "cannot be used with");
+    refused(
+        &["--spectrum", "x.png", "--scenario", "takeoff"],
+        "cannot be used with",
+    );
     refused(&["--plot", "-"], "--plot needs a file name");
 }
 
@@ -338,6 +341,9 @@ fn the_spectrum_is_drawn_and_its_summary_printed() {
     let o = sim(&["--spectrum", out.to_str().unwrap(), "--vibration", "2"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
-    assert!(text.contains("hover:") && text.contains("full throttle:"), "{text}");
+    assert!(
+        text.contains("hover:") && text.contains("full throttle:"),
+        "{text}"
+    );
     assert!(std::fs::metadata(&out).unwrap().len() > 1000);
 }

@@ -520,7 +520,10 @@ mod tests {
         // them (0.88 m), so the bound asks for a lift-off of a few
         // decimetres, not the half metre it used to.
         let old = without_the_check(Scenario::Swapped);
-        assert!(old.max_tilt_deg > 60.0 && old.max_height_m > 0.25, "{old:?}");
+        assert!(
+            old.max_tilt_deg > 60.0 && old.max_height_m > 0.25,
+            "{old:?}"
+        );
     }
 
     #[test]

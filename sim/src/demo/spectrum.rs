@@ -22,14 +22,24 @@ fn case(
 ) -> Result<((String, Vec<Series>), String), String> {
     let q = Quadcopter::new(airframe).map_err(|e| e.to_string())?;
     let rotor_hz = q.steady_rotor_rps(command, q.state().battery_voltage_v) / std::f64::consts::TAU;
-    let (gyro, rate) = record_gyro(airframe, command, ChipSetup::FIRMWARE, SETTLE_S, RECORD_S, seed)?;
+    let (gyro, rate) = record_gyro(
+        airframe,
+        command,
+        ChipSetup::FIRMWARE,
+        SETTLE_S,
+        RECORD_S,
+        seed,
+    )?;
     let mut series = Vec::new();
     let mut rms = [0.0; 3];
     for (axis, label) in ["x", "y", "z"].iter().enumerate() {
         let x: Vec<f64> = gyro.iter().map(|g| g[axis]).collect();
         let mean = x.iter().sum::<f64>() / x.len() as f64;
         rms[axis] = (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / x.len() as f64).sqrt();
-        series.push(Series::new(&format!("gyro {label}"), welch_psd(&x, rate, SEGMENT)));
+        series.push(Series::new(
+            &format!("gyro {label}"),
+            welch_psd(&x, rate, SEGMENT),
+        ));
     }
     let line = format!(
         "{name}: command {command:.2}, rotors at about {rotor_hz:.0} Hz (blade pass {:.0} Hz); gyro output RMS x {:.3} y {:.3} z {:.3} °/s",
@@ -43,7 +53,12 @@ fn case(
 }
 
 /// Records both cases, draws them into `out` and returns the summary lines.
-pub fn write(out: &Path, airframe: QuadParams, seed: u64, title: &str) -> Result<Vec<String>, String> {
+pub fn write(
+    out: &Path,
+    airframe: QuadParams,
+    seed: u64,
+    title: &str,
+) -> Result<Vec<String>, String> {
     let q = Quadcopter::new(airframe).map_err(|e| e.to_string())?;
     let hover = q.command_for_thrust(airframe.weight_n() / 4.0);
     let (p1, l1) = case("hover", airframe, hover, seed)?;
