@@ -73,7 +73,8 @@ impl ChipSetup {
 /// The gyro (°/s, MPU frame) the chip outputs at every sample for
 /// `seconds` after `settle_s`, the quad 10 m up, level, its motors held at
 /// `command` (the rotors start at that command's speed); errors of the
-/// datasheet's size from `seed`. Returns the samples and their rate (Hz).
+/// datasheet's size from `seed`. Returns the samples, their rate (Hz) and
+/// the rotors' mean speed over the recording (rad/s).
 pub fn record_gyro(
     airframe: QuadParams,
     command: f64,
@@ -81,7 +82,7 @@ pub fn record_gyro(
     settle_s: f64,
     seconds: f64,
     seed: u64,
-) -> Result<(Vec<[f64; 3]>, f64), String> {
+) -> Result<(Vec<[f64; 3]>, f64, f64), String> {
     let mut quad = Quadcopter::new(airframe).map_err(|e| e.to_string())?;
     let w = quad.steady_rotor_rps(command, quad.state().battery_voltage_v);
     quad.set_state(QuadState {
@@ -115,6 +116,7 @@ pub fn record_gyro(
     let t0 = clock.now_s();
     let mut out = Vec::new();
     let mut times = Vec::new();
+    let mut rotor_sum = 0.0;
     while clock.now_s() < t0 + settle_s + seconds {
         let t_next = bus.next_mpu_sample_ns() as f64 * 1e-9;
         quad.advance_to(t_next, [command; 4]);
@@ -130,12 +132,14 @@ pub fn record_gyro(
             f64::from(i16::from_be_bytes([raw[2 * i], raw[2 * i + 1]])) / 32.8
         }));
         times.push(t);
+        rotor_sum += quad.state().rotor_rps.iter().sum::<f64>() / 4.0;
     }
     let rate = match (times.first(), times.last()) {
         (Some(a), Some(b)) if b > a => (times.len() - 1) as f64 / (b - a),
         _ => return Err("no samples recorded".into()),
     };
-    Ok((out, rate))
+    let rotor = rotor_sum / times.len() as f64;
+    Ok((out, rate, rotor))
 }
 
 #[cfg(test)]

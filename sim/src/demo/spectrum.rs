@@ -20,9 +20,7 @@ fn case(
     command: f64,
     seed: u64,
 ) -> Result<((String, Vec<Series>), String), String> {
-    let q = Quadcopter::new(airframe).map_err(|e| e.to_string())?;
-    let rotor_hz = q.steady_rotor_rps(command, q.state().battery_voltage_v) / std::f64::consts::TAU;
-    let (gyro, rate) = record_gyro(
+    let (gyro, rate, rotor_rps) = record_gyro(
         airframe,
         command,
         ChipSetup::FIRMWARE,
@@ -30,6 +28,7 @@ fn case(
         RECORD_S,
         seed,
     )?;
+    let rotor_hz = rotor_rps / std::f64::consts::TAU;
     let mut series = Vec::new();
     let mut rms = [0.0; 3];
     for (axis, label) in ["x", "y", "z"].iter().enumerate() {
@@ -42,7 +41,7 @@ fn case(
         ));
     }
     let line = format!(
-        "{name}: command {command:.2}, rotors at about {rotor_hz:.0} Hz (blade pass {:.0} Hz); gyro output RMS x {:.3} y {:.3} z {:.3} °/s",
+        "{name}: command {command:.2}, rotors at {rotor_hz:.0} Hz on average (blade pass {:.0} Hz); gyro output RMS x {:.3} y {:.3} z {:.3} °/s",
         2.0 * rotor_hz,
         rms[0],
         rms[1],
