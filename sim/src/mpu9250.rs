@@ -201,11 +201,11 @@ impl Filters {
         for _ in skip..n {
             let phys = world.imu_signal(self.next_tick_ns as f64 * 1e-9);
             let noise = world.imu_noise(g_band, a_band);
-            if self.tick_index % g_every == 0 {
+            if self.tick_index.is_multiple_of(g_every) {
                 let x = crate::math::add(phys.gyro_mpu_dps, noise.gyro_mpu_dps);
                 self.gyro_out = self.gyro.step(x);
             }
-            if self.tick_index % a_every == 0 {
+            if self.tick_index.is_multiple_of(a_every) {
                 let x = crate::math::add(phys.accel_mpu_mps2, noise.accel_mpu_mps2);
                 self.accel_out = self.accel.step(x);
             }

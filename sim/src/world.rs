@@ -85,7 +85,7 @@ impl World {
         for p in &mut vib_phase {
             *p = rng.range(0.0, 2.0 * PI);
         }
-        let imu_rng = rng.fork(0x494D_55);
+        let imu_rng = rng.fork(0x0049_4D55);
         Self {
             trajectory,
             env,

@@ -36,7 +36,7 @@
 //! measurements: the mode in the 150-250 Hz band typical of a 250 mm
 //! carbon frame's arms, lightly damped as bolted carbon is.
 
-use super::{QuadParams, QuadState, Spin};
+use super::{MotorParams, QuadParams, QuadState, Spin};
 use crate::math::{self, Vec3};
 use std::f64::consts::PI;
 
@@ -164,17 +164,16 @@ pub fn at(params: &QuadParams, state: &QuadState, t_s: f64) -> VibrationSample {
         }
         let phi = state.rotor_phase_rad[i] + w * (t_s - state.t_s);
         let hub = math::add(m.position_body_m, [0.0, 0.0, -v.rotor_height_m]);
-        for tone in tones(params, i, w, phi) {
+        for tone in tones(params, m, w, phi) {
             add_response(&mut out, params, hub, &tone);
         }
     }
     out
 }
 
-/// The tones of motor `i` at speed `w` and rotor angle `phi`.
-fn tones(params: &QuadParams, i: usize, w: f64, phi: f64) -> Vec<Tone> {
+/// The tones of motor `m` at speed `w` and rotor angle `phi`.
+fn tones(params: &QuadParams, m: &MotorParams, w: f64, phi: f64) -> Vec<Tone> {
     let v = params.vibration;
-    let m = params.motors[i];
     // The rotor turns about +z body when clockwise seen from above.
     let s = match m.spin {
         Spin::Clockwise => 1.0,
