@@ -239,18 +239,7 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
     }
     let trajectory = Trajectory::from_name(&cli.trajectory)
         .ok_or_else(|| format!("unknown trajectory `{}`", cli.trajectory))?;
-    let duration_s = match &cli.scenario {
-        Some(name) => demo::closed_loop::Scenario::from_name(name)
-            .ok_or_else(|| format!("unknown scenario `{name}`"))?
-            .duration_s(),
-        None => cli.duration,
-    };
-    if let Some(f) = cli.fault.iter().find(|f| f.at_s >= duration_s) {
-        return Err(format!(
-            "--fault {f}: {} s is after the end of the {duration_s} s flight",
-            f.at_s
-        ));
-    }
+    check_fault_times(cli)?;
     let is_stdout = |p: &Path| p == Path::new("-");
     if let Some(plot) = &cli.plot {
         sim::plot::check_plot_path(plot)?;
@@ -278,13 +267,7 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
         Some(p) => Some(create(p, "--plot")?.0),
         None => None,
     };
-    let spectrum = match &cli.spectrum {
-        Some(p) => {
-            sim::plot::check_plot_path(p)?;
-            Some(create(p, "--spectrum")?.0)
-        }
-        None => None,
-    };
+    let spectrum = open_spectrum(cli)?;
     let opts = RunOptions {
         trajectory,
         seed: cli.seed,
@@ -327,6 +310,32 @@ fn check_filter(want: FilterArg) -> Result<(), String> {
 /// Both paths lead to the same file (compared canonically).
 fn same_file(a: &Path, b: &Path) -> bool {
     a == b || host_console::canonical_path(a) == host_console::canonical_path(b)
+}
+
+/// Every `--fault` falls within the flight.
+fn check_fault_times(cli: &Cli) -> Result<(), String> {
+    let duration_s = match &cli.scenario {
+        Some(name) => demo::closed_loop::Scenario::from_name(name)
+            .ok_or_else(|| format!("unknown scenario `{name}`"))?
+            .duration_s(),
+        None => cli.duration,
+    };
+    match cli.fault.iter().find(|f| f.at_s >= duration_s) {
+        Some(f) => Err(format!(
+            "--fault {f}: {} s is after the end of the {duration_s} s flight",
+            f.at_s
+        )),
+        None => Ok(()),
+    }
+}
+
+/// The `--spectrum` figure's temporary file, its format checked first.
+fn open_spectrum(cli: &Cli) -> Result<Option<SafeFile>, String> {
+    let Some(p) = &cli.spectrum else {
+        return Ok(None);
+    };
+    sim::plot::check_plot_path(p)?;
+    Ok(Some(create(p, "--spectrum")?.0))
 }
 
 /// Creates the temporary file of output `path` (and its parent folders).
