@@ -15,11 +15,12 @@
 //!   magnitude, so the 3-dB point stays the low-pass's, and exactly the
 //!   fraction of a sample of group delay at DC).
 //!
-//! The low-pass alone accounts for `1/(2π·bandwidth)` of the delay; what
-//! is left comes out near 2 ms for every 1 kHz gyro setting and 1.0–1.4 ms
-//! for the 1 kHz accelerometer settings, as a fixed pipeline delay would.
-//! The group delay at low frequency equals the table's delay (to the
-//! discretisation of the low-pass's own delay: exact at DC).
+//! The low-pass accounts for a little less than `1/(2π·bandwidth)` of the
+//! delay (its DC group delay `(1 − a)/a` samples); what is left comes out
+//! at 2.1–2.6 ms for every 1 kHz gyro setting and 1.2–1.8 ms for the 1 kHz
+//! accelerometer settings, as a fixed pipeline delay would. The group
+//! delay at DC equals the table's delay exactly, and the 3-dB point the
+//! table's bandwidth exactly (the all-pass has unit gain).
 
 /// One DLPF setting as the register map states it.
 #[derive(Clone, Copy, Debug, PartialEq)]

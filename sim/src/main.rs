@@ -100,7 +100,7 @@ struct Cli {
     /// default (rotor imbalance, blade pass, frame mode; 0 = none), >= 0:
     /// for --scenario and --spectrum.
     #[arg(long, value_name = "SCALE", default_value_t = 1.0,
-          value_parser = scale_in_range)]
+          value_parser = sim::quad::vibration::parse_scale)]
     vibration: f64,
     /// Draw the simulated gyro's spectrum (Welch PSD of the chip's output
     /// after its DLPF, set up as the firmware does) with the quad model at
@@ -111,15 +111,6 @@ struct Cli {
     /// No progress line on stderr.
     #[arg(short, long)]
     quiet: bool,
-}
-
-/// A vibration scale: finite, in [0, 100].
-fn scale_in_range(s: &str) -> Result<f64, String> {
-    let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
-    if !(0.0..=100.0).contains(&v) {
-        return Err(format!("{s} is out of range: must be in [0, 100]"));
-    }
-    Ok(v)
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -125,6 +125,16 @@ impl VibrationParams {
     }
 }
 
+/// Parses a `--vibration SCALE` command-line value (both flight rigs):
+/// a number in [0, 100].
+pub fn parse_scale(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if !(0.0..=100.0).contains(&v) {
+        return Err(format!("{s} is out of range: must be in [0, 100]"));
+    }
+    Ok(v)
+}
+
 impl Default for VibrationParams {
     fn default() -> Self {
         Self::well_balanced()
