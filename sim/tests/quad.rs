@@ -394,7 +394,9 @@ fn hover_rotor_rps() -> f64 {
 fn the_default_frame_vibrates_at_the_level_its_source_states() {
     // The module doc's calibration: about 2 m/s² RMS per horizontal axis
     // of unfiltered acceleration at hover.
-    let (_, a) = vibration_rms(QuadParams::class_250(), hover_rotor_rps());
+    let (g, a) = vibration_rms(QuadParams::class_250(), hover_rotor_rps());
+    let full = vibration_rms(QuadParams::class_250(), 2140.0);
+    println!("unfiltered RMS (°/s; m/s²), hover: {g:.2?} {a:.2?}; full: {full:.2?}");
     for (i, ai) in a.iter().take(2).enumerate() {
         assert!((1.5..2.5).contains(ai), "axis {i}: {a:?}");
     }
