@@ -70,6 +70,8 @@ fn bad_arguments_are_refused_before_the_board_starts() {
     );
     refused(&["--elf", "/nonexistent/firmware"], "no such file");
     refused(&["--plot", "x.svg"], "--scenario");
+    refused(&["--vibration", "2"], "--scenario");
+    refused(&["--scenario", "takeoff", "--vibration=-1"], "out of range");
     refused(&["--scenario", "takeoff", "--plot", "-"], "not stdout");
     refused(
         &["--scenario", "takeoff", "--plot", "x.jpg"],

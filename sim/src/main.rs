@@ -109,6 +109,18 @@ struct Cli {
     #[arg(long, value_name = "NORTH,EAST", requires = "scenario",
           value_parser = parse_wind, allow_hyphen_values = true)]
     wind: Option<[f64; 2]>,
+    /// The quad model's vibration as a multiple of its well-balanced
+    /// default (rotor imbalance, blade pass, frame mode; 0 = none), >= 0:
+    /// for --scenario and --spectrum.
+    #[arg(long, value_name = "SCALE", default_value_t = 1.0,
+          value_parser = sim::quad::vibration::parse_scale)]
+    vibration: f64,
+    /// Draw the simulated gyro's spectrum (Welch PSD of the chip's output
+    /// after its DLPF, set up as the firmware does) with the quad model at
+    /// hover and at full throttle, .png or .svg, and print its summary;
+    /// flies nothing else.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["scenario", "csv", "plot", "trajectory", "duration"])]
+    spectrum: Option<PathBuf>,
     /// No progress line on stderr.
     #[arg(short, long)]
     quiet: bool,
@@ -181,6 +193,7 @@ fn seconds_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone 
 struct Outputs {
     csv: Option<CsvOut>,
     plot: Option<SafeFile>,
+    spectrum: Option<SafeFile>,
 }
 
 /// Where the CSV goes.
@@ -225,9 +238,10 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let done = match &cli.scenario {
-        Some(name) => execute_scenario(name, &cli, outputs),
-        None => execute(&opts, outputs),
+    let done = match (&cli.scenario, outputs.spectrum.is_some()) {
+        (_, true) => execute_spectrum(&cli, outputs),
+        (Some(name), false) => execute_scenario(name, &cli, outputs),
+        (None, false) => execute(&opts, outputs),
     };
     match done {
         Ok(()) if host_console::stdout_failed() => {
@@ -249,18 +263,7 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
     }
     let trajectory = Trajectory::from_name(&cli.trajectory)
         .ok_or_else(|| format!("unknown trajectory `{}`", cli.trajectory))?;
-    let duration_s = match &cli.scenario {
-        Some(name) => demo::closed_loop::Scenario::from_name(name)
-            .ok_or_else(|| format!("unknown scenario `{name}`"))?
-            .duration_s(),
-        None => cli.duration,
-    };
-    if let Some(f) = cli.fault.iter().find(|f| f.at_s >= duration_s) {
-        return Err(format!(
-            "--fault {f}: {} s is after the end of the {duration_s} s flight",
-            f.at_s
-        ));
-    }
+    check_fault_times(cli)?;
     let is_stdout = |p: &Path| p == Path::new("-");
     if let Some(plot) = &cli.plot {
         sim::plot::check_plot_path(plot)?;
@@ -288,6 +291,7 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
         Some(p) => Some(create(p, "--plot")?.0),
         None => None,
     };
+    let spectrum = open_spectrum(cli)?;
     let opts = RunOptions {
         trajectory,
         seed: cli.seed,
@@ -298,7 +302,14 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
         faults: cli.fault.clone(),
         progress: !cli.quiet,
     };
-    Ok((opts, Outputs { csv, plot }))
+    Ok((
+        opts,
+        Outputs {
+            csv,
+            plot,
+            spectrum,
+        },
+    ))
 }
 
 fn check_filter(want: FilterArg) -> Result<(), String> {
@@ -325,13 +336,54 @@ fn same_file(a: &Path, b: &Path) -> bool {
     a == b || host_console::canonical_path(a) == host_console::canonical_path(b)
 }
 
+/// Every `--fault` falls within the flight.
+fn check_fault_times(cli: &Cli) -> Result<(), String> {
+    let duration_s = match &cli.scenario {
+        Some(name) => demo::closed_loop::Scenario::from_name(name)
+            .ok_or_else(|| format!("unknown scenario `{name}`"))?
+            .duration_s(),
+        None => cli.duration,
+    };
+    match cli.fault.iter().find(|f| f.at_s >= duration_s) {
+        Some(f) => Err(format!(
+            "--fault {f}: {} s is after the end of the {duration_s} s flight",
+            f.at_s
+        )),
+        None => Ok(()),
+    }
+}
+
+/// The `--spectrum` figure's temporary file, its format checked first.
+fn open_spectrum(cli: &Cli) -> Result<Option<SafeFile>, String> {
+    let Some(p) = &cli.spectrum else {
+        return Ok(None);
+    };
+    sim::plot::check_plot_path(p)?;
+    Ok(Some(create(p, "--spectrum")?.0))
+}
+
 /// Creates the temporary file of output `path` (and its parent folders).
 fn create(path: &Path, what: &str) -> Result<(SafeFile, std::fs::File), String> {
     SafeFile::create(path).map_err(|e| format!("{what} {}: {e}", path.display()))
 }
 
+/// `--spectrum`: the gyro's spectrum at hover and full throttle.
+fn execute_spectrum(cli: &Cli, outputs: Outputs) -> Result<(), String> {
+    let Some(out) = outputs.spectrum else {
+        return Ok(());
+    };
+    let airframe = sim::QuadParams::class_250().with_vibration_scale(cli.vibration);
+    let title = format!("sim: simulated gyro spectrum, seed {}", cli.seed);
+    let lines = demo::spectrum::write(out.temp_path(), airframe, cli.seed, &title)
+        .map_err(|e| format!("spectrum {}: {e}", out.target().display()))?;
+    for l in lines {
+        say!("{l}");
+    }
+    Outputs::commit(None, Some(out))
+}
+
 fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
-    let Outputs { csv, plot } = outputs;
+    let Outputs { csv, plot, .. } = outputs;
     let (mut csv, csv_file) = match csv.map(CsvOut::open) {
         Some((out, name, file)) => (Some(CsvWriter::new(out, &name)?), file),
         None => (None, None),
@@ -386,6 +438,7 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
     if let Some([n, e]) = cli.wind {
         drag.wind_ned_mps = [n, e, 0.0];
     }
+    opts.airframe = opts.airframe.with_vibration_scale(cli.vibration);
     let mut fc = demo::flight_fc::FirmwareFc::new(flight::flightctl::FlightConfig::default())?;
     say!(
         "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",

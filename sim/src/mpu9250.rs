@@ -16,8 +16,22 @@
 //! byte of the next: a ±256-count step whenever a value crosses a multiple
 //! of 256, such as a gyro axis at rest crossing zero.
 //!
-//! Not modelled: DMP, self-test responses, wake-on-motion, the DLPF's signal
-//! delay (only its noise bandwidth), start-up transients.
+//! The gyro and accelerometer DLPFs are filters with the register map's
+//! 3-dB bandwidth and delay per setting ([`dlpf`](crate::dlpf): a
+//! first-order low-pass and a pure delay), run at the chip's internal rate
+//! (gyro 1 kHz for DLPF_CFG 1-6, 8 kHz for 0 and 7, 32 kHz with
+//! FCHOICE_B; accelerometer 1 kHz, 4 kHz with ACCEL_FCHOICE_B) on the
+//! signal sampled at that rate. The output registers take every
+//! (1 + SMPLRT_DIV)-th filtered sample (DLPF_CFG 1-6; otherwise every
+//! one) and hold it: a component above half the output rate aliases, as on
+//! the chip. The sensor's white noise (the datasheet's density over the
+//! internal rate's Nyquist band) is added at each internal sample and
+//! passes through the filter with the signal: the output's noise has the
+//! filter's shape and a variance of density² × the filter's equivalent
+//! noise bandwidth (about the 3-dB bandwidth · π/2).
+//!
+//! Not modelled: DMP, self-test responses, wake-on-motion, start-up
+//! transients (a filter starts settled on its first input).
 //!
 //! The register map here is written from the datasheet independently of the
 //! `mpu9250` driver's on purpose: the model checks the driver, so it must not
@@ -25,9 +39,9 @@
 
 use crate::bus::SimBusError;
 use crate::device::Device;
+use crate::dlpf::{self, Dlpf};
 use crate::math::Vec3;
 use crate::world::{World, G_MPS2};
-use std::f64::consts::FRAC_PI_2;
 
 /// Register addresses used by the model (register map rev 1.6).
 #[allow(missing_docs)]
@@ -68,8 +82,10 @@ pub const TEMP_LSB_PER_C: f64 = 333.87;
 pub const GYRO_LSB_PER_DPS: [f64; 4] = [131.0, 65.5, 32.8, 16.4];
 /// Accelerometer LSB per g for ACCEL_FS_SEL 0..3.
 pub const ACCEL_LSB_PER_G: [f64; 4] = [16384.0, 8192.0, 4096.0, 2048.0];
-const GYRO_DLPF_BW_HZ: [f64; 8] = [250.0, 184.0, 92.0, 41.0, 20.0, 10.0, 5.0, 3600.0];
-const ACCEL_DLPF_BW_HZ: [f64; 8] = [218.1, 218.1, 99.0, 44.8, 21.2, 10.2, 5.05, 420.0];
+/// Internal samples run after a clock jump before the output instant
+/// (ns): enough for the slowest filter (5 Hz, 32 ms time constant) to
+/// settle, so a long jump costs a bounded amount of work.
+const SETTLE_NS: u64 = 300_000_000;
 
 fn reset_registers() -> [u8; 128] {
     let mut r = [0u8; 128];
@@ -119,6 +135,85 @@ pub struct Mpu9250Model {
     read_set: Option<[u8; SENSOR_BYTES]>,
     /// Sample count the internal I2C master last ran at (see `aux_master`).
     pub(crate) master_samples_seen: u64,
+    /// The DLPFs and the internal sample clock they run on.
+    filters: Filters,
+}
+
+/// The gyro and accelerometer DLPFs with the internal clock that feeds
+/// them: one tick per period of the faster filter, each filter stepped on
+/// the ticks that fall on its own period.
+#[derive(Clone, Debug)]
+struct Filters {
+    /// CONFIG, GYRO_CONFIG, ACCEL_CONFIG2 the filters were built for;
+    /// `None` = rebuild and re-anchor the clock before the next tick.
+    key: Option<(u8, u8, u8)>,
+    gyro: Dlpf,
+    accel: Dlpf,
+    tick_ns: u64,
+    next_tick_ns: u64,
+    tick_index: u64,
+    gyro_out: Vec3,
+    accel_out: Vec3,
+    temp_c: f64,
+}
+
+impl Filters {
+    fn new() -> Self {
+        Self {
+            key: None,
+            gyro: Dlpf::new(dlpf::GYRO_DLPF[0]),
+            accel: Dlpf::new(dlpf::ACCEL_DLPF[0]),
+            tick_ns: 1_000_000,
+            next_tick_ns: 0,
+            tick_index: 0,
+            gyro_out: [0.0; 3],
+            accel_out: [0.0; 3],
+            temp_c: 21.0,
+        }
+    }
+
+    /// Rebuilds the filters for `key`, their clock's first tick at `first_ns`.
+    fn rebuild(&mut self, key: (u8, u8, u8), first_ns: u64) {
+        self.gyro = Dlpf::new(dlpf::gyro_spec(key.0, key.1));
+        self.accel = Dlpf::new(dlpf::accel_spec(key.2));
+        self.tick_ns = self.gyro.period_ns().min(self.accel.period_ns()).max(1);
+        self.next_tick_ns = first_ns;
+        self.tick_index = 0;
+        self.key = Some(key);
+    }
+
+    /// Runs the internal ticks up to and including `t_ns` (the last
+    /// [`SETTLE_NS`] of them after a long jump).
+    fn run_to(&mut self, t_ns: u64, world: &mut World) {
+        if self.next_tick_ns > t_ns {
+            return;
+        }
+        let n = (t_ns - self.next_tick_ns) / self.tick_ns + 1;
+        let skip = n.saturating_sub(SETTLE_NS / self.tick_ns);
+        self.next_tick_ns += skip * self.tick_ns;
+        self.tick_index += skip;
+        let g_every = (self.gyro.period_ns() / self.tick_ns).max(1);
+        let a_every = (self.accel.period_ns() / self.tick_ns).max(1);
+        // White noise over each filter's Nyquist band: the density times
+        // the square root of half its rate per sample.
+        let g_band = 0.5 * self.gyro.spec().rate_hz;
+        let a_band = 0.5 * self.accel.spec().rate_hz;
+        for _ in skip..n {
+            let phys = world.imu_signal(self.next_tick_ns as f64 * 1e-9);
+            let noise = world.imu_noise(g_band, a_band);
+            if self.tick_index.is_multiple_of(g_every) {
+                let x = crate::math::add(phys.gyro_mpu_dps, noise.gyro_mpu_dps);
+                self.gyro_out = self.gyro.step(x);
+            }
+            if self.tick_index.is_multiple_of(a_every) {
+                let x = crate::math::add(phys.accel_mpu_mps2, noise.accel_mpu_mps2);
+                self.accel_out = self.accel.step(x);
+            }
+            self.temp_c = phys.temp_c;
+            self.next_tick_ns += self.tick_ns;
+            self.tick_index += 1;
+        }
+    }
 }
 
 /// FIFO size of the MPU-9250, bytes.
@@ -151,6 +246,7 @@ impl Mpu9250Model {
             fifo: std::collections::VecDeque::with_capacity(FIFO_SIZE),
             read_set: None,
             master_samples_seen: 0,
+            filters: Filters::new(),
         }
     }
 
@@ -174,24 +270,28 @@ impl Mpu9250Model {
 
     /// Gyro equivalent noise bandwidth (Hz) = 3 dB bandwidth · π/2.
     pub fn gyro_enbw_hz(&self) -> f64 {
-        let fchoice_b = self.regs[reg::GYRO_CONFIG as usize] & 0x03;
-        let bw = match fchoice_b {
-            0 => GYRO_DLPF_BW_HZ[usize::from(self.regs[reg::CONFIG as usize] & 7)],
-            2 => 3600.0,
-            _ => 8800.0,
-        };
-        bw * FRAC_PI_2
+        let spec = dlpf::gyro_spec(
+            self.regs[reg::CONFIG as usize],
+            self.regs[reg::GYRO_CONFIG as usize],
+        );
+        spec.bandwidth_hz * std::f64::consts::FRAC_PI_2
     }
 
     /// Accelerometer equivalent noise bandwidth (Hz).
     pub fn accel_enbw_hz(&self) -> f64 {
-        let c2 = self.regs[reg::ACCEL_CONFIG2 as usize];
-        let bw = if c2 & 0x08 != 0 {
-            1046.0
-        } else {
-            ACCEL_DLPF_BW_HZ[usize::from(c2 & 7)]
-        };
-        bw * FRAC_PI_2
+        dlpf::accel_spec(self.regs[reg::ACCEL_CONFIG2 as usize]).bandwidth_hz
+            * std::f64::consts::FRAC_PI_2
+    }
+
+    /// The filter settings in effect: gyro, accelerometer.
+    pub fn dlpf_specs(&self) -> (dlpf::DlpfSpec, dlpf::DlpfSpec) {
+        (
+            dlpf::gyro_spec(
+                self.regs[reg::CONFIG as usize],
+                self.regs[reg::GYRO_CONFIG as usize],
+            ),
+            dlpf::accel_spec(self.regs[reg::ACCEL_CONFIG2 as usize]),
+        )
     }
 
     /// Gyro sensitivity (LSB per °/s) at the configured full scale.
@@ -262,12 +362,30 @@ impl Mpu9250Model {
         self.regs[usize::from(at) + 1] = b[1];
     }
 
-    fn produce_sample(&mut self, t_ns: u64, world: &mut World) {
-        let phys = world.imu(
-            t_ns as f64 * 1e-9,
-            self.gyro_enbw_hz(),
-            self.accel_enbw_hz(),
+    /// The filters run up to `t_ns` (rebuilt first if their registers
+    /// changed; their clock then starts at this output instant).
+    fn filtered_at(&mut self, t_ns: u64, world: &mut World) -> crate::world::ImuPhysical {
+        let key = (
+            self.regs[reg::CONFIG as usize] & 0x07,
+            self.regs[reg::GYRO_CONFIG as usize] & 0x03,
+            self.regs[reg::ACCEL_CONFIG2 as usize] & 0x0F,
         );
+        if self.filters.key != Some(key) {
+            self.filters.rebuild(key, t_ns);
+        }
+        self.filters.run_to(t_ns, world);
+        // The temperature is not filtered: its own noise per output sample.
+        let temp_noise_c = world.imu_noise(0.0, 0.0).temp_c;
+        let f = &self.filters;
+        crate::world::ImuPhysical {
+            gyro_mpu_dps: f.gyro_out,
+            accel_mpu_mps2: f.accel_out,
+            temp_c: f.temp_c + temp_noise_c,
+        }
+    }
+
+    fn produce_sample(&mut self, t_ns: u64, world: &mut World) {
+        let phys = self.filtered_at(t_ns, world);
         let pm2 = self.regs[reg::PWR_MGMT_2 as usize];
         let a_lsb = self.accel_lsb_per_g() / G_MPS2;
         let g_lsb = self.gyro_lsb_per_dps();
@@ -388,6 +506,7 @@ impl Device for Mpu9250Model {
             self.reset_done_ns = None;
             self.regs[reg::PWR_MGMT_1 as usize] &= !0x80;
             self.next_sample_ns = done + self.sample_period_ns();
+            self.filters.key = None;
         }
         let asleep = self.regs[reg::PWR_MGMT_1 as usize] & 0x40 != 0;
         let period = self.sample_period_ns();
@@ -398,6 +517,7 @@ impl Device for Mpu9250Model {
         if self.sleeping {
             self.sleeping = false;
             self.next_sample_ns = now_ns + period;
+            self.filters.key = None;
         }
         if now_ns >= self.next_sample_ns {
             let n = (now_ns - self.next_sample_ns) / period + 1;
@@ -487,5 +607,6 @@ impl Device for Mpu9250Model {
         self.reset_done_ns = None;
         self.next_sample_ns = now_ns + self.sample_period_ns();
         self.last_sample_ns = None;
+        self.filters = Filters::new();
     }
 }

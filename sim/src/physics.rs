@@ -91,6 +91,10 @@ pub enum Trajectory {
     FastTurns,
     /// A user-supplied pose function of time (s).
     Custom(Rc<dyn Fn(f64) -> Pose>),
+    /// A user-supplied truth function of time (s): the pose with its
+    /// derivatives given, not differentiated numerically (for motion with
+    /// content too fast for the differences, such as a frame's vibration).
+    Motion(Rc<dyn Fn(f64) -> TruthSample>),
 }
 
 impl fmt::Debug for Trajectory {
@@ -477,6 +481,7 @@ impl Trajectory {
             Trajectory::HandHeld => "handheld",
             Trajectory::FastTurns => "fastturns",
             Trajectory::Custom(_) => "custom/spin",
+            Trajectory::Motion(_) => "motion",
         }
     }
 
@@ -508,11 +513,18 @@ impl Trajectory {
             Trajectory::HandHeld => ([0.0; 3], hand_held_attitude(tau)),
             Trajectory::FastTurns => ([0.0; 3], Quat::from_euler(0.0, 0.0, fast_turns_yaw(tau))),
             Trajectory::Custom(f) => f(t_s),
+            Trajectory::Motion(f) => {
+                let s = f(t_s);
+                (s.position_ned_m, s.q_ned_from_body)
+            }
         }
     }
 
     /// Full truth at `t_s`: pose plus its derivatives.
     pub fn sample(&self, t_s: f64) -> TruthSample {
+        if let Trajectory::Motion(f) = self {
+            return f(t_s);
+        }
         let (p0, q0) = self.pose(t_s);
         // Angular rate: ω_body = 2·vec(q* ⊗ dq/dt).
         let h = 1e-4;

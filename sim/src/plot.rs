@@ -638,6 +638,100 @@ where
     Ok(())
 }
 
+/// A spectrum figure: one panel per entry of `panels` (caption, series of
+/// (frequency in Hz, density)), densities drawn in dB of `unit` (10·log10),
+/// `notes` as text lines under the title. PNG or SVG by the extension.
+pub fn write_spectrum(
+    path: &Path,
+    title: &str,
+    unit: &str,
+    notes: &[String],
+    panels: &[(String, Vec<Series>)],
+) -> Result<(), String> {
+    let format = PlotFormat::from_path(path)?;
+    if panels
+        .iter()
+        .all(|(_, s)| s.iter().all(|s| s.points.is_empty()))
+    {
+        return Err("nothing to plot: no spectrum".into());
+    }
+    load_font()?;
+    let h = TITLE_H + NOTE_LINE_H * notes.len() as u32 + 2 * PANEL_H * panels.len() as u32;
+    let res = match format {
+        PlotFormat::Png => draw_spectrum(
+            BitMapBackend::new(path, (WIDTH, h)).into_drawing_area(),
+            (title, unit, notes),
+            panels,
+        ),
+        PlotFormat::Svg => draw_spectrum(
+            SVGBackend::new(path, (WIDTH, h)).into_drawing_area(),
+            (title, unit, notes),
+            panels,
+        ),
+    };
+    res.map_err(|e| e.to_string())
+}
+
+fn draw_spectrum<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    (title, unit, notes): (&str, &str, &[String]),
+    panels: &[(String, Vec<Series>)],
+) -> Res
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let root = root.titled(title, (FONT, 22))?;
+    let notes_h = NOTE_LINE_H * notes.len() as u32;
+    let (notes_area, rest) = root.split_vertically(notes_h);
+    for (i, n) in notes.iter().enumerate() {
+        let y = (NOTE_LINE_H as usize * i) as i32;
+        notes_area.draw(&Text::new(n.clone(), (20, y), (FONT, 14)))?;
+    }
+    let db = |p: f64| 10.0 * p.max(1e-30).log10();
+    let all = panels
+        .iter()
+        .flat_map(|(_, s)| s.iter().flat_map(|s| s.points.iter().map(|&(_, p)| db(p))));
+    let y_max = all.clone().fold(f64::NEG_INFINITY, f64::max).ceil() + 5.0;
+    let y_min = (y_max - 90.0).max(all.fold(f64::INFINITY, f64::min).floor());
+    let f_max = panels
+        .iter()
+        .flat_map(|(_, s)| s.iter().flat_map(|s| s.points.iter().map(|&(f, _)| f)))
+        .fold(0.0, f64::max)
+        .max(1.0);
+    for ((caption, series), area) in panels.iter().zip(rest.split_evenly((panels.len(), 1))) {
+        let legend: Vec<(&str, LineStyle)> = series
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                (
+                    s.name.as_str(),
+                    LineStyle::solid(COLORS[i % 3].stroke_width(2)),
+                )
+            })
+            .collect();
+        let (plot_area, legend_area) = area.split_horizontally(WIDTH - LEGEND_W);
+        draw_legend(&legend_area, &legend)?;
+        let mut c = ChartBuilder::on(&plot_area)
+            .margin(8)
+            .caption(caption, (FONT, 17))
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..f_max, y_min..y_max)?;
+        c.configure_mesh()
+            .x_desc("frequency [Hz]")
+            .y_desc(format!("dB of {unit}"))
+            .label_style((FONT, 13))
+            .draw()?;
+        for (s, (_, style)) in series.iter().zip(&legend) {
+            let pts = s.points.iter().map(|&(f, p)| (f, db(p)));
+            c.draw_series(LineSeries::new(pts, style.stroke))?;
+        }
+    }
+    root.present()?;
+    Ok(())
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {

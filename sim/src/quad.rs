@@ -31,6 +31,10 @@
 //! * wind: a constant air-mass velocity ([`DragParams::wind_ned_mps`]); the
 //!   rotor drag optionally growing with the rotors' speed
 //!   ([`DragParams::linear_scales_with_rotor_speed`]).
+//! * vibration ([`vibration`]): each rotor's imbalance at its rotation
+//!   frequency with harmonics and the blade-pass thrust ripple, seen by the
+//!   board through one frame mode; superposed on the rigid body's motion
+//!   for the chips (it does not feed back into the rigid body).
 //!
 //! Not modelled: propeller inertia torque on speed changes, blade flapping,
 //! ground effect, gusts, ESC non-linearity.
@@ -40,10 +44,14 @@
 //! [`SimBus`](crate::SimBus): the MPU-9250, AK8963 and MS5611 models then
 //! read it like any trajectory.
 
+pub mod vibration;
+
 use crate::math::{self, Quat, Vec3};
 use crate::physics::{Pose, Trajectory, TruthSample, G0_MPS2};
 use std::cell::Cell;
+use std::f64::consts::PI;
 use std::rc::Rc;
+pub use vibration::VibrationParams;
 
 /// Which way a propeller turns, seen from above.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -190,6 +198,8 @@ pub struct QuadParams {
     pub battery: BatteryParams,
     /// Drag.
     pub drag: DragParams,
+    /// Vibration sources and the frame mode the board sees them through.
+    pub vibration: VibrationParams,
 }
 
 impl QuadParams {
@@ -220,7 +230,9 @@ impl QuadParams {
     /// * 3S 1300 mAh LiPo, 50 mΩ pack + wiring, motor+ESC efficiency 0.7,
     ///   0.5 A for the electronics: hover draws about 10 A;
     /// * drag: frontal area ~0.01 m² (x, y) and ~0.03 m² (z, the frame and
-    ///   propeller disks) with C_d ≈ 1; rotor drag 0.1 N per m/s.
+    ///   propeller disks) with C_d ≈ 1; rotor drag 0.1 N per m/s;
+    /// * vibration of a well-balanced frame
+    ///   ([`VibrationParams::well_balanced`], sources in [`vibration`]).
     pub fn class_250() -> Self {
         let a = Self::ARM_250_M * std::f64::consts::FRAC_1_SQRT_2;
         let k_f = 8.8e-7;
@@ -275,7 +287,15 @@ impl QuadParams {
                 linear_scales_with_rotor_speed: false,
                 wind_ned_mps: [0.0; 3],
             },
+            vibration: VibrationParams::well_balanced(),
         }
+    }
+
+    /// The vibration sources scaled by `scale` (0 = none, 1 = as built;
+    /// [`QuadParams::validate`] rejects a negative or non-finite one).
+    pub fn with_vibration_scale(mut self, scale: f64) -> Self {
+        self.vibration.scale = scale;
+        self
     }
 
     /// Weight (N).
@@ -342,6 +362,8 @@ pub enum QuadParamsError {
     Battery,
     /// A drag coefficient negative or not finite.
     Drag,
+    /// A vibration figure out of range ([`VibrationParams::is_valid`]).
+    Vibration,
 }
 
 impl std::fmt::Display for QuadParamsError {
@@ -408,6 +430,9 @@ impl QuadParams {
         if !drag.into_iter().all(|&x| non_neg(x)) {
             return Err(QuadParamsError::Drag);
         }
+        if !self.vibration.is_valid() {
+            return Err(QuadParamsError::Vibration);
+        }
         Ok(())
     }
 }
@@ -435,6 +460,8 @@ pub struct QuadState {
     pub omega_body_rps: Vec3,
     /// Rotor speeds (rad/s).
     pub rotor_rps: [f64; 4],
+    /// Rotor angles, the integral of their speeds, in [0, 2π) (rad).
+    pub rotor_phase_rad: [f64; 4],
     /// Charge drawn from the battery (A·h).
     pub battery_used_ah: f64,
     /// Battery current (A).
@@ -475,6 +502,8 @@ impl Quadcopter {
                 q_ned_from_body: Quat::IDENTITY,
                 omega_body_rps: [0.0; 3],
                 rotor_rps: [0.0; 4],
+                // Arbitrary, distinct starting angles of the four rotors.
+                rotor_phase_rad: [0.0, 1.9, 3.7, 5.3],
                 battery_used_ah: params.battery.used_at_start_ah,
                 battery_current_a: params.battery.avionics_a,
                 battery_voltage_v: v,
@@ -549,6 +578,7 @@ impl Quadcopter {
                 command * p.propulsion.omega_max_rps * (v / p.propulsion.v_nominal_v).max(0.0);
             let w = s.rotor_rps[i] + (target - s.rotor_rps[i]) * alpha;
             s.rotor_rps[i] = w;
+            s.rotor_phase_rad[i] = (s.rotor_phase_rad[i] + w * dt).rem_euclid(2.0 * PI);
             let thrust = m.prop_fraction * p.propulsion.k_f_n_per_rps2 * w * w;
             let q = m.prop_fraction * p.propulsion.k_m_nm_per_rps2 * w * w;
             thrust_total += thrust;
@@ -666,12 +696,35 @@ impl Quadcopter {
     }
 }
 
+/// The truth at `t_s` near `state` as the board sees it: the rigid body
+/// extrapolated as [`Quadcopter::pose_near`] does (its velocity,
+/// acceleration and rate constant over the gap) plus the frame's
+/// vibration ([`vibration::at`]).
+pub fn truth_near(params: &QuadParams, state: &QuadState, t_s: f64) -> TruthSample {
+    let (p, q) = Quadcopter::pose_near(state, t_s);
+    let d = t_s - state.t_s;
+    let f_ned = math::sub(state.accel_ned_mps2, [0.0, 0.0, G0_MPS2]);
+    let vib = vibration::at(params, state, t_s);
+    let moving = math::norm(state.omega_body_rps) > 0.05 || math::norm(state.accel_ned_mps2) > 0.2;
+    TruthSample {
+        t_s,
+        q_ned_from_body: q,
+        omega_body_rps: math::add(state.omega_body_rps, vib.omega_body_rps),
+        specific_force_body_mps2: math::add(q.conj().rotate(f_ned), vib.accel_body_mps2),
+        position_ned_m: p,
+        velocity_ned_mps: math::add(state.velocity_ned_mps, math::scale(state.accel_ned_mps2, d)),
+        height_m: -p[2],
+        moving,
+    }
+}
+
 /// The link from a [`Quadcopter`] to the simulated chips: a trajectory
-/// whose pose is the body's latest published state, extrapolated to the
-/// instant a chip samples (sub-millisecond gaps).
+/// whose truth is the body's latest published state, extrapolated to the
+/// instant a chip samples (sub-millisecond gaps), with the frame's
+/// vibration ([`truth_near`]).
 #[derive(Clone, Debug, Default)]
 pub struct QuadLink {
-    shared: Rc<Cell<Option<QuadState>>>,
+    shared: Rc<Cell<Option<(QuadState, QuadParams)>>>,
 }
 
 impl QuadLink {
@@ -682,16 +735,16 @@ impl QuadLink {
 
     /// Publishes the body's present state to the chips.
     pub fn publish(&self, quad: &Quadcopter) {
-        self.shared.set(Some(quad.state));
+        self.shared.set(Some((quad.state, quad.params)));
     }
 
     /// The trajectory to put in `SimConfig::trajectory` (or
     /// `world.trajectory`): it follows every [`QuadLink::publish`].
     pub fn trajectory(&self) -> Trajectory {
         let shared = Rc::clone(&self.shared);
-        Trajectory::Custom(Rc::new(move |t_s| match shared.get() {
-            Some(s) => Quadcopter::pose_near(&s, t_s),
-            None => ([0.0; 3], Quat::IDENTITY),
+        Trajectory::Motion(Rc::new(move |t_s| match shared.get() {
+            Some((s, p)) => truth_near(&p, &s, t_s),
+            None => Trajectory::at_rest().sample(t_s),
         }))
     }
 }

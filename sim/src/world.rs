@@ -71,6 +71,9 @@ pub struct World {
     accel_bias_mps2: Vec3,
     last_imu_t_s: Option<f64>,
     rng: Rng,
+    /// The IMU's own stream (noise, bias walks): how often the MPU-9250
+    /// model samples does not change the other chips' noise.
+    imu_rng: Rng,
     vib_phase: [f64; 6],
 }
 
@@ -82,6 +85,7 @@ impl World {
         for p in &mut vib_phase {
             *p = rng.range(0.0, 2.0 * PI);
         }
+        let imu_rng = rng.fork(0x0049_4D55);
         Self {
             trajectory,
             env,
@@ -92,6 +96,7 @@ impl World {
             magnets: Vec::new(),
             last_imu_t_s: None,
             rng,
+            imu_rng,
             vib_phase,
         }
     }
@@ -117,17 +122,19 @@ impl World {
         math::mpu_to_ak(math::body_to_mpu(b_body))
     }
 
-    /// One IMU sample at `t_s` with per-sample noise for the given
-    /// equivalent noise bandwidths (Hz).
-    pub fn imu(&mut self, t_s: f64, gyro_enbw_hz: f64, accel_enbw_hz: f64) -> ImuPhysical {
+    /// The IMU's signal at `t_s`, MPU frame, before the chip's filters: the
+    /// truth through misalignment, the biases (their random walk advanced
+    /// to `t_s`) and any injected vibration; no white noise (see
+    /// [`World::imu_noise`]) and the true die temperature.
+    pub fn imu_signal(&mut self, t_s: f64) -> ImuPhysical {
         let dt = self.last_imu_t_s.map_or(0.0, |l| (t_s - l).max(0.0));
         self.last_imu_t_s = Some(t_s);
         let e = self.errors;
         if dt > 0.0 {
             let sg = e.gyro_dps.bias_walk * dt.sqrt();
             let sa = e.accel_mps2.bias_walk * dt.sqrt();
-            self.gyro_bias_dps = math::add(self.gyro_bias_dps, self.rng.normal3(sg));
-            self.accel_bias_mps2 = math::add(self.accel_bias_mps2, self.rng.normal3(sa));
+            self.gyro_bias_dps = math::add(self.gyro_bias_dps, self.imu_rng.normal3(sg));
+            self.accel_bias_mps2 = math::add(self.accel_bias_mps2, self.imu_rng.normal3(sa));
         }
         let truth = self.truth(t_s);
         let w_mpu_dps = math::scale(math::body_to_mpu(truth.omega_body_rps), 180.0 / PI);
@@ -140,16 +147,6 @@ impl World {
             mat_vec(&e.accel_mps2.misalignment, f_mpu),
             self.accel_bias_mps2,
         );
-        gyro = math::add(
-            gyro,
-            self.rng
-                .normal3(e.gyro_dps.noise_density * gyro_enbw_hz.sqrt()),
-        );
-        acc = math::add(
-            acc,
-            self.rng
-                .normal3(e.accel_mps2.noise_density * accel_enbw_hz.sqrt()),
-        );
         if let Some(v) = self.vibration {
             for i in 0..3 {
                 let w = 2.0 * PI * v.frequency_hz * t_s;
@@ -157,11 +154,37 @@ impl World {
                 gyro[i] += v.gyro_amplitude_dps * (w + self.vib_phase[i + 3]).sin();
             }
         }
-        let temp_c = self.env.temperature_c(truth.height_m) + self.rng.normal(e.temp_noise_c);
         ImuPhysical {
             gyro_mpu_dps: gyro,
             accel_mpu_mps2: acc,
-            temp_c,
+            temp_c: self.env.temperature_c(truth.height_m),
+        }
+    }
+
+    /// White noise for one output sample: the noise densities over the
+    /// given equivalent noise bandwidths (Hz), and the temperature noise.
+    pub fn imu_noise(&mut self, gyro_enbw_hz: f64, accel_enbw_hz: f64) -> ImuPhysical {
+        let e = self.errors;
+        ImuPhysical {
+            gyro_mpu_dps: self
+                .imu_rng
+                .normal3(e.gyro_dps.noise_density * gyro_enbw_hz.sqrt()),
+            accel_mpu_mps2: self
+                .imu_rng
+                .normal3(e.accel_mps2.noise_density * accel_enbw_hz.sqrt()),
+            temp_c: self.imu_rng.normal(e.temp_noise_c),
+        }
+    }
+
+    /// One unfiltered IMU sample at `t_s`: [`World::imu_signal`] plus
+    /// [`World::imu_noise`] for the given equivalent noise bandwidths (Hz).
+    pub fn imu(&mut self, t_s: f64, gyro_enbw_hz: f64, accel_enbw_hz: f64) -> ImuPhysical {
+        let s = self.imu_signal(t_s);
+        let n = self.imu_noise(gyro_enbw_hz, accel_enbw_hz);
+        ImuPhysical {
+            gyro_mpu_dps: math::add(s.gyro_mpu_dps, n.gyro_mpu_dps),
+            accel_mpu_mps2: math::add(s.accel_mpu_mps2, n.accel_mpu_mps2),
+            temp_c: s.temp_c + n.temp_c,
         }
     }
 

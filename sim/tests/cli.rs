@@ -58,6 +58,13 @@ fn bad_values_are_refused_before_work() {
     refused(&["-d", "10", "--fault", "20:magnet"], "after the end");
     refused(&["--plot", "x.jpg"], "unsupported plot format `.jpg`");
     refused(&["--plot", "noext"], "needs an extension");
+    refused(&["--vibration", "-1"], "out of range");
+    refused(&["--vibration=nan"], "out of range");
+    refused(&["--spectrum", "x.jpg"], "unsupported plot format `.jpg`");
+    refused(
+        &["--spectrum", "x.png", "--scenario", "takeoff"],
+        "cannot be used with",
+    );
     refused(&["--plot", "-"], "--plot needs a file name");
 }
 
@@ -325,4 +332,18 @@ fn a_scenario_csv_to_a_closed_stdout_is_not_a_panic() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
     assert!(stderr(&o).contains("== figures"), "{}", stderr(&o));
+}
+
+#[test]
+fn the_spectrum_is_drawn_and_its_summary_printed() {
+    let d = dir("spectrum");
+    let out = d.join("sub").join("spectrum.png");
+    let o = sim(&["--spectrum", out.to_str().unwrap(), "--vibration", "2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("hover:") && text.contains("full throttle:"),
+        "{text}"
+    );
+    assert!(std::fs::metadata(&out).unwrap().len() > 1000);
 }

@@ -445,3 +445,149 @@ fn transfers_take_bus_time() {
     let dt = clock.now_ns() - t0;
     assert!((350_000..450_000).contains(&dt), "{dt}");
 }
+
+/// A motion at rest except for a roll rate (°/s) and a specific force on
+/// body x (m/s²) given as functions of time: what the DLPF tests feed in.
+fn tone_motion(rate_dps: fn(f64) -> f64, force_mps2: fn(f64) -> f64) -> Trajectory {
+    Trajectory::Motion(std::rc::Rc::new(move |t_s| {
+        let mut s = Trajectory::at_rest().sample(t_s);
+        s.omega_body_rps[0] = rate_dps(t_s).to_radians();
+        s.specific_force_body_mps2[0] = force_mps2(t_s);
+        s
+    }))
+}
+
+/// Least-squares amplitude and phase (rad) of a sine of `f_hz` in `(t, y)`.
+fn fit_sine(points: &[(f64, f64)], f_hz: f64) -> (f64, f64) {
+    let (mut ss, mut cc, mut sc, mut ys, mut yc) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(t, y) in points {
+        let (s, c) = (2.0 * std::f64::consts::PI * f_hz * t).sin_cos();
+        ss += s * s;
+        cc += c * c;
+        sc += s * c;
+        ys += y * s;
+        yc += y * c;
+    }
+    let det = ss * cc - sc * sc;
+    let p = (ys * cc - yc * sc) / det;
+    let q = (yc * ss - ys * sc) / det;
+    ((p * p + q * q).sqrt(), q.atan2(p))
+}
+
+/// Reads gyro x (°/s) and accelerometer x (m/s²) at every output sample
+/// for `seconds`, with the given CONFIG, ACCEL_CONFIG2 and SMPLRT_DIV.
+fn record(traj: Trajectory, regs: (u8, u8, u8), seconds: f64) -> Vec<(f64, f64, f64)> {
+    let (clock, mut bus, _d) = rig(SimConfig {
+        trajectory: traj,
+        ..ideal()
+    });
+    wr(&mut bus, MPU, mpu::PWR_MGMT_1, 0x00);
+    wr(&mut bus, MPU, mpu::CONFIG, regs.0);
+    wr(&mut bus, MPU, mpu::ACCEL_CONFIG2, regs.1);
+    wr(&mut bus, MPU, mpu::SMPLRT_DIV, regs.2);
+    let mut out = Vec::new();
+    while clock.now_s() < seconds {
+        bus.advance_to_next_mpu_sample();
+        let r = burst14(&mut bus);
+        // ±250 °/s: 131 LSB per °/s; ±2 g: 16384 LSB per g; body x = MPU x.
+        let t = bus.truth_at_last_mpu_sample().unwrap().t_s;
+        let a = f64::from(r[0]) / 16384.0 * G0_MPS2;
+        out.push((t, f64::from(r[4]) / 131.0, a));
+    }
+    out
+}
+
+#[test]
+fn mpu_dlpf_delays_slow_motion_by_the_register_maps_delay() {
+    // Register map rev 1.6: DLPF_CFG 3 = 41 Hz, 5.9 ms; A_DLPF_CFG 3 =
+    // 44.8 Hz, 4.88 ms; DLPF_CFG 6 = 5 Hz, 33.48 ms; A_DLPF_CFG 6 = 5.05 Hz,
+    // 32.48 ms. A tone at a twentieth of the bandwidth or less: its phase
+    // lag is the delay (to 0.3 % for a first-order low-pass). Tolerance
+    // 0.3 ms.
+    fn one_hz() -> Trajectory {
+        tone_motion(
+            |t| 100.0 * (2.0 * std::f64::consts::PI * t).sin(),
+            |t| 5.0 * (2.0 * std::f64::consts::PI * t).sin(),
+        )
+    }
+    fn quarter_hz() -> Trajectory {
+        tone_motion(
+            |t| 100.0 * (0.5 * std::f64::consts::PI * t).sin(),
+            |t| 5.0 * (0.5 * std::f64::consts::PI * t).sin(),
+        )
+    }
+    let cases = [
+        (3u8, 5.9, 4.88, one_hz(), 1.0),
+        (6, 33.48, 32.48, quarter_hz(), 0.25),
+    ];
+    for (cfg, gyro_ms, accel_ms, traj, f_hz) in cases {
+        let rec = record(traj, (cfg, cfg, 0), 1.0 + 2.0 / f_hz);
+        let rec = &rec[1000..];
+        let g: Vec<_> = rec.iter().map(|&(t, g, _)| (t, g)).collect();
+        let a: Vec<_> = rec.iter().map(|&(t, _, a)| (t, a)).collect();
+        let (_, pg) = fit_sine(&g, f_hz);
+        let (_, pa) = fit_sine(&a, f_hz);
+        let to_ms = |p: f64| -p / (2.0 * std::f64::consts::PI * f_hz) * 1e3;
+        assert!(
+            (to_ms(pg) - gyro_ms).abs() < 0.3,
+            "gyro {cfg}: {} ms",
+            to_ms(pg)
+        );
+        assert!(
+            (to_ms(pa) - accel_ms).abs() < 0.3,
+            "accel {cfg}: {} ms",
+            to_ms(pa)
+        );
+    }
+}
+
+#[test]
+fn mpu_sample_rate_divider_decimates_and_aliases() {
+    // DLPF_CFG 1 (184 Hz at 1 kHz), SMPLRT_DIV 4: 200 samples a second,
+    // each the filter's output at that instant. A 180 Hz rotation passes
+    // the filter at about 0.7 of its amplitude and, sampled at 200 Hz,
+    // appears at |180 − 200| = 20 Hz: the register map's divider does not
+    // filter, so a frame's vibration above 100 Hz folds down.
+    let rec = record(
+        tone_motion(
+            |t| 50.0 * (2.0 * std::f64::consts::PI * 180.0 * t).sin(),
+            |_| 0.0,
+        ),
+        (1, 1, 4),
+        2.0,
+    );
+    let dts: Vec<f64> = rec.windows(2).map(|w| w[1].0 - w[0].0).collect();
+    assert!(
+        dts.iter().all(|dt| (dt - 0.005).abs() < 1e-9),
+        "{:?}",
+        &dts[..3]
+    );
+    let g: Vec<_> = rec[50..].iter().map(|&(t, g, _)| (t, g)).collect();
+    let (alias, _) = fit_sine(&g, 20.0);
+    let (other, _) = fit_sine(&g, 37.0);
+    assert!(alias > 0.6 * 50.0 && alias < 0.8 * 50.0, "{alias}");
+    assert!(other < 1.0, "{other}");
+}
+
+#[test]
+fn mpu_noise_passes_the_dlpf_with_its_noise_bandwidth() {
+    // White noise through the 41 Hz low-pass: variance density² × π/2 ×
+    // 41 Hz (a first-order low-pass's noise bandwidth), within 10 %.
+    let errors = SensorErrors::datasheet(3);
+    let density = errors.gyro_dps.noise_density;
+    let (clock, mut bus, _d) = rig(SimConfig {
+        errors,
+        ..SimConfig::default()
+    });
+    wr(&mut bus, MPU, mpu::PWR_MGMT_1, 0x00);
+    wr(&mut bus, MPU, mpu::CONFIG, 3);
+    let mut x = Vec::new();
+    while clock.now_s() < 20.0 {
+        bus.advance_to_next_mpu_sample();
+        x.push(f64::from(burst14(&mut bus)[4]) / 131.0);
+    }
+    let mean = x.iter().sum::<f64>() / x.len() as f64;
+    let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / x.len() as f64;
+    let expect = density * density * 41.0 * std::f64::consts::FRAC_PI_2;
+    assert!((var / expect - 1.0).abs() < 0.1, "{var} vs {expect}");
+}

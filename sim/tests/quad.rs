@@ -269,7 +269,10 @@ fn drag_limits_the_speed_of_a_fall() {
 fn the_chips_read_the_body_through_the_link() {
     use embedded_hal::i2c::I2c;
     let link = QuadLink::new();
-    let mut q = airborne();
+    // The rigid body only: the frame's vibration would add to the truth
+    // the chips read (its own tests are below).
+    let mut q = Quadcopter::new(QuadParams::class_250().with_vibration_scale(0.0)).unwrap();
+    q.set_state(*airborne().state());
     // A steady roll rate: the MPU-9250 gyro must see it.
     let mut s = *q.state();
     s.omega_body_rps = [1.0, 0.0, 0.0];
@@ -356,4 +359,109 @@ fn unphysical_parameters_are_refused_by_name() {
         break_it(&mut p);
         assert_eq!(Quadcopter::new(p).err(), Some(want));
     }
+}
+
+/// RMS per axis of the vibration's angular rate (°/s) and acceleration
+/// (m/s²) over 1 s sampled at 32 kHz, rotors at `w` rad/s.
+fn vibration_rms(params: QuadParams, w: f64) -> ([f64; 3], [f64; 3]) {
+    let mut q = Quadcopter::new(params).unwrap();
+    let s = QuadState {
+        rotor_rps: [w, w * 1.01, w * 0.99, w * 1.02],
+        on_ground: false,
+        position_ned_m: [0.0, 0.0, -10.0],
+        ..*q.state()
+    };
+    q.set_state(s);
+    let n = 32_000;
+    let (mut g, mut a) = ([0.0; 3], [0.0; 3]);
+    for k in 0..n {
+        let v = sim::quad::vibration::at(q.params(), q.state(), k as f64 / 32e3);
+        for i in 0..3 {
+            g[i] += v.omega_body_rps[i].to_degrees().powi(2) / n as f64;
+            a[i] += v.accel_body_mps2[i].powi(2) / n as f64;
+        }
+    }
+    (g.map(f64::sqrt), a.map(f64::sqrt))
+}
+
+fn hover_rotor_rps() -> f64 {
+    let q = quad();
+    let c = q.command_for_thrust(q.params().weight_n() / 4.0);
+    q.steady_rotor_rps(c, q.state().battery_voltage_v)
+}
+
+#[test]
+fn the_default_frame_vibrates_at_the_level_its_source_states() {
+    // The module doc's calibration: about 2 m/s² RMS per horizontal axis
+    // of unfiltered acceleration at hover.
+    let (g, a) = vibration_rms(QuadParams::class_250(), hover_rotor_rps());
+    let full = vibration_rms(QuadParams::class_250(), 2140.0);
+    println!("unfiltered RMS (°/s; m/s²), hover: {g:.2?} {a:.2?}; full: {full:.2?}");
+    for (i, ai) in a.iter().take(2).enumerate() {
+        assert!((1.5..2.5).contains(ai), "axis {i}: {a:?}");
+    }
+    let none = vibration_rms(QuadParams::class_250().with_vibration_scale(0.0), 1500.0);
+    assert_eq!(none, ([0.0; 3], [0.0; 3]));
+}
+
+#[test]
+fn vibration_grows_linearly_with_its_scale() {
+    let w = hover_rotor_rps();
+    let (g1, a1) = vibration_rms(QuadParams::class_250(), w);
+    let (g3, a3) = vibration_rms(QuadParams::class_250().with_vibration_scale(3.0), w);
+    for i in 0..3 {
+        assert!((g3[i] / g1[i] - 3.0).abs() < 1e-9 && (a3[i] / a1[i] - 3.0).abs() < 1e-9);
+    }
+    assert!(QuadParams::class_250()
+        .with_vibration_scale(-1.0)
+        .validate()
+        .is_err());
+}
+
+#[test]
+fn a_lone_imbalance_on_a_rigid_frame_gives_the_textbook_motion() {
+    // Only rotor 0 turning, only its 1x imbalance, no frame mode: the body
+    // accelerates by u ω² / m turning with the rotor, and yaws at
+    // |r × F| / (I_z ω) peak, the rotor plane at the centre of mass' height.
+    let mut p = QuadParams::class_250();
+    p.vibration.harmonic_ratio = [0.0, 0.0];
+    p.vibration.blade_pass_fraction = 0.0;
+    p.vibration.participation = 0.0;
+    p.vibration.rotor_height_m = 0.0;
+    let mut q = Quadcopter::new(p).unwrap();
+    let w = 1500.0;
+    let s = QuadState {
+        rotor_rps: [w, 0.0, 0.0, 0.0],
+        ..*q.state()
+    };
+    q.set_state(s);
+    let f = p.vibration.imbalance_kgm * w * w;
+    let r = QuadParams::ARM_250_M;
+    let (mut a_max, mut yaw_max, mut roll_max) = (0.0f64, 0.0f64, 0.0f64);
+    for k in 0..2000 {
+        let v = sim::quad::vibration::at(q.params(), q.state(), k as f64 * 1e-5);
+        let a = v.accel_body_mps2;
+        // A force turning in the rotor plane: constant magnitude.
+        let mag = (a[0] * a[0] + a[1] * a[1]).sqrt();
+        assert!((mag - f / p.mass_kg).abs() < 1e-9 * mag, "{a:?}");
+        a_max = a_max.max(mag);
+        yaw_max = yaw_max.max(v.omega_body_rps[2].abs());
+        roll_max = roll_max.max(v.omega_body_rps[0].abs());
+    }
+    let yaw = r * f / (p.inertia_kgm2[2] * w);
+    assert!((yaw_max - yaw).abs() < 0.01 * yaw, "{yaw_max} vs {yaw}");
+    assert_eq!(roll_max, 0.0);
+    assert!(a_max > 0.0);
+}
+
+#[test]
+fn the_frame_mode_amplifies_near_its_frequency_and_not_far_below() {
+    let v = sim::quad::VibrationParams::well_balanced();
+    let mag = |f: f64| {
+        let (r, i) = v.transmissibility(f);
+        (r * r + i * i).sqrt()
+    };
+    assert!((mag(1.0) - 1.0).abs() < 1e-3);
+    // Peak ≈ participation / (2ζ) + the rigid part.
+    assert!(mag(v.mode_hz) > v.participation / (2.0 * v.mode_damping));
 }

@@ -67,6 +67,11 @@ struct Args {
     /// the pilot's sticks.
     #[arg(long, value_name = "FILE", requires = "scenario")]
     plot: Option<PathBuf>,
+    /// With --scenario: the quad model's vibration as a multiple of its
+    /// well-balanced default (0 = none), in [0, 100], as in `cargo sim`.
+    #[arg(long, value_name = "SCALE", requires = "scenario",
+          value_parser = sim::quad::vibration::parse_scale)]
+    vibration: Option<f64>,
     /// LSI frequency of this part in Hz (datasheet range 30000–60000).
     #[arg(long, default_value_t = 40_000)]
     lsi_hz: u32,
@@ -282,6 +287,9 @@ fn rig_runner(scenario: Scenario, args: &Args, elf: &Path) -> Result<Runner, Str
     let fw = emulator::Firmware::load(elf).map_err(|e| e.to_string())?;
     let mut opts = RigOptions::new(scenario, args.seed);
     opts.lsi_hz = Some(args.lsi_hz);
+    if let Some(v) = args.vibration {
+        opts.airframe = opts.airframe.with_vibration_scale(v);
+    }
     if args.cycle_model == "pessimistic" {
         opts.cycle_model = CycleModel::Pessimistic;
     }

@@ -547,11 +547,18 @@ mod tests {
     fn swapped_esc_signals_disarm_as_a_runaway_takeoff() {
         wiring_error_disarms_at_take_off(Scenario::Swapped);
         // Without the check: pitch and yaw commands are crossed, the craft
-        // tumbles until the crash-rate check cuts it, above 0.5 m (seed 1:
-        // 2.0 s after the take-off throttle, 70° of tilt, 0.88 m up, yawing
-        // at 1,400 °/s).
+        // lifts off and tumbles in the air until the crash-rate check cuts
+        // it (seed 1: 2.1 s after the take-off throttle, 82° of tilt,
+        // 0.37 m up, yawing at 1,470 °/s). How high it gets first depends
+        // on how fast the crossed loops diverge: with the gyro's DLPF delay
+        // and the frame's vibration modelled it tumbles lower than without
+        // them (0.88 m), so the bound asks for a lift-off of a few
+        // decimetres, not the half metre it used to.
         let old = without_the_check(Scenario::Swapped);
-        assert!(old.max_tilt_deg > 60.0 && old.max_height_m > 0.5, "{old:?}");
+        assert!(
+            old.max_tilt_deg > 60.0 && old.max_height_m > 0.25,
+            "{old:?}"
+        );
     }
 
     #[test]

@@ -14,6 +14,8 @@
 //!   scripted pilot of a [`closed_loop::Scenario`]; [`figures`] scores it,
 //!   [`timeline`] lists its events, [`plot_closed`] draws it,
 //!   [`scenario_csv`] logs it sample by sample.
+//! * [`spectrum`] draws the simulated gyro's spectrum at hover and full
+//!   throttle (`--spectrum`).
 //!
 //! Printing that survives a closed pipe is `host_console`, shared with `replay`.
 
@@ -27,6 +29,7 @@ pub mod plot_closed;
 pub mod radio;
 pub mod run;
 pub mod scenario_csv;
+pub mod spectrum;
 pub mod stack;
 pub mod timeline;
 

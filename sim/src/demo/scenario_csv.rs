@@ -195,9 +195,12 @@ mod tests {
         let descent = row_time(&rows, "failsafe: descending");
         assert!(descent > hold, "{descent}");
         // The figures' touch-down is the height falling below 2 cm; the
-        // event is ground contact, 2 cm later at 0.5 m/s.
+        // event is the model settling on the ground, 2 cm later at 0.5 m/s
+        // plus, when the descent loop is braking at contact (thrust above
+        // weight), a hop of a millimetre or so before it settles (seed 1:
+        // contact 0.04 s after the 2 cm mark, settled 0.14 s later).
         let down = row_time(&rows, "touch-down");
-        assert!(near(down, lost + l.landed_s.unwrap(), 0.1), "{down} {l:?}");
+        assert!(near(down, lost + l.landed_s.unwrap(), 0.25), "{down} {l:?}");
         let disarm = row_time(&rows, "disarmed: failsafe: landed");
         assert!(
             near(disarm, lost + l.disarmed_s.unwrap(), 1e-3),
