@@ -18,13 +18,13 @@ pub const RAM_BUDGET: u64 = 12 * 1024;
 /// The flash plan's code region when the ELF does not name it
 /// (`_flash_plan_code_end` in `memory.x`): 60 KiB.
 pub const PLAN_CODE_REGION: u64 = 60 * 1024;
-/// The flight builds' budget: 59.125 KiB, leaving 0.875 KiB of the code
+/// The flight builds' budget: 59.25 KiB, leaving 0.75 KiB of the code
 /// region for what comes next. The flash plan's aim was 58 KiB (2 KiB
 /// left): met at 59,192 B; the log in words with its numbers' precision
 /// then took 392 B of the reserve, the AHRS's multirotor mode (the drag
-/// model, and the flight controller's in-flight verdict it waits for)
-/// 916 B.
-pub const DEFAULT_BUILD_TARGET: u64 = 59 * 1024 + 128;
+/// model with its input low-pass, and the flight controller's in-flight
+/// verdict it waits for) 1,056 B.
+pub const DEFAULT_BUILD_TARGET: u64 = 59 * 1024 + 256;
 
 /// A feature group's flash budget.
 #[derive(Debug, Clone, Copy)]
@@ -38,15 +38,15 @@ pub struct GroupBudget {
 }
 
 /// Budgets of the flight builds (default CRSF and `ppm`), set from the
-/// default build measured on 2026-11-27 (59,592 B; 60,508 B with the AHRS's multirotor mode: the flight controller's
+/// default build measured on 2026-11-27 (59,592 B; 60,648 B with the AHRS's multirotor mode: the flight controller's
 /// per-sample path in fixed point, the calibration sessions in the
 /// calibration build, the log in words with two or three decimals) plus the
 /// margin noted.
 pub const FLIGHT_BUDGETS: [GroupBudget; 6] = [
     GroupBudget {
         group: Group::SensorsAhrs,
-        bytes: 28074,
-        note: "measured 27,974 + 100 (no calibration session; the AHRS's multirotor drag model)",
+        bytes: 28214,
+        note: "measured 28,114 + 100 (no calibration session; the AHRS's multirotor drag model)",
     },
     GroupBudget {
         group: Group::FlightControl,

@@ -38,6 +38,8 @@ use crate::config::{Algorithm, Config, MagState, UpdatePath, UpdateStatus};
 use crate::Quaternion;
 
 const ONE_Q30: i64 = 1 << 30;
+/// 2π·[`crate::madgwick::DRAG_INPUT_CUTOFF_HZ`] in Q20 (rad/s).
+const DRAG_INPUT_WC_Q20: i64 = 32_941_240;
 
 /// Bound on the rate about the vertical entering the mean used by the heading gain
 /// schedule (64 rad/s, as the f32 filter), in Q20 and Q40.
@@ -722,6 +724,9 @@ pub struct MadgwickFixed {
     /// The previous sample's body-plane specific force (g, Q26) in the estimate's NED
     /// frame, horizontal part (multirotor mode).
     drag_h: [i32; 2],
+    /// The rotor-plane specific force in NED through the drag model's input low-pass
+    /// (g, Q26).
+    drag_lp: [i32; 2],
     /// The drag law's linear part of the previous sample, body x and y (g, Q26).
     drag_p: [i32; 2],
     /// In flight ([`MadgwickFixed::set_in_flight`]).
@@ -749,6 +754,7 @@ impl MadgwickFixed {
             rate_lp_down_q40: 0,
             acc_lp: [[0; 3]; 2],
             drag_h: [0; 2],
+            drag_lp: [0; 2],
             drag_p: [0; 2],
             in_flight: false,
             acc_lp_valid: false,
@@ -1100,7 +1106,7 @@ impl MadgwickFixed {
         // not during the start-up ramp).
         if !cfg!(feature = "no-multirotor") && self.c.inv_drag_q16 > 0 {
             let on = self.in_flight && !initialising;
-            let [d0, d1] = self.drag_rate(r, ag, first, if on { inv_tau } else { 0 });
+            let [d0, d1] = self.drag_rate(r, ag, first, if on { inv_tau } else { 0 }, dt_q31);
             let s1 = &mut self.acc_lp[0];
             s1[0] = s1[0].saturating_add(d0);
             s1[1] = s1[1].saturating_add(d1);
@@ -1120,11 +1126,21 @@ impl MadgwickFixed {
         ag: [i32; 3],
         first: bool,
         inv_tau: i64,
+        dt_q31: i32,
     ) -> [i32; 2] {
-        let h = drag_velocity_ned(&self.c, r, ag, &mut self.drag_p);
+        let raw = drag_velocity_ned(&self.c, r, ag, &mut self.drag_p);
         if first {
-            self.drag_h = h;
+            self.drag_h = raw;
+            self.drag_lp = raw;
         }
+        // The input low-pass (as the f32 filter's): k = dt·ω_c in Q30 (Q31·Q20 >> 21).
+        let k = ((i64::from(dt_q31) * DRAG_INPUT_WC_Q20) >> 21)
+            .max(0)
+            .min(ONE_Q30) as i32;
+        let [l0, l1] = &mut self.drag_lp;
+        *l0 = lp_step(*l0, raw[0], k);
+        *l1 = lp_step(*l1, raw[1], k);
+        let h = [*l0, *l1];
         // Q20·Q16 >> 20 (< 2^31·2^23), at most 2^31.
         let c_q16 = ((inv_tau * self.c.inv_drag_q16) >> 20).min(i64::from(i32::MAX)) as i32;
         let [h0, h1] = self.drag_h;

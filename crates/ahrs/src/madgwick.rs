@@ -45,6 +45,14 @@ pub(crate) const STARTUP_TILT_TAU_S: f32 = 0.2;
 /// converges over several updates instead of one inexact jump.
 pub(crate) const MAX_TILT_STEP_RAD: f32 = 0.05;
 
+/// Cut-off (Hz) of the first-order low-pass on the rotor-plane specific force before
+/// the drag model differentiates it. A velocity through the air changes over
+/// seconds; a multirotor's accelerometer also carries the rotors' vibration
+/// (100–400 Hz and its aliases), which the derivative would multiply by 1/(μ·τ)
+/// and the correction's rotation of the tilt states would rectify. 5 Hz delays the
+/// drag's velocity by 32 ms, nothing next to the tilt stages' τ.
+pub(crate) const DRAG_INPUT_CUTOFF_HZ: f32 = 5.0;
+
 /// Smallest rotor drag per unit mass the multirotor mode takes (1/s): a smaller
 /// [`Config::rotor_drag_per_s`] is raised to it (1/μ then fits the fixed filter's
 /// Q16, and the velocity it implies stays bounded).
@@ -167,6 +175,9 @@ pub struct Madgwick {
     /// NED frame, horizontal part: −μ/g times the velocity through the air
     /// (multirotor mode, [`Config::rotor_drag_per_s`]).
     drag_h: [f32; 2],
+    /// The rotor-plane specific force in NED through the drag model's input low-pass
+    /// ([`DRAG_INPUT_CUTOFF_HZ`], g).
+    drag_lp: [f32; 2],
     /// The drag law's linear part of the previous sample, body x and y (g).
     drag_p: [f32; 2],
     /// In flight: the multirotor mode's drag model applies ([`Madgwick::set_in_flight`]).
@@ -259,6 +270,7 @@ impl Madgwick {
             rate_lp_down_rps: 0.0,
             acc_lp: [[0.0; 3]; 2],
             drag_h: [0.0; 2],
+            drag_lp: [0.0; 2],
             drag_p: [0.0; 2],
             in_flight: false,
             acc_lp_valid: false,
@@ -572,8 +584,8 @@ impl Madgwick {
         // follows the accelerometer regardless, so switching on adds no step.
         if let Some(d) = drag_model(&cfg) {
             let on = self.in_flight && !initialising;
-            let [d0, d1] =
-                self.drag_rate(d, rot, accel, inv_g, first, if on { inv_tau } else { 0.0 });
+            let inv_tau = if on { inv_tau } else { 0.0 };
+            let [d0, d1] = self.drag_rate(d, rot, accel, inv_g, first, inv_tau, dt_s);
             self.acc_lp[0][0] += d0;
             self.acc_lp[0][1] += d1;
         }
@@ -587,6 +599,7 @@ impl Madgwick {
     /// k·(1/μ)·Δh/dt = Δh/(μ·τ). The second stage smooths the sample-to-sample
     /// difference (a vibrating accelerometer's noise reaches its output as about
     /// √(k/2)/(μ·τ) of it).
+    #[allow(clippy::too_many_arguments)]
     fn drag_rate(
         &mut self,
         d: DragModel,
@@ -595,11 +608,19 @@ impl Madgwick {
         inv_g: f32,
         first: bool,
         inv_tau: f32,
+        dt_s: f32,
     ) -> [f32; 2] {
-        let h = d.velocity_ned(rot, [accel[0] * inv_g, accel[1] * inv_g], &mut self.drag_p);
+        let raw = d.velocity_ned(rot, [accel[0] * inv_g, accel[1] * inv_g], &mut self.drag_p);
         if first {
-            self.drag_h = h;
+            self.drag_h = raw;
+            self.drag_lp = raw;
         }
+        // The input low-pass, k = dt·ω_c (forward Euler, as the fixed filter).
+        let k = (dt_s * 2.0 * core::f32::consts::PI * DRAG_INPUT_CUTOFF_HZ).clamp(0.0, 1.0);
+        for (l, x) in self.drag_lp.iter_mut().zip(raw) {
+            *l += k * (x - *l);
+        }
+        let h = self.drag_lp;
         let c = inv_tau / d.mu;
         let out = [c * (h[0] - self.drag_h[0]), c * (h[1] - self.drag_h[1])];
         self.drag_h = h;
