@@ -109,6 +109,24 @@ struct Cli {
     #[arg(long, value_name = "NORTH,EAST", requires = "scenario",
           value_parser = parse_wind, allow_hyphen_values = true)]
     wind: Option<[f64; 2]>,
+    /// With --scenario chirp or --analyse: the Bode plot of the rate loop
+    /// per axis (open loop |L| and phase, sensitivity |1 − T|); .png or .svg.
+    #[arg(long, value_name = "FILE")]
+    bode: Option<PathBuf>,
+    /// Measure the rate loop from a CSV log instead of flying: crossover,
+    /// margins, Ms and the deconvolved step per axis. The log needs t_s,
+    /// sp_AXIS_rate_dps and gyro_AXIS_dps (AXIS roll, pitch, yaw), as a
+    /// scenario CSV has them; the board's raw log has no setpoint and is
+    /// refused with that reason.
+    #[arg(long, value_name = "FILE.csv",
+          conflicts_with_all = ["scenario", "csv", "plot", "fault"])]
+    analyse: Option<PathBuf>,
+    /// With --scenario chirp: fly it once per multiplier of one rate-loop
+    /// gain's default, rate.AXIS.TERM=LO:HI:STEPS (AXIS roll, pitch, yaw;
+    /// TERM p, i, d; e.g. rate.roll.p=0.5:2:5), and print (--plot: draw)
+    /// that axis' figures against it.
+    #[arg(long, value_name = "SPEC", requires = "scenario", conflicts_with_all = ["csv", "bode"])]
+    sweep: Option<demo::sweep::SweepSpec>,
     /// No progress line on stderr.
     #[arg(short, long)]
     quiet: bool,
@@ -181,6 +199,7 @@ fn seconds_in(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone 
 struct Outputs {
     csv: Option<CsvOut>,
     plot: Option<SafeFile>,
+    bode: Option<SafeFile>,
 }
 
 /// Where the CSV goes.
@@ -225,9 +244,10 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let done = match &cli.scenario {
-        Some(name) => execute_scenario(name, &cli, outputs),
-        None => execute(&opts, outputs),
+    let done = match (&cli.scenario, &cli.analyse) {
+        (_, Some(input)) => demo::tuning_cli::analyse_file(input, outputs.bode),
+        (Some(name), None) => execute_scenario(name, &cli, outputs),
+        (None, None) => execute(&opts, outputs),
     };
     match done {
         Ok(()) if host_console::stdout_failed() => {
@@ -288,6 +308,12 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
         Some(p) => Some(create(p, "--plot")?.0),
         None => None,
     };
+    let bode = demo::tuning_cli::check(
+        cli.scenario.as_deref(),
+        cli.analyse.as_deref(),
+        cli.bode.as_deref(),
+        cli.sweep.is_some(),
+    )?;
     let opts = RunOptions {
         trajectory,
         seed: cli.seed,
@@ -298,7 +324,7 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
         faults: cli.fault.clone(),
         progress: !cli.quiet,
     };
-    Ok((opts, Outputs { csv, plot }))
+    Ok((opts, Outputs { csv, plot, bode }))
 }
 
 fn check_filter(want: FilterArg) -> Result<(), String> {
@@ -331,7 +357,7 @@ fn create(path: &Path, what: &str) -> Result<(SafeFile, std::fs::File), String> 
 }
 
 fn execute(opts: &RunOptions, outputs: Outputs) -> Result<(), String> {
-    let Outputs { csv, plot } = outputs;
+    let Outputs { csv, plot, .. } = outputs;
     let (mut csv, csv_file) = match csv.map(CsvOut::open) {
         Some((out, name, file)) => (Some(CsvWriter::new(out, &name)?), file),
         None => (None, None),
@@ -386,6 +412,9 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
     if let Some([n, e]) = cli.wind {
         drag.wind_ned_mps = [n, e, 0.0];
     }
+    if let Some(spec) = &cli.sweep {
+        return demo::tuning_cli::sweep(spec, &opts, outputs.plot);
+    }
     let mut fc = demo::flight_fc::FirmwareFc::new(flight::flightctl::FlightConfig::default())?;
     say!(
         "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",
@@ -404,8 +433,16 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
         ));
     }
     let title = format!("sim closed loop: {} seed {}", scenario.name(), opts.seed);
+    let bode = outputs.bode;
+    let outputs = Outputs {
+        bode: None,
+        ..outputs
+    };
     write_scenario_outputs(&log, &title, outputs)?;
     print_scenario(&log, &opts);
+    if scenario == Scenario::Chirp {
+        demo::tuning_cli::report_chirp(&log, opts.seed, bode)?;
+    }
     Ok(())
 }
 
