@@ -99,7 +99,7 @@ fn even_rate_hz(t: &[f64]) -> Result<f64, String> {
     if t.len() < 2 {
         return Err("fewer than two rows with a setpoint and a gyro on every axis".into());
     }
-    let mut dt: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    let dt: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
     let mut sorted = dt.clone();
     sorted.sort_by(f64::total_cmp);
     let median = sorted[sorted.len() / 2];
@@ -107,7 +107,7 @@ fn even_rate_hz(t: &[f64]) -> Result<f64, String> {
         return Err("t_s does not increase".into());
     }
     if let Some(i) = dt
-        .iter_mut()
+        .iter()
         .position(|d| (*d / median - 1.0).abs() > DT_TOLERANCE)
     {
         return Err(format!(
@@ -134,6 +134,7 @@ pub fn analyse(s: &LogSignals) -> Result<Vec<AxisReport>, String> {
 mod tests {
     use super::*;
     use crate::demo::freq::tests::{lag, noise};
+    use crate::demo::freq::C;
 
     /// A log of a first-order loop on every axis, time constant `tau_s`.
     fn log(tau_s: f64, rows: usize) -> String {
@@ -155,13 +156,29 @@ mod tests {
         let s = parse(&log(0.01, 30_000)).unwrap();
         assert!((s.fs_hz - 1000.0).abs() < 1e-6);
         let r = analyse(&s).unwrap();
-        // A first-order closed loop T = 1/(1 + sτ) is the open loop
-        // L = 1/(sτ): crossover at 1/(2πτ), phase margin 90°, Ms = 1.
+        // The log's loop: T = e^{−sθ} / (1 + sτ), θ = 0.5 ms (the
+        // step-invariant discrete lag is the continuous one behind a
+        // zero-order hold: half a sample). |L| = 1 where
+        // |T| = |1 − T|, i.e. Re T = 1/2; the phase margin is
+        // 180° + ∠(T / (1 − T)) there; T/(1 − T) = 1/(sτ) without the delay.
+        let (tau, theta) = (0.01, 0.5e-3);
+        let t_of = |f: f64| {
+            let w = 2.0 * std::f64::consts::PI * f;
+            C::from_phase(-w * theta).div(C::new(1.0, w * tau))
+        };
+        let fc = (0..100_000)
+            .map(|i| 1.0 + i as f64 * 1e-3)
+            .find(|&f| t_of(f).re <= 0.5)
+            .unwrap();
+        let t = t_of(fc);
+        let pm = 180.0 + t.div(C::new(1.0, 0.0).sub(t)).arg().to_degrees();
         for a in r {
             let m = a.margins;
-            let fc = 1.0 / (2.0 * std::f64::consts::PI * 0.01);
-            assert!((m.crossover_hz.unwrap() / fc - 1.0).abs() < 0.05, "{m:?}");
-            assert!((m.phase_margin_deg.unwrap() - 90.0).abs() < 5.0, "{m:?}");
+            assert!(
+                (m.crossover_hz.unwrap() / fc - 1.0).abs() < 0.03,
+                "{m:?} {fc}"
+            );
+            assert!((m.phase_margin_deg.unwrap() - pm).abs() < 3.0, "{m:?} {pm}");
             assert!(m.ms < 1.1, "{m:?}");
         }
     }

@@ -218,6 +218,33 @@ mod tests {
     use super::*;
 
     #[test]
+    fn more_roll_p_crosses_over_higher_with_less_margin() {
+        // Loop-shaping's first rule: a higher proportional gain raises
+        // |L| everywhere, so the crossover moves up, where the airframe's
+        // and the sensor's lags have eaten more phase.
+        let spec: SweepSpec = "rate.roll.p=1:2:2".parse().unwrap();
+        let mut o = ClosedLoopOptions::new(super::super::closed_loop::Scenario::Chirp, 1);
+        o.mag_dance_s = 20.0;
+        let rows = run(&spec, &o, &FlightConfig::default()).unwrap();
+        for l in table(&spec, &rows) {
+            println!("{l}");
+        }
+        let m: Vec<_> = rows
+            .iter()
+            .map(|r| r.report.as_ref().unwrap().margins)
+            .collect();
+        assert!(
+            m[1].crossover_hz.unwrap() > 1.2 * m[0].crossover_hz.unwrap(),
+            "{m:?}"
+        );
+        assert!(
+            m[1].phase_margin_deg.unwrap() < m[0].phase_margin_deg.unwrap(),
+            "{m:?}"
+        );
+        assert!(m[1].ms > m[0].ms, "{m:?}");
+    }
+
+    #[test]
     fn specs_parse_and_bad_ones_are_refused() {
         let s: SweepSpec = "rate.pitch.d=0.5:2:4".parse().unwrap();
         assert_eq!((s.axis, s.term, s.steps), (1, 'd', 4));
