@@ -119,7 +119,7 @@ struct Cli {
     /// scenario CSV has them; the board's raw log has no setpoint and is
     /// refused with that reason.
     #[arg(long, value_name = "FILE.csv",
-          conflicts_with_all = ["scenario", "csv", "plot", "fault"])]
+          conflicts_with_all = ["scenario", "trajectory", "duration", "csv", "plot", "fault"])]
     analyse: Option<PathBuf>,
     /// With --scenario chirp: fly it once per multiplier of one rate-loop
     /// gain's default, rate.AXIS.TERM=LO:HI:STEPS (AXIS roll, pitch, yaw;

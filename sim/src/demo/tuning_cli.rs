@@ -16,6 +16,11 @@ pub fn check(
     sweeping: bool,
 ) -> Result<Option<SafeFile>, String> {
     let chirp = scenario == Some("chirp");
+    if let Some(i) = input {
+        if !i.is_file() {
+            return Err(format!("--analyse {}: no such file", i.display()));
+        }
+    }
     if sweeping && !chirp {
         return Err("--sweep flies the chirp: use it with --scenario chirp".into());
     }
