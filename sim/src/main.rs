@@ -121,6 +121,24 @@ struct Cli {
     /// flies nothing else.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["scenario", "csv", "plot", "trajectory", "duration"])]
     spectrum: Option<PathBuf>,
+    /// With --scenario chirp or --analyse: the Bode plot of the rate loop
+    /// per axis (open loop |L| and phase, sensitivity |1 − T|); .png or .svg.
+    #[arg(long, value_name = "FILE")]
+    bode: Option<PathBuf>,
+    /// Measure the rate loop from a CSV log instead of flying: crossover,
+    /// margins, Ms and the deconvolved step per axis. The log needs t_s,
+    /// sp_AXIS_rate_dps and gyro_AXIS_dps (AXIS roll, pitch, yaw), as a
+    /// scenario CSV has them; the board's raw log has no setpoint and is
+    /// refused with that reason.
+    #[arg(long, value_name = "FILE.csv",
+          conflicts_with_all = ["scenario", "trajectory", "duration", "csv", "plot", "fault"])]
+    analyse: Option<PathBuf>,
+    /// With --scenario chirp: fly it once per multiplier of one rate-loop
+    /// gain's default, rate.AXIS.TERM=LO:HI:STEPS (AXIS roll, pitch, yaw;
+    /// TERM p, i, d; e.g. rate.roll.p=0.5:2:5), and print (--plot: draw)
+    /// that axis' figures against it.
+    #[arg(long, value_name = "SPEC", requires = "scenario", conflicts_with_all = ["csv", "bode"])]
+    sweep: Option<demo::sweep::SweepSpec>,
     /// No progress line on stderr.
     #[arg(short, long)]
     quiet: bool,
@@ -194,6 +212,7 @@ struct Outputs {
     csv: Option<CsvOut>,
     plot: Option<SafeFile>,
     spectrum: Option<SafeFile>,
+    bode: Option<SafeFile>,
 }
 
 /// Where the CSV goes.
@@ -238,10 +257,14 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let done = match (&cli.scenario, outputs.spectrum.is_some()) {
-        (_, true) => execute_spectrum(&cli, outputs),
-        (Some(name), false) => execute_scenario(name, &cli, outputs),
-        (None, false) => execute(&opts, outputs),
+    let done = if outputs.spectrum.is_some() {
+        execute_spectrum(&cli, outputs)
+    } else {
+        match (&cli.scenario, &cli.analyse) {
+            (_, Some(input)) => demo::tuning_cli::analyse_file(input, outputs.bode),
+            (Some(name), None) => execute_scenario(name, &cli, outputs),
+            (None, None) => execute(&opts, outputs),
+        }
     };
     match done {
         Ok(()) if host_console::stdout_failed() => {
@@ -292,6 +315,12 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
         None => None,
     };
     let spectrum = open_spectrum(cli)?;
+    let bode = demo::tuning_cli::check(
+        cli.scenario.as_deref(),
+        cli.analyse.as_deref(),
+        cli.bode.as_deref(),
+        cli.sweep.is_some(),
+    )?;
     let opts = RunOptions {
         trajectory,
         seed: cli.seed,
@@ -308,6 +337,7 @@ fn validate(cli: &Cli) -> Result<(RunOptions, Outputs), String> {
             csv,
             plot,
             spectrum,
+            bode,
         },
     ))
 }
@@ -439,6 +469,9 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
         drag.wind_ned_mps = [n, e, 0.0];
     }
     opts.airframe = opts.airframe.with_vibration_scale(cli.vibration);
+    if let Some(spec) = &cli.sweep {
+        return demo::tuning_cli::sweep(spec, &opts, outputs.plot);
+    }
     let mut fc = demo::flight_fc::FirmwareFc::new(flight::flightctl::FlightConfig::default())?;
     say!(
         "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",
@@ -457,8 +490,16 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
         ));
     }
     let title = format!("sim closed loop: {} seed {}", scenario.name(), opts.seed);
+    let bode = outputs.bode;
+    let outputs = Outputs {
+        bode: None,
+        ..outputs
+    };
     write_scenario_outputs(&log, &title, outputs)?;
     print_scenario(&log, &opts);
+    if scenario == Scenario::Chirp {
+        demo::tuning_cli::report_chirp(&log, opts.seed, bode)?;
+    }
     Ok(())
 }
 

@@ -107,6 +107,13 @@ pub enum Scenario {
     /// without) for [`FLAP_HOLD_S`] from [`FLAP_S`], then comes back
     /// steadily.
     Flapping,
+    /// After the take-off: in acro, a logarithmic sweep of the roll, then
+    /// the pitch, then the yaw stick ([`chirp_stick`]), each from altitude
+    /// hold and back to it; the pilot's hand ([`AcroHand`]) keeps the
+    /// height and the tilt by eye meanwhile. The script alone (without
+    /// the hand, as the emulated board's rig flies it today) leaves acro's
+    /// throttle at mid stick and the tilt to drift.
+    Chirp,
 }
 
 /// Time the arm switch is flipped (s): after boot and the start-up gyro bias.
@@ -161,7 +168,7 @@ pub const REVERSED_PROP_FRACTION: f64 = 0.7;
 
 impl Scenario {
     /// Names for the command line.
-    pub const NAMES: [&'static str; 9] = [
+    pub const NAMES: [&'static str; 10] = [
         "takeoff",
         "steps",
         "althold",
@@ -171,6 +178,7 @@ impl Scenario {
         "reversedprop",
         "climbloss",
         "flapping",
+        "chirp",
     ];
 
     /// By name.
@@ -185,6 +193,7 @@ impl Scenario {
             "reversedprop" => Self::ReversedProp,
             "climbloss" => Self::ClimbLinkLoss,
             "flapping" => Self::Flapping,
+            "chirp" => Self::Chirp,
             _ => return None,
         })
     }
@@ -201,6 +210,7 @@ impl Scenario {
             Self::ReversedProp => "reversedprop",
             Self::ClimbLinkLoss => "climbloss",
             Self::Flapping => "flapping",
+            Self::Chirp => "chirp",
         }
     }
 
@@ -215,6 +225,7 @@ impl Scenario {
             Self::Swapped | Self::ReversedProp => 8.0,
             Self::ClimbLinkLoss => 26.0,
             Self::Flapping => 18.0,
+            Self::Chirp => CHIRP_START_S + 3.0 * CHIRP_AXIS_PERIOD_S,
         }
     }
 
@@ -294,6 +305,16 @@ impl Scenario {
                     mode = Mode::Angle;
                 }
             }
+            Self::Chirp => {
+                if let Some((axis, stick)) = chirp_stick(t_s) {
+                    mode = Mode::Acro;
+                    match axis {
+                        0 => sticks.roll = stick,
+                        1 => sticks.pitch = stick,
+                        _ => sticks.yaw = stick,
+                    }
+                }
+            }
             Self::Takeoff
             | Self::LinkLoss
             | Self::MotorFailure
@@ -309,6 +330,123 @@ impl Scenario {
             arm: t_s >= ARM_AT_S,
             mode,
         })
+    }
+}
+
+/// Chirp: the first sweep (roll) starts here (s), after the take-off
+/// and 2 s of hover.
+pub const CHIRP_START_S: f64 = 8.0;
+/// Length of one axis' sweep (s).
+pub const CHIRP_SWEEP_S: f64 = 20.0;
+/// Altitude hold between two sweeps (s): the craft levels and settles.
+pub const CHIRP_REST_S: f64 = 3.0;
+/// One axis: its sweep and the rest after it (s).
+pub const CHIRP_AXIS_PERIOD_S: f64 = CHIRP_SWEEP_S + CHIRP_REST_S;
+/// Lowest frequency of the sweep (Hz): at the roll/pitch stick's ≈ 85 °/s
+/// the craft swings ±19° here, within the ±30° a sweep should stay in.
+pub const CHIRP_F0_HZ: f64 = 0.7;
+/// Highest frequency of the sweep (Hz): the 4 ms CRSF frames hold the
+/// stick for a third of a period here (the staircase is the controller's
+/// own setpoint, which the analysis uses, so it only colours the
+/// excitation), and the loop's response is far below its crossover.
+pub const CHIRP_F1_HZ: f64 = 80.0;
+/// Roll and pitch stick amplitude: ≈ 85 °/s through the default shaping
+/// (500 °/s, expo 0.3, 2 % deadband); small enough that the D term at the
+/// top of the sweep stays within the torque range.
+pub const CHIRP_STICK_RP: f32 = 0.25;
+/// Yaw stick amplitude: ≈ 75 °/s through the default yaw shaping (300 °/s).
+pub const CHIRP_STICK_YAW: f32 = 0.35;
+
+/// The chirp's stick at `t_s`: the axis (0 roll, 1 pitch, 2 yaw) and the
+/// deflection, `None` outside the sweeps. A logarithmic sweep from
+/// [`CHIRP_F0_HZ`] to [`CHIRP_F1_HZ`] over [`CHIRP_SWEEP_S`], phase
+/// `2π f0 T / ln k · (k^(t/T) − 1)` with `k = f1/f0`, as a cosine so the
+/// angle it drives (its integral) swings about the start instead of
+/// drifting to one side.
+pub fn chirp_stick(t_s: f64) -> Option<(usize, f32)> {
+    let since = t_s - CHIRP_START_S;
+    if since < 0.0 {
+        return None;
+    }
+    let axis = (since / CHIRP_AXIS_PERIOD_S).floor() as usize;
+    let t = since - axis as f64 * CHIRP_AXIS_PERIOD_S;
+    if axis > 2 || t >= CHIRP_SWEEP_S {
+        return None;
+    }
+    let k_ln = (CHIRP_F1_HZ / CHIRP_F0_HZ).ln();
+    let phase = 2.0 * core::f64::consts::PI * CHIRP_F0_HZ * CHIRP_SWEEP_S / k_ln
+        * ((k_ln * t / CHIRP_SWEEP_S).exp() - 1.0);
+    let amplitude = if axis == 2 {
+        CHIRP_STICK_YAW
+    } else {
+        CHIRP_STICK_RP
+    };
+    Some((axis, amplitude * phase.cos() as f32))
+}
+
+/// What the pilot sees of the craft (by eye: the truth).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Seen {
+    /// Roll and pitch (rad, ZYX Euler).
+    pub tilt_rad: [f64; 2],
+    /// Height above the take-off point (m).
+    pub height_m: f64,
+    /// Vertical speed, up (m/s).
+    pub climb_mps: f64,
+    /// The mean of the four motor commands (0..1): what the pilot's
+    /// throttle gives in altitude hold, heard as the hover's pitch.
+    pub mean_motor: f64,
+}
+
+/// The pilot's hand in acro during a sweep: the throttle holds the height
+/// the sweep began at (a PD on the height about the hover throttle heard
+/// in altitude hold just before, plus a slow integral), and the roll and
+/// pitch sticks pull the tilt back to level at ≈ 0.15 Hz, well below the
+/// sweep's band, so the sweep is the setpoint's content there. Outside
+/// acro it only listens.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AcroHand {
+    hover: Option<f64>,
+    height_ref_m: Option<f64>,
+    integral: f64,
+    last_t_s: Option<f64>,
+}
+
+/// Throttle per metre of height error.
+const HAND_HEIGHT_P: f64 = 0.08;
+/// Throttle per m/s of vertical speed.
+const HAND_CLIMB_D: f64 = 0.08;
+/// Throttle per metre-second of height error.
+const HAND_HEIGHT_I: f64 = 0.02;
+/// Roll/pitch stick per radian of tilt: at the default 500 °/s and expo
+/// 0.3 a stick `s` asks about 0.7 · 500 °/s · s, so 0.15 per radian is
+/// a rate of ≈ 0.9 rad/s per rad (0.15 Hz).
+const HAND_TILT_STICK_PER_RAD: f64 = 0.15;
+
+impl AcroHand {
+    /// The pilot's frame with the hand's corrections, given what is seen
+    /// at `t_s`.
+    pub fn fly(&mut self, pilot: Option<Pilot>, seen: &Seen, t_s: f64) -> Option<Pilot> {
+        let dt_s = self.last_t_s.map_or(0.0, |t| (t_s - t).max(0.0));
+        self.last_t_s = Some(t_s);
+        let mut p = pilot?;
+        if p.mode != Mode::Acro {
+            self.hover = Some(seen.mean_motor);
+            self.height_ref_m = None;
+            self.integral = 0.0;
+            return Some(p);
+        }
+        let h_ref = *self.height_ref_m.get_or_insert(seen.height_m);
+        let err_m = h_ref - seen.height_m;
+        self.integral += HAND_HEIGHT_I * err_m * dt_s;
+        let hover = self.hover.unwrap_or(f64::from(p.sticks.throttle));
+        let throttle =
+            hover + self.integral + HAND_HEIGHT_P * err_m - HAND_CLIMB_D * seen.climb_mps;
+        p.sticks.throttle = throttle.clamp(0.0, 1.0) as f32;
+        let level = |t: f64| (-HAND_TILT_STICK_PER_RAD * t) as f32;
+        p.sticks.roll += level(seen.tilt_rad[0]);
+        p.sticks.pitch -= level(seen.tilt_rad[1]);
+        Some(p)
     }
 }
 

@@ -347,3 +347,61 @@ fn the_spectrum_is_drawn_and_its_summary_printed() {
     );
     assert!(std::fs::metadata(&out).unwrap().len() > 1000);
 }
+
+/// `--scenario chirp --csv --bode` measures the rate loop and writes the
+/// plot; `--analyse` of that CSV measures it again; the board's raw log is
+/// refused with its reason (no setpoint), and `--bode` without a
+/// measurement is a usage error.
+#[test]
+fn the_chirp_is_measured_and_its_csv_can_be_analysed() {
+    let d = dir("chirp");
+    std::fs::create_dir_all(&d).unwrap();
+    let (csv, bode) = (d.join("chirp.csv"), d.join("bode.png"));
+    let o = sim(&[
+        "--scenario",
+        "chirp",
+        "--mag-dance",
+        "10",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--bode",
+        bode.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(out.contains("== rate loop: chirp seed 1 =="), "{out}");
+    assert!(std::fs::metadata(&bode).unwrap().len() > 10_000);
+    let again = sim(&["--analyse", csv.to_str().unwrap()]);
+    assert_eq!(again.status.code(), Some(0), "{}", stderr(&again));
+    let text = String::from_utf8_lossy(&again.stdout).into_owned();
+    for axis in ["roll ", "pitch ", "yaw "] {
+        assert!(text.lines().any(|l| l.starts_with(axis)), "{text}");
+    }
+    let raw = d.join("raw.csv");
+    std::fs::write(
+        &raw,
+        format!(
+            "{}\n0.01,0,0,0,0,0,9.8,1,2,3,nan,nan,nan,nan,0\n",
+            sensor_stack::calmode::RAW_LOG_HEADER
+        ),
+    )
+    .unwrap();
+    let refused = sim(&["--analyse", raw.to_str().unwrap()]);
+    assert_eq!(refused.status.code(), Some(1));
+    assert!(
+        stderr(&refused).contains("no rate setpoint"),
+        "{}",
+        stderr(&refused)
+    );
+    let usage = sim(&["--scenario", "steps", "--bode", bode.to_str().unwrap()]);
+    assert_eq!(usage.status.code(), Some(2), "{}", stderr(&usage));
+    // The input is never the output.
+    let same = sim(&[
+        "--analyse",
+        csv.to_str().unwrap(),
+        "--bode",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(same.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(d);
+}

@@ -60,6 +60,11 @@ pub struct ControlOutput {
     /// The controller counts the craft as flying (the AHRS's multirotor
     /// mode takes it, as the firmware wires it).
     pub in_flight: bool,
+    /// The body rates the rate loop was given (rad/s, FRD; the pipeline's
+    /// gyro), `None` without a usable sample.
+    pub gyro_rps: Option<[f32; 3]>,
+    /// The rate loop's torque command (roll, pitch, yaw; −1..1) while flying.
+    pub torque: Option<[f32; 3]>,
 }
 
 /// A flight controller as the closed loop sees it.
@@ -176,6 +181,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     let mut events = Vec::new();
     let mut radio = Radio::default();
     let mut faults = FaultSchedule::new(&opts.faults);
+    let mut hand = AcroHand::default();
     while clock.now_s() < duration_s {
         faults.apply_due(clock.now_s(), &bus, |f| {
             events.push((clock.now_s(), format!("fault {f}")));
@@ -194,7 +200,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
             missed += 1;
             continue;
         };
-        let pilot = opts.scenario.pilot(now_s);
+        let pilot = hand.fly(opts.scenario.pilot(now_s), &seen(&quad, &out), now_s);
         let now_us = clock.now_us() as u32;
         let input = ControlInput::from_stack(&stack, now_us, radio.poll(now_s, now_us, pilot));
         out = fc.step(&input)?;
@@ -251,6 +257,18 @@ impl Sample {
             pilot,
             quad: *quad.state(),
         }
+    }
+}
+
+/// What the pilot sees: the true tilt, height and climb, and the motors' hum.
+fn seen(quad: &Quadcopter, out: &ControlOutput) -> Seen {
+    let t = quad.truth();
+    let [roll, pitch, _] = t.q_ned_from_body.to_euler();
+    Seen {
+        tilt_rad: [roll, pitch],
+        height_m: t.height_m,
+        climb_mps: -t.velocity_ned_mps[2],
+        mean_motor: out.motors.iter().map(|&m| f64::from(m)).sum::<f64>() / 4.0,
     }
 }
 

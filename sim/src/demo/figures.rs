@@ -405,6 +405,7 @@ pub fn figures(log: &FlightLog) -> Figures {
         Scenario::Swapped | Scenario::ReversedProp => CLIMB_TO_S,
         Scenario::ClimbLinkLoss => sim::scenario::CLIMB_LOSS_THROTTLE_S,
         Scenario::Flapping => sim::scenario::FLAP_S,
+        Scenario::Chirp => sim::scenario::CHIRP_START_S,
     };
     let mut f = Figures {
         hover: height_hold(s, CLIMB_TO_S + 3.0, hover_end),
@@ -467,6 +468,8 @@ pub fn figures(log: &FlightLog) -> Figures {
         }
         Scenario::MotorFailure => f.motor_failure = motor_failure(s),
         Scenario::Swapped | Scenario::ReversedProp | Scenario::Takeoff => f.runaway = runaway(s),
+        // The sweep's figures are the loop's frequency response (`tuning`).
+        Scenario::Chirp => {}
     }
     f
 }

@@ -70,6 +70,11 @@ impl FlightControl for FirmwareFc {
             failsafe: failsafe
                 || matches!(out.state, FlightState::Failsafe(FailsafePhase::Descend)),
             in_flight: self.fc.in_flight(),
+            gyro_rps: input
+                .vehicle
+                .gyro()
+                .map(|g| [g.roll_rps, g.pitch_rps, g.yaw_rps]),
+            torque: flying.then_some([out.torque.roll, out.torque.pitch, out.torque.yaw]),
         })
     }
 

@@ -16,12 +16,17 @@
 //!   [`scenario_csv`] logs it sample by sample.
 //! * [`spectrum`] draws the simulated gyro's spectrum at hover and full
 //!   throttle (`--spectrum`).
+//! * [`freq`] and [`step`] measure a loop from its signals (frequency
+//!   response and margins; step response by deconvolution); [`tuning`]
+//!   applies them to the rate loop of a flight or a log.
 //!
 //! Printing that survives a closed pipe is `host_console`, shared with `replay`.
 
+pub mod analyse;
 pub mod closed_loop;
 pub mod figures;
 pub mod flight_fc;
+pub mod freq;
 pub mod mag;
 pub mod output;
 pub mod plot;
@@ -31,7 +36,11 @@ pub mod run;
 pub mod scenario_csv;
 pub mod spectrum;
 pub mod stack;
+pub mod step;
+pub mod sweep;
 pub mod timeline;
+pub mod tuning;
+pub mod tuning_cli;
 
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]

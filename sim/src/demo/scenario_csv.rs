@@ -11,7 +11,7 @@ use std::io::Write;
 
 /// Every column, in order, with what it holds. An empty cell: no value at
 /// that sample (no estimate yet, no setpoint while disarmed or in that mode).
-pub const COLUMNS: [(&str, &str); 33] = [
+pub const COLUMNS: [(&str, &str); 39] = [
     ("t_s", "simulated time (s)"),
     ("true_roll_deg", "true roll (°, within ±180)"),
     ("true_pitch_deg", "true pitch (°)"),
@@ -44,6 +44,12 @@ pub const COLUMNS: [(&str, &str); 33] = [
     ("link", "1 a radio frame was sent at this sample, 0 link lost"),
     ("on_ground", "1 the model rests on the ground"),
     ("battery_v", "battery terminal voltage (V)"),
+    ("gyro_roll_dps", "the gyro the rate loop was given, about x (°/s; the pipeline's, bias removed)"),
+    ("gyro_pitch_dps", "the gyro the rate loop was given, about y (°/s)"),
+    ("gyro_yaw_dps", "the gyro the rate loop was given, about z (°/s)"),
+    ("torque_roll", "the rate loop's roll torque command (−1..1)"),
+    ("torque_pitch", "the rate loop's pitch torque command (−1..1)"),
+    ("torque_yaw", "the rate loop's yaw torque command (−1..1)"),
     (
         "events",
         "the events of this sample, separated by `; `: the controller's in the words of the status lines and the board's log (ARMED, failsafe: no link: holding level and the height, failsafe: descending, disarmed: failsafe: landed, ...), injected faults (fault TIME:KIND), link lost, link back, motor N failed, lift-off, touch-down",
@@ -134,6 +140,14 @@ fn row(s: &Sample) -> String {
             .map(flag)
             .join(","),
         format!("{:.3}", s.quad.battery_voltage_v),
+        (0..3)
+            .map(|i| opt(out.gyro_rps.map(|g| f64::from(g[i]).to_degrees()), 3))
+            .collect::<Vec<_>>()
+            .join(","),
+        (0..3)
+            .map(|i| opt(out.torque.map(|t| f64::from(t[i])), 4))
+            .collect::<Vec<_>>()
+            .join(","),
     ];
     cells.join(",")
 }
