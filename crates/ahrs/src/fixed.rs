@@ -718,12 +718,9 @@ pub struct MadgwickFixed {
     /// Time rejected without a break (Q20 s), for the fallback.
     mag_reject_q20: i64,
     rate_lp_down_q40: i64,
-    /// Two first-order low-pass stages of the specific force (g, Q27) in the estimate's
+    /// Two first-order low-pass stages of the specific force (g, Q26) in the estimate's
     /// NED frame.
     acc_lp: [[i32; 3]; 2],
-    /// The previous sample's body-plane specific force (g, Q26) in the estimate's NED
-    /// frame, horizontal part (multirotor mode).
-    drag_h: [i32; 2],
     /// The rotor-plane specific force in NED through the drag model's input low-pass
     /// (g, Q26).
     drag_lp: [i32; 2],
@@ -731,6 +728,10 @@ pub struct MadgwickFixed {
     drag_p: [i32; 2],
     /// In flight ([`MadgwickFixed::set_in_flight`]).
     in_flight: bool,
+    /// Samples the tilt correction skipped since the drag model last ran.
+    drag_skipped: u32,
+    /// The last heading correction (Q30 rad), for the drag model's states.
+    drag_tz: i32,
     acc_lp_valid: bool,
 }
 
@@ -753,10 +754,11 @@ impl MadgwickFixed {
             mag_reject_q20: 0,
             rate_lp_down_q40: 0,
             acc_lp: [[0; 3]; 2],
-            drag_h: [0; 2],
             drag_lp: [0; 2],
             drag_p: [0; 2],
             in_flight: false,
+            drag_skipped: 0,
+            drag_tz: 0,
             acc_lp_valid: false,
         }
     }
@@ -1032,7 +1034,7 @@ impl MadgwickFixed {
     }
 
     /// Accelerometer (inclination) correction, as the f32 filter's: the specific force in
-    /// g (Q27) in the estimate's NED frame through two first-order low-pass stages (Q27
+    /// g (Q26) in the estimate's NED frame through two first-order low-pass stages (Q26
     /// states, k = dt/τ in Q30); returns the earth-frame rotation (x, y) in Q30 rad that
     /// takes the low-passed vector onto the vertical.
     fn correct_tilt(
@@ -1044,8 +1046,13 @@ impl MadgwickFixed {
         initialising: bool,
         st: &mut UpdateStatus,
     ) -> Option<[i32; 2]> {
-        let (a, n2) = acc?;
+        // A skipped sample is not seen by the drag model either (as the f32 filter).
+        let Some((a, n2)) = acc else {
+            self.skip_drag();
+            return None;
+        };
         if self.reject_accel(r[2], a, n2, dt_q31, initialising, st) {
+            self.skip_drag();
             return None;
         }
         let c = &self.c;
@@ -1106,7 +1113,19 @@ impl MadgwickFixed {
         // not during the start-up ramp).
         if !cfg!(feature = "no-multirotor") && self.c.inv_drag_q16 > 0 {
             let on = self.in_flight && !initialising;
-            let [d0, d1] = self.drag_rate(r, ag, first, if on { inv_tau } else { 0 }, dt_q31);
+            // The velocity change across skipped samples, spread over them.
+            // 1/τ ≤ 2000 in Q20 fits u32: one 32-bit `UDIV`, only after a gap.
+            let inv_tau = match (on, self.drag_skipped) {
+                (false, _) => 0,
+                (true, 0) => inv_tau,
+                (true, n) => i64::from(
+                    (inv_tau as u32)
+                        .checked_div(n.saturating_add(1))
+                        .unwrap_or(0),
+                ),
+            };
+            self.drag_skipped = 0;
+            let [d0, d1] = self.drag_rate(r, ag, first, inv_tau, dt_q31);
             let s1 = &mut self.acc_lp[0];
             s1[0] = s1[0].saturating_add(d0);
             s1[1] = s1[1].saturating_add(d1);
@@ -1119,7 +1138,6 @@ impl MadgwickFixed {
     /// (0: nothing), `first` starting from this sample. c = 1/(μ·τ) in Q16 is at most
     /// 2^31 and |Δh| < 2^30 (|h| < 2^29: |p| ≤ 4 g, rows of R < 1.2 in norm), so the
     /// product is < 2^61.
-    #[inline(never)]
     fn drag_rate(
         &mut self,
         r: &[[i32; 3]; 3],
@@ -1130,25 +1148,40 @@ impl MadgwickFixed {
     ) -> [i32; 2] {
         let raw = drag_velocity_ned(&self.c, r, ag, &mut self.drag_p);
         if first {
-            self.drag_h = raw;
             self.drag_lp = raw;
         }
-        // The input low-pass (as the f32 filter's): k = dt·ω_c in Q30 (Q31·Q20 >> 21).
+        // The last heading correction turns the low-pass's state with the frame (as
+        // the f32 filter): Q30·Q26 >> 30, |θz| ≤ ¼, |h| < 2^29.
+        let tz = self.drag_tz;
+        let [h0, h1] = self.drag_lp;
+        let h = [
+            h0 - (m64(tz, h1) >> 30) as i32,
+            h1 + (m64(tz, h0) >> 30) as i32,
+        ];
+        // The input low-pass (as the f32 filter's): k = dt·ω_c in Q30 (Q31·Q20 >> 21);
+        // its step is this sample's Δh. |raw|, |h| < 2^29: the difference fits.
         let k = ((i64::from(dt_q31) * DRAG_INPUT_WC_Q20) >> 21)
             .max(0)
             .min(ONE_Q30) as i32;
-        let [l0, l1] = &mut self.drag_lp;
-        *l0 = lp_step(*l0, raw[0], k);
-        *l1 = lp_step(*l1, raw[1], k);
-        let h = [*l0, *l1];
+        let dh = [
+            (m64(k, raw[0] - h[0]) >> 30) as i32,
+            (m64(k, raw[1] - h[1]) >> 30) as i32,
+        ];
+        self.drag_lp = [h[0] + dh[0], h[1] + dh[1]];
         // Q20·Q16 >> 20 (< 2^31·2^23), at most 2^31.
         let c_q16 = ((inv_tau * self.c.inv_drag_q16) >> 20).min(i64::from(i32::MAX)) as i32;
-        let [h0, h1] = self.drag_h;
-        self.drag_h = h;
         [
-            sat32(m64(h[0] - h0, c_q16) >> 16),
-            sat32(m64(h[1] - h1, c_q16) >> 16),
+            sat32(m64(dh[0], c_q16) >> 16),
+            sat32(m64(dh[1], c_q16) >> 16),
         ]
+    }
+
+    /// A sample the tilt correction skips: the drag model spreads the velocity change
+    /// across the gap over the samples it spans when it next runs.
+    fn skip_drag(&mut self) {
+        if !cfg!(feature = "no-multirotor") {
+            self.drag_skipped = self.drag_skipped.saturating_add(1);
+        }
     }
 
     /// Accelerometer rejection with its recovery timeout; true if the sample is rejected.
@@ -1290,6 +1323,10 @@ impl MadgwickFixed {
                 sat32(i64::from(s1) + c1),
                 sat32(i64::from(s2) + c2),
             ];
+        }
+        // The drag model turns its states by it when it next runs.
+        if !cfg!(feature = "no-multirotor") {
+            self.drag_tz = theta[2];
         }
         true
     }
@@ -1633,12 +1670,14 @@ mod tests {
     use super::*;
     use crate::madgwick::{drag_model, DragModel};
 
+    #[cfg(not(feature = "no-multirotor"))]
     /// The simulator's 250-class quad (μ = 0.1/0.6 per s, κ = 0.006/0.6 per m).
     fn quad_drag() -> (Config, DragModel) {
         let cfg = Config::multirotor(0.1 / 0.6, 0.006 / 0.6);
         (cfg, drag_model(&cfg).unwrap())
     }
 
+    #[cfg(not(feature = "no-multirotor"))]
     #[test]
     fn the_drag_iteration_converges_on_the_inverse_of_the_drag_law() {
         // x = p + β·p·|p|: from p = 0, the iteration p ← x/(1 + β|p|) contracts by
@@ -1656,6 +1695,7 @@ mod tests {
         }
     }
 
+    #[cfg(not(feature = "no-multirotor"))]
     #[test]
     fn the_fixed_drag_iteration_follows_the_f32_one() {
         let (cfg, d) = quad_drag();
@@ -1684,6 +1724,9 @@ mod tests {
             assert_eq!(FixedConfig::from_config(&cfg).inv_drag_q16, 0);
         }
         // A tiny μ is raised to the smallest, and β stays within its bound.
+        if cfg!(feature = "no-multirotor") {
+            return;
+        }
         let d = drag_model(&Config::multirotor(1e-6, 1.0)).unwrap();
         assert_eq!(d.mu, crate::madgwick::MIN_ROTOR_DRAG_PER_S);
         assert_eq!(d.beta, crate::madgwick::MAX_DRAG_BETA);

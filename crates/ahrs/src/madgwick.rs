@@ -171,10 +171,6 @@ pub struct Madgwick {
     /// Two first-order low-pass stages of the specific force (in g) in the estimate's
     /// NED frame.
     acc_lp: [[f32; 3]; 2],
-    /// The previous sample's body-plane specific force (g) rotated into the estimate's
-    /// NED frame, horizontal part: −μ/g times the velocity through the air
-    /// (multirotor mode, [`Config::rotor_drag_per_s`]).
-    drag_h: [f32; 2],
     /// The rotor-plane specific force in NED through the drag model's input low-pass
     /// ([`DRAG_INPUT_CUTOFF_HZ`], g).
     drag_lp: [f32; 2],
@@ -182,6 +178,10 @@ pub struct Madgwick {
     drag_p: [f32; 2],
     /// In flight: the multirotor mode's drag model applies ([`Madgwick::set_in_flight`]).
     in_flight: bool,
+    /// Samples the tilt correction skipped since the drag model last ran.
+    drag_skipped: u32,
+    /// The last heading correction (rad), for the drag model's states.
+    drag_tz: f32,
     acc_lp_valid: bool,
     // constants derived from cfg
     cos_accel_angle: f32,
@@ -269,10 +269,11 @@ impl Madgwick {
             mag_reject_s: 0.0,
             rate_lp_down_rps: 0.0,
             acc_lp: [[0.0; 3]; 2],
-            drag_h: [0.0; 2],
             drag_lp: [0.0; 2],
             drag_p: [0.0; 2],
             in_flight: false,
+            drag_skipped: 0,
+            drag_tz: 0.0,
             acc_lp_valid: false,
             cos_accel_angle: crate::quat::cos_deg(cfg.accel_rejection.angle_deg),
             sin_dip_tol: crate::quat::sin_deg(cfg.mag_rejection.dip_tol_deg),
@@ -548,8 +549,15 @@ impl Madgwick {
         initialising: bool,
         st: &mut UpdateStatus,
     ) -> Option<[f32; 2]> {
-        let (a, n2) = acc?;
+        // A skipped sample is not seen by the drag model either: the velocity change
+        // across the gap then enters spread over the samples it spans (the first stage
+        // took one step of the specific force for them, not one each).
+        let Some((a, n2)) = acc else {
+            self.drag_skipped = self.drag_skipped.saturating_add(1);
+            return None;
+        };
         if self.reject_accel(rot[2], a, n2, dt_s, initialising, st) {
+            self.drag_skipped = self.drag_skipped.saturating_add(1);
             return None;
         }
         let cfg = self.cfg;
@@ -585,7 +593,9 @@ impl Madgwick {
         if let Some(d) = drag_model(&cfg) {
             let on = self.in_flight && !initialising;
             let inv_tau = if on { inv_tau } else { 0.0 };
-            let [d0, d1] = self.drag_rate(d, rot, accel, inv_g, first, inv_tau, dt_s);
+            let span = 1.0 + self.drag_skipped as f32;
+            self.drag_skipped = 0;
+            let [d0, d1] = self.drag_rate(d, rot, accel, inv_g, first, inv_tau / span, dt_s);
             self.acc_lp[0][0] += d0;
             self.acc_lp[0][1] += d1;
         }
@@ -597,8 +607,9 @@ impl Madgwick {
     /// starting from this sample: the stage's step k·(x − s) with k = dt/τ applied to
     /// −a/g, and a/g = −(1/μ)·dh/dt for h = −μ·v/g ([`DragModel::velocity_ned`]), is
     /// k·(1/μ)·Δh/dt = Δh/(μ·τ). The second stage smooths the sample-to-sample
-    /// difference (a vibrating accelerometer's noise reaches its output as about
-    /// √(k/2)/(μ·τ) of it).
+    /// difference; with the 5 Hz input low-pass ahead ([`DRAG_INPUT_CUTOFF_HZ`], gain
+    /// k_in per sample) white accelerometer noise reaches the second stage's output as
+    /// about √(k_in/2)·√(k/2)/(μ·τ) of it.
     #[allow(clippy::too_many_arguments)]
     fn drag_rate(
         &mut self,
@@ -612,19 +623,20 @@ impl Madgwick {
     ) -> [f32; 2] {
         let raw = d.velocity_ned(rot, [accel[0] * inv_g, accel[1] * inv_g], &mut self.drag_p);
         if first {
-            self.drag_h = raw;
             self.drag_lp = raw;
         }
-        // The input low-pass, k = dt·ω_c (forward Euler, as the fixed filter).
+        // The last heading correction turns the low-pass's state with the frame (its
+        // tilt part leaves a horizontal vector horizontal to first order).
+        let tz = self.drag_tz;
+        let [h0, h1] = self.drag_lp;
+        let h = [h0 - tz * h1, h1 + tz * h0];
+        // The input low-pass, k = dt·ω_c (forward Euler, as the fixed filter): its
+        // step is this sample's Δh.
         let k = (dt_s * 2.0 * core::f32::consts::PI * DRAG_INPUT_CUTOFF_HZ).clamp(0.0, 1.0);
-        for (l, x) in self.drag_lp.iter_mut().zip(raw) {
-            *l += k * (x - *l);
-        }
-        let h = self.drag_lp;
+        let dh = [k * (raw[0] - h[0]), k * (raw[1] - h[1])];
+        self.drag_lp = [h[0] + dh[0], h[1] + dh[1]];
         let c = inv_tau / d.mu;
-        let out = [c * (h[0] - self.drag_h[0]), c * (h[1] - self.drag_h[1])];
-        self.drag_h = h;
-        out
+        [c * dh[0], c * dh[1]]
     }
 
     /// Accelerometer rejection with its recovery timeout; true if the sample is rejected.
@@ -731,6 +743,8 @@ impl Madgwick {
                 *v += c;
             }
         }
+        // The drag model turns its states by it when it next runs.
+        self.drag_tz = theta[2];
         true
     }
 

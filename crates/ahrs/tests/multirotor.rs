@@ -10,6 +10,8 @@
 //! towards level. The multirotor mode takes the rotor-plane specific force as the
 //! velocity and subtracts its rate of change; what is left is its model error.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+// The mode is what these test: left out, there is nothing to run.
+#![cfg(not(feature = "no-multirotor"))]
 
 use fc_ahrs::fixed::{dt_s_to_q31, rps_to_q20, FixedConfig, MadgwickFixed};
 use fc_ahrs::{Config, Madgwick, Quaternion};
@@ -371,4 +373,26 @@ fn the_drag_model_waits_for_the_flight_controllers_in_flight() {
     // From when the flight controller says so (1.5 s after the take-off began).
     let gated = peak(STEP_S + 1.5);
     assert!(gated < 0.3, "{gated}°");
+}
+
+#[test]
+fn samples_the_rejection_skips_leave_the_drag_model_in_step() {
+    // Every other accelerometer sample 1.5 g too large: the rejection (on) skips
+    // it, and the drag model restarts from the next sample instead of taking the
+    // velocity change across the gap as one sample's.
+    let cfg = Config {
+        accel_rejection: fc_ahrs::AccelRejectionConfig {
+            enabled: true,
+            ..Config::DEFAULT.accel_rejection
+        },
+        ..multirotor(1.0)
+    };
+    let mut flight = fly(NOMINAL, 0.0);
+    for (i, s) in flight.iter_mut().enumerate() {
+        if i % 2 == 1 {
+            s.accel = s.accel.map(|a| a * 1.5);
+        }
+    }
+    let e = score(&run_f32(cfg, &flight).0);
+    assert!(e.hold_rms < 0.5 && e.after_1s < 0.5, "{e:?}");
 }

@@ -9,13 +9,13 @@
 use crate::{check, sat32, to_q, FilterError, Response};
 
 /// A biquad's taps, normalised so a₀ = 1:
-/// y = b₀x + b₁x₁ + b₂x₂ − a₁y₁ − a₂y₂.
+/// y = b₀x + b₁x₁ + b₂x₂ − a₁y₁ − a₂y₂. Only the designs below make them, so
+/// Σ|tap| < 7 (a low-pass's b sum to at most 1, |a₁| < 2, |a₂| < 1; a
+/// notch's |b₁| < 2): what [`BiquadQ`]'s accumulator relies on.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BiquadCoeffs {
-    /// Feed-forward taps b₀, b₁, b₂.
-    pub b: [f32; 3],
-    /// Feedback taps a₁, a₂.
-    pub a: [f32; 2],
+    b: [f32; 3],
+    a: [f32; 2],
 }
 
 /// sin ω₀ and cos ω₀ of `freq_hz` at `sample_hz`, checked.
@@ -62,6 +62,12 @@ impl BiquadCoeffs {
         })
     }
 
+    /// The feed-forward taps b₀, b₁, b₂ and the feedback taps a₁, a₂.
+    #[must_use]
+    pub fn taps(&self) -> ([f32; 3], [f32; 2]) {
+        (self.b, self.a)
+    }
+
     /// Gain, phase and delay at `f_hz` for `sample_hz`.
     #[must_use]
     pub fn response(&self, f_hz: f32, sample_hz: f32) -> Response {
@@ -104,9 +110,9 @@ impl Biquad {
 /// A biquad in fixed point: taps in Q29, the history in the signal's own
 /// Q-format, five 32×32→64 products a sample accumulated in `i64`.
 ///
-/// Range: |tap| < 4 (a low-pass's and a notch's are < 2), so with signals
-/// below 2^26 in magnitude (1,024 rad/s for a Q16 gyro) each product is
-/// below 2^57 and their sum below 2^60; the output is saturated to i32.
+/// Range: the designs' taps sum to less than 7 in magnitude (7·2^29 < 2^32 in
+/// Q29), so with any i32 history the five products sum to less than 2^63; the
+/// output is saturated to i32.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BiquadQ {
     b: [i32; 3],

@@ -193,7 +193,7 @@ fn the_implementations_follow_their_analytic_response() {
 /// Σ|h| of 1/A(z), the feedback part's impulse response: how far one unit of
 /// rounding in the output can spread.
 fn feedback_l1(c: &BiquadCoeffs) -> f32 {
-    let [a1, a2] = c.a;
+    let (_, [a1, a2]) = c.taps();
     let (mut y1, mut y2, mut sum) = (0.0f32, 0.0f32, 0.0f32);
     for n in 0..10_000 {
         let y = if n == 0 { 1.0 } else { 0.0 } - a1 * y1 - a2 * y2;

@@ -190,7 +190,7 @@ pub const FAILSAFE_BLIND_RAMP_PER_S: f32 = 0.05;
 /// 0.5 N thrust differential (10 % of a 0.5 kg quad's hover thrust) on a
 /// 250-class quad (≈ 2·10⁻³ kg·m², 0.09 m lever) builds ≈ 13 °/s.
 pub const BAD_INPUT_HOLD_US: u32 = 10_000;
-/// How long after the collective first rises above the landing threshold
+/// How long the collective must stay above the landing threshold before
 /// the craft counts as flying ([`FlightController::in_flight`], µs): the
 /// altitude hold's take-off spins the motors up to lift-off in about 1 s of
 /// it, a manual one is quicker.
@@ -677,9 +677,9 @@ pub struct FlightController {
     /// after a link loss, so a switch found on never arms).
     prev_switch: Option<bool>,
     took_off: bool,
-    /// [`FlightController::armed_us`] when the collective first rose above the
-    /// landing threshold.
-    took_off_us: u32,
+    /// How long the collective has been above the landing threshold without a
+    /// break (µs): the in-flight verdict.
+    above_land_us: u32,
     /// Altitude hold engaged (its target is valid).
     alt_engaged: bool,
     /// Altitude hold requested but unavailable (reported once per episode).
@@ -747,7 +747,7 @@ impl FlightController {
             last_us: None,
             prev_switch: None,
             took_off: false,
-            took_off_us: 0,
+            above_land_us: 0,
             alt_engaged: false,
             alt_fallback: false,
             alt_target_q16: 0,
@@ -785,15 +785,14 @@ impl FlightController {
         matches!(self.state, FlightState::Armed | FlightState::Failsafe(_))
     }
 
-    /// Whether the craft is flying: armed, and [`IN_FLIGHT_AFTER_US`] since the
-    /// collective first rose above the landing threshold (a take-off is in the
-    /// air by then). For the AHRS's multirotor mode
+    /// Whether the craft is flying: armed, with the collective above the
+    /// landing threshold for the last [`IN_FLIGHT_AFTER_US`] without a break (a
+    /// take-off is in the air by then; a collective at the landing threshold
+    /// ends it at once, before a touch-down). For the AHRS's multirotor mode
     /// (`sensor_stack::pipeline::Pipeline::set_in_flight`), whose drag model
     /// does not hold on the ground.
     pub fn in_flight(&self) -> bool {
-        self.is_armed()
-            && self.took_off
-            && self.armed_us.saturating_sub(self.took_off_us) >= IN_FLIGHT_AFTER_US
+        self.is_armed() && self.above_land_us >= IN_FLIGHT_AFTER_US
     }
 
     /// The height altitude hold is holding (m, up), while it is engaged.
@@ -1019,6 +1018,7 @@ impl FlightController {
         self.hover_collective_q30 = None;
         self.stick_at_min = false;
         self.armed_us = 0;
+        self.above_land_us = 0;
         self.failsafe_us = 0;
         self.crash_tilt = Hold::default();
         self.crash_rate = Hold::default();
@@ -1409,10 +1409,14 @@ impl FlightController {
         // The one field, not a copy of the whole `SafetyConfig` (a
         // byte-wise `memcpy` a step).
         let low = collective < self.safety.land_collective_max;
-        if !low && !self.took_off {
+        if !low {
             self.took_off = true;
-            self.took_off_us = self.armed_us;
         }
+        self.above_land_us = if low {
+            0
+        } else {
+            self.above_land_us.saturating_add(dt_us)
+        };
         let landed = self.took_off && low && self.looks_landed(max_rate_q16, collective, alt);
         if self.landed.update(landed, dt_us, self.lim.land_us) {
             let cause = if matches!(self.state, FlightState::Failsafe(_)) {

@@ -969,8 +969,11 @@ fn in_flight_once_the_take_off_has_had_time_to_leave_the_ground() {
     assert!(!r.fc.in_flight(), "still taking off");
     r.run_ms(20);
     assert!(r.fc.in_flight());
-    // Landed: disarmed, and no longer flying.
+    // The collective down to the landing threshold ends it at once, before
+    // the touch-down the landing detector waits 2 s to confirm.
     r.pilot.sticks.throttle = 0.0;
+    r.run_ms(50);
+    assert!(!r.fc.in_flight() && r.fc.is_armed());
     r.expect_event_within(Event::Disarmed(DisarmCause::Landed), 5_000);
     assert!(!r.fc.in_flight());
 }

@@ -417,52 +417,9 @@ pub fn figures(log: &FlightLog) -> Figures {
         battery_end_v: s.last().map_or(0.0, |x| x.quad.battery_voltage_v),
         ..Figures::default()
     };
-    let tilt_sp = |axis: usize| {
-        move |x: &Sample| {
-            x.out
-                .tilt_setpoint_rad
-                .map(|t| f64::from(t[axis]).to_degrees())
-        }
-    };
     match log.scenario {
-        Scenario::Steps => {
-            f.roll = step_response(s, ROLL_STEP_S, STEP_HOLD_S, |x| euler_deg(x)[0], tilt_sp(0));
-            f.pitch = step_response(
-                s,
-                PITCH_STEP_S,
-                STEP_HOLD_S,
-                |x| euler_deg(x)[1],
-                tilt_sp(1),
-            );
-            f.roll_tilt_error = tilt_error(s, ROLL_STEP_S, STEP_HOLD_S, 0);
-            f.pitch_tilt_error = tilt_error(s, PITCH_STEP_S, STEP_HOLD_S, 1);
-            f.yaw_rate = step_response(
-                s,
-                YAW_STEP_S,
-                STEP_HOLD_S,
-                |x| x.truth.omega_body_rps[2].to_degrees(),
-                |x| {
-                    x.out
-                        .rate_setpoint_rps
-                        .map(|r| f64::from(r[2]).to_degrees())
-                },
-            );
-        }
-        Scenario::AltHold => {
-            f.pitch_tilt_error = tilt_error(s, FORWARD_S, FORWARD_HOLD_S, 1);
-            let stop = CLIMB2_S + CLIMB2_HOLD_S;
-            let target = s
-                .iter()
-                .find(|x| x.t_s >= stop + 0.1)
-                .and_then(|x| x.out.height_target_m);
-            f.climb_overshoot_m = target.map(|t| {
-                s.iter()
-                    .filter(|x| x.t_s >= stop && x.t_s < FORWARD_S)
-                    .map(|x| x.truth.height_m - f64::from(t))
-                    .fold(0.0, f64::max)
-            });
-            f.forward_hold = height_hold(s, FORWARD_S, FORWARD_S + FORWARD_HOLD_S + 3.0);
-        }
+        Scenario::Steps => steps(s, &mut f),
+        Scenario::AltHold => altitude_hold(s, &mut f),
         Scenario::LinkLoss | Scenario::ClimbLinkLoss | Scenario::Flapping => {
             f.link_loss = link_loss(s)
         }
@@ -472,6 +429,57 @@ pub fn figures(log: &FlightLog) -> Figures {
         Scenario::Chirp => {}
     }
     f
+}
+
+/// The steps' figures: roll, pitch and yaw-rate responses on the truth, and
+/// the estimator's tilt error through the roll and pitch holds.
+fn steps(s: &[Sample], f: &mut Figures) {
+    let tilt_sp = |axis: usize| {
+        move |x: &Sample| {
+            x.out
+                .tilt_setpoint_rad
+                .map(|t| f64::from(t[axis]).to_degrees())
+        }
+    };
+    f.roll = step_response(s, ROLL_STEP_S, STEP_HOLD_S, |x| euler_deg(x)[0], tilt_sp(0));
+    f.pitch = step_response(
+        s,
+        PITCH_STEP_S,
+        STEP_HOLD_S,
+        |x| euler_deg(x)[1],
+        tilt_sp(1),
+    );
+    f.roll_tilt_error = tilt_error(s, ROLL_STEP_S, STEP_HOLD_S, 0);
+    f.pitch_tilt_error = tilt_error(s, PITCH_STEP_S, STEP_HOLD_S, 1);
+    f.yaw_rate = step_response(
+        s,
+        YAW_STEP_S,
+        STEP_HOLD_S,
+        |x| x.truth.omega_body_rps[2].to_degrees(),
+        |x| {
+            x.out
+                .rate_setpoint_rps
+                .map(|r| f64::from(r[2]).to_degrees())
+        },
+    );
+}
+
+/// The altitude-hold script's figures: the climb's overshoot, the height
+/// and the estimator's pitch error through the forward flight.
+fn altitude_hold(s: &[Sample], f: &mut Figures) {
+    f.pitch_tilt_error = tilt_error(s, FORWARD_S, FORWARD_HOLD_S, 1);
+    let stop = CLIMB2_S + CLIMB2_HOLD_S;
+    let target = s
+        .iter()
+        .find(|x| x.t_s >= stop + 0.1)
+        .and_then(|x| x.out.height_target_m);
+    f.climb_overshoot_m = target.map(|t| {
+        s.iter()
+            .filter(|x| x.t_s >= stop && x.t_s < FORWARD_S)
+            .map(|x| x.truth.height_m - f64::from(t))
+            .fold(0.0, f64::max)
+    });
+    f.forward_hold = height_hold(s, FORWARD_S, FORWARD_S + FORWARD_HOLD_S + 3.0);
 }
 
 fn opt(v: Option<f64>, unit: &str) -> String {
@@ -488,33 +496,7 @@ impl Figures {
                 h.rms_m, h.max_m, h.drift_m
             ));
         }
-        let step = |name: &str, unit: &str, s: &StepFigures| {
-            format!(
-                "{name} step {:+.1} -> {:+.1} {unit}: rise (10-90 %) {:.3} s, overshoot {:.1} %, error at the end {:+.2} {unit}",
-                s.from, s.to, s.rise_s, s.overshoot_pct, s.final_error
-            )
-        };
-        if let Some(s) = &self.roll {
-            out.push(step("roll", "°", s));
-        }
-        if let Some(s) = &self.pitch {
-            out.push(step("pitch", "°", s));
-        }
-        if let Some(s) = &self.yaw_rate {
-            out.push(step("yaw rate", "°/s", s));
-        }
-        let tilt = |name: &str, e: &TiltErrorFigures| {
-            format!(
-                "estimator {name} error (truth - estimate) in the hold RMS {:.2}°, max {:.2}°; after the release max {:.2}°, within {TILT_RECOVERED_DEG}° from +{:.2} s",
-                e.hold_rms_deg, e.hold_max_deg, e.after_max_deg, e.recovered_s
-            )
-        };
-        if let Some(e) = &self.roll_tilt_error {
-            out.push(tilt("roll", e));
-        }
-        if let Some(e) = &self.pitch_tilt_error {
-            out.push(tilt("pitch", e));
-        }
+        self.step_lines(&mut out);
         if let Some(o) = self.climb_overshoot_m {
             out.push(format!(
                 "altitude hold: overshoot after a full-stick climb {o:.3} m"
@@ -526,6 +508,46 @@ impl Figures {
                 h.rms_m, h.max_m
             ));
         }
+        self.failure_lines(&mut out);
+        out.extend(self.runaway.map(|r| r.line()));
+        out.push(format!(
+            "attitude estimate vs truth in the air: max error {:.2}°; battery {:.2} V at the end",
+            self.max_attitude_error_deg, self.battery_end_v
+        ));
+        out
+    }
+
+    /// The steps' lines and the estimator's tilt error through them.
+    fn step_lines(&self, out: &mut Vec<String>) {
+        let step = |name: &str, unit: &str, s: &StepFigures| {
+            format!(
+                "{name} step {:+.1} -> {:+.1} {unit}: rise (10-90 %) {:.3} s, overshoot {:.1} %, error at the end {:+.2} {unit}",
+                s.from, s.to, s.rise_s, s.overshoot_pct, s.final_error
+            )
+        };
+        for (name, unit, s) in [
+            ("roll", "°", &self.roll),
+            ("pitch", "°", &self.pitch),
+            ("yaw rate", "°/s", &self.yaw_rate),
+        ] {
+            out.extend(s.as_ref().map(|s| step(name, unit, s)));
+        }
+        let tilt = |name: &str, e: &TiltErrorFigures| {
+            format!(
+                "estimator {name} error (truth - estimate) in the hold RMS {:.2}°, max {:.2}°; after the release max {:.2}°, within {TILT_RECOVERED_DEG}° from +{:.2} s",
+                e.hold_rms_deg, e.hold_max_deg, e.after_max_deg, e.recovered_s
+            )
+        };
+        for (name, e) in [
+            ("roll", &self.roll_tilt_error),
+            ("pitch", &self.pitch_tilt_error),
+        ] {
+            out.extend(e.as_ref().map(|e| tilt(name, e)));
+        }
+    }
+
+    /// The link-loss and motor-failure lines.
+    fn failure_lines(&self, out: &mut Vec<String>) {
         if let Some(l) = self.link_loss {
             out.push(format!(
                 "link lost at {:.2} m: failsafe after {}; height within {:.3} m for 1 s; descent from +{} at {}; landed +{}, disarmed +{}; max tilt {:.1}°",
@@ -548,11 +570,5 @@ impl Figures {
                 m.max_rate_dps
             ));
         }
-        out.extend(self.runaway.map(|r| r.line()));
-        out.push(format!(
-            "attitude estimate vs truth in the air: max error {:.2}°; battery {:.2} V at the end",
-            self.max_attitude_error_deg, self.battery_end_v
-        ));
-        out
     }
 }
