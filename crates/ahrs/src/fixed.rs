@@ -1668,11 +1668,11 @@ fn quat_from_rows_q30(m: [[i32; 3]; 3]) -> [i32; 4] {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::madgwick::{drag_model, DragModel};
+    use crate::madgwick::drag_model;
 
     #[cfg(not(feature = "no-multirotor"))]
     /// The simulator's 250-class quad (μ = 0.1/0.6 per s, κ = 0.006/0.6 per m).
-    fn quad_drag() -> (Config, DragModel) {
+    fn quad_drag() -> (Config, crate::madgwick::DragModel) {
         let cfg = Config::multirotor(0.1 / 0.6, 0.006 / 0.6);
         (cfg, drag_model(&cfg).unwrap())
     }
