@@ -17,7 +17,7 @@
 //! of 256, such as a gyro axis at rest crossing zero.
 //!
 //! The gyro and accelerometer DLPFs are filters with the register map's
-//! 3-dB bandwidth and delay per setting ([`dlpf`](crate::dlpf): a
+//! 3-dB bandwidth and delay per setting ([`crate::dlpf`]: a
 //! first-order low-pass and a pure delay), run at the chip's internal rate
 //! (gyro 1 kHz for DLPF_CFG 1-6, 8 kHz for 0 and 7, 32 kHz with
 //! FCHOICE_B; accelerometer 1 kHz, 4 kHz with ACCEL_FCHOICE_B) on the
