@@ -479,14 +479,10 @@ fn a_hard_iron_residual_learnt_while_turning_takes_the_riding_magnet_out() {
         &mut world(Trajectory::HandHeld, SensorErrors::noise_only(), vec![], 1),
         HAND_HELD_S,
     );
-    let c0 = heading_rms(
-        &clean,
-        &run_hard_iron_candidate(&clean, &cfg, 0.0, MAG_EVERY),
-    );
-    let c1 = heading_rms(
-        &clean,
-        &run_hard_iron_candidate(&clean, &cfg, 20.0, MAG_EVERY),
-    );
+    // Heading RMS of the learner with time constant τ_d (0: off) on `s`.
+    let with_tau =
+        |s: &[Sample], tau: f32| heading_rms(s, &run_hard_iron_candidate(s, &cfg, tau, MAG_EVERY));
+    let (c0, c1) = (with_tau(&clean, 0.0), with_tau(&clean, 20.0));
     println!("handheld, no magnet: heading {c0:.2}° today, {c1:.2}° with τ_d 20 s");
     assert!((c1 - c0).abs() <= 0.05);
     for r_m in [0.06, 0.045] {
@@ -500,14 +496,9 @@ fn a_hard_iron_residual_learnt_while_turning_takes_the_riding_magnet_out() {
             ),
             HAND_HELD_S,
         );
-        let figures: Vec<f64> = [0.0, 10.0, 20.0, 40.0, 80.0]
+        let figures: Vec<f64> = [0.0f32, 10.0, 20.0, 40.0, 80.0]
             .iter()
-            .map(|&tau| {
-                heading_rms(
-                    &samples,
-                    &run_hard_iron_candidate(&samples, &cfg, tau, MAG_EVERY),
-                )
-            })
+            .map(|&tau| with_tau(&samples, tau))
             .collect();
         println!(
             "handheld, magnet {:.1} cm: heading {:.2?}° for τ_d off, 10, 20, 40, 80 s",
@@ -517,14 +508,7 @@ fn a_hard_iron_residual_learnt_while_turning_takes_the_riding_magnet_out() {
         assert!(figures[2] < 0.75 * figures[0], "{figures:?}");
     }
     let turns = fast_turns(0.03, 1);
-    let t0 = heading_rms(
-        &turns,
-        &run_hard_iron_candidate(&turns, &cfg, 0.0, MAG_EVERY),
-    );
-    let t1 = heading_rms(
-        &turns,
-        &run_hard_iron_candidate(&turns, &cfg, 20.0, MAG_EVERY),
-    );
+    let (t0, t1) = (with_tau(&turns, 0.0), with_tau(&turns, 20.0));
     println!("fastturns +3 %: heading {t0:.2}° today, {t1:.2}° with τ_d 20 s");
 }
 
