@@ -4,6 +4,16 @@
 
 use crate::{check, to_q, FilterError, Response};
 
+/// The gain k = dt/(RC + dt) of a cut-off `cutoff_hz` at `sample_hz`, checked.
+pub(crate) const fn gain(cutoff_hz: f32, sample_hz: f32) -> Result<f32, FilterError> {
+    if let Err(e) = check(cutoff_hz, sample_hz) {
+        return Err(e);
+    }
+    let rc = 1.0 / (2.0 * core::f32::consts::PI * cutoff_hz);
+    let dt = 1.0 / sample_hz;
+    Ok(dt / (rc + dt))
+}
+
 /// First-order low-pass in `f32` (the reference of [`Pt1Q`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pt1 {
@@ -16,14 +26,11 @@ impl Pt1 {
     ///
     /// # Errors
     /// [`FilterError::SampleRate`], [`FilterError::Frequency`].
-    pub fn new(cutoff_hz: f32, sample_hz: f32) -> Result<Self, FilterError> {
-        check(cutoff_hz, sample_hz)?;
-        let rc = 1.0 / (2.0 * core::f32::consts::PI * cutoff_hz);
-        let dt = 1.0 / sample_hz;
-        Ok(Self {
-            k: dt / (rc + dt),
-            y: 0.0,
-        })
+    pub const fn new(cutoff_hz: f32, sample_hz: f32) -> Result<Self, FilterError> {
+        match gain(cutoff_hz, sample_hz) {
+            Ok(k) => Ok(Self { k, y: 0.0 }),
+            Err(e) => Err(e),
+        }
     }
 
     /// The gain k (0, 1).
@@ -62,7 +69,7 @@ pub struct Pt1Q {
 impl Pt1Q {
     /// The fixed-point form of `f`, its state cleared.
     #[must_use]
-    pub fn new(f: &Pt1) -> Self {
+    pub const fn new(f: &Pt1) -> Self {
         Self {
             k_q30: to_q(f.k, 30),
             y: 0,

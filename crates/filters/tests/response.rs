@@ -245,3 +245,62 @@ fn designs_out_of_range_are_refused() {
         Err(FilterError::Quality)
     );
 }
+
+/// A design fixed at build time: the whole design runs in const evaluation.
+const LOW_20: BiquadCoeffs = match BiquadCoeffs::low_pass(20.0, FRAC_1_SQRT_2, FS) {
+    Ok(c) => c,
+    Err(_) => panic!("20 Hz at 1 kHz is in range"),
+};
+
+#[test]
+fn the_const_design_is_the_runtime_design() {
+    let runtime = BiquadCoeffs::low_pass(core::hint::black_box(20.0), FRAC_1_SQRT_2, FS).unwrap();
+    assert_eq!(LOW_20, runtime);
+    // −3 dB at 20 Hz, from the taps the const evaluation made.
+    let g = LOW_20.response(20.0, FS).gain;
+    assert!((g - FRAC_1_SQRT_2).abs() < 1e-3, "{g}");
+}
+
+#[test]
+fn a_held_input_comes_through_exactly_even_at_a_low_cut_off() {
+    // Without error feedback the 20 Hz section stalls 1/(1 + a₁ + a₂) ≈ 270
+    // LSB short of a held input; with it the output reaches the input.
+    for x in [1 << 16, -(3 << 16), 12_345, -1] {
+        let mut q = BiquadQ::new(&LOW_20);
+        let mut y = 0;
+        for _ in 0..3000 {
+            y = q.apply(x);
+        }
+        assert_eq!(y, x);
+    }
+}
+
+#[test]
+fn the_pt1_section_is_the_pt1() {
+    let c = BiquadCoeffs::pt1(80.0, FS).unwrap();
+    let p = Pt1::new(80.0, FS).unwrap();
+    let (mut fc, mut fp) = (Biquad::new(&c), p);
+    for i in 0..500 {
+        let x = libm::sinf(i as f32 * 0.37) + if i > 100 { 1.0 } else { 0.0 };
+        assert!((fc.apply(x) - fp.apply(x)).abs() < 1e-6);
+    }
+    for f in [1.0, 50.0, 200.0] {
+        let (a, b) = (c.response(f, FS), p.response(f, FS));
+        assert!((a.gain - b.gain).abs() < 1e-6 && (a.group_delay_s - b.group_delay_s).abs() < 1e-9);
+    }
+    assert_eq!(BiquadCoeffs::pt1(0.0, FS), Err(FilterError::Frequency));
+}
+
+#[test]
+fn pass_is_the_identity_and_settle_starts_without_a_transient() {
+    let mut q = BiquadQ::new(&BiquadCoeffs::PASS);
+    for x in [0, 1, -7, i32::MAX, i32::MIN, 65_536] {
+        assert_eq!(q.apply(x), x);
+    }
+    let mut lp = BiquadQ::new(&LOW_20);
+    lp.settle(40_000);
+    assert_eq!(lp.apply(40_000), 40_000);
+    let mut n = BiquadQ::new(&BiquadCoeffs::notch(150.0, 3.0, FS).unwrap());
+    n.settle(-40_000);
+    assert!((n.apply(-40_000) + 40_000).abs() <= 1);
+}
