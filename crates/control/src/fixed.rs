@@ -194,6 +194,18 @@ impl PidQ {
         measurement_q16: i32,
         feed_forward_q30: i32,
     ) -> i32 {
+        self.update_holding(setpoint_q16, measurement_q16, feed_forward_q30, false)
+    }
+
+    /// [`update`](Self::update), with the integral held where it is (not
+    /// integrated) when `hold`; the output keeps the held integral.
+    pub fn update_holding(
+        &mut self,
+        setpoint_q16: i32,
+        measurement_q16: i32,
+        feed_forward_q30: i32,
+        hold: bool,
+    ) -> i32 {
         let e = setpoint_q16.saturating_sub(measurement_q16);
         let p = mul_q24_q16(self.kp_q24, e);
         let dmeas_q24 = if self.has_prev {
@@ -214,7 +226,7 @@ impl PidQ {
         let di = mul_q24_q16(self.ki_dt_q24, e);
         let toward_saturation = (unclamped >= i64::from(self.output_max_q30) && di > 0)
             || (unclamped <= i64::from(self.output_min_q30) && di < 0);
-        let integral = if toward_saturation {
+        let integral = if toward_saturation || hold {
             self.integral_q30
         } else {
             sat32(i + di)

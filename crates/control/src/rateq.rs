@@ -117,11 +117,22 @@ impl RateControllerQ {
     /// Returns the torques (roll, pitch, yaw), Q30, within each PID's
     /// output limits. Total: every input is accepted (differences saturate).
     pub fn update(&mut self, setpoint_q16: [i32; 3], gyro_q16: [i32; 3]) -> [i32; 3] {
+        self.update_holding(setpoint_q16, gyro_q16, false)
+    }
+
+    /// [`update`](Self::update), with the three integrals held where they
+    /// are when `hold` ([`PidQ::update_holding`]).
+    pub fn update_holding(
+        &mut self,
+        setpoint_q16: [i32; 3],
+        gyro_q16: [i32; 3],
+        hold: bool,
+    ) -> [i32; 3] {
         let [r, p, y] = &mut self.axes;
         [
-            r.update(setpoint_q16[0], gyro_q16[0], 0),
-            p.update(setpoint_q16[1], gyro_q16[1], 0),
-            y.update(setpoint_q16[2], gyro_q16[2], 0),
+            r.update_holding(setpoint_q16[0], gyro_q16[0], 0, hold),
+            p.update_holding(setpoint_q16[1], gyro_q16[1], 0, hold),
+            y.update_holding(setpoint_q16[2], gyro_q16[2], 0, hold),
         ]
     }
 

@@ -1149,7 +1149,12 @@ impl FlightController {
         };
 
         // On the ground nothing can follow the setpoint: integrating
-        // would only wind up and tip the vehicle at take-off.
+        // would only wind up and tip the vehicle at take-off. After the
+        // take-off the integrals hold while the collective is below the
+        // landing threshold (a landed craft, or one descending at low
+        // throttle, keeps its trim): on the ground after a landing they
+        // would wind up against it for the 2 s the landing takes to
+        // disarm (Betaflight leaves the I term out at low throttle).
         if !self.took_off {
             self.rate.clear();
         }
@@ -1170,7 +1175,8 @@ impl FlightController {
         collective: f32,
         out: &mut FlightOutput,
     ) {
-        let torque_q30 = self.rate.update(sp_q16, gyro_q16);
+        let hold = collective < self.safety.land_collective_max;
+        let torque_q30 = self.rate.update_holding(sp_q16, gyro_q16, hold);
         let mix = self.mixer.mix(f32_to_q(collective, 30), torque_q30);
         out.rate_setpoint = BodyRates {
             roll_rps: q_to_f32(sp_q16[0], 16),

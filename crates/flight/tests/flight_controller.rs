@@ -803,6 +803,36 @@ fn no_integrator_windup_before_take_off() {
     assert!(r.last.unwrap().torque.roll < late - 0.05);
 }
 
+#[test]
+fn no_integrator_windup_on_the_ground_after_a_landing() {
+    let mut r = Rig::new();
+    r.take_off();
+    // In the air the integrator acts on a held 2° error (well inside its
+    // limits after 0.4 s).
+    r.vehicle.attitude = tilted_deg(2.0);
+    r.run_ms(200);
+    let flying = r.last.unwrap().torque.roll;
+    r.run_ms(200);
+    assert!(
+        r.last.unwrap().torque.roll < flying - 0.01,
+        "no integration in the air"
+    );
+    // Landed on a 2° slope, throttle down, not disarmed yet: the torque
+    // stays where the touch-down left it instead of winding up against the
+    // ground for the 2 s the landing takes to disarm (without the hold:
+    // −0.14 → −0.35 here).
+    r.pilot.sticks.throttle = 0.0;
+    r.run_ms(100);
+    let landed = r.last.unwrap().torque.roll;
+    r.run_ms(1_500);
+    assert!(r.fc.is_armed());
+    let late = r.last.unwrap().torque.roll;
+    assert!(
+        (landed - late).abs() < 1e-3,
+        "wound up on the ground: {landed} → {late}"
+    );
+}
+
 /// Rotational rigid body around the controller's motor outputs (the
 /// mixer's inverse, 25 ms motor lag, 120 rad/s² per unit torque).
 fn fly_roll_stick(mode: FlightMode, stick: f32, ms: u32) -> (Rig, Vec<f32>) {
