@@ -22,6 +22,7 @@
 //! | [`sensors`] | the three drivers on one bus with their health: boot, reads, config checks, stepwise re-init, re-probing, bus-recovery requests |
 //! | [`calmode`] | magnetometer (ellipsoid or min/max) and accelerometer calibrations, button decoder, the calibration session state machine (per build), raw-log rows |
 //! | [`sample`] | one 1 kHz sample end to end: start-up bias, pipeline steps, calibration and raw-log values |
+//! | [`gyro_filter`] | the rate loop's gyro: a low-pass and a notch per axis, fixed point, designed at build time |
 //! | [`pipeline`] | the 1 kHz / 100 Hz processing chain (fixed-point AHRS by default, f32 with `f32-ahrs`) |
 //! | [`mounting`] | MPU frame → body FRD signed axis permutation, the six faces |
 //! | [`angles`] | integer Euler angles and the down axis from the Q30 quaternion |
@@ -48,6 +49,7 @@ pub mod angles;
 pub mod boot;
 pub mod calmode;
 pub mod crc32;
+pub mod gyro_filter;
 pub mod health;
 pub mod mounting;
 pub mod pipeline;

@@ -33,6 +33,7 @@ use fc_ahrs::Quaternion;
 use crate::angles;
 use crate::boot::AhrsMode;
 use crate::calmode::RawLogRow;
+use crate::gyro_filter::{GyroFilter, GyroFilterDesign};
 use crate::mounting::Mounting;
 use crate::storage::{CalibrationRecord, ValidParts};
 
@@ -102,6 +103,9 @@ pub struct PipelineConfig {
     pub ahrs: fc_ahrs::Config,
     /// Vertical estimator tuning.
     pub vertical: VerticalConfig,
+    /// The rate loop's gyro filter (designed for `imu_rate_hz`), off by
+    /// default; the board's is in the `settings` crate.
+    pub gyro_filter: GyroFilterDesign,
 }
 
 impl PipelineConfig {
@@ -119,6 +123,7 @@ impl PipelineConfig {
             imu_rate_hz: 1000,
             ahrs: fc_ahrs::Config::multirotor(ROTOR_DRAG_PER_S, FORM_DRAG_PER_M),
             vertical: VerticalConfig::default(),
+            gyro_filter: GyroFilterDesign::PASS,
         }
     }
 }
@@ -183,7 +188,9 @@ pub struct Pipeline {
     /// AK8963 counts → body frame, 1/16 µT (everything folded together).
     mag_q16: MagCalibrationQ16,
     ahrs: backend::Ahrs,
-    last_gyro_body: [i32; 3],
+    gyro_filter: GyroFilter,
+    /// The rate loop's gyro: body FRD, bias removed, filtered, rad/s Q16.
+    rates_q16: [i32; 3],
     accel_sum: [i32; 3],
     accel_n: u16,
     dt_sum_cycles: u32,
@@ -254,7 +261,8 @@ impl Pipeline {
             mag_soft: cal.mag_soft_iron,
             mag_q16,
             ahrs: backend::Ahrs::new(cfg.ahrs, gyro_rps_per_lsb, accel_mps2_per_lsb, cfg.cpu_hz),
-            last_gyro_body: [0; 3],
+            gyro_filter: GyroFilter::new(&cfg.gyro_filter),
+            rates_q16: [0; 3],
             accel_sum: [0; 3],
             accel_n: 0,
             dt_sum_cycles: 0,
@@ -395,7 +403,7 @@ impl Pipeline {
         let use_mag = self.cfg.ahrs_mode == AhrsMode::Marg && self.mag_fresh > 0;
         self.mag_fresh = self.mag_fresh.saturating_sub(1);
         self.ahrs.update(gyro_b, accel_b, use_mag, input.dt_cycles);
-        self.last_gyro_body = gyro_b;
+        self.rates_q16 = self.gyro_filter.apply(self.counts_to_q16(gyro_b));
         let s = &mut self.accel_sum;
         s[0] = s[0].saturating_add(accel_b[0]);
         s[1] = s[1].saturating_add(accel_b[1]);
@@ -581,12 +589,17 @@ impl Pipeline {
         }
     }
 
-    /// [`body_rates`](Self::body_rates) in Q16 rad/s: counts · k / 2¹⁶ with
-    /// `k` in Q16 rad/s per count, Q16 (|counts| < 2¹⁷, k < 2²⁴: the
-    /// product fits `i64`; the result, at most ±35 rad/s, fits Q16).
+    /// [`body_rates`](Self::body_rates) in Q16 rad/s: the latest sample
+    /// through the gyro filter ([`PipelineConfig::gyro_filter`]).
     pub fn body_rates_q16(&self) -> [i32; 3] {
+        self.rates_q16
+    }
+
+    /// Body gyro counts to Q16 rad/s: counts · k / 2¹⁶ with `k` in Q16
+    /// rad/s per count, Q16 (|counts| < 2¹⁷, k < 2²⁴: the product fits
+    /// `i64`; the result, at most ±35 rad/s, fits Q16).
+    fn counts_to_q16(&self, g: [i32; 3]) -> [i32; 3] {
         let k = i64::from(self.gyro_rps_q16_per_lsb_q16);
-        let g = &self.last_gyro_body;
         let rate = |c: i32| ((i64::from(c) * k) >> 16) as i32;
         [rate(g[0]), rate(g[1]), rate(g[2])]
     }
