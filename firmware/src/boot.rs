@@ -21,7 +21,7 @@ use flight::flightctl::FlightController;
 use sensor_stack::boot::{Capabilities, StartupGyroBias};
 use sensor_stack::pipeline::{Pipeline, PipelineConfig};
 use sensor_stack::schedule::IMU_RATE_HZ;
-use sensor_stack::sensors::{Sensors, SensorsConfig};
+use sensor_stack::sensors::Sensors;
 use sensor_stack::storage::{self, CalibrationRecord, LoadError, LoadOutcome};
 use stm32f1xx_hal::{
     flash,
@@ -58,7 +58,7 @@ pub fn start_outputs(tim: pac::TIM3) -> EscOutputs {
 #[cfg(not(feature = "calibrate"))]
 #[inline(never)]
 pub fn start_flight_controller() -> Option<FlightController> {
-    match FlightController::new(crate::config::flight_config()) {
+    match FlightController::new(settings::flight_config()) {
         Ok(fc) => {
             defmt::info!(
                 "flight controller: ready, disarmed; arm channel {=u8}, mode channel {=u8}, motor-test channel {=u8}",
@@ -148,7 +148,7 @@ pub fn probe_sensors() -> Sensors<BusHandle> {
         BusHandle,
         BusHandle,
         &mut AsmDelay,
-        SensorsConfig::default(),
+        settings::sensors_config(),
     );
     for r in [report.mpu, report.mag, report.baro] {
         match r.status {
@@ -203,7 +203,7 @@ pub fn build_pipeline(
         mag_ut_per_lsb: sensors.mag_ut_per_lsb(),
         ahrs_mode: caps.ahrs,
         altitude: caps.altitude,
-        ..PipelineConfig::new()
+        ..settings::pipeline_config()
     };
     let p = Pipeline::new(cfg, record).ok();
     if p.is_none() {

@@ -1,8 +1,11 @@
-//! The board's build-time settings in one place: which receiver channel
-//! does what, the ESC protocol, the motor-test command and which
-//! magnetometer calibration the build carries. Change them here and
-//! rebuild (`cargo fw`, `cargo embed --release`); the boot log prints what
-//! the firmware uses ("outputs: ...", "flight controller: ready ...").
+//! The board's wiring settings: which receiver channel does what, how the
+//! MPU-9250 is mounted, the ESC protocol and which calibration sessions
+//! the build carries. Change them here and rebuild (`cargo fw`, `cargo
+//! embed --release`); the boot log prints what the firmware uses
+//! ("outputs: ...", "flight controller: ready ..."). The flight settings
+//! (the MPU-9250's filter, the gyro filters, rates, gains, failsafe) are
+//! in the `settings` crate (`crates/settings`), which `cargo sim` and the
+//! emulated board fly too.
 //!
 //! The receiver protocol is a cargo feature, like OneShot125: CRSF on
 //! USART1 RX (PA10) by default, a PPM sum signal on PB8 with `--features
@@ -30,8 +33,6 @@
 //! the stick and arm channels.
 
 use control::esc::EscProtocol;
-#[cfg(not(feature = "calibrate"))]
-use flight::{arming::SafetyConfig, flightctl::FlightConfig};
 use rc_input::ChannelMap;
 use sensor_stack::Mounting;
 
@@ -54,10 +55,8 @@ pub const MODE_CHANNEL: u8 = 5;
 /// refused while it is on. Absent from the frame: off. PROPS OFF.
 pub const MOTOR_TEST_CHANNEL: u8 = 6;
 
-/// Motor-test command, 0..=0.2 of the ESC range above the off pulse
-/// (0.08: 1080 µs in standard PWM): enough to turn every common ESC's
-/// motor over, too little to lift anything.
-pub const MOTOR_TEST_COMMAND: f32 = 0.08;
+/// Motor-test command: the settings crate's (`settings::MOTOR_TEST_COMMAND`).
+pub use settings::MOTOR_TEST_COMMAND;
 
 const _: () = assert!(
     MODE_CHANNEL != MOTOR_TEST_CHANNEL && MODE_CHANNEL < 16 && MOTOR_TEST_CHANNEL < 16,
@@ -94,20 +93,6 @@ pub const ESC_PROTOCOL: EscProtocol = EscProtocol::Pwm;
 /// `oneshot125`).
 #[cfg(feature = "oneshot125")]
 pub const ESC_PROTOCOL: EscProtocol = EscProtocol::OneShot125;
-
-/// The flight controller's tuning: the `flight`/`control` defaults with
-/// this board's motor-test command. (The `mag-ellipsoid` calibration
-/// build has no flight controller.)
-#[cfg(not(feature = "calibrate"))]
-pub fn flight_config() -> FlightConfig {
-    FlightConfig {
-        safety: SafetyConfig {
-            motor_test_command: MOTOR_TEST_COMMAND,
-            ..SafetyConfig::default()
-        },
-        ..FlightConfig::default()
-    }
-}
 
 /// The calibration sessions of this build. The flight build runs none
 /// ([`NotBuilt`](sensor_stack::calmode::NotBuilt): the button held at boot or a

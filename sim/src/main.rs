@@ -472,7 +472,7 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
     if let Some(spec) = &cli.sweep {
         return demo::tuning_cli::sweep(spec, &opts, outputs.plot);
     }
-    let mut fc = demo::flight_fc::FirmwareFc::new(flight::flightctl::FlightConfig::default())?;
+    let mut fc = demo::flight_fc::FirmwareFc::new(settings::flight_config())?;
     say!(
         "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",
         scenario.name(),

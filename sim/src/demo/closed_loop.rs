@@ -10,10 +10,9 @@
 //! link) with the figures that judge it ([`figures`]).
 
 use super::radio::Radio;
-use super::stack::{self, Stack};
+use super::stack::{self, BootConfig, Stack};
 pub use flight::flightctl::FlightMode as Mode;
 use flight::flightctl::{PilotInput, VehicleState};
-use sensor_stack::pipeline::PipelineConfig;
 use sensor_stack::storage::CalibrationRecord;
 use sim::faults::{FaultSchedule, FaultSpec};
 use sim::quad::QuadState;
@@ -99,6 +98,8 @@ pub struct ClosedLoopOptions {
     pub mag_dance_s: f64,
     /// Chip and bus faults injected during the flight.
     pub faults: Vec<FaultSpec>,
+    /// The sensors' and the pipeline's settings: the board's by default.
+    pub boot: BootConfig,
 }
 
 impl ClosedLoopOptions {
@@ -114,6 +115,7 @@ impl ClosedLoopOptions {
             esc_rate_hz: 400.0,
             mag_dance_s: 30.0,
             faults: Vec::new(),
+            boot: BootConfig::board(),
         }
     }
 }
@@ -172,7 +174,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
     let clock = SimClock::new();
     let bus = SimBus::new(&clock, base);
     let mut delay = clock.delay();
-    let mut stack = Stack::boot(&bus, &mut delay, &record, PipelineConfig::new().ahrs)?;
+    let mut stack = Stack::boot(&bus, &mut delay, &record, &opts.boot)?;
     let duration_s = opts.duration_s.unwrap_or(opts.scenario.duration_s());
     let mut escs = Escs::new(opts.esc_rate_hz);
     let mut out = ControlOutput::default();
@@ -331,10 +333,9 @@ mod tests {
     use super::*;
     use crate::demo::figures::{figures, Figures, RunawayFigures, TiltErrorFigures};
     use crate::demo::flight_fc::FirmwareFc;
-    use flight::flightctl::FlightConfig;
 
     fn flown(scenario: Scenario, seed: u64) -> (FlightLog, Figures) {
-        let mut fc = FirmwareFc::new(FlightConfig::default()).unwrap();
+        let mut fc = FirmwareFc::new(settings::flight_config()).unwrap();
         let mut o = ClosedLoopOptions::new(scenario, seed);
         o.mag_dance_s = 20.0;
         let log = fly(&o, &mut fc).unwrap();
@@ -371,7 +372,7 @@ mod tests {
             // The runaway check's 0.5 s of calm flight cannot be earned on
             // the ground: the motors spin up to lift-off in less.
             let r = f.runaway.unwrap();
-            let off_s = f64::from(FlightConfig::default().safety.runaway_off_time_s);
+            let off_s = f64::from(settings::flight_config().safety.runaway_off_time_s);
             assert!(r.ground_spin_up_s < 0.8 * off_s, "{r:?}");
             assert!(r.disarmed_s.is_none(), "{r:?}");
         }
@@ -403,7 +404,7 @@ mod tests {
         // The self-level loop is a P on the angle error: with an ideal rate
         // loop a first-order lag whose 10-90 % rise is ln 9 / kp. The real
         // rate loop and motors may add a fifth to it.
-        let kp = f64::from(FlightConfig::default().level.kp_per_s);
+        let kp = f64::from(settings::flight_config().level.kp_per_s);
         let rise_max_s = 1.2 * 9f64.ln() / kp;
         for (seed, f) in flown_with_eight_seeds(Scenario::Steps) {
             for s in [f.roll.unwrap(), f.pitch.unwrap()] {
@@ -470,7 +471,7 @@ mod tests {
                 && detected < timeout_s + 0.01,
             "{l:?}"
         );
-        let safety = FlightConfig::default().safety;
+        let safety = settings::flight_config().safety;
         let hold_s = f64::from(safety.failsafe_hold_s);
         let descent_mps = f64::from(safety.failsafe_descent_mps);
         let start = l.descent_starts_s.unwrap();
@@ -497,7 +498,7 @@ mod tests {
         let m = f.motor_failure.unwrap();
         // Three motors cannot hold a quad-X: it rolls over, and the crash
         // detector (beyond 70° for 0.5 s) cuts the others.
-        let safety = FlightConfig::default().safety;
+        let safety = settings::flight_config().safety;
         let d = m.disarmed_s.unwrap();
         assert!(d > f64::from(safety.crash_tilt_time_s) && d < 2.0, "{m:?}");
         assert!(
@@ -547,7 +548,7 @@ mod tests {
 
     /// The same take-off with the runaway check held off.
     fn without_the_check(scenario: Scenario) -> RunawayFigures {
-        let mut cfg = FlightConfig::default();
+        let mut cfg = settings::flight_config();
         cfg.safety.runaway_time_s = 60.0;
         let mut fc = FirmwareFc::new(cfg).unwrap();
         let mut o = ClosedLoopOptions::new(scenario, 1);

@@ -189,7 +189,6 @@ mod tests {
     use super::*;
     use crate::demo::closed_loop::{fly, ClosedLoopOptions, Scenario};
     use crate::demo::flight_fc::FirmwareFc;
-    use flight::flightctl::FlightConfig;
 
     /// Every scenario's plot is written: a PNG, with its figures as notes,
     /// its events as markers and the horizontal-position panel.
@@ -199,7 +198,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         for name in Scenario::NAMES {
             let scenario = Scenario::from_name(name).unwrap();
-            let mut fc = FirmwareFc::new(FlightConfig::default()).unwrap();
+            let mut fc = FirmwareFc::new(settings::flight_config()).unwrap();
             let mut o = ClosedLoopOptions::new(scenario, 1);
             o.mag_dance_s = 20.0;
             let log = fly(&o, &mut fc).unwrap();
@@ -218,7 +217,7 @@ mod tests {
 
     #[test]
     fn setpoints_and_targets_are_reference_lines() {
-        let mut fc = FirmwareFc::new(FlightConfig::default()).unwrap();
+        let mut fc = FirmwareFc::new(settings::flight_config()).unwrap();
         let mut o = ClosedLoopOptions::new(Scenario::Takeoff, 1);
         o.mag_dance_s = 10.0;
         o.duration_s = Some(0.3);

@@ -1,7 +1,7 @@
 //! Drives a simulated flight through the [`Stack`](super::stack::Stack) and
 //! scores it against the truth.
 
-use super::stack::{self, AccelCalRun, MagCalRun, Stack};
+use super::stack::{self, AccelCalRun, BootConfig, MagCalRun, Stack};
 use host_console::{note, say};
 use sim::faults::{FaultSchedule, FaultSpec};
 use sim::{Environment, Quat, SensorErrors, SimBus, SimClock, SimConfig, Trajectory};
@@ -194,7 +194,12 @@ fn fly(
     let clock = SimClock::new();
     let bus = SimBus::new(&clock, base.clone());
     let mut delay = clock.delay();
-    let mut stack = Stack::boot(&bus, &mut delay, record, fc_ahrs::Config::DEFAULT)?;
+    let mut stack = Stack::boot(
+        &bus,
+        &mut delay,
+        record,
+        &BootConfig::with_ahrs(fc_ahrs::Config::DEFAULT),
+    )?;
     print_boot(&stack);
     let mut faults = FaultSchedule::new(&opts.faults);
     let mut progress = Progress::new(opts.duration_s, opts.progress, wall);

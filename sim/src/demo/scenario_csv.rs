@@ -160,7 +160,6 @@ mod tests {
     use crate::demo::figures::figures;
     use crate::demo::flight_fc::FirmwareFc;
     use crate::demo::timeline::timeline;
-    use flight::flightctl::FlightConfig;
 
     /// The rows of the CSV of `log`, split into cells (header first).
     fn table(log: &FlightLog) -> Vec<Vec<String>> {
@@ -187,7 +186,7 @@ mod tests {
 
     #[test]
     fn the_link_loss_csv_has_its_columns_and_events_where_the_figures_put_them() {
-        let mut fc = FirmwareFc::new(FlightConfig::default()).unwrap();
+        let mut fc = FirmwareFc::new(settings::flight_config()).unwrap();
         let mut o = ClosedLoopOptions::new(Scenario::LinkLoss, 1);
         o.mag_dance_s = 20.0;
         let log = fly(&o, &mut fc).unwrap();

@@ -20,7 +20,7 @@ use calibration::{
 };
 use embedded_hal::delay::DelayNs;
 use host_console::note;
-use mpu9250::{Address, Config as MpuConfig, Mpu9250};
+use mpu9250::{Address, Mpu9250};
 use sensor_stack::boot::{BiasStatus, BootReport, StartupGyroBias};
 use sensor_stack::calmode::CalWants;
 use sensor_stack::pipeline::{Pipeline, PipelineConfig, G_MPS2};
@@ -68,7 +68,7 @@ pub fn init_sensors(bus: &SimBus, delay: &mut SimDelay) -> Result<Sensors, Strin
     let mut imu = Mpu9250::new(bus.clone(), Address::Ad0Low);
     imu.set_bypass(true)
         .map_err(|e| format!("MPU-9250 bypass: {e}"))?;
-    imu.init(delay, &MpuConfig::default())
+    imu.init(delay, &settings::MPU)
         .map_err(|e| format!("MPU-9250 init: {e}"))?;
     let mag = Mag::init(bus.clone(), delay)?;
     Ok(Sensors { imu, mag })
@@ -234,6 +234,35 @@ pub struct Estimate {
     pub mag_mpu_ut: Option<[f32; 3]>,
 }
 
+/// What the stack boots with: the sensors' and the pipeline's settings.
+#[derive(Clone, Copy, Debug)]
+pub struct BootConfig {
+    /// The chips' configuration (the MPU-9250's filter among it).
+    pub sensors: SensorsConfig,
+    /// The pipeline's (the AHRS tuning and the rate loop's gyro filter
+    /// among it; the scales and capabilities come from the boot).
+    pub pipeline: PipelineConfig,
+}
+
+impl BootConfig {
+    /// The board's settings (the `settings` crate), as the firmware boots.
+    pub fn board() -> Self {
+        Self {
+            sensors: settings::sensors_config(),
+            pipeline: settings::pipeline_config(),
+        }
+    }
+
+    /// The board's settings with the AHRS configured as `ahrs` (the
+    /// hand-held filter for the scripted trajectories, which no rotor drag
+    /// shapes).
+    pub fn with_ahrs(ahrs: fc_ahrs::Config) -> Self {
+        let mut c = Self::board();
+        c.pipeline.ahrs = ahrs;
+        c
+    }
+}
+
 /// The firmware's per-sample path on the simulated bus.
 pub struct Stack {
     sensors: FlightSensors<SimBus>,
@@ -250,22 +279,15 @@ impl Stack {
     /// Boots the chips (`sensor_stack::sensors::Sensors::boot`: probe with
     /// retries, configure) and builds the pipeline from their scales, the
     /// capabilities found and the stored calibration `record` — as the
-    /// firmware's `init` does — with the AHRS configured as `ahrs` (the
-    /// firmware's multirotor mode for the quad model, the hand-held filter for
-    /// the scripted trajectories, which no rotor drag shapes).
+    /// firmware's `init` does — with the settings of `cfg`.
     pub fn boot(
         bus: &SimBus,
         delay: &mut SimDelay,
         record: &CalibrationRecord,
-        ahrs: fc_ahrs::Config,
+        cfg: &BootConfig,
     ) -> Result<Self, String> {
-        let (sensors, boot) = FlightSensors::boot(
-            bus.clone(),
-            bus.clone(),
-            bus.clone(),
-            delay,
-            SensorsConfig::default(),
-        );
+        let (sensors, boot) =
+            FlightSensors::boot(bus.clone(), bus.clone(), bus.clone(), delay, cfg.sensors);
         let caps = boot.capabilities();
         let scale = sensors.mpu_scale();
         let cfg = PipelineConfig {
@@ -279,8 +301,7 @@ impl Stack {
             },
             ahrs_mode: caps.ahrs,
             altitude: caps.altitude,
-            ahrs,
-            ..PipelineConfig::new()
+            ..cfg.pipeline
         };
         let pipeline = Pipeline::new(cfg, record).map_err(|e| format!("pipeline: {e:?}"))?;
         // Start-up gyro bias: 1 s still within 5 s of samples (as the firmware).

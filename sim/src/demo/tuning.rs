@@ -358,11 +358,10 @@ mod tests {
     use super::*;
     use crate::demo::closed_loop::{fly, ClosedLoopOptions, Scenario};
     use crate::demo::flight_fc::FirmwareFc;
-    use flight::flightctl::FlightConfig;
 
     /// The chirp flown with the default configuration, and measured.
     pub(crate) fn measured(seed: u64) -> (FlightLog, Vec<AxisReport>) {
-        let mut fc = FirmwareFc::new(FlightConfig::default()).unwrap();
+        let mut fc = FirmwareFc::new(settings::flight_config()).unwrap();
         let mut o = ClosedLoopOptions::new(Scenario::Chirp, seed);
         o.mag_dance_s = 20.0;
         let log = fly(&o, &mut fc).unwrap();
