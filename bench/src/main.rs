@@ -452,35 +452,31 @@ mod suite {
         "flight::FlightController::step (armed, angle, new pilot frame)";
 
     /// The gyro path's filters on three axes of a Q16 rad/s gyro, per
-    /// sample: a 100 Hz biquad low-pass and a 200 Hz notch on the gyro, a
-    /// 90 Hz PT1 on the D term.
+    /// sample, as the firmware runs them: the board's gyro filter
+    /// (`settings::GYRO_FILTER`: a PT1 low-pass and a notch per axis,
+    /// `sensor_stack::gyro_filter::GyroFilter`) and a PT1 on each axis' D
+    /// term (the rate PIDs' D low-pass, at its 40 Hz default).
     fn filter_cases() {
-        use filters::{BiquadCoeffs, BiquadQ, Pt1, Pt1Q};
-        let (Ok(lp), Ok(notch), Ok(pt1)) = (
-            BiquadCoeffs::low_pass(100.0, core::f32::consts::FRAC_1_SQRT_2, 1000.0),
-            BiquadCoeffs::notch(200.0, 3.0, 1000.0),
-            Pt1::new(90.0, 1000.0),
-        ) else {
+        use filters::{Pt1, Pt1Q};
+        use sensor_stack::gyro_filter::GyroFilter;
+        let Ok(pt1) = Pt1::new(40.0, 1000.0) else {
             hprintln!("FAIL filters: a design was refused");
             return;
         };
         struct Path {
-            lp: [BiquadQ; 3],
-            notch: [BiquadQ; 3],
+            gyro: GyroFilter,
             d: [Pt1Q; 3],
         }
         let mut p = Path {
-            lp: [BiquadQ::new(&lp); 3],
-            notch: [BiquadQ::new(&notch); 3],
+            gyro: GyroFilter::new(&settings::GYRO_FILTER_DESIGN),
             d: [Pt1Q::new(&pt1); 3],
         };
         let s: [SiSample; CALLS] = samples(17);
         let gyro: [[i32; 3]; CALLS] = s.map(|s| s.gyro_rps.map(|w| (w * 65_536.0) as i32));
         case(FILTERS_NAME, &mut p, &gyro, |p, g| {
-            let mut out = [0i32; 3];
-            for i in 0..3 {
-                let y = p.notch[i].apply(p.lp[i].apply(g[i]));
-                out[i] = p.d[i].apply(y);
+            let mut out = p.gyro.apply(*g);
+            for (d, y) in p.d.iter_mut().zip(out.iter_mut()) {
+                *y = d.apply(*y);
             }
             out
         });
@@ -488,7 +484,7 @@ mod suite {
 
     /// Name of the budgeted gyro-path filter row (see xtask's budgets).
     const FILTERS_NAME: &str =
-        "filters: gyro path per sample (3 x biquad low-pass + notch, 3 x PT1)";
+        "filters: gyro path per sample (the board's gyro filter, 3 x D-term PT1)";
 
     fn calibration_cases() {
         use calibration::{AccelCalibration, GyroBias, MagCalibration};

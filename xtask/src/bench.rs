@@ -76,7 +76,8 @@ const LEVEL_Q: &str = "control::levelq::LevelControllerQ::rate_setpoint_q16 (fix
 const RATE_MIX_Q: &str = "control::rateq rate loop + mixer, fixed (f32 in, Q16/Q30; unsaturated)";
 const RATE_MIX_Q_SAT: &str = "control::rateq rate loop + mixer, fixed (f32 in, Q16/Q30; saturated)";
 const MAG_APPLY: &str = "calibration::MagCalibrationQ16::apply (pipeline form)";
-const GYRO_FILTERS: &str = "filters: gyro path per sample (3 x biquad low-pass + notch, 3 x PT1)";
+const GYRO_FILTERS: &str =
+    "filters: gyro path per sample (the board's gyro filter, 3 x D-term PT1)";
 /// The CRSF receive interrupt's worst byte, and an ordinary one.
 const CRSF_COMPLETING_BYTE: &str = "rc_input::CrsfParser::push (byte completing an RC frame)";
 const CRSF_MID_BYTE: &str = "rc_input::CrsfParser::push (byte inside a frame)";

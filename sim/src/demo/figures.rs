@@ -90,6 +90,11 @@ fn euler_deg(s: &Sample) -> [f64; 3] {
     s.truth.q_ned_from_body.to_euler().map(f64::to_degrees)
 }
 
+/// The AHRS estimate's Euler angles (°): what the angle loop controls.
+fn est_euler_deg(s: &Sample) -> [f64; 3] {
+    s.est_q.to_euler().map(f64::to_degrees)
+}
+
 fn tilt_deg(s: &Sample) -> f64 {
     let e = euler_deg(s);
     // Angle between body down and earth down.
@@ -431,8 +436,11 @@ pub fn figures(log: &FlightLog) -> Figures {
     f
 }
 
-/// The steps' figures: roll, pitch and yaw-rate responses on the truth, and
-/// the estimator's tilt error through the roll and pitch holds.
+/// The steps' figures: the roll and pitch steps of the angle loop on the
+/// angle it controls (the estimate: a step's overshoot is the controller's,
+/// not the estimator's drift over the hold), the estimator's tilt error
+/// (truth − estimate) through the holds apart, and the yaw-rate step on the
+/// true rate.
 fn steps(s: &[Sample], f: &mut Figures) {
     let tilt_sp = |axis: usize| {
         move |x: &Sample| {
@@ -441,12 +449,18 @@ fn steps(s: &[Sample], f: &mut Figures) {
                 .map(|t| f64::from(t[axis]).to_degrees())
         }
     };
-    f.roll = step_response(s, ROLL_STEP_S, STEP_HOLD_S, |x| euler_deg(x)[0], tilt_sp(0));
+    f.roll = step_response(
+        s,
+        ROLL_STEP_S,
+        STEP_HOLD_S,
+        |x| est_euler_deg(x)[0],
+        tilt_sp(0),
+    );
     f.pitch = step_response(
         s,
         PITCH_STEP_S,
         STEP_HOLD_S,
-        |x| euler_deg(x)[1],
+        |x| est_euler_deg(x)[1],
         tilt_sp(1),
     );
     f.roll_tilt_error = tilt_error(s, ROLL_STEP_S, STEP_HOLD_S, 0);
@@ -526,9 +540,9 @@ impl Figures {
             )
         };
         for (name, unit, s) in [
-            ("roll", "°", &self.roll),
-            ("pitch", "°", &self.pitch),
-            ("yaw rate", "°/s", &self.yaw_rate),
+            ("roll (estimate)", "°", &self.roll),
+            ("pitch (estimate)", "°", &self.pitch),
+            ("yaw rate (truth)", "°/s", &self.yaw_rate),
         ] {
             out.extend(s.as_ref().map(|s| step(name, unit, s)));
         }

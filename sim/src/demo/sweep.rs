@@ -1,23 +1,48 @@
-//! `cargo sim --scenario chirp --sweep rate.roll.p=0.5:2:5`: one rate-loop
-//! gain times each of a range of multipliers of its default, the chirp
-//! flown with each, and the swept axis' figures against the multiplier
-//! (the effect of that parameter).
+//! `cargo sim --scenario chirp --sweep SPEC`: one setting over a range,
+//! the chirp flown with each value, and the figures against it (the
+//! effect of that parameter). A rate-loop gain is swept as multiples of
+//! the board's value (`rate.roll.p=0.5:2:5`); a filter in Hz
+//! (`gyro.lpf=60:200:5`, `gyro.notch=150:300:4`, `dterm.lpf=20:100:5`);
+//! the chip's gyro DLPF by its DLPF_CFG (`gyro.dlpf=1:3:3`: 184, 92 and
+//! 41 Hz). Filters and the DLPF act on every axis; their table reports roll.
 
-use super::closed_loop::{fly, ClosedLoopOptions};
+use super::closed_loop::{fly, ClosedLoopOptions, FlightLog};
 use super::flight_fc::FirmwareFc;
+use super::stack::BootConfig;
 use super::tuning::{self, AxisReport, XyPanel, AXES};
 use flight::flightctl::FlightConfig;
+use mpu9250::GyroBandwidth;
+use sensor_stack::gyro_filter::{GyroLowPass, GyroNotch};
 
-/// Which gain and the multipliers.
+/// What is swept.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Param {
+    /// A rate-PID gain (0 roll, 1 pitch, 2 yaw; `p`, `i` or `d`), as a
+    /// multiple of the board's.
+    Rate {
+        /// 0 roll, 1 pitch, 2 yaw.
+        axis: usize,
+        /// `p`, `i` or `d`.
+        term: char,
+    },
+    /// The gyro low-pass cut-off (Hz; the board's kind, PT1 if it has none).
+    GyroLowPass,
+    /// The gyro notch's centre (Hz; the board's Q, 2 if it has none).
+    GyroNotch,
+    /// The roll and pitch D-term low-pass cut-off (Hz).
+    DtermLowPass,
+    /// The MPU-9250's gyro DLPF_CFG (1..=6).
+    GyroDlpf,
+}
+
+/// What to sweep and the values.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SweepSpec {
-    /// 0 roll, 1 pitch, 2 yaw.
-    pub axis: usize,
-    /// `p`, `i` or `d`.
-    pub term: char,
-    /// Lowest multiplier.
+    /// The setting.
+    pub param: Param,
+    /// Lowest value (a multiplier, Hz or a DLPF_CFG).
     pub lo: f64,
-    /// Highest multiplier.
+    /// Highest value.
     pub hi: f64,
     /// How many, evenly spaced, ≥ 2.
     pub steps: usize,
@@ -26,27 +51,57 @@ pub struct SweepSpec {
 /// Most steps of a sweep (each is a whole chirp flight).
 const MAX_STEPS: usize = 20;
 
+/// The DLPF_CFG settings 1..=6 (the 1 kHz ones).
+const DLPF: [GyroBandwidth; 6] = [
+    GyroBandwidth::Hz184,
+    GyroBandwidth::Hz92,
+    GyroBandwidth::Hz41,
+    GyroBandwidth::Hz20,
+    GyroBandwidth::Hz10,
+    GyroBandwidth::Hz5,
+];
+
+/// The parameter of `name` and its valid range of values.
+fn param(name: &str) -> Result<(Param, f64, f64), String> {
+    let parts: Vec<&str> = name.split('.').collect();
+    Ok(match parts.as_slice() {
+        ["rate", axis, term] => {
+            let axis = AXES
+                .iter()
+                .position(|a| a == axis)
+                .ok_or_else(|| format!("axis `{axis}`: roll, pitch or yaw"))?;
+            let term = match *term {
+                "p" => 'p',
+                "i" => 'i',
+                "d" => 'd',
+                t => return Err(format!("term `{t}`: p, i or d")),
+            };
+            (Param::Rate { axis, term }, f64::MIN_POSITIVE, 10.0)
+        }
+        ["gyro", "lpf"] => (Param::GyroLowPass, 10.0, 400.0),
+        ["gyro", "notch"] => (Param::GyroNotch, 10.0, 400.0),
+        ["dterm", "lpf"] => (Param::DtermLowPass, 5.0, 400.0),
+        ["gyro", "dlpf"] => (Param::GyroDlpf, 1.0, 6.0),
+        _ => {
+            return Err(format!(
+                "`{name}`: rate.AXIS.TERM, gyro.lpf, gyro.notch, dterm.lpf or gyro.dlpf"
+            ))
+        }
+    })
+}
+
 impl core::str::FromStr for SweepSpec {
     type Err = String;
 
-    /// `rate.AXIS.TERM=LO:HI:STEPS`: AXIS roll, pitch or yaw; TERM p, i
-    /// or d; LO and HI multipliers of the default in (0, 10], LO < HI;
-    /// STEPS in 2..=20.
+    /// `NAME=LO:HI:STEPS`: `rate.AXIS.TERM` (AXIS roll, pitch or yaw;
+    /// TERM p, i or d; multipliers of the board's in (0, 10]), `gyro.lpf`
+    /// and `gyro.notch` (10..=400 Hz), `dterm.lpf` (5..=400 Hz) or
+    /// `gyro.dlpf` (DLPF_CFG 1..=6, whole numbers); LO < HI; STEPS in
+    /// 2..=20.
     fn from_str(s: &str) -> Result<Self, String> {
-        let bad = || format!("`{s}` is not rate.AXIS.TERM=LO:HI:STEPS (e.g. rate.roll.p=0.5:2:5)");
+        let bad = || format!("`{s}` is not NAME=LO:HI:STEPS (e.g. rate.roll.p=0.5:2:5)");
         let (name, range) = s.split_once('=').ok_or_else(bad)?;
-        let parts: Vec<&str> = name.split('.').collect();
-        let ["rate", axis, term] = parts.as_slice() else {
-            return Err(bad());
-        };
-        let axis = AXES
-            .iter()
-            .position(|a| a == axis)
-            .ok_or_else(|| format!("axis `{axis}`: roll, pitch or yaw"))?;
-        let term = match *term {
-            "p" | "i" | "d" => term.chars().next().unwrap_or('p'),
-            t => return Err(format!("term `{t}`: p, i or d")),
-        };
+        let (param, min, max) = param(name)?;
         let r: Vec<&str> = range.split(':').collect();
         let [lo, hi, steps] = r.as_slice() else {
             return Err(bad());
@@ -54,100 +109,227 @@ impl core::str::FromStr for SweepSpec {
         let num = |x: &str| x.trim().parse::<f64>().map_err(|_| bad());
         let (lo, hi) = (num(lo)?, num(hi)?);
         let steps: usize = steps.trim().parse().map_err(|_| bad())?;
-        if !(lo > 0.0 && lo < hi && hi <= 10.0) {
-            return Err(format!("multipliers {lo}..{hi}: want 0 < LO < HI <= 10"));
+        if !(lo >= min && lo < hi && hi <= max) {
+            return Err(format!(
+                "{name} from {lo} to {hi}: want {min} <= LO < HI <= {max}"
+            ));
         }
         if !(2..=MAX_STEPS).contains(&steps) {
             return Err(format!("{steps} steps: want 2..={MAX_STEPS}"));
         }
-        Ok(Self {
-            axis,
-            term,
+        let spec = Self {
+            param,
             lo,
             hi,
             steps,
-        })
+        };
+        if param == Param::GyroDlpf && spec.values().iter().any(|v| v.fract() != 0.0) {
+            return Err(format!(
+                "{name}: DLPF_CFG values {:?} are not whole numbers",
+                spec.values()
+            ));
+        }
+        Ok(spec)
     }
 }
 
 impl SweepSpec {
-    /// The multipliers, evenly spaced from `lo` to `hi`.
-    pub fn multipliers(&self) -> Vec<f64> {
+    /// The values, evenly spaced from `lo` to `hi`.
+    pub fn values(&self) -> Vec<f64> {
         (0..self.steps)
             .map(|i| self.lo + (self.hi - self.lo) * i as f64 / (self.steps - 1) as f64)
             .collect()
     }
 
+    /// The axis whose figures the table reports.
+    pub fn axis(&self) -> usize {
+        match self.param {
+            Param::Rate { axis, .. } => axis,
+            _ => 0,
+        }
+    }
+
     /// The parameter's name, e.g. `rate.roll.p`.
     pub fn name(&self) -> String {
-        format!("rate.{}.{}", AXES[self.axis], self.term)
+        match self.param {
+            Param::Rate { axis, term } => format!("rate.{}.{term}", AXES[axis]),
+            Param::GyroLowPass => "gyro.lpf".into(),
+            Param::GyroNotch => "gyro.notch".into(),
+            Param::DtermLowPass => "dterm.lpf".into(),
+            Param::GyroDlpf => "gyro.dlpf".into(),
+        }
     }
 
-    /// `base` with the swept gain times `m`.
-    pub fn apply(&self, base: &FlightConfig, m: f64) -> (FlightConfig, f32) {
-        let mut cfg = *base;
-        let pid = match self.axis {
-            0 => &mut cfg.rate.roll,
-            1 => &mut cfg.rate.pitch,
-            _ => &mut cfg.rate.yaw,
+    /// What the values are.
+    fn unit(&self) -> &'static str {
+        match self.param {
+            Param::Rate { .. } => "multiplier of the board's",
+            Param::GyroDlpf => "DLPF_CFG",
+            _ => "Hz",
+        }
+    }
+
+    /// The board's settings with the swept one at `v`, and the setting as
+    /// flown (the gain, the cut-off, the DLPF's bandwidth).
+    pub fn apply(
+        &self,
+        base: &FlightConfig,
+        boot: &BootConfig,
+        v: f64,
+    ) -> Result<(FlightConfig, BootConfig, f32), String> {
+        let (mut cfg, mut b) = (*base, *boot);
+        let value = match self.param {
+            Param::Rate { axis, term } => {
+                let pid = [&mut cfg.rate.roll, &mut cfg.rate.pitch, &mut cfg.rate.yaw]
+                    .into_iter()
+                    .nth(axis)
+                    .ok_or("axis")?;
+                let gain = match term {
+                    'p' => &mut pid.kp,
+                    'i' => &mut pid.ki,
+                    _ => &mut pid.kd,
+                };
+                *gain *= v as f32;
+                *gain
+            }
+            Param::DtermLowPass => {
+                cfg.rate.roll.d_cutoff_hz = v as f32;
+                cfg.rate.pitch.d_cutoff_hz = v as f32;
+                v as f32
+            }
+            Param::GyroDlpf => {
+                let bw = DLPF[(v as usize).clamp(1, 6) - 1];
+                b.sensors.mpu.gyro_bandwidth = bw;
+                bw.bandwidth_hz()
+            }
+            Param::GyroLowPass | Param::GyroNotch => {
+                let mut f = settings::GYRO_FILTER;
+                if self.param == Param::GyroLowPass {
+                    f.low_pass = match f.low_pass {
+                        GyroLowPass::Biquad { .. } => GyroLowPass::Biquad {
+                            cutoff_hz: v as f32,
+                        },
+                        _ => GyroLowPass::Pt1 {
+                            cutoff_hz: v as f32,
+                        },
+                    };
+                } else {
+                    let q = f.notch.map_or(2.0, |n| n.q);
+                    f.notch = Some(GyroNotch {
+                        center_hz: v as f32,
+                        q,
+                    });
+                }
+                b.pipeline.gyro_filter = f
+                    .design(settings::IMU_RATE_HZ)
+                    .map_err(|e| format!("{} = {v}: {e}", self.name()))?;
+                v as f32
+            }
         };
-        let gain = match self.term {
-            'p' => &mut pid.kp,
-            'i' => &mut pid.ki,
-            _ => &mut pid.kd,
-        };
-        *gain *= m as f32;
-        let value = *gain;
-        (cfg, value)
+        Ok((cfg, b, value))
     }
 }
 
-/// One step of the sweep: the multiplier, the gain, the swept axis' report.
+/// One step of the sweep: the value, the setting as flown, the swept
+/// axis' report and its hover noise.
 pub struct SweepRow {
-    /// Multiplier of the default.
-    pub multiplier: f64,
-    /// The gain flown.
-    pub gain: f32,
+    /// The value (a multiplier, Hz or a DLPF_CFG).
+    pub value: f64,
+    /// The setting flown (the gain, the cut-off, the DLPF's bandwidth).
+    pub setting: f32,
     /// The swept axis measured (an error: why not).
     pub report: Result<AxisReport, String>,
+    /// [`hover_noise`] on the swept axis (% of the torque range).
+    pub noise_pct: Option<f64>,
 }
 
-/// Flies `opts` (the chirp) once per multiplier of `spec`.
+/// Seconds of the chirp flight's hover before the sweeps whose torque
+/// noise is measured: from 5 s (the take-off settled) to the chirp.
+const NOISE_WINDOW_S: (f64, f64) = (5.0, sim::scenario::CHIRP_START_S);
+/// The moving mean taken off the torque before its RMS (samples): what is
+/// left is above ≈ 20 Hz, the noise the gyro path and the D term put on
+/// the motors, not the control.
+const NOISE_MEAN_SAMPLES: usize = 41;
+
+/// The rate loop's torque command noise per axis in the hover before the
+/// chirp: the RMS of the command minus its 41-sample moving mean, in % of
+/// the ±1 range (`None` when the craft was not flying then). What the frame's
+/// vibration and the sensor noise, through the gyro filters and the D term,
+/// make the motors do.
+pub fn hover_noise(log: &FlightLog) -> Option<[f64; 3]> {
+    let (t0, t1) = NOISE_WINDOW_S;
+    let torque: Vec<[f32; 3]> = log
+        .samples
+        .iter()
+        .filter(|s| s.t_s >= t0 && s.t_s < t1)
+        .map(|s| s.out.torque)
+        .collect::<Option<_>>()?;
+    let n = NOISE_MEAN_SAMPLES;
+    if torque.len() < 4 * n {
+        return None;
+    }
+    let mut out = [0.0; 3];
+    for (axis, o) in out.iter_mut().enumerate() {
+        let x: Vec<f64> = torque.iter().map(|t| f64::from(t[axis])).collect();
+        let hp: Vec<f64> = x
+            .windows(n)
+            .map(|w| w[n / 2] - w.iter().sum::<f64>() / n as f64)
+            .collect();
+        *o = 100.0 * (hp.iter().map(|v| v * v).sum::<f64>() / hp.len() as f64).sqrt();
+    }
+    Some(out)
+}
+
+/// Flies `opts` (the chirp) once per value of `spec`, on `base` and the
+/// options' boot settings.
 pub fn run(
     spec: &SweepSpec,
     opts: &ClosedLoopOptions,
     base: &FlightConfig,
 ) -> Result<Vec<SweepRow>, String> {
     let mut rows = Vec::new();
-    for m in spec.multipliers() {
-        let (cfg, gain) = spec.apply(base, m);
+    for v in spec.values() {
+        let (cfg, boot, setting) = spec.apply(base, &opts.boot, v)?;
         let mut fc = FirmwareFc::new(cfg)?;
-        let log = fly(opts, &mut fc)?;
-        let report = tuning::analyse_chirp(&log).map(|mut r| r.swap_remove(spec.axis));
+        let o = ClosedLoopOptions {
+            boot,
+            ..opts.clone()
+        };
+        let log = fly(&o, &mut fc)?;
+        let report = tuning::analyse_chirp(&log).map(|mut r| r.swap_remove(spec.axis()));
         rows.push(SweepRow {
-            multiplier: m,
-            gain,
+            value: v,
+            setting,
+            noise_pct: hover_noise(&log).map(|n| n[spec.axis()]),
             report,
         });
     }
     Ok(rows)
 }
 
-/// The sweep's table: one line per multiplier.
+/// The sweep's table: one line per value.
 pub fn table(spec: &SweepSpec, rows: &[SweepRow]) -> Vec<String> {
     let mut out = vec![format!(
-        "{} swept, {} axis figures:",
+        "{} swept ({}), {} axis figures; noise: the torque command's RMS above ≈ 20 Hz in the hover, % of its range:",
         spec.name(),
-        AXES[spec.axis]
+        spec.unit(),
+        AXES[spec.axis()]
     )];
     let t = tuning::table(&[]);
-    out.push(format!("{:>5} {:>8}  {}", "×", "gain", t[0]));
+    out.push(format!(
+        "{:>6} {:>8} {:>6}  {}",
+        "value", "setting", "noise", t[0]
+    ));
     for r in rows {
         let line = match &r.report {
             Ok(rep) => tuning::table(std::slice::from_ref(rep))[1].clone(),
             Err(e) => format!("not measured: {e}"),
         };
-        out.push(format!("{:>5.2} {:>8.4}  {line}", r.multiplier, r.gain));
+        let noise = r.noise_pct.map_or("-".into(), |n| format!("{n:.2}"));
+        out.push(format!(
+            "{:>6.2} {:>8.4} {noise:>6}  {line}",
+            r.value, r.setting
+        ));
     }
     out
 }
@@ -160,7 +342,11 @@ pub fn write_plot(
 ) -> Result<(), String> {
     let ok: Vec<(f64, &AxisReport)> = rows
         .iter()
-        .filter_map(|r| r.report.as_ref().ok().map(|a| (r.multiplier, a)))
+        .filter_map(|r| r.report.as_ref().ok().map(|a| (r.value, a)))
+        .collect();
+    let noise: Vec<(f64, f64)> = rows
+        .iter()
+        .filter_map(|r| r.noise_pct.map(|n| (r.value, n)))
         .collect();
     let line = |name: &str, f: &dyn Fn(&AxisReport) -> Option<f64>| {
         (
@@ -202,13 +388,18 @@ pub fn write_plot(
             ],
             guide: None,
         },
+        XyPanel {
+            caption: "torque noise in the hover (% of range, above ≈ 20 Hz)".into(),
+            series: vec![("noise".to_string(), noise)],
+            guide: None,
+        },
     ];
-    let title = format!("{} × default, chirp, {} axis", spec.name(), AXES[spec.axis]);
+    let title = format!("{} swept, chirp, {} axis", spec.name(), AXES[spec.axis()]);
     tuning::write_xy(
         path,
         &title,
         &panels,
-        (spec.lo, spec.hi, false, "multiplier of the default"),
+        (spec.lo, spec.hi, false, spec.unit()),
     )
 }
 
@@ -225,7 +416,7 @@ mod tests {
         let spec: SweepSpec = "rate.roll.p=1:2:2".parse().unwrap();
         let mut o = ClosedLoopOptions::new(super::super::closed_loop::Scenario::Chirp, 1);
         o.mag_dance_s = 20.0;
-        let rows = run(&spec, &o, &FlightConfig::default()).unwrap();
+        let rows = run(&spec, &o, &settings::flight_config()).unwrap();
         for l in table(&spec, &rows) {
             println!("{l}");
         }
@@ -247,12 +438,36 @@ mod tests {
     #[test]
     fn specs_parse_and_bad_ones_are_refused() {
         let s: SweepSpec = "rate.pitch.d=0.5:2:4".parse().unwrap();
-        assert_eq!((s.axis, s.term, s.steps), (1, 'd', 4));
-        assert_eq!(s.multipliers(), vec![0.5, 1.0, 1.5, 2.0]);
-        let (cfg, g) = s.apply(&FlightConfig::default(), 2.0);
-        assert_eq!(g, 2.0 * FlightConfig::default().rate.pitch.kd);
-        assert_eq!(cfg.rate.roll, FlightConfig::default().rate.roll);
+        assert_eq!((s.param, s.steps), (Param::Rate { axis: 1, term: 'd' }, 4));
+        assert_eq!(s.values(), vec![0.5, 1.0, 1.5, 2.0]);
+        let base = settings::flight_config();
+        let (cfg, _, g) = s.apply(&base, &BootConfig::board(), 2.0).unwrap();
+        assert_eq!(g, 2.0 * base.rate.pitch.kd);
+        assert_eq!(cfg.rate.roll, base.rate.roll);
+        let f: SweepSpec = "gyro.lpf=50:150:3".parse().unwrap();
+        let (_, boot, hz) = f.apply(&base, &BootConfig::board(), 50.0).unwrap();
+        assert_eq!(hz, 50.0);
+        assert_ne!(
+            boot.pipeline.gyro_filter,
+            BootConfig::board().pipeline.gyro_filter
+        );
+        let d: SweepSpec = "gyro.dlpf=1:3:3".parse().unwrap();
+        let (_, boot, bw) = d.apply(&base, &BootConfig::board(), 3.0).unwrap();
+        assert_eq!(
+            (bw, boot.sensors.mpu.gyro_bandwidth),
+            (41.0, GyroBandwidth::Hz41)
+        );
+        let t: SweepSpec = "dterm.lpf=20:80:2".parse().unwrap();
+        let (cfg, _, _) = t.apply(&base, &BootConfig::board(), 20.0).unwrap();
+        assert_eq!(
+            (cfg.rate.roll.d_cutoff_hz, cfg.rate.yaw),
+            (20.0, base.rate.yaw)
+        );
         for bad in [
+            "gyro.dlpf=1:2:3",
+            "gyro.dlpf=0:3:4",
+            "gyro.lpf=5:100:3",
+            "gyro.rate=1:2:3",
             "rate.roll.p",
             "rate.up.p=1:2:3",
             "rate.roll.x=1:2:3",

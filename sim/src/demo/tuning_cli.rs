@@ -64,7 +64,16 @@ fn report(
 /// The chirp flight's rate loop, measured.
 pub fn report_chirp(log: &FlightLog, seed: u64, bode: Option<SafeFile>) -> Result<(), String> {
     let reports = tuning::analyse_chirp(log)?;
-    report(&reports, &format!("chirp seed {seed}"), bode)
+    report(&reports, &format!("chirp seed {seed}"), bode)?;
+    if let Some(n) = sweep::hover_noise(log) {
+        say!(
+            "torque noise in the hover before the sweeps (RMS above ≈ 20 Hz, % of range): roll {:.2}, pitch {:.2}, yaw {:.2}",
+            n[0],
+            n[1],
+            n[2]
+        );
+    }
+    Ok(())
 }
 
 /// `--analyse FILE`: a log's rate loop, measured.
@@ -87,11 +96,11 @@ pub fn sweep(
     opts: &ClosedLoopOptions,
     plot: Option<SafeFile>,
 ) -> Result<(), String> {
-    let base = flight::flightctl::FlightConfig::default();
+    let base = settings::flight_config();
     say!(
-        "sim: sweeping {} over {:?} × default, chirp seed {} each",
+        "sim: sweeping {} over {:?}, chirp seed {} each",
         spec.name(),
-        spec.multipliers(),
+        spec.values(),
         opts.seed
     );
     let rows = sweep::run(spec, opts, &base)?;
