@@ -367,8 +367,8 @@ mod suite {
         use control::loops::Quat;
         use control::shaping::Sticks;
         use flight::flightctl::{
-            FlightConfig, FlightController, FlightMode, FlightState, Motors, PilotInput,
-            SystemStatus, VehicleState,
+            FlightController, FlightMode, FlightState, Motors, PilotInput, SystemStatus,
+            VehicleState,
         };
 
         // (mode, row, throttle, roll stick, a new pilot frame every step):
@@ -387,7 +387,7 @@ mod suite {
             (FlightMode::Angle, FC_ANGLE_SATURATED_NAME, 0.95, 1.0, false),
             (FlightMode::Angle, FC_ANGLE_NEW_FRAME_NAME, 0.5, 0.3, true),
         ] {
-            let Ok(mut fc) = FlightController::new(FlightConfig::default()) else {
+            let Ok(mut fc) = FlightController::new(settings::flight_config()) else {
                 continue;
             };
             let status = SystemStatus {
@@ -785,10 +785,11 @@ mod suite {
     /// features: the fixed-point AHRS): per 10 ms, ten 1 kHz `imu_step`s,
     /// one magnetometer and one barometer sample and one `control_step`.
     fn pipeline_cases() {
-        use sensor_stack::pipeline::{Pipeline, PipelineConfig};
+        use sensor_stack::pipeline::Pipeline;
         let (warm, frames) = pipeline_frames();
 
-        let mut cfg = PipelineConfig::new();
+        // The board's pipeline (its gyro filter among it).
+        let mut cfg = settings::pipeline_config();
         // Our generator's scales (±8 g: 4096 counts/g; ±1000 °/s).
         cfg.accel_g_per_lsb = 1.0 / bench::ACCEL_LSB_PER_G as f32;
         cfg.gyro_dps_per_lsb = 10.0 / bench::GYRO_LSB_PER_DPS_X10 as f32;

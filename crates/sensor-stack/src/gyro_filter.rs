@@ -30,9 +30,8 @@
 //! assert_eq!(out, held);
 //! ```
 
-#[cfg(not(feature = "no-gyro-filter"))]
-use filters::BiquadQ;
-use filters::{BiquadCoeffs, FilterError, Response};
+use core::f32::consts::FRAC_1_SQRT_2;
+use filters::{BiquadCoeffs, BiquadQ, FilterError, Pt1, Pt1Q, Response};
 
 /// The gyro low-pass.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -89,19 +88,74 @@ impl GyroFilterConfig {
     /// quality factor not within (0.1, 50], or a bad sample rate.
     pub const fn design(&self, sample_hz: f32) -> Result<GyroFilterDesign, FilterError> {
         let low = match self.low_pass {
-            GyroLowPass::Off => Ok(BiquadCoeffs::PASS),
-            GyroLowPass::Pt1 { cutoff_hz } => BiquadCoeffs::pt1(cutoff_hz, sample_hz),
+            GyroLowPass::Off => Ok(Section::Off),
+            GyroLowPass::Pt1 { cutoff_hz } => match Pt1::new(cutoff_hz, sample_hz) {
+                Ok(p) => Ok(Section::pt1(&p)),
+                Err(e) => Err(e),
+            },
             GyroLowPass::Biquad { cutoff_hz } => {
-                BiquadCoeffs::low_pass(cutoff_hz, core::f32::consts::FRAC_1_SQRT_2, sample_hz)
+                Section::biquad(BiquadCoeffs::low_pass(cutoff_hz, FRAC_1_SQRT_2, sample_hz))
             }
         };
+        // Off, the notch is the identity section (b₀ = 1): the board's
+        // filter has one, and one code path is cheaper than a branch.
         let notch = match self.notch {
             None => Ok(BiquadCoeffs::PASS),
             Some(n) => BiquadCoeffs::notch(n.center_hz, n.q, sample_hz),
         };
         match (low, notch) {
-            (Ok(low), Ok(notch)) => Ok(GyroFilterDesign::of(low, notch, sample_hz)),
+            (Ok(low), Ok(notch)) => Ok(GyroFilterDesign::of(low, BiquadQ::new(&notch), sample_hz)),
             (Err(e), _) | (_, Err(e)) => Err(e),
+        }
+    }
+}
+
+/// The low-pass stage in fixed point: off, a PT1 (one multiply a sample)
+/// or a biquad section (five).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "no-gyro-filter", allow(dead_code))]
+enum Section {
+    Off,
+    Pt1(Pt1Q),
+    Biquad(BiquadQ),
+}
+
+// With `no-gyro-filter` the design drops its sections unused.
+#[cfg_attr(feature = "no-gyro-filter", allow(dead_code))]
+impl Section {
+    /// The fixed-point PT1 of `p`.
+    const fn pt1(p: &Pt1) -> Self {
+        Self::Pt1(Pt1Q::new(p))
+    }
+
+    /// The fixed-point section of a design, or its error.
+    const fn biquad(c: Result<BiquadCoeffs, FilterError>) -> Result<Self, FilterError> {
+        match c {
+            Ok(c) => Ok(Self::Biquad(BiquadQ::new(&c))),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// One sample.
+    #[inline(always)]
+    fn apply(&mut self, x: i32) -> i32 {
+        match self {
+            Self::Off => x,
+            Self::Pt1(p) => p.apply(x),
+            Self::Biquad(b) => b.apply(x),
+        }
+    }
+
+    /// Gain, phase and delay at `f_hz` for `sample_hz`.
+    fn response(&self, f_hz: f32, sample_hz: f32) -> Response {
+        match self {
+            Self::Off => Response {
+                gain: 1.0,
+                phase_rad: 0.0,
+                group_delay_s: 0.0,
+            },
+            Self::Pt1(p) => p.response(f_hz, sample_hz),
+            Self::Biquad(b) => b.response(f_hz, sample_hz),
         }
     }
 }
@@ -114,21 +168,21 @@ impl GyroFilterConfig {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GyroFilterDesign {
     #[cfg(not(feature = "no-gyro-filter"))]
-    sections: [BiquadQ; 2],
+    sections: (Section, BiquadQ),
     #[cfg(not(feature = "no-gyro-filter"))]
     sample_hz: f32,
 }
 
 impl GyroFilterDesign {
     /// Both sections off.
-    pub const PASS: Self = Self::of(BiquadCoeffs::PASS, BiquadCoeffs::PASS, 1000.0);
+    pub const PASS: Self = Self::of(Section::Off, BiquadQ::new(&BiquadCoeffs::PASS), 1000.0);
 
-    /// The fixed-point sections of `low` then `notch` at `sample_hz`.
+    /// The sections `low` then `notch` at `sample_hz`.
     #[allow(unused_variables)] // all of them with `no-gyro-filter`
-    const fn of(low: BiquadCoeffs, notch: BiquadCoeffs, sample_hz: f32) -> Self {
+    const fn of(low: Section, notch: BiquadQ, sample_hz: f32) -> Self {
         Self {
             #[cfg(not(feature = "no-gyro-filter"))]
-            sections: [BiquadQ::new(&low), BiquadQ::new(&notch)],
+            sections: (low, notch),
             #[cfg(not(feature = "no-gyro-filter"))]
             sample_hz,
         }
@@ -141,7 +195,8 @@ impl GyroFilterDesign {
     pub fn response(&self, f_hz: f32) -> Response {
         #[cfg(not(feature = "no-gyro-filter"))]
         {
-            let [a, b] = self.sections.map(|s| s.response(f_hz, self.sample_hz));
+            let a = self.sections.0.response(f_hz, self.sample_hz);
+            let b = self.sections.1.response(f_hz, self.sample_hz);
             Response {
                 gain: a.gain * b.gain,
                 phase_rad: a.phase_rad + b.phase_rad,
@@ -162,19 +217,16 @@ impl GyroFilterDesign {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct GyroFilter {
     #[cfg(not(feature = "no-gyro-filter"))]
-    axes: [[BiquadQ; 2]; 3],
-    #[cfg(not(feature = "no-gyro-filter"))]
-    started: bool,
+    axes: [(Section, BiquadQ); 3],
 }
 
 impl GyroFilter {
-    /// The fixed-point sections of `d`; the first sample settles them.
+    /// The fixed-point sections of `d`, at rest.
     #[must_use]
     #[cfg(not(feature = "no-gyro-filter"))]
     pub const fn new(d: &GyroFilterDesign) -> Self {
         Self {
             axes: [d.sections; 3],
-            started: false,
         }
     }
 
@@ -185,26 +237,17 @@ impl GyroFilter {
     }
 
     /// One sample of body rates (any Q-format; the pipeline's is Q16
-    /// rad/s): the filtered rates. The first sample after [`new`](Self::new)
-    /// starts the sections settled on it, so there is no start-up transient.
-    // Not inlined: one loop over the six sections, not six copies of it in
+    /// rad/s): the filtered rates. The sections start from rest (all zero):
+    /// the pipeline runs them from the boot, while the craft stands still,
+    /// so the start's transient is over long before an arming.
+    // Not inlined: one loop over the three axes, not three copies of it in
     // the sample task.
     #[cfg(not(feature = "no-gyro-filter"))]
     #[inline(never)]
     pub fn apply(&mut self, rates: [i32; 3]) -> [i32; 3] {
-        if !self.started {
-            self.started = true;
-            for (axis, x) in self.axes.iter_mut().zip(rates.iter()) {
-                for s in axis.iter_mut() {
-                    s.settle(*x);
-                }
-            }
-        }
         let mut out = rates;
-        for (axis, x) in self.axes.iter_mut().zip(out.iter_mut()) {
-            for s in axis.iter_mut() {
-                *x = s.apply(*x);
-            }
+        for ((low, notch), x) in self.axes.iter_mut().zip(out.iter_mut()) {
+            *x = notch.apply(low.apply(*x));
         }
         out
     }

@@ -108,6 +108,9 @@ pub const LEVEL_KP_PER_S: f32 = 12.0;
 
 /// The flight controller's tuning: the `flight`/`control` defaults with
 /// [`TILT_RATE_KD`] and [`MOTOR_TEST_COMMAND`].
+// Inlined: the firmware's constant configuration then folds at compile
+// time (out of line its soft-float conversions stay in flash).
+#[inline(always)]
 #[must_use]
 pub fn flight_config() -> FlightConfig {
     let mut rate = RateConfig::default();
