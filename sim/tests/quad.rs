@@ -465,3 +465,54 @@ fn the_frame_mode_amplifies_near_its_frequency_and_not_far_below() {
     // Peak ≈ participation / (2ζ) + the rigid part.
     assert!(mag(v.mode_hz) > v.participation / (2.0 * v.mode_damping));
 }
+
+/// What a torque command of 1 means for the 250-class model: the mixer
+/// moves each motor's command by ±½, so around the hover a roll command
+/// `u` makes a torque 2·a·u·dT/dc about x (a: each motor's lateral offset,
+/// dT/dc = 2·k_f·ω_h·ω_max·V/V_nom the thrust per unit command), a pitch
+/// command the same about y, and a yaw command 2·u·k_m/k_f·dT/dc about z.
+/// The model's angular acceleration, measured with the rotors already at
+/// the mixed commands' steady speeds, agrees with that, and gives the
+/// numbers `control`'s and `settings`' docs quote (≈ 490, 410, 34 rad/s²
+/// per unit at a full pack).
+#[test]
+fn a_unit_torque_command_is_the_airframe_s_authority() {
+    use control::controllers::TorqueCommand;
+    use control::mixer::{Mixer, MixerConfig};
+    let q0 = airborne();
+    let p = *q0.params();
+    let v = q0.state().battery_voltage_v;
+    let hover = q0.command_for_thrust(p.weight_n() / 4.0);
+    let w_h = q0.steady_rotor_rps(hover, v);
+    let w_max = q0.steady_rotor_rps(1.0, v);
+    let dt_dc = 2.0 * p.propulsion.k_f_n_per_rps2 * w_h * w_max;
+    let a = QuadParams::ARM_250_M * std::f64::consts::FRAC_1_SQRT_2;
+    let k_m = p.propulsion.k_m_nm_per_rps2 / p.propulsion.k_f_n_per_rps2;
+    let expected = [
+        2.0 * a * dt_dc / p.inertia_kgm2[0],
+        2.0 * a * dt_dc / p.inertia_kgm2[1],
+        2.0 * k_m * dt_dc / p.inertia_kgm2[2],
+    ];
+    let mixer = Mixer::new(MixerConfig::default()).unwrap();
+    let u = 0.02; // small: the thrust is quadratic in the command
+    for axis in 0..3 {
+        let mut t = [0.0f32; 3];
+        t[axis] = u as f32;
+        let torque = TorqueCommand { roll: t[0], pitch: t[1], yaw: t[2] };
+        let m = mixer.mix(hover as f32, &torque).unwrap().motors.map(f64::from);
+        let mut q = q0.clone();
+        let s = QuadState {
+            rotor_rps: m.map(|c| q.steady_rotor_rps(c, v)),
+            ..*q.state()
+        };
+        q.set_state(s);
+        q.advance_to(q.state().t_s + 0.002, m);
+        let alpha = q.state().omega_body_rps[axis] / 0.002 / u;
+        let e = expected[axis];
+        println!("axis {axis}: {alpha:.1} rad/s² per unit torque command (analytic {e:.1})");
+        assert!((alpha - e).abs() < 0.05 * e, "axis {axis}: {alpha} vs {e}");
+    }
+    // The figures the docs quote.
+    assert!((expected[0] - 490.0).abs() < 25.0 && (expected[1] - 410.0).abs() < 20.0);
+    assert!((expected[2] - 34.0).abs() < 3.0, "{expected:?}");
+}

@@ -25,7 +25,15 @@
 //!
 //! Rate-PID gains ([`AxisConfig::rate_pid`]): `kp` in torque per (rad/s) =
 //! s/rad, `ki` in torque per rad = 1/rad, `kd` in torque per (rad/s²) =
-//! s²/rad. Angles are the AHRS's Euler angles (NED/FRD, radians), rates the
+//! s²/rad. A torque command is normalised: the [`mixer`](crate::mixer)
+//! moves each motor's command by ±½ per unit, so what one unit does is the
+//! airframe's. Around the hover it is 2·a·dT/dc about roll and pitch (a: a
+//! motor's offset from that axis; dT/dc: thrust per unit motor command) and
+//! 2·(k_m/k_f)·dT/dc about yaw; for the simulator's 250-class quad (0.60 kg,
+//! 125 mm arms) at a full pack that is about 490, 410 and 34 rad/s² per
+//! unit (`sim/tests/quad.rs`), so its roll `kp` of 0.25 turns 1 rad/s of
+//! rate error into about 120 rad/s² of angular acceleration.
+//! Angles are the AHRS's Euler angles (NED/FRD, radians), rates the
 //! gyro's FRD body rates; Euler-angle errors are used directly as body-rate
 //! demands, which is accurate for small roll and pitch (within ~30°, the
 //! usual self-levelling envelope). The yaw error is wrapped to ±π. Yaw can be

@@ -201,8 +201,11 @@ pub struct RateConfig {
 }
 
 impl Default for RateConfig {
-    /// Starting point for a ~1 kg, 250 mm quad at 1 kHz (roll/pitch D
-    /// low-passed at 40 Hz); re-tune for a real airframe.
+    /// Starting point for a 250-class quad at 1 kHz (roll/pitch D
+    /// low-passed at 40 Hz; what a torque unit is physically: the module
+    /// docs of [`controllers`](crate::controllers)); the board flies the
+    /// `settings` crate's tuning, measured on the simulator's 0.60 kg
+    /// model. Re-tune for a real airframe.
     fn default() -> Self {
         let tilt = PidConfig::new(0.25, 0.8, 0.003)
             .with_d_cutoff_hz(40.0)

@@ -17,14 +17,15 @@
 //! # Why these values
 //!
 //! The gyro path's delay costs the rate loop phase at its crossover
-//! (≈ 8 Hz): every millisecond is 2.9° there. The chip's DLPF_CFG 3
-//! (41 Hz) alone delays the gyro 5.9 ms (datasheet); DLPF_CFG 2 (92 Hz)
-//! 3.9 ms. The faster setting lets more of the frame's vibration through
-//! (its imbalance at the rotor frequency, 100–250 Hz for a 250-class
-//! quad, aliased by the 1 kHz sampling), which the software low-pass and
-//! notch below take out with less delay than the chip's filter would
-//! (`cargo sim --scenario chirp --sweep ...` measured the choice; the
-//! numbers are in the crate's README section of `sim`).
+//! (≈ 6 Hz): every millisecond is about 2° there. The chip's DLPF_CFG 3
+//! (41 Hz) alone delays the gyro 5.9 ms (datasheet), DLPF_CFG 1 (184 Hz)
+//! 2.9 ms. The faster setting lets more of the frame's vibration through
+//! (the rotors' imbalance at 200 Hz in the hover, 320 Hz at full throttle,
+//! for the simulated 250-class quad), which the software low-pass and the
+//! notch at the hover's rotor frequency take out with half the delay the
+//! chip's 41 Hz filter had. The sweeps that chose each value and what each
+//! does to the margins and to the motors' noise: README, "How the defaults
+//! were chosen" (`cargo sim --scenario chirp --sweep NAME=LO:HI:N`).
 #![no_std]
 #![deny(missing_docs)]
 
@@ -40,16 +41,16 @@ use sensor_stack::sensors::SensorsConfig;
 /// sample-rate divider at 0 (the fastest this board's 400 kHz I2C reads).
 pub const IMU_RATE_HZ: f32 = 1000.0;
 
-/// The MPU-9250: ±4 g, ±1000 °/s, gyro DLPF_CFG 2 (92 Hz, 3.9 ms delay
-/// per the datasheet), accelerometer A_DLPF_CFG 3 (44.8 Hz, 4.88 ms: the
-/// AHRS's tilt correction is slow, the delay costs nothing), 1 kHz.
+/// The MPU-9250: ±4 g, ±1000 °/s, gyro DLPF_CFG 1 (184 Hz, 2.9 ms delay
+/// per the register map), accelerometer A_DLPF_CFG 3 (44.8 Hz, 4.88 ms:
+/// the AHRS's tilt correction is slow, the delay costs nothing), 1 kHz.
 pub const MPU: mpu9250::Config = mpu9250::Config::new()
     .gyro_range(GyroRange::Dps1000)
     .gyro_bandwidth(GyroBandwidth::Hz184);
 
-/// The rate loop's gyro filters: a PT1 low-pass at 100 Hz and a notch at
-/// 200 Hz (Q 2: 100 Hz wide). At 50 Hz they delay the gyro ≈ 1.5 ms
-/// ([`GYRO_FILTER_DESIGN`]`.response(50.0)`).
+/// The rate loop's gyro filters: a PT1 low-pass at 150 Hz and a notch at
+/// 200 Hz (Q 2: 100 Hz wide), the hover's rotor frequency. At 50 Hz they
+/// delay the gyro ≈ 1.2 ms ([`GYRO_FILTER_DESIGN`]`.response(50.0)`).
 pub const GYRO_FILTER: GyroFilterConfig = GyroFilterConfig {
     low_pass: GyroLowPass::Pt1 { cutoff_hz: 150.0 },
     notch: Some(GyroNotch {
@@ -144,6 +145,7 @@ mod tests {
     #[test]
     fn the_gyro_filter_delay_at_50_hz_is_as_documented() {
         let d = GYRO_FILTER_DESIGN.response(50.0).group_delay_s;
-        assert!(d > 0.0010 && d < 0.0020, "{d}");
+        // PT1 150 Hz: RC/(1 + (ωRC)²) ≈ 0.8 ms; the notch ≈ 0.4 ms.
+        assert!((d - 0.0012).abs() < 0.0001, "{d}");
     }
 }
