@@ -62,9 +62,10 @@ pub struct ChipSetup {
 }
 
 impl ChipSetup {
-    /// What the firmware programs (the `mpu9250` driver's default
-    /// configuration): DLPF_CFG 3 (41 Hz), accelerometer 44.8 Hz, 1 kHz.
-    pub const FIRMWARE: Self = Self {
+    /// The `mpu9250` driver's default configuration: DLPF_CFG 3 (41 Hz),
+    /// accelerometer 44.8 Hz, 1 kHz. (The board's own setting is the
+    /// `settings` crate's, which `cargo sim --spectrum` uses.)
+    pub const DRIVER_DEFAULT: Self = Self {
         dlpf_cfg: 3,
         smplrt_div: 0,
     };

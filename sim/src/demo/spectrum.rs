@@ -1,5 +1,6 @@
 //! `cargo sim --spectrum FILE`: the simulated gyro's spectrum at hover and
-//! at full throttle, as the chip outputs it with the firmware's setup.
+//! at full throttle, as the chip outputs it with the board's setup
+//! (`settings::MPU`), before the rate loop's software filter.
 
 use sim::plot::Series;
 use sim::quad::{QuadParams, Quadcopter};
@@ -13,6 +14,14 @@ const RECORD_S: f64 = 8.0;
 /// Welch segment (samples): about 2 Hz bins at 1 kHz.
 const SEGMENT: usize = 512;
 
+/// The chip's setup as the board programs it (`settings::MPU`).
+fn board_setup() -> ChipSetup {
+    ChipSetup {
+        dlpf_cfg: settings::MPU.gyro_bandwidth.dlpf_cfg(),
+        smplrt_div: settings::MPU.sample_rate_divider,
+    }
+}
+
 /// One case's spectrum and its summary line.
 fn case(
     name: &str,
@@ -23,7 +32,7 @@ fn case(
     let (gyro, rate, rotor_rps) = record_gyro(
         airframe,
         command,
-        ChipSetup::FIRMWARE,
+        board_setup(),
         SETTLE_S,
         RECORD_S,
         seed,
@@ -64,7 +73,9 @@ pub fn write(
     let (p2, l2) = case("full throttle", airframe, 1.0, seed)?;
     let mut notes = vec![
         format!(
-            "MPU-9250 model as the firmware sets it up: DLPF_CFG 3 (41 Hz, 5.9 ms), 1 kHz, ±1000 °/s; vibration scale {}; seed {seed}; Welch, Hann, {SEGMENT} samples, half overlap",
+            "MPU-9250 model as the board sets it up (settings::MPU): DLPF_CFG {} ({:.0} Hz), 1 kHz, ±1000 °/s; vibration scale {}; seed {seed}; Welch, Hann, {SEGMENT} samples, half overlap; before the rate loop's software filter",
+            board_setup().dlpf_cfg,
+            settings::MPU.gyro_bandwidth.bandwidth_hz(),
             airframe.vibration.scale
         ),
         l1,
