@@ -11,8 +11,9 @@
 //! a second (at about 1.4 s and 2.4 s), so it is in the log by 2.5 s, and
 //! [`FIRST_WINDOW_BY_NS`] allows 0.5 s more.
 //!
-//! Tolerance on the measured bias: the mean of 1000 samples of σ = 2.6
-//! counts (0.080 °/s at ±1000 °/s and DLPF 41 Hz) scatters by 0.08 counts,
+//! Tolerance on the measured bias: the mean of 1000 samples of σ ≈ 5.5
+//! counts (0.17 °/s at ±1000 °/s and the board's DLPF 184 Hz) scatters by
+//! 0.17 counts,
 //! the firmware rounds to whole counts (0.5), and the bias walk
 //! (0.005 °/s/√s) moves the truth by ~0.2 counts (1 σ) between the window
 //! and the comparison: [`TOLERANCE_COUNTS`] = 1.5 counts (0.046 °/s).

@@ -133,10 +133,12 @@ struct Cli {
     #[arg(long, value_name = "FILE.csv",
           conflicts_with_all = ["scenario", "trajectory", "duration", "csv", "plot", "fault"])]
     analyse: Option<PathBuf>,
-    /// With --scenario chirp: fly it once per multiplier of one rate-loop
-    /// gain's default, rate.AXIS.TERM=LO:HI:STEPS (AXIS roll, pitch, yaw;
-    /// TERM p, i, d; e.g. rate.roll.p=0.5:2:5), and print (--plot: draw)
-    /// that axis' figures against it.
+    /// With --scenario chirp: fly it once per value of one setting and print
+    /// (--plot: draw) the figures against it: NAME=LO:HI:STEPS, NAME
+    /// rate.AXIS.TERM (AXIS roll, pitch, yaw; TERM p, i, d; multipliers of
+    /// the board's gain, e.g. rate.roll.p=0.5:2:5), gyro.lpf, gyro.notch or
+    /// dterm.lpf (Hz, e.g. gyro.notch=100:300:5) or gyro.dlpf (the chip's
+    /// DLPF_CFG 1..=6, e.g. gyro.dlpf=1:3:3); with a torque-noise column.
     #[arg(long, value_name = "SPEC", requires = "scenario", conflicts_with_all = ["csv", "bode"])]
     sweep: Option<demo::sweep::SweepSpec>,
     /// No progress line on stderr.

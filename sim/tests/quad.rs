@@ -498,8 +498,16 @@ fn a_unit_torque_command_is_the_airframe_s_authority() {
     for axis in 0..3 {
         let mut t = [0.0f32; 3];
         t[axis] = u as f32;
-        let torque = TorqueCommand { roll: t[0], pitch: t[1], yaw: t[2] };
-        let m = mixer.mix(hover as f32, &torque).unwrap().motors.map(f64::from);
+        let torque = TorqueCommand {
+            roll: t[0],
+            pitch: t[1],
+            yaw: t[2],
+        };
+        let m = mixer
+            .mix(hover as f32, &torque)
+            .unwrap()
+            .motors
+            .map(f64::from);
         let mut q = q0.clone();
         let s = QuadState {
             rotor_rps: m.map(|c| q.steady_rotor_rps(c, v)),

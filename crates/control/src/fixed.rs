@@ -493,6 +493,28 @@ mod tests {
     }
 
     #[test]
+    fn a_held_integral_stays_while_p_and_d_act() {
+        let cfg = PidConfig::new(0.5, 2.0, 0.0).with_integral_limits(-0.5, 0.5);
+        let mut q = PidQ::new(&cfg, 0.001).unwrap();
+        let one = 1 << 16; // 1 unit of error
+        for _ in 0..100 {
+            q.update(one, 0, 0);
+        }
+        let i = q.integral_q30();
+        // 0.1 s of ki = 2 on 1 unit: 0.2.
+        assert!((q_to_f32(i, 30) - 0.2).abs() < 0.01, "{}", q_to_f32(i, 30));
+        // Held: the integral does not move, and the output is P + I.
+        for _ in 0..100 {
+            let out = q.update_holding(one + one / 2, 0, 0, true);
+            assert_eq!(q.integral_q30(), i);
+            assert!((q_to_f32(out, 30) - (0.5 * 1.5 + 0.2)).abs() < 0.01);
+        }
+        // Released, it integrates again from where it was.
+        q.update_holding(one, 0, 0, false);
+        assert!(q.integral_q30() > i);
+    }
+
+    #[test]
     fn pid_tracks_the_f32_pid() {
         let dt = 0.01;
         for cfg in [

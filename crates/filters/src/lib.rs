@@ -74,11 +74,12 @@ const fn check(freq_hz: f32, sample_hz: f32) -> Result<(), FilterError> {
     Ok(())
 }
 
-/// `x` in Q`frac`, rounded half away from zero, saturated to i32 (`as`
-/// saturates). A `const fn`, so a design fixed at build time puts no
-/// conversion code on the target.
+/// `x` in Q`frac`, rounded half away from zero (in f64: every i32 and
+/// every half is exact there), saturated to i32 (`as` saturates). A
+/// `const fn`, so a design fixed at build time puts no conversion code on
+/// the target.
 const fn to_q(x: f32, frac: u32) -> i32 {
-    let v = x * (1u64 << frac) as f32;
+    let v = x as f64 * (1u64 << frac) as f64;
     (if v >= 0.0 { v + 0.5 } else { v - 0.5 }) as i32
 }
 
@@ -135,6 +136,10 @@ mod tests {
         assert_eq!(to_q(1.25, 1), 3); // 2.5 → 3
         assert_eq!(to_q(-1.25, 1), -3);
         assert_eq!(to_q(0.2, 0), 0);
+        // Exact where f32 arithmetic would round: 0.49999997 stays below ½,
+        // an odd value in [2²³, 2²⁴) stays odd.
+        assert_eq!(to_q(0.499_999_97, 0), 0);
+        assert_eq!(to_q(8_388_609.0 / (1u64 << 29) as f32, 29), 8_388_609);
         assert_eq!(to_q(8.0, 29), i32::MAX);
         assert_eq!(to_q(-8.0, 29), i32::MIN);
     }

@@ -263,7 +263,7 @@ fn the_const_design_is_the_runtime_design() {
 
 #[test]
 fn a_held_input_comes_through_exactly_even_at_a_low_cut_off() {
-    // Without error feedback the 20 Hz section stalls 1/(1 + a₁ + a₂) ≈ 270
+    // Without error feedback the 20 Hz section stalls 1/(1 + a₁ + a₂) ≈ 69
     // LSB short of a held input; with it the output reaches the input.
     for x in [1 << 16, -(3 << 16), 12_345, -1] {
         let mut q = BiquadQ::new(&LOW_20);

@@ -54,9 +54,11 @@
 //! [`SafetyConfig::althold_max_climb_mps`]). Without an altitude estimate
 //! altitude hold falls back to angle with manual throttle. Until take-off
 //! (the collective first above [`SafetyConfig::land_collective_max`]) the
-//! rate loop is reset every step, so nothing winds up on the ground; in
-//! the air it runs at any throttle (the mixer raises the collective to keep
-//! authority at idle).
+//! rate loop is reset every step, so nothing winds up on the ground; after
+//! it the loop runs at any throttle (the mixer raises the collective to keep
+//! authority at idle), its integrals held while the collective is below
+//! that threshold (a landed craft waiting for the landing disarm does not
+//! wind up against the ground; a descent at low throttle keeps its trim).
 //!
 //! **Disarm** ([`DisarmCause`]): arm switch off; crash (tilt > 70° for
 //! 0.5 s in a self-levelling mode or failsafe — acro may fly inverted — or

@@ -577,8 +577,9 @@ impl Pipeline {
         self.ahrs.quaternion_q30()
     }
 
-    /// The latest gyro sample in body FRD, bias removed, rad/s (the rate
-    /// loop's measurement).
+    /// The latest gyro sample in body FRD, bias removed, through the gyro
+    /// filter ([`PipelineConfig::gyro_filter`]), rad/s: the rate loop's
+    /// measurement.
     pub fn body_rates(&self) -> control::controllers::BodyRates {
         // By the bits (`q_to_f32`), not a soft-float multiply per axis.
         let g = self.body_rates_q16();

@@ -29,14 +29,8 @@ fn case(
     command: f64,
     seed: u64,
 ) -> Result<((String, Vec<Series>), String), String> {
-    let (gyro, rate, rotor_rps) = record_gyro(
-        airframe,
-        command,
-        board_setup(),
-        SETTLE_S,
-        RECORD_S,
-        seed,
-    )?;
+    let (gyro, rate, rotor_rps) =
+        record_gyro(airframe, command, board_setup(), SETTLE_S, RECORD_S, seed)?;
     let rotor_hz = rotor_rps / std::f64::consts::TAU;
     let mut series = Vec::new();
     let mut rms = [0.0; 3];
