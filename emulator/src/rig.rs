@@ -61,7 +61,7 @@ use crate::board::{Board, BoardConfig, BoardError};
 use crate::crsf;
 use crate::cycles::CycleModel;
 use sim::quad::QuadState;
-use sim::scenario::{AcroHand, Pilot, Scenario, Seen, FRAME_PERIOD_S};
+use sim::scenario::{AcroHand, Mode, Pilot, Scenario, Seen, FRAME_PERIOD_S};
 use sim::{QuadLink, QuadParams, Quadcopter, SensorErrors, TruthSample};
 use std::path::Path;
 
@@ -336,7 +336,15 @@ impl FlightRig {
             self.frames.push((at_s, p));
             last = Some(p);
         }
-        last.or_else(|| self.frames.last().map(|f| f.1))
+        last.or_else(|| {
+            let script = self.scenario.pilot(until_s)?;
+            // In acro the hand's corrections are in the frames, not in
+            // the script.
+            Some(match self.frames.last() {
+                Some(&(_, sent)) if script.mode == Mode::Acro => sent,
+                _ => script,
+            })
+        })
     }
 
     /// What the pilot sees now: the model's true tilt, height and climb,
