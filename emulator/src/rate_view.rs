@@ -151,12 +151,21 @@ fn pipeline(imu: &[ImuRecord]) -> Result<Pipeline, String> {
     Ok(p)
 }
 
-/// Every IMU sample of the rig's flight as the controller saw it. Errors:
-/// a sample the rig did not see, or one at another full scale than the
-/// firmware's (after the bias window).
+/// Every IMU sample of the rig's flight as the controller saw it
+/// ([`view_of`] its records).
 pub fn controller_view(rig: &FlightRig) -> Result<Vec<ControllerSample>, String> {
-    let imu = rig.imu_records();
-    let frames = frame_setpoints(rig.frames())?;
+    view_of(rig.imu_records(), rig.frames())
+}
+
+/// The samples from the start of the bias window on, as the controller
+/// saw them, from the chip's samples `imu` and the frames sent `frames`
+/// (both in time order). Errors: a sample the rig did not see, or one at
+/// another full scale than the firmware's.
+pub fn view_of(
+    imu: &[ImuRecord],
+    frames: &[(f64, Pilot)],
+) -> Result<Vec<ControllerSample>, String> {
+    let frames = frame_setpoints(frames)?;
     let mut p = pipeline(imu)?;
     let lsb_per_dps = f64::from(settings::MPU.gyro_range.lsb_per_dps());
     let mut out = Vec::with_capacity(imu.len());
@@ -214,5 +223,108 @@ fn sample_rate_hz(view: &[ControllerSample]) -> Result<f64, String> {
     match (view.first(), view.last()) {
         (Some(a), Some(b)) if b.t_s > a.t_s => Ok((view.len() - 1) as f64 / (b.t_s - a.t_s)),
         _ => Err("fewer than two IMU samples".into()),
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+mod tests {
+    use super::*;
+    use control::shaping::StickShaping;
+    use sim::scenario::Sticks as PilotSticks;
+
+    fn pilot(roll: f32, mode: Mode, arm: bool) -> Pilot {
+        Pilot {
+            sticks: PilotSticks {
+                roll,
+                pitch: -0.5,
+                yaw: 0.3,
+                throttle: 0.5,
+            },
+            arm,
+            mode,
+        }
+    }
+
+    fn imu_at(t_s: f64, gyro: [i16; 3]) -> ImuRecord {
+        ImuRecord {
+            t_s,
+            accel: [0, 0, 8192],
+            gyro,
+            gyro_lsb_per_dps: f64::from(settings::MPU.gyro_range.lsb_per_dps()),
+            skipped: 0,
+        }
+    }
+
+    /// The decoded frame's fixed-point shaping is the float shaping of
+    /// the script's sticks within what the receiver moves them: the
+    /// channel map's 5 µs deadband (1 % of the 500 µs half range) and a
+    /// CRSF tick (0.6 µs), through the expo's steepest slope (1 + 2·expo
+    /// at full stick); nothing outside armed acro.
+    #[test]
+    fn a_frame_s_setpoint_is_the_stick_shaping_of_its_sticks() {
+        let cfg = settings::flight_config().sticks;
+        let q = StickShapingQ::new(&cfg).unwrap();
+        let float = StickShaping::new(cfg).unwrap();
+        for roll in [-1.0, -0.25, 0.0, 0.1, 0.25, 0.7, 1.0] {
+            let p = pilot(roll, Mode::Acro, true);
+            let bytes = crsf::frame_from_us(&p.channels_us());
+            let got = frame_setpoint(&q, &p, &bytes).unwrap();
+            let s = Sticks {
+                roll,
+                pitch: -0.5,
+                yaw: 0.3,
+                throttle: 0.5,
+            };
+            let want = float.rate_setpoint(&s).unwrap();
+            let want = [want.roll_rps, want.pitch_rps, want.yaw_rps].map(f64::from);
+            let axes = [cfg.roll, cfg.pitch, cfg.yaw];
+            for ((g, w), a) in got.iter().zip(want).zip(axes) {
+                let slope = 1.0 + 2.0 * f64::from(a.expo);
+                let tol = 5.7 / 495.0 * slope * f64::from(a.max_rate_dps).to_radians();
+                assert!((g - w).abs() <= tol, "{roll}: {got:?} vs {want:?}");
+            }
+        }
+        for p in [pilot(0.3, Mode::Angle, true), pilot(0.3, Mode::Acro, false)] {
+            let bytes = crsf::frame_from_us(&p.channels_us());
+            assert_eq!(frame_setpoint(&q, &p, &bytes), None);
+        }
+    }
+
+    /// A still gyro reads its bias away; a constant rate on x (the face-up
+    /// mounting keeps x) reads counts / sensitivity through the filter's
+    /// unity DC gain; a frame counts from its handover.
+    #[test]
+    fn the_view_scales_the_counts_and_takes_frames_when_they_arrive() {
+        let (bias, rate) = (12i16, 12 + 328);
+        let mut imu: Vec<ImuRecord> = (0..3000)
+            .map(|i| imu_at(i as f64 * 1e-3, [bias, bias, bias]))
+            .collect();
+        let after = imu.len();
+        imu.extend((0..500).map(|i| imu_at((after + i) as f64 * 1e-3, [rate, bias, bias])));
+        let sent_s = 2.9995;
+        let frames = [(sent_s, pilot(0.25, Mode::Acro, true))];
+        let view = view_of(&imu, &frames).unwrap();
+        assert!(view.iter().all(|s| s.t_s >= BIAS_WINDOW_S.0));
+        let at = |t: f64| view.iter().find(|s| s.t_s >= t - 1e-9).unwrap();
+        assert!(at(2.9).gyro_rps.iter().all(|g| g.abs() < 1e-4));
+        let want = (328.0 / settings::MPU.gyro_range.lsb_per_dps() as f64).to_radians();
+        assert!((at(3.4).gyro_rps[0] - want).abs() < 1e-3 * want);
+        assert!(at(3.4).gyro_rps[1].abs() < 1e-4);
+        // Handed over 27 byte times after it was sent: 0.64 ms.
+        let handed = handed_over_s(sent_s, 26);
+        assert!((handed - sent_s - 27.0 * 10.0 / 420_000.0).abs() < 1e-12);
+        for s in &view {
+            let has = s.t_s + CONTROL_AFTER_SAMPLE_S >= handed;
+            assert_eq!(s.setpoint_rps.is_some(), has, "{}", s.t_s);
+            assert_eq!(s.frame_sent_s.is_some(), has, "{}", s.t_s);
+        }
+    }
+
+    #[test]
+    fn a_sample_the_rig_missed_is_refused() {
+        let mut imu: Vec<ImuRecord> = (0..3000).map(|i| imu_at(i as f64 * 1e-3, [0; 3])).collect();
+        imu[2500].skipped = 1;
+        assert!(view_of(&imu, &[]).unwrap_err().contains("1 skipped"));
     }
 }

@@ -186,3 +186,59 @@ pub fn table(reports: &[AxisReport]) -> Vec<String> {
     ));
     out
 }
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+mod tests {
+    use super::*;
+
+    /// A flight sampled at 1 kHz from 0 to the end of the last sweep, the
+    /// setpoint `t` and the gyro `−t` on every axis.
+    fn flight(missing_at_s: Option<f64>) -> Vec<ChirpSample> {
+        let end_s = chirp_window_s(2).1 + 1.0;
+        (0..(end_s * 1000.0) as usize)
+            .map(|i| {
+                let t = i as f64 * 1e-3;
+                let sp = (missing_at_s.is_none_or(|m| (t - m).abs() > 1e-6)).then_some([t; 3]);
+                (t, sp, Some([-t; 3]))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn each_sweep_is_its_window_of_its_own_axis() {
+        let s = chirp_signals(flight(None)).unwrap();
+        for (axis, sig) in s.iter().enumerate() {
+            let (t0, t1) = chirp_window_s(axis);
+            assert_eq!(
+                sig.setpoint_rps.len(),
+                ((t1 - t0) * 1000.0).round() as usize
+            );
+            assert!((sig.setpoint_rps[0] - t0).abs() < 1e-3, "{axis}");
+            assert!(sig.setpoint_rps.last().unwrap() < &t1);
+            assert!(sig
+                .setpoint_rps
+                .iter()
+                .zip(&sig.gyro_rps)
+                .all(|(a, b)| a == &-b));
+        }
+        // The windows are the script's: the sweep's length apart by the rest.
+        assert_eq!(
+            chirp_window_s(0),
+            (CHIRP_START_S, CHIRP_START_S + CHIRP_SWEEP_S)
+        );
+        assert!(
+            (chirp_window_s(1).0 - chirp_window_s(0).1 - crate::scenario::CHIRP_REST_S).abs()
+                < 1e-9
+        );
+    }
+
+    #[test]
+    fn a_sweep_without_a_setpoint_is_refused_and_the_rest_ignored() {
+        // Outside the sweeps (before the first, between two) nothing is needed.
+        assert!(chirp_signals(flight(Some(1.0))).is_ok());
+        assert!(chirp_signals(flight(Some(chirp_window_s(0).1 + 1.0))).is_ok());
+        let e = chirp_signals(flight(Some(chirp_window_s(1).0 + 2.0))).unwrap_err();
+        assert!(e.starts_with("pitch sweep"), "{e}");
+    }
+}
