@@ -29,10 +29,13 @@
 //!   nothing above 0.5 Hz), so the response above 0.7 Hz is unchanged.
 //!
 //! What this does not see: a sample the firmware failed to read (it
-//! skips it; here it would be a sample like any other) and the control
-//! step's exact instant (the frame boundary can fall one sample off when a
-//! frame lands within the read's time, ≤ 1 ms of setpoint timing: ≤ 2.3° of
-//! phase at a 6.4 Hz crossover).
+//! skips it; here it would be a sample like any other) and each control
+//! step's own instant ([`CONTROL_AFTER_SAMPLE_S`] is the usual one). In the
+//! chirp a frame reaches the receiver 0.65 ms after a sample's data-ready,
+//! after that sample's control step, so it counts from the next sample; a
+//! step held off past it (the barometer's transfer on the bus) takes it
+//! one sample earlier than rebuilt here: 1 ms of setpoint timing, ≤ 2.3°
+//! of phase at a 6.4 Hz crossover for that frame.
 
 use crate::crsf;
 use crate::rig::{FlightRig, ImuRecord};
@@ -45,10 +48,12 @@ use sensor_stack::Mounting;
 use sim::rate_loop::{self, AxisReport, AxisSignals};
 use sim::scenario::{Mode, Pilot, ARM_AT_S};
 
-/// From a sample's data-ready to the control step that uses it (s): the
-/// 14-byte burst read at 400 kHz (≈ 19 bytes of 9 bits with the address
-/// phases: 0.43 ms), the pipeline's few µs rounded into it.
-pub const CONTROL_AFTER_SAMPLE_S: f64 = 0.43e-3;
+/// From a sample's data-ready to the control step's read of the pilot
+/// state (s). Measured on the emulated board (the exception entries and
+/// TIM3's CCR1, stepped by 2 µs, in the chirp's hover): the burst read
+/// ends and `sample_done` starts 0.42 ms after data-ready, and the motor
+/// outputs are written 0.54 ms after it; the pilot is read in between.
+pub const CONTROL_AFTER_SAMPLE_S: f64 = 0.5e-3;
 /// The gyro bias is taken over this window before arming (s): the
 /// craft still on the ground, the chip configured.
 pub const BIAS_WINDOW_S: (f64, f64) = (ARM_AT_S - 1.0, ARM_AT_S);
