@@ -37,6 +37,7 @@ pub mod flightplot;
 pub mod gpio;
 pub mod i2c1;
 pub mod iwdg;
+pub mod rate_view;
 pub mod rcc;
 pub mod rig;
 pub mod rtt;

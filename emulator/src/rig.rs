@@ -23,6 +23,22 @@
 //! runs the board over the same step (the chips sample the motion at their
 //! own instants, extrapolated from the published state by at most a step).
 //!
+//! # The pilot's hand
+//!
+//! The scripted pilot flies through the same [`AcroHand`] as `cargo sim`'s:
+//! in acro (the chirp's sweeps) it holds the height and pulls the tilt
+//! back to level, seeing the model's truth (by eye) and the motors' mean
+//! command (by ear) at each frame; outside acro it only listens.
+//!
+//! # What the controller saw
+//!
+//! The firmware has no flash to spare for logging its rate loop, so the
+//! rig keeps what it needs to reconstruct it on the host
+//! ([`crate::rate_view`]): every CRSF frame it sent (time and pilot) and
+//! every sample the emulated MPU-9250 produced (time and raw counts, read
+//! from the chip model's output registers after each step, no side
+//! effects).
+//!
 //! # The ESC model
 //!
 //! A generic PWM/OneShot125 ESC as BLHeli_S and BLHeli_32 behave: the
@@ -45,7 +61,7 @@ use crate::board::{Board, BoardConfig, BoardError};
 use crate::crsf;
 use crate::cycles::CycleModel;
 use sim::quad::QuadState;
-use sim::scenario::{Pilot, Scenario, FRAME_PERIOD_S};
+use sim::scenario::{AcroHand, Mode, Pilot, Scenario, Seen, FRAME_PERIOD_S};
 use sim::{QuadLink, QuadParams, Quadcopter, SensorErrors, TruthSample};
 use std::path::Path;
 
@@ -174,6 +190,24 @@ pub struct RigSample {
     pub quad: QuadState,
 }
 
+/// One sample the emulated MPU-9250 produced, as its output registers
+/// held it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuRecord {
+    /// The sample's instant (s): the chip's data-ready.
+    pub t_s: f64,
+    /// Accelerometer counts, MPU frame (ACCEL_XOUT..ZOUT).
+    pub accel: [i16; 3],
+    /// Gyroscope counts, MPU frame (GYRO_XOUT..ZOUT).
+    pub gyro: [i16; 3],
+    /// The gyro's sensitivity at the chip's full-scale setting then
+    /// (LSB per °/s).
+    pub gyro_lsb_per_dps: f64,
+    /// Samples the chip produced since the previous record, minus one:
+    /// samples the rig did not see (0 when none was skipped).
+    pub skipped: u64,
+}
+
 /// The board, the quad and the pilot, advancing together.
 pub struct FlightRig {
     board: Board,
@@ -184,6 +218,10 @@ pub struct FlightRig {
     next_frame_s: f64,
     samples: Vec<RigSample>,
     frames_sent: u64,
+    hand: AcroHand,
+    frames: Vec<(f64, Pilot)>,
+    imu: Vec<ImuRecord>,
+    mpu_samples: u64,
 }
 
 impl FlightRig {
@@ -215,6 +253,10 @@ impl FlightRig {
             next_frame_s: 0.0,
             samples: Vec::new(),
             frames_sent: 0,
+            hand: AcroHand::default(),
+            frames: Vec::new(),
+            imu: Vec::new(),
+            mpu_samples: 0,
         })
     }
 
@@ -243,6 +285,22 @@ impl FlightRig {
         self.frames_sent
     }
 
+    /// Every CRSF frame sent: the time its first byte went out (s) and
+    /// the pilot it carried (the hand's corrections included).
+    pub fn frames(&self) -> &[(f64, Pilot)] {
+        &self.frames
+    }
+
+    /// Every MPU-9250 sample the rig saw, in time order.
+    pub fn imu_records(&self) -> &[ImuRecord] {
+        &self.imu
+    }
+
+    /// The scenario flown.
+    pub fn scenario(&self) -> Scenario {
+        self.scenario
+    }
+
     /// Simulated time (s).
     pub fn now_s(&self) -> f64 {
         self.board.now_ns() as f64 * 1e-9
@@ -267,16 +325,63 @@ impl FlightRig {
         while self.next_frame_s < until_s {
             let at_s = self.next_frame_s;
             self.next_frame_s += FRAME_PERIOD_S;
-            let Some(p) = self.scenario.pilot(at_s) else {
+            let seen = self.seen();
+            let Some(p) = self.hand.fly(self.scenario.pilot(at_s), &seen, at_s) else {
                 continue;
             };
             let frame = crsf::frame_from_us(&p.channels_us());
             self.board
                 .usart1_send_at(&frame, crsf::BAUD, (at_s * 1e9) as u64);
             self.frames_sent += 1;
+            self.frames.push((at_s, p));
             last = Some(p);
         }
-        last.or_else(|| self.scenario.pilot(until_s))
+        last.or_else(|| {
+            let script = self.scenario.pilot(until_s)?;
+            // In acro the hand's corrections are in the frames, not in
+            // the script.
+            Some(match self.frames.last() {
+                Some(&(_, sent)) if script.mode == Mode::Acro => sent,
+                _ => script,
+            })
+        })
+    }
+
+    /// What the pilot sees now: the model's true tilt, height and climb,
+    /// and the mean of the commands the motors run at.
+    fn seen(&self) -> Seen {
+        let t = self.quad.truth();
+        let [roll, pitch, _] = t.q_ned_from_body.to_euler();
+        let commands = self.samples.last().map_or([0.0; 4], |s| s.commands);
+        Seen {
+            tilt_rad: [roll, pitch],
+            height_m: t.height_m,
+            climb_mps: -t.velocity_ned_mps[2],
+            mean_motor: commands.iter().sum::<f64>() / 4.0,
+        }
+    }
+
+    /// Records the chip's latest sample if it produced one since the last
+    /// call (the step is shorter than its sample period: at most one).
+    fn record_imu(&mut self) {
+        let state = self.board.sim().state();
+        let mpu = &state.mpu;
+        let count = mpu.sample_count();
+        let (Some(t_ns), true) = (mpu.last_sample_ns(), count > self.mpu_samples) else {
+            return;
+        };
+        let word = |r: u8| i16::from_be_bytes([mpu.register(r), mpu.register(r + 1)]);
+        let three = |first: u8| [word(first), word(first + 2), word(first + 4)];
+        let record = ImuRecord {
+            t_s: t_ns as f64 * 1e-9,
+            accel: three(sim::mpu9250::reg::ACCEL_XOUT_H),
+            gyro: three(sim::mpu9250::reg::GYRO_XOUT_H),
+            gyro_lsb_per_dps: mpu.gyro_lsb_per_dps(),
+            skipped: count - self.mpu_samples - 1,
+        };
+        drop(state);
+        self.mpu_samples = count;
+        self.imu.push(record);
     }
 
     fn read_escs(&mut self, t_s: f64, dt_s: f64) -> ([Option<f64>; 4], [f64; 4]) {
@@ -302,6 +407,7 @@ impl FlightRig {
         self.quad.advance_to(t1_s, commands);
         self.link.publish(&self.quad);
         self.board.run_until_ns(t1_ns)?;
+        self.record_imu();
         self.samples.push(RigSample {
             t_s: t1_s,
             truth: self.quad.truth(),

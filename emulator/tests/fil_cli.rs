@@ -72,7 +72,6 @@ fn bad_arguments_are_refused_before_the_board_starts() {
     refused(&["--plot", "x.svg"], "--scenario");
     refused(&["--vibration", "2"], "--scenario");
     refused(&["--scenario", "takeoff", "--vibration=-1"], "out of range");
-    refused(&["--scenario", "chirp"], "flies only on `cargo sim`");
     refused(&["--scenario", "takeoff", "--plot", "-"], "not stdout");
     refused(
         &["--scenario", "takeoff", "--plot", "x.jpg"],

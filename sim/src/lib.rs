@@ -16,7 +16,8 @@
 //! ground) can be the truth instead, through a [`QuadLink`], for closed-loop
 //! flight. Shared by both flight rigs (`cargo sim`, `cargo fil`): the
 //! scripted pilots ([`scenario`]), the `--fault TIME:KIND[:ARG]` syntax
-//! ([`faults`]) and the flight plots ([`plot`]).
+//! ([`faults`]), the flight plots ([`plot`]) and the rate loop's
+//! measurement from a flight's signals ([`rate_loop`]).
 //!
 //! The same bus is open at the wire level ([`wire`]): START + address,
 //! bytes with the master's ACK/NACK, STOP, and the SCL/SDA levels with what
@@ -53,6 +54,7 @@ pub mod ms5611;
 pub mod physics;
 pub mod plot;
 pub mod quad;
+pub mod rate_loop;
 pub mod rng;
 pub mod scenario;
 pub mod spectrum;

@@ -110,9 +110,9 @@ pub enum Scenario {
     /// After the take-off: in acro, a logarithmic sweep of the roll, then
     /// the pitch, then the yaw stick ([`chirp_stick`]), each from altitude
     /// hold and back to it; the pilot's hand ([`AcroHand`]) keeps the
-    /// height and the tilt by eye meanwhile. The script alone (without
-    /// the hand, as the emulated board's rig flies it today) leaves acro's
-    /// throttle at mid stick and the tilt to drift.
+    /// height and the tilt by eye meanwhile (both rigs fly it). The script
+    /// alone, without the hand, leaves acro's throttle at mid stick and
+    /// the tilt to drift.
     Chirp,
 }
 

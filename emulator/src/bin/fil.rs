@@ -226,11 +226,6 @@ fn validate(args: &Args) -> Result<Plan, String> {
         Some(n) => Some(Scenario::from_name(n).ok_or(format!("unknown scenario `{n}`"))?),
         None => None,
     };
-    if scenario == Some(Scenario::Chirp) {
-        // Its acro sweeps need `cargo sim`'s scripted hand on the throttle
-        // and the tilt, which the rig's pilot does not have yet.
-        return Err("--scenario chirp flies only on `cargo sim` (its acro sweeps need the simulator's scripted hand on throttle and tilt): run `cargo sim --scenario chirp`".into());
-    }
     let seconds = args
         .duration
         .unwrap_or(scenario.map_or(5.0, |s| s.duration_s()));
@@ -409,6 +404,9 @@ fn run(args: &Args, plan: Plan) -> Result<(), String> {
     }
     if let (Ok(()), Runner::Rig(rig)) = (&result, &runner) {
         print_flight_summary(&mut std::io::stdout().lock(), rig);
+        if rig.scenario() == Scenario::Chirp {
+            print_rate_loop(&mut std::io::stdout().lock(), rig, args.seed)?;
+        }
     }
     if args.cpi {
         print_cpi(runner.board(), &args.cycle_model);
@@ -467,6 +465,24 @@ fn print_flight_summary(out: &mut impl Write, rig: &FlightRig) {
         if last.quad.on_ground { "on the ground" } else { "in the air" },
         pulses.join(", ")
     );
+}
+
+/// The chirp's rate-loop table, as `cargo sim --scenario chirp` prints
+/// it, from the controller's view reconstructed on the host
+/// (`emulator::rate_view`). Errors: the flight did not cover the sweeps
+/// flying.
+fn print_rate_loop(out: &mut impl Write, rig: &FlightRig, seed: u64) -> Result<(), String> {
+    let reports = emulator::rate_view::analyse_chirp(rig).map_err(|e| format!("rate loop: {e}"))?;
+    let mut text = format!(
+        "== rate loop: chirp seed {seed} (the release ELF on the emulated board; setpoint and gyro as the controller saw them, rebuilt on the host) ==\n"
+    );
+    for l in sim::rate_loop::table(&reports) {
+        text.push_str(&l);
+        text.push('\n');
+    }
+    // A closed pipe ends the printing, not the run.
+    let _ = out.write_all(text.as_bytes());
+    Ok(())
 }
 
 /// What the CPU executed over the run (sleep excluded) and its CPI.

@@ -133,8 +133,9 @@ pub fn analyse(s: &LogSignals) -> Result<Vec<AxisReport>, String> {
 #[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 mod tests {
     use super::*;
-    use crate::demo::freq::tests::{lag, noise};
-    use crate::demo::freq::C;
+    use sim::rate_loop::freq::C;
+    use sim::rate_loop::test_signals::{lag, noise};
+    use std::ops::{Div, Sub};
 
     /// A log of a first-order loop on every axis, time constant `tau_s`.
     fn log(tau_s: f64, rows: usize) -> String {

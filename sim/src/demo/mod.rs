@@ -16,9 +16,9 @@
 //!   [`scenario_csv`] logs it sample by sample.
 //! * [`spectrum`] draws the simulated gyro's spectrum at hover and full
 //!   throttle (`--spectrum`).
-//! * [`freq`] and [`step`] measure a loop from its signals (frequency
-//!   response and margins; step response by deconvolution); [`tuning`]
-//!   applies them to the rate loop of a flight or a log.
+//! * [`tuning`] applies `sim::rate_loop` (frequency response and
+//!   margins, step response by deconvolution) to the rate loop of a
+//!   flight or a log and draws it.
 //!
 //! Printing that survives a closed pipe is `host_console`, shared with `replay`.
 
@@ -26,7 +26,6 @@ pub mod analyse;
 pub mod closed_loop;
 pub mod figures;
 pub mod flight_fc;
-pub mod freq;
 pub mod mag;
 pub mod output;
 pub mod plot;
@@ -36,7 +35,6 @@ pub mod run;
 pub mod scenario_csv;
 pub mod spectrum;
 pub mod stack;
-pub mod step;
 pub mod sweep;
 pub mod timeline;
 pub mod tuning;

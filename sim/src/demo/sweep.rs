@@ -356,7 +356,7 @@ pub fn write_plot(
                 .collect(),
         )
     };
-    let step = |a: &AxisReport, g: fn(&super::step::StepResponse) -> Option<f64>| {
+    let step = |a: &AxisReport, g: fn(&sim::rate_loop::step::StepResponse) -> Option<f64>| {
         a.step.as_ref().and_then(g)
     };
     let panels = [

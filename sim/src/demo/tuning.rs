@@ -1,122 +1,27 @@
-//! The rate loop measured from its signals, per axis: the closed loop
-//! `T = gyro / setpoint` and the open loop `L = T / (1 − T)` ([`freq`]),
-//! its margins, and the step response by deconvolution ([`step`]); from
-//! the chirp scenario's sweeps, or from any log holding the rate setpoint
-//! and the gyro the controller saw ([`super::analyse`]).
+//! The rate loop's measurement ([`sim::rate_loop`]) applied to a
+//! flight of `cargo sim` (the chirp scenario's sweeps) or to any log
+//! holding the rate setpoint and the gyro the controller saw
+//! ([`super::analyse`]), and drawn: the Bode plot and the x–y figures of
+//! the parameter sweep.
 
-use super::closed_loop::{FlightLog, CHIRP_AXIS_PERIOD_S, CHIRP_START_S, CHIRP_SWEEP_S};
-use super::freq::{self, FreqResponse, Margins};
-use super::step::{self, StepResponse};
+use super::closed_loop::FlightLog;
 use plotters::prelude::*;
 use sim::plot::FONT;
+use sim::rate_loop::{self, freq, F_HI_HZ, F_LO_HZ};
+pub use sim::rate_loop::{analyse_axis, table, AxisReport, AxisSignals, AXES};
+use std::ops::Sub;
 use std::path::Path;
-
-/// The axes' names, roll, pitch, yaw.
-pub const AXES: [&str; 3] = ["roll", "pitch", "yaw"];
-/// Bands below this coherence are not used for the margins: the
-/// estimate's variance there is large.
-pub const MIN_COHERENCE: f64 = 0.6;
-/// Frequency bands a decade.
-const BANDS_PER_DECADE: usize = 20;
-/// Lowest frequency analysed (Hz): the chirp's start.
-const F_LO_HZ: f64 = 0.7;
-/// Highest frequency analysed (Hz): the chirp's end, and at most 80 % of
-/// the Nyquist frequency.
-const F_HI_HZ: f64 = 80.0;
-/// Step windows with less setpoint span than this are skipped (rad/s):
-/// 20 °/s.
-const STEP_MIN_SPAN_RPS: f64 = 0.35;
-/// The step response's horizon (s).
-const STEP_HORIZON_S: f64 = 0.5;
-
-/// One axis' signals at a constant sample rate.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct AxisSignals {
-    /// The rate setpoint the controller used (rad/s).
-    pub setpoint_rps: Vec<f64>,
-    /// The gyro the controller saw (rad/s).
-    pub gyro_rps: Vec<f64>,
-}
-
-/// One axis measured.
-#[derive(Clone, Debug, PartialEq)]
-pub struct AxisReport {
-    /// Roll, pitch or yaw.
-    pub axis: &'static str,
-    /// The closed loop, coherent bands only.
-    pub closed: FreqResponse,
-    /// The open loop from it.
-    pub open: FreqResponse,
-    /// Its margins.
-    pub margins: Margins,
-    /// The step response, when the setpoint moved enough.
-    pub step: Option<StepResponse>,
-}
-
-/// The power of two nearest `seconds · fs_hz`, at least 64.
-fn pow2_len(seconds: f64, fs_hz: f64) -> usize {
-    let n = (seconds * fs_hz).max(64.0);
-    1usize << n.log2().round() as u32
-}
-
-/// Measures one axis sampled at `fs_hz`: Welch segments of ≈ 4 s, steps
-/// over windows of ≈ 2 s.
-pub fn analyse_axis(axis: &'static str, s: &AxisSignals, fs_hz: f64) -> Result<AxisReport, String> {
-    let seg = pow2_len(4.0, fs_hz);
-    let spectra = freq::cross_spectra(&s.setpoint_rps, &s.gyro_rps, fs_hz, seg)
-        .map_err(|e| format!("{axis}: {e}"))?;
-    let f_lo = F_LO_HZ.max(2.0 * spectra.df_hz);
-    let f_hi = F_HI_HZ.min(0.4 * fs_hz);
-    let closed =
-        FreqResponse::banded(&spectra, f_lo, f_hi, BANDS_PER_DECADE).coherent(MIN_COHERENCE);
-    if closed.f_hz.len() < 3 {
-        return Err(format!(
-            "{axis}: fewer than 3 coherent bands between {f_lo:.1} and {f_hi:.0} Hz: the setpoint does not excite the loop"
-        ));
-    }
-    let open = closed.open_loop_of_closed();
-    let margins = freq::margins(&open);
-    let window = pow2_len(2.0, fs_hz);
-    let step = step::step_response(
-        &s.setpoint_rps,
-        &s.gyro_rps,
-        fs_hz,
-        window,
-        STEP_HORIZON_S.min(0.45 * window as f64 / fs_hz),
-        STEP_MIN_SPAN_RPS,
-    );
-    Ok(AxisReport {
-        axis,
-        closed,
-        open,
-        margins,
-        step,
-    })
-}
 
 /// The signals of each axis' sweep in a chirp flight (the samples within
 /// the sweep; an error when one has no setpoint or gyro, as when the
 /// craft was not flying).
 pub fn chirp_signals(log: &FlightLog) -> Result<[AxisSignals; 3], String> {
-    let mut out: [AxisSignals; 3] = Default::default();
-    for (axis, sig) in out.iter_mut().enumerate() {
-        let t0 = CHIRP_START_S + axis as f64 * CHIRP_AXIS_PERIOD_S;
-        for s in log
-            .samples
+    let widen = |v: Option<[f32; 3]>| v.map(|a| a.map(f64::from));
+    rate_loop::chirp_signals(
+        log.samples
             .iter()
-            .filter(|s| s.t_s >= t0 && s.t_s < t0 + CHIRP_SWEEP_S)
-        {
-            let (Some(sp), Some(g)) = (s.out.rate_setpoint_rps, s.out.gyro_rps) else {
-                return Err(format!(
-                    "{} sweep: no rate setpoint or gyro at {:.3} s (not flying)",
-                    AXES[axis], s.t_s
-                ));
-            };
-            sig.setpoint_rps.push(f64::from(sp[axis]));
-            sig.gyro_rps.push(f64::from(g[axis]));
-        }
-    }
-    Ok(out)
+            .map(|s| (s.t_s, widen(s.out.rate_setpoint_rps), widen(s.out.gyro_rps))),
+    )
 }
 
 /// The sample rate of a log (Hz) from its mean spacing.
@@ -136,55 +41,7 @@ pub fn analyse_chirp(log: &FlightLog) -> Result<Vec<AxisReport>, String> {
         ));
     }
     let fs = sample_rate_hz(log)?;
-    let signals = chirp_signals(log)?;
-    AXES.iter()
-        .zip(&signals)
-        .map(|(axis, s)| analyse_axis(axis, s, fs))
-        .collect()
-}
-
-/// `Some(v)` to `v` with `decimals`, `None` to "-".
-fn opt(v: Option<f64>, decimals: usize) -> String {
-    v.map_or("-".into(), |x| format!("{x:.decimals$}"))
-}
-
-/// The table: a header and one line per axis.
-pub fn table(reports: &[AxisReport]) -> Vec<String> {
-    let mut out = vec![format!(
-        "{:<6} {:>9} {:>7} {:>8} {:>7} {:>5} {:>6} {:>8} {:>9} {:>9}",
-        "axis",
-        "cross Hz",
-        "PM °",
-        "GM dB",
-        "GM Hz",
-        "Ms",
-        "Ms Hz",
-        "rise ms",
-        "overs. %",
-        "settle ms"
-    )];
-    for r in reports {
-        let m = &r.margins;
-        let s = r.step.as_ref();
-        out.push(format!(
-            "{:<6} {:>9} {:>7} {:>8} {:>7} {:>5.2} {:>6.1} {:>8} {:>9} {:>9}",
-            r.axis,
-            opt(m.crossover_hz, 1),
-            opt(m.phase_margin_deg, 1),
-            opt(m.gain_margin_db, 1),
-            opt(m.phase_crossover_hz, 1),
-            m.ms,
-            m.ms_hz,
-            opt(s.and_then(|s| s.rise_s).map(|v| v * 1e3), 0),
-            opt(s.map(|s| s.overshoot_pct), 1),
-            opt(s.and_then(|s| s.settling_s).map(|v| v * 1e3), 0),
-        ));
-    }
-    out.push(format!(
-        "(L = T/(1−T), T = gyro/setpoint by Welch H1 in {BANDS_PER_DECADE} bands a decade, bands with coherence ≥ {MIN_COHERENCE}; step by Wiener deconvolution, settling to ±{:.0} %)",
-        step::SETTLING_BAND * 100.0
-    ));
-    out
+    rate_loop::analyse_sweeps(&chirp_signals(log)?, fs)
 }
 
 /// Colours of the lines of a panel (roll, pitch, yaw in a Bode plot).
@@ -358,6 +215,7 @@ mod tests {
     use super::*;
     use crate::demo::closed_loop::{fly, ClosedLoopOptions, Scenario};
     use crate::demo::flight_fc::FirmwareFc;
+    use sim::scenario::CHIRP_START_S;
 
     /// The chirp flown with the default configuration, and measured.
     pub(crate) fn measured(seed: u64) -> (FlightLog, Vec<AxisReport>) {

@@ -14,6 +14,7 @@
 //! `r`; bands whose coherence is below a threshold are not used.
 
 use std::f64::consts::PI;
+use std::ops::{Add, Div, Mul, Sub};
 
 /// A complex number (the spectra's bins).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -49,30 +50,46 @@ impl C {
     pub fn conj(self) -> Self {
         Self::new(self.re, -self.im)
     }
+    /// `self · k`.
+    pub fn scale(self, k: f64) -> Self {
+        Self::new(self.re * k, self.im * k)
+    }
+}
+
+impl Mul for C {
+    type Output = Self;
     /// `self · o`.
-    pub fn mul(self, o: Self) -> Self {
+    fn mul(self, o: Self) -> Self {
         Self::new(
             self.re * o.re - self.im * o.im,
             self.re * o.im + self.im * o.re,
         )
     }
+}
+
+impl Div for C {
+    type Output = Self;
     /// `self / o` (infinite or NaN for `o = 0`).
-    pub fn div(self, o: Self) -> Self {
+    fn div(self, o: Self) -> Self {
         let d = o.norm2();
         let n = self.mul(o.conj());
         Self::new(n.re / d, n.im / d)
     }
+}
+
+impl Add for C {
+    type Output = Self;
     /// `self + o`.
-    pub fn add(self, o: Self) -> Self {
+    fn add(self, o: Self) -> Self {
         Self::new(self.re + o.re, self.im + o.im)
     }
+}
+
+impl Sub for C {
+    type Output = Self;
     /// `self − o`.
-    pub fn sub(self, o: Self) -> Self {
+    fn sub(self, o: Self) -> Self {
         Self::new(self.re - o.re, self.im - o.im)
-    }
-    /// `self · k`.
-    pub fn scale(self, k: f64) -> Self {
-        Self::new(self.re * k, self.im * k)
     }
 }
 
@@ -331,21 +348,9 @@ pub fn margins(l: &FreqResponse) -> Margins {
 
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
-pub(crate) mod tests {
+mod tests {
+    use super::super::test_signals::{lag, noise};
     use super::*;
-
-    /// A reproducible white noise (xorshift), uniform in −1..1.
-    pub(crate) fn noise(n: usize, seed: u64) -> Vec<f64> {
-        let mut s = seed.max(1);
-        (0..n)
-            .map(|_| {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                (s >> 11) as f64 / (1u64 << 52) as f64 * 2.0 - 1.0
-            })
-            .collect()
-    }
 
     /// The grid of analytic `L(j2πf)` over 0.5..200 Hz, 50 points a decade.
     fn analytic(l: impl Fn(f64) -> C) -> FreqResponse {
@@ -425,21 +430,6 @@ pub(crate) mod tests {
             m.gain_margin_db.is_none() && m.phase_crossover_hz.is_none(),
             "{m:?}"
         );
-    }
-
-    /// `y` = a discrete first-order lag of `x` (time constant `tau_s`,
-    /// exact for a held input) delayed by `delay` samples.
-    pub(crate) fn lag(x: &[f64], dt_s: f64, tau_s: f64, delay: usize) -> Vec<f64> {
-        let a = (-dt_s / tau_s).exp();
-        let mut s = 0.0;
-        let mut y = vec![0.0; x.len()];
-        for i in 0..x.len() {
-            y[i] = s;
-            if i >= delay {
-                s = a * s + (1.0 - a) * x[i - delay];
-            }
-        }
-        y
     }
 
     #[test]

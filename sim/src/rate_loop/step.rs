@@ -9,6 +9,7 @@
 //! needed: any stick activity excites it.
 
 use super::freq::{fft, hann, C};
+use std::ops::{Add, Mul};
 
 /// Wiener regularisation: `λ` as a fraction of the window's mean `|X|²`
 /// (bins where the setpoint has less power than this are trusted less).
@@ -152,8 +153,8 @@ pub fn figures(step: Vec<f64>, dt_s: f64, windows: usize) -> StepResponse {
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 mod tests {
+    use super::super::test_signals::{lag, noise};
     use super::*;
-    use crate::demo::freq::tests::{lag, noise};
 
     /// A pilot's stick: held levels changing at random every 0.1–0.5 s.
     fn sticks(n: usize, seed: u64) -> Vec<f64> {
