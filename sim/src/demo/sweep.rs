@@ -334,12 +334,19 @@ pub fn table(spec: &SweepSpec, rows: &[SweepRow]) -> Vec<String> {
     out
 }
 
-/// The figures against the multiplier.
+/// The figures against the swept value.
 pub fn write_plot(
     path: &std::path::Path,
     spec: &SweepSpec,
     rows: &[SweepRow],
 ) -> Result<(), String> {
+    let title = format!("{} swept, chirp, {} axis", spec.name(), AXES[spec.axis()]);
+    let x = (spec.lo, spec.hi, false, spec.unit());
+    tuning::write_xy(path, &title, &panels(rows), x)
+}
+
+/// The plot's panels: the margins, the crossover, the step, the noise.
+fn panels(rows: &[SweepRow]) -> Vec<XyPanel> {
     let ok: Vec<(f64, &AxisReport)> = rows
         .iter()
         .filter_map(|r| r.report.as_ref().ok().map(|a| (r.value, a)))
@@ -349,58 +356,52 @@ pub fn write_plot(
         .filter_map(|r| r.noise_pct.map(|n| (r.value, n)))
         .collect();
     let line = |name: &str, f: &dyn Fn(&AxisReport) -> Option<f64>| {
-        (
-            name.to_string(),
-            ok.iter()
-                .filter_map(|(m, a)| f(a).map(|v| (*m, v)))
-                .collect(),
-        )
+        let points = ok.iter().filter_map(|(m, a)| f(a).map(|v| (*m, v)));
+        (name.to_string(), points.collect())
     };
     let step = |a: &AxisReport, g: fn(&sim::rate_loop::step::StepResponse) -> Option<f64>| {
         a.step.as_ref().and_then(g)
     };
-    let panels = [
-        XyPanel {
-            caption: "phase margin (°); the line: 45°".into(),
-            series: vec![line("PM", &|a| a.margins.phase_margin_deg)],
-            guide: Some(45.0),
-        },
-        XyPanel {
-            caption: "sensitivity peak Ms; the line: 2".into(),
-            series: vec![line("Ms", &|a| Some(a.margins.ms))],
-            guide: Some(2.0),
-        },
-        XyPanel {
-            caption: "gain margin (dB)".into(),
-            series: vec![line("GM", &|a| a.margins.gain_margin_db)],
-            guide: None,
-        },
-        XyPanel {
-            caption: "crossover (Hz)".into(),
-            series: vec![line("crossover", &|a| a.margins.crossover_hz)],
-            guide: None,
-        },
-        XyPanel {
-            caption: "step: rise (ms), overshoot (%)".into(),
-            series: vec![
+    let panel = |caption: &str, series, guide| XyPanel {
+        caption: caption.into(),
+        series,
+        guide,
+    };
+    vec![
+        panel(
+            "phase margin (°); the line: 45°",
+            vec![line("PM", &|a| a.margins.phase_margin_deg)],
+            Some(45.0),
+        ),
+        panel(
+            "sensitivity peak Ms; the line: 2",
+            vec![line("Ms", &|a| Some(a.margins.ms))],
+            Some(2.0),
+        ),
+        panel(
+            "gain margin (dB)",
+            vec![line("GM", &|a| a.margins.gain_margin_db)],
+            None,
+        ),
+        panel(
+            "crossover (Hz)",
+            vec![line("crossover", &|a| a.margins.crossover_hz)],
+            None,
+        ),
+        panel(
+            "step: rise (ms), overshoot (%)",
+            vec![
                 line("rise ms", &|a| step(a, |s| s.rise_s.map(|r| r * 1e3))),
                 line("overshoot %", &|a| step(a, |s| Some(s.overshoot_pct))),
             ],
-            guide: None,
-        },
-        XyPanel {
-            caption: "torque noise in the hover (% of range, above ≈ 20 Hz)".into(),
-            series: vec![("noise".to_string(), noise)],
-            guide: None,
-        },
-    ];
-    let title = format!("{} swept, chirp, {} axis", spec.name(), AXES[spec.axis()]);
-    tuning::write_xy(
-        path,
-        &title,
-        &panels,
-        (spec.lo, spec.hi, false, spec.unit()),
-    )
+            None,
+        ),
+        panel(
+            "torque noise in the hover (% of range, above ≈ 20 Hz)",
+            vec![("noise".to_string(), noise)],
+            None,
+        ),
+    ]
 }
 
 #[cfg(test)]
