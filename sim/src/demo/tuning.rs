@@ -259,6 +259,11 @@ mod tests {
             assert!((1.0..60.0).contains(&fc), "{}: {m:?}", r.axis);
             assert!(m.phase_margin_deg.unwrap() > 30.0, "{}: {m:?}", r.axis);
             assert!(m.ms > 1.0 && m.ms < 3.0, "{}: {m:?}", r.axis);
+            // The board's tuning's aim, with the sensor's delay and the
+            // frame's vibration: 45° of phase margin and Ms ≤ 2, the line
+            // Betaflight's configurator draws.
+            assert!(m.phase_margin_deg.unwrap() >= 45.0, "{}: {m:?}", r.axis);
+            assert!(m.ms <= 2.0, "{}: {m:?}", r.axis);
             assert!(
                 m.gain_margin_db.is_none_or(|g| g > 3.0),
                 "{}: {m:?}",
