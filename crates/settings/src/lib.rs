@@ -71,6 +71,8 @@ pub const GYRO_FILTER: GyroFilterConfig = GyroFilterConfig {
 
 /// [`GYRO_FILTER`] designed at build time for [`IMU_RATE_HZ`] (a setting
 /// out of range does not compile).
+// Evaluated by the compiler (a `const`): a bad setting stops the build,
+// and nothing of this runs, or can panic, on the board.
 pub const GYRO_FILTER_DESIGN: GyroFilterDesign = match GYRO_FILTER.design(IMU_RATE_HZ) {
     Ok(d) => d,
     Err(_) => panic!("GYRO_FILTER: a frequency or Q out of range for IMU_RATE_HZ"),
