@@ -7,7 +7,7 @@
 //!
 //! The design ([`GyroFilterConfig::design`]) is a `const fn`: a setting
 //! fixed at build time is designed by the compiler, and the board carries
-//! only the Q29 taps and the per-sample code.
+//! only the Q29 (biquad) and Q30 (PT1) taps and the per-sample code.
 //!
 //! ```
 //! use sensor_stack::gyro_filter::{GyroFilter, GyroFilterConfig, GyroLowPass, GyroNotch};
