@@ -76,7 +76,7 @@ fn param(name: &str) -> Result<(Param, f64, f64), String> {
                 "d" => 'd',
                 t => return Err(format!("term `{t}`: p, i or d")),
             };
-            (Param::Rate { axis, term }, f64::MIN_POSITIVE, 10.0)
+            (Param::Rate { axis, term }, 0.0, 10.0)
         }
         ["gyro", "lpf"] => (Param::GyroLowPass, 10.0, 400.0),
         ["gyro", "notch"] => (Param::GyroNotch, 10.0, 400.0),
@@ -109,9 +109,16 @@ impl core::str::FromStr for SweepSpec {
         let num = |x: &str| x.trim().parse::<f64>().map_err(|_| bad());
         let (lo, hi) = (num(lo)?, num(hi)?);
         let steps: usize = steps.trim().parse().map_err(|_| bad())?;
-        if !(lo >= min && lo < hi && hi <= max) {
+        // A multiplier must be positive; a frequency or a DLPF_CFG may be
+        // its range's lowest value.
+        let (low_ok, op) = if min == 0.0 {
+            (lo > 0.0, "<")
+        } else {
+            (lo >= min, "<=")
+        };
+        if !(low_ok && lo < hi && hi <= max) {
             return Err(format!(
-                "{name} from {lo} to {hi}: want {min} <= LO < HI <= {max}"
+                "{name} from {lo} to {hi}: want {min} {op} LO < HI <= {max}"
             ));
         }
         if !(2..=MAX_STEPS).contains(&steps) {
