@@ -3,8 +3,7 @@
 //!
 //! The workspace's `.cargo/config.toml` passes `-Tlink.x -Tdefmt.x` for every
 //! thumbv7m build. The bench does not use cortex-m-rt (whose `link.x`
-//! includes `memory.x`, and the linker would find the Blue Pill's `memory.x`
-//! in the workspace root first), so the only `link.x` on the path is ours.
+//! includes a chip's `memory.x`), so the only `link.x` on the path is ours.
 use std::{env, fs, path::PathBuf, process::ExitCode};
 
 fn main() -> ExitCode {

@@ -2,9 +2,9 @@
 //! handler (.bss zeroing, .data copy), fault handler and panic handler, all of
 //! which report through semihosting and end QEMU.
 //!
-//! cortex-m-rt is not used because its `link.x` includes `memory.x`, and the
-//! linker runs in the workspace root where the Blue Pill's `memory.x` lives;
-//! our own `link.x` (see `build.rs`) describes QEMU's `mps2-an385` instead.
+//! cortex-m-rt is not used because its `link.x` includes a `memory.x` for
+//! the chip it runs on (the Blue Pill's is `firmware/memory.x`); our own
+//! `link.x` (see `build.rs`) describes QEMU's `mps2-an385` instead.
 #![allow(unsafe_code)]
 
 use cortex_m_semihosting::{debug, hprintln};

@@ -17,7 +17,7 @@
 
 use crate::cycles::{self, CycleModel, ExceptionStep};
 use crate::dma::{self, Dma};
-use crate::elf::{Firmware, FLASH_BASE, FLASH_SIZE};
+use crate::elf::{Firmware, FLASH_BASE};
 use crate::exceptions;
 use crate::exti::{irq_of_line, Exti};
 use crate::flash::{Flash, FlashEffect};
@@ -358,7 +358,7 @@ impl Hw {
     fn refill_into(&self, addr: u32) -> u32 {
         match self.fall_through {
             Some(ft) if ft != addr => {
-                let in_flash = addr.wrapping_sub(FLASH_BASE) < FLASH_SIZE;
+                let in_flash = addr.wrapping_sub(FLASH_BASE) < self.flash.size();
                 let ws = if in_flash {
                     self.flash.wait_states()
                 } else {
@@ -1047,12 +1047,12 @@ enum DmaTarget {
     BusError,
 }
 
-fn dma_target(addr: u32, bytes: u32) -> DmaTarget {
+fn dma_target(addr: u32, bytes: u32, flash_size: u32) -> DmaTarget {
     let end = u64::from(addr) + u64::from(bytes);
     let within = |base: u32, size: u32| addr >= base && end <= u64::from(base) + u64::from(size);
     if within(RAM_BASE, RAM_SIZE) {
         DmaTarget::Ram
-    } else if within(FLASH_BASE, FLASH_SIZE) {
+    } else if within(FLASH_BASE, flash_size) {
         DmaTarget::Flash(addr - FLASH_BASE)
     } else if within(PERIPH_BASE, PERIPH_SIZE) {
         DmaTarget::Periph
@@ -1065,7 +1065,7 @@ fn dma_target(addr: u32, bytes: u32) -> DmaTarget {
 fn dma_read(uc: &mut Unicorn<'_, Hw>, addr: u32, bytes: u32, at_ns: u64) -> Option<u32> {
     let mut b = [0u8; 4];
     let n = bytes as usize;
-    match dma_target(addr, bytes) {
+    match dma_target(addr, bytes, uc.get_data().flash.size()) {
         DmaTarget::Ram => {
             uc.mem_read(u64::from(addr), &mut b[..n]).ok()?;
             Some(u32::from_le_bytes(b))
@@ -1103,7 +1103,7 @@ fn dma_read(uc: &mut Unicorn<'_, Hw>, addr: u32, bytes: u32, at_ns: u64) -> Opti
 /// write to flash, which is programmed only through its controller).
 fn dma_write(uc: &mut Unicorn<'_, Hw>, addr: u32, bytes: u32, v: u32, at_ns: u64) -> Option<()> {
     let n = bytes as usize;
-    match dma_target(addr, bytes) {
+    match dma_target(addr, bytes, uc.get_data().flash.size()) {
         DmaTarget::Ram => uc.mem_write(u64::from(addr), &v.to_le_bytes()[..n]).ok(),
         DmaTarget::Periph => {
             let (a, shift, mask) = lanes(u64::from(addr), n);
@@ -1299,9 +1299,10 @@ impl Board {
         let clock = sim::SimClock::new();
         let bus = sim::SimBus::new(&clock, sim_cfg);
         let image = config.flash.clone().unwrap_or_else(|| fw.flash.clone());
-        if image.len() != FLASH_SIZE as usize {
+        let flash_size = fw.flash.len() as u32;
+        if image.len() != fw.flash.len() {
             return Err(BoardError::Elf(format!(
-                "flash image is {} bytes, not {FLASH_SIZE}",
+                "flash image is {} bytes, not the chip's {flash_size}",
                 image.len()
             )));
         }
@@ -1313,7 +1314,7 @@ impl Board {
         let tail_base = fw
             .image_end
             .next_multiple_of(0x1000)
-            .min(FLASH_BASE + FLASH_SIZE - CALIBRATION_PAGE_BYTES);
+            .min(FLASH_BASE + flash_size - CALIBRATION_PAGE_BYTES);
         let mut rcc = Rcc::new(ResetCause::PowerOn, 0);
         rcc.hse_works = config.hse_works;
         let hw = Hw {
@@ -1344,7 +1345,7 @@ impl Board {
             driven: Vec::new(),
             clock,
             tail_base,
-            blocks: vec![BlockInfo::default(); FLASH_SIZE as usize / 2],
+            blocks: vec![BlockInfo::default(); flash_size as usize / 2],
             entries: vec![0; crate::scs::EXCEPTIONS],
             dbgmcu_cr: 0,
             button_pressed: false,
@@ -1363,7 +1364,7 @@ impl Board {
             Unicorn::new_with_data(Arch::ARM, Mode::THUMB | Mode::MCLASS, hw).map_err(uc_err)?;
         uc.ctl_set_cpu_model(ArmCpuModel::CORTEX_M3 as i32)
             .map_err(uc_err)?;
-        Self::map(&mut uc, tail_base)?;
+        Self::map(&mut uc, tail_base, flash_size)?;
         let mut board = Self {
             uc,
             rtt: RttHost::new(fw.rtt_address, fw.table, config.rtt_mode),
@@ -1379,11 +1380,15 @@ impl Board {
         Ok(board)
     }
 
-    fn map(uc: &mut Unicorn<'static, Hw>, tail_base: u32) -> Result<(), BoardError> {
+    fn map(
+        uc: &mut Unicorn<'static, Hw>,
+        tail_base: u32,
+        flash_size: u32,
+    ) -> Result<(), BoardError> {
         let code_len = u64::from(tail_base - FLASH_BASE);
         uc.mem_map(u64::from(FLASH_BASE), code_len, Prot::READ | Prot::EXEC)
             .map_err(uc_err)?;
-        let tail_len = u64::from(FLASH_BASE + FLASH_SIZE - tail_base);
+        let tail_len = u64::from(FLASH_BASE + flash_size - tail_base);
         if tail_len > 0 {
             let base = tail_base;
             uc.mmio_map(
@@ -2085,6 +2090,7 @@ impl Board {
 #[allow(clippy::panic)]
 mod tests {
     use super::*;
+    use crate::elf::FLASH_SIZE;
 
     #[test]
     fn block_scan_counts_wide_and_narrow_instructions() {

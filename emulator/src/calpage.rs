@@ -13,8 +13,15 @@ use sensor_stack::storage::{self, CalibrationRecord, ValidParts};
 use sim::physics::G0_MPS2;
 use sim::SensorErrors;
 
-/// Offset of the calibration page in the flash image.
+/// Offset of the calibration page in the STM32F103C8's flash image.
 pub const PAGE_OFFSET: usize = (storage::PAGE_ADDRESS - 0x0800_0000) as usize;
+
+/// Offset of the calibration page (`CALIB_A`) in a flash image of
+/// `image_len` bytes: the chip's last 1 KiB page in both flash plans
+/// (`memory.x` for the C8, `memory-cb.x` for the CB).
+pub fn page_offset(image_len: usize) -> usize {
+    image_len.saturating_sub(storage::PAGE_SIZE)
+}
 
 type Mat3 = [[f64; 3]; 3];
 
@@ -83,15 +90,15 @@ pub fn record_for(errors: &SensorErrors) -> CalibrationRecord {
     rec
 }
 
-/// `image` (a whole flash image) with `rec` written into the calibration
-/// page.
+/// `image` (a whole flash image, of either chip) with `rec` written into
+/// the calibration page, its last 1 KiB page.
 pub fn with_record(mut image: Vec<u8>, rec: &CalibrationRecord) -> Vec<u8> {
     let bytes = storage::encode(rec);
-    let end = PAGE_OFFSET + bytes.len();
-    if image.len() < end {
-        image.resize(end, 0xFF);
+    if image.len() < PAGE_OFFSET + storage::PAGE_SIZE {
+        image.resize(PAGE_OFFSET + storage::PAGE_SIZE, 0xFF);
     }
-    image[PAGE_OFFSET..end].copy_from_slice(&bytes);
+    let at = page_offset(image.len());
+    image[at..at + bytes.len()].copy_from_slice(&bytes);
     image
 }
 
@@ -147,5 +154,14 @@ mod tests {
         let image = with_record(vec![0xFF; 64 * 1024], &rec);
         let back = storage::decode(&image[PAGE_OFFSET..]).ok();
         assert_eq!(back, Some(rec));
+    }
+
+    #[test]
+    fn the_cb_page_is_its_last_page() {
+        let rec = record_for(&SensorErrors::datasheet(5));
+        let image = with_record(vec![0xFF; 128 * 1024], &rec);
+        let at = 0x0801_FC00 - 0x0800_0000;
+        assert_eq!(storage::decode(&image[at..]).ok(), Some(rec));
+        assert!(image[..at].iter().all(|b| *b == 0xFF));
     }
 }

@@ -39,7 +39,7 @@ impl std::fmt::Display for ElfError {
             Self::Format(e) => write!(f, "not a Cortex-M ELF: {e}"),
             Self::SegmentOutsideFlash { address, len } => write!(
                 f,
-                "loadable segment at {address:#010x} ({len} bytes) is outside the 64 KiB flash"
+                "loadable segment at {address:#010x} ({len} bytes) is outside the chip's flash"
             ),
             Self::MissingSymbol(s) => write!(f, "symbol `{s}` not found in the ELF"),
             Self::NoDefmtTable(e) => write!(f, "no usable defmt table in the ELF: {e}"),
@@ -51,8 +51,24 @@ impl std::error::Error for ElfError {}
 
 /// Flash base (RM0008 §3.3.3, table 5: main memory block).
 pub const FLASH_BASE: u32 = 0x0800_0000;
-/// Flash size of the STM32F103C8 (medium density, 64 KiB).
+/// Flash size of the STM32F103C8 (medium density, 64 KiB): the board's
+/// unless the ELF says otherwise ([`chip_flash_size`]).
 pub const FLASH_SIZE: u32 = 64 * 1024;
+/// Flash size of the STM32F103CB (medium density, 128 KiB).
+pub const FLASH_SIZE_CB: u32 = 128 * 1024;
+
+/// The flash size of the chip an ELF was linked for: its linker script's
+/// `_flash_chip_end` (`memory.x`, `memory-cb.x`) when it is one of the
+/// two medium-density sizes, else the C8's.
+pub fn chip_flash_size(symbols: &HashMap<String, u32>) -> u32 {
+    match symbols
+        .get("_flash_chip_end")
+        .map(|e| e.wrapping_sub(FLASH_BASE))
+    {
+        Some(FLASH_SIZE_CB) => FLASH_SIZE_CB,
+        _ => FLASH_SIZE,
+    }
+}
 
 /// A firmware image ready to be "flashed" onto the emulated board.
 pub struct Firmware {
@@ -81,7 +97,15 @@ impl Firmware {
         let elf =
             ElfFile32::<Endianness>::parse(data).map_err(|e| ElfError::Format(e.to_string()))?;
         let e = elf.endian();
-        let mut flash = vec![0xFF; FLASH_SIZE as usize];
+        let mut symbols = HashMap::new();
+        for s in elf.symbols() {
+            if let Ok(name) = s.name() {
+                if !name.is_empty() {
+                    symbols.insert(name.to_owned(), (s.address() as u32) & !1);
+                }
+            }
+        }
+        let mut flash = vec![0xFF; chip_flash_size(&symbols) as usize];
         let mut image_end = FLASH_BASE;
         for ph in elf.elf_program_headers() {
             if ph.p_type(e) != PT_LOAD || ph.p_filesz(e) == 0 {
@@ -101,14 +125,6 @@ impl Firmware {
                 })?;
             slot.copy_from_slice(bytes);
             image_end = image_end.max(address + bytes.len() as u32);
-        }
-        let mut symbols = HashMap::new();
-        for s in elf.symbols() {
-            if let Ok(name) = s.name() {
-                if !name.is_empty() {
-                    symbols.insert(name.to_owned(), (s.address() as u32) & !1);
-                }
-            }
         }
         let rtt_address = *symbols
             .get("_SEGGER_RTT")

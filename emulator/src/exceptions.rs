@@ -65,7 +65,7 @@ fn vector(uc: &Unicorn<'_, Hw>, n: usize) -> Result<u32, BoardError> {
         addr += crate::elf::FLASH_BASE;
     }
     let off = addr.wrapping_sub(crate::elf::FLASH_BASE);
-    if off < crate::elf::FLASH_SIZE {
+    if off < hw.flash.size() {
         return Ok(hw.flash.read_memory(off, 4));
     }
     read_word(uc, addr)

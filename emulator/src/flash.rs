@@ -4,7 +4,7 @@
 //! WRPRTERR and LOCK. The contents persist across MCU resets (the board
 //! keeps this struct's `image`).
 
-use crate::elf::{FLASH_BASE, FLASH_SIZE};
+use crate::elf::FLASH_BASE;
 
 /// Page size of medium-density devices (1 KiB).
 pub const PAGE_SIZE: u32 = 1024;
@@ -79,6 +79,12 @@ impl Flash {
     /// The same memory after an MCU reset (registers back to reset values).
     pub fn after_reset(self) -> Self {
         Self::new(self.image)
+    }
+
+    /// The chip's flash size in bytes (the image's length: 64 KiB on the
+    /// C8, 128 KiB on the CB).
+    pub fn size(&self) -> u32 {
+        self.image.len() as u32
     }
 
     /// Memory read of `size` bytes at `offset` from FLASH_BASE.
@@ -202,7 +208,7 @@ impl Flash {
         }
         if v & CR_PER != 0 {
             let off = self.ar.wrapping_sub(FLASH_BASE) & !(PAGE_SIZE - 1);
-            if off >= FLASH_SIZE {
+            if off >= self.size() {
                 return FlashEffect::BusError("page erase address outside flash");
             }
             let r = off as usize..(off + PAGE_SIZE) as usize;
@@ -220,6 +226,7 @@ impl Flash {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::elf::FLASH_SIZE;
 
     fn unlocked() -> Flash {
         let mut f = Flash::new(vec![0xFF; FLASH_SIZE as usize]);

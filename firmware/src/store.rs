@@ -1,11 +1,26 @@
-//! The calibration flash page (`0x0800_FC00`, the last 1 KiB page) through
-//! the HAL's flash writer.
+//! The calibration flash page (`CALIB_A`, the chip's last 1 KiB page:
+//! `0x0800_FC00` on the C8, `0x0801_FC00` on the CB) through the HAL's
+//! flash writer.
 
 use sensor_stack::storage::CalibrationStore;
 use stm32f1xx_hal::flash::{Error, FlashSize, FlashWriter, Parts, SectorSize};
 
-/// Offset of the calibration page from the start of flash.
-pub const PAGE_OFFSET: u32 = sensor_stack::storage::PAGE_ADDRESS - 0x0800_0000;
+/// Offset of `CALIB_A` from the start of flash, as the linker script
+/// that is linked places it (`_calib_a_page` in `memory.x` /
+/// `memory-cb.x`; a constant, not the symbol's address, which would cost
+/// a literal load and a subtraction on the C8's last bytes of flash). The
+/// emulated board writes the record where the ELF's symbol says and the
+/// firmware must find it there, so a mismatch fails its calibration tests.
+#[cfg(not(feature = "f103cb"))]
+pub const PAGE_OFFSET: u32 = 0x0000_FC00;
+#[cfg(feature = "f103cb")]
+pub const PAGE_OFFSET: u32 = 0x0001_FC00;
+
+/// The chip's flash size, as the HAL's writer bounds its accesses.
+#[cfg(not(feature = "f103cb"))]
+const CHIP_FLASH: FlashSize = FlashSize::Sz64K;
+#[cfg(feature = "f103cb")]
+const CHIP_FLASH: FlashSize = FlashSize::Sz128K;
 
 /// The calibration page.
 pub struct FlashPage<'a> {
@@ -13,11 +28,11 @@ pub struct FlashPage<'a> {
 }
 
 impl<'a> FlashPage<'a> {
-    /// A writer for the 64 KiB part with 1 KiB pages. The HAL's per-word
+    /// A writer for the chip's flash (64 or 128 KiB) with 1 KiB pages. The HAL's per-word
     /// verification is off: `sensor_stack::storage::save` reads the whole record
     /// back and compares it anyway.
     pub fn new(flash: &'a mut Parts) -> Self {
-        let mut writer = flash.writer(SectorSize::Sz1K, FlashSize::Sz64K);
+        let mut writer = flash.writer(SectorSize::Sz1K, CHIP_FLASH);
         writer.change_verification(false);
         Self { writer }
     }
