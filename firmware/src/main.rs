@@ -137,13 +137,20 @@ mod outputs;
 // contexts name the local resources' types outside their cfg.
 #[cfg_attr(not(feature = "ppm"), allow(dead_code))]
 mod ppm;
+#[cfg(feature = "f103cb")]
+mod adc;
+#[cfg(feature = "f103cb")]
+mod crsf_tx;
 #[cfg_attr(feature = "ppm", allow(dead_code))]
 mod receiver;
 mod report;
+#[cfg(feature = "f103cb")]
+mod rtt;
 mod stack;
 mod store;
 mod watchdog;
 
+#[cfg(not(feature = "f103cb"))]
 use defmt_rtt as _;
 
 /// Turns the LED (PC13, active low) off.
@@ -296,6 +303,8 @@ mod app {
     #[init(local = [ring: [u8; RING_BYTES] = [0; RING_BYTES]])]
     fn init(cx: init::Context) -> (Shared, Local) {
         stack::paint();
+        #[cfg(feature = "f103cb")]
+        let console_down = crate::rtt::init();
         let mut core = cx.core;
         let dp: pac::Peripherals = cx.device;
         let mut iwdg = Watchdog::start(dp.IWDG, BOOT_MIN_TIMEOUT_MS);

@@ -71,6 +71,12 @@ const CR1_RE: u16 = 1 << 2;
 const CR1_IDLEIE: u16 = 1 << 4;
 const CR1_UE: u16 = 1 << 13;
 const CR3_DMAR: u16 = 1 << 6;
+/// The STM32F103CB build also transmits telemetry (`crsf_tx.rs`): TE in
+/// CR1, DMAT in CR3 (RM0008 §27.6.4, §27.6.6).
+#[cfg(feature = "f103cb")]
+const TX_BITS: (u16, u16) = (1 << 3, 1 << 7);
+#[cfg(not(feature = "f103cb"))]
+const TX_BITS: (u16, u16) = (0, 0);
 /// DMA1 channel 5 (USART1_RX, RM0008 §13.3.7 table 78), index 4.
 const CH5: usize = 4;
 const CCR_EN: u32 = 1 << 0;
@@ -163,8 +169,10 @@ impl CrsfRx {
             // BRR = f_PCLK / baud (16× oversampling, mantissa.fraction).
             let brr = (pclk2_hz + CRSF_BAUD / 2) / CRSF_BAUD;
             usart.brr().write(|w| w.bits(brr as u16));
-            usart.cr3().write(|w| w.bits(CR3_DMAR));
-            usart.cr1().write(|w| w.bits(CR1_UE | CR1_RE | CR1_IDLEIE));
+            usart.cr3().write(|w| w.bits(CR3_DMAR | TX_BITS.1));
+            usart
+                .cr1()
+                .write(|w| w.bits(CR1_UE | CR1_RE | CR1_IDLEIE | TX_BITS.0));
         }
         Self {
             usart,
