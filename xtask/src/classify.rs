@@ -17,6 +17,11 @@ pub enum Group {
     FlightControl,
     /// The pilot's receiver, the ESC outputs and the sensor bus driver.
     ReceiversOutputs,
+    /// What a builder expects before a second flight, in the STM32F103CB
+    /// build only: battery monitoring (`battery`, `firmware::adc`), CRSF
+    /// telemetry (`rc_input::telemetry`, `firmware::crsf_tx`) and the
+    /// settings (`params`, `firmware::console`, `firmware::rtt`).
+    Builder,
     /// compiler_builtins (soft float), core (fmt, panics), defmt, RTIC,
     /// cortex-m, the HAL, libm: code the project does not write.
     Runtime,
@@ -30,10 +35,11 @@ pub enum Group {
 
 impl Group {
     /// Every group, in the table's order.
-    pub const ALL: [Group; 6] = [
+    pub const ALL: [Group; 7] = [
         Group::SensorsAhrs,
         Group::FlightControl,
         Group::ReceiversOutputs,
+        Group::Builder,
         Group::Runtime,
         Group::Rest,
         Group::Unattributed,
@@ -45,6 +51,7 @@ impl Group {
             Group::SensorsAhrs => "sensors+AHRS",
             Group::FlightControl => "flight control",
             Group::ReceiversOutputs => "receivers/outputs",
+            Group::Builder => "battery/telem/params",
             Group::Runtime => "runtime/libraries",
             Group::Rest => "rest (app)",
             Group::Unattributed => "unattributed",
@@ -83,7 +90,9 @@ impl std::fmt::Display for Owner {
 }
 
 /// The project's crates; any other crate is a library (runtime group).
-const WORKSPACE_CRATES: [&str; 10] = [
+const WORKSPACE_CRATES: [&str; 12] = [
+    "battery",
+    "params",
     "mpu9250",
     "ak8963",
     "ms5611",
@@ -96,6 +105,9 @@ const WORKSPACE_CRATES: [&str; 10] = [
     "firmware",
 ];
 
+/// `firmware`'s modules of the builder's features (STM32F103CB build).
+const FIRMWARE_BUILDER_MODULES: [&str; 5] = ["adc", "crsf_tx", "rtt", "console", "builder"];
+
 /// `firmware`'s receiver, output and bus modules.
 const FIRMWARE_IO_MODULES: [&str; 4] = ["receiver", "ppm", "outputs", "bus"];
 
@@ -106,7 +118,10 @@ pub fn group_of(krate: &str, module: &str) -> Group {
             Group::SensorsAhrs
         }
         "control" | "flight" => Group::FlightControl,
+        "battery" | "params" => Group::Builder,
+        "rc_input" if module == "telemetry" => Group::Builder,
         "rc_input" => Group::ReceiversOutputs,
+        "firmware" if FIRMWARE_BUILDER_MODULES.contains(&module) => Group::Builder,
         "firmware" if FIRMWARE_IO_MODULES.contains(&module) => Group::ReceiversOutputs,
         // The compact memcpy/memset that replace compiler_builtins'.
         "firmware" if module == "mem" => Group::Runtime,
@@ -315,6 +330,11 @@ mod tests {
         );
         assert_eq!(group("rc_input::crc::LOW_NIBBLE"), Group::ReceiversOutputs);
         assert_eq!(group("firmware::bus::on_irq"), Group::ReceiversOutputs);
+        assert_eq!(group("rc_input::telemetry::encode"), Group::Builder);
+        assert_eq!(group("battery::monitor::Monitor::update"), Group::Builder);
+        assert_eq!(group("params::table::TABLE"), Group::Builder);
+        assert_eq!(group("firmware::crsf_tx::CrsfTx::send"), Group::Builder);
+        assert_eq!(group("rtt_target::defmt::Logger"), Group::Runtime);
         assert_eq!(
             group("firmware::outputs::Esc::set"),
             Group::ReceiversOutputs

@@ -47,7 +47,7 @@ pub struct GroupBudget {
 /// the log in words with two or three decimals: 59,592 B; with the AHRS's
 /// multirotor mode 60,572 B; with the gyro filters and the integrals' hold
 /// 61,232 B) plus the margin noted; they sum to the region, 61,440 B.
-pub const FLIGHT_BUDGETS: [GroupBudget; 6] = [
+pub const FLIGHT_BUDGETS: [GroupBudget; 7] = [
     GroupBudget {
         group: Group::SensorsAhrs,
         bytes: 28280,
@@ -62,6 +62,11 @@ pub const FLIGHT_BUDGETS: [GroupBudget; 6] = [
         group: Group::ReceiversOutputs,
         bytes: 5120,
         note: "measured 5,086 (CRSF; PPM 4,180) + 34",
+    },
+    GroupBudget {
+        group: Group::Builder,
+        bytes: 0,
+        note: "none: the STM32F103CB build's (`--features f103cb`)",
     },
     GroupBudget {
         group: Group::Runtime,
@@ -82,7 +87,7 @@ pub const FLIGHT_BUDGETS: [GroupBudget; 6] = [
 
 /// Budgets of the calibration build (`--features calibrate`: the
 /// six-position and ellipsoid sessions and the save, no flight controller).
-pub const CALIBRATION_BUDGETS: [GroupBudget; 6] = [
+pub const CALIBRATION_BUDGETS: [GroupBudget; 7] = [
     GroupBudget {
         group: Group::SensorsAhrs,
         bytes: 36880,
@@ -97,6 +102,11 @@ pub const CALIBRATION_BUDGETS: [GroupBudget; 6] = [
         group: Group::ReceiversOutputs,
         bytes: 5042,
         note: "measured 5,040 + 2",
+    },
+    GroupBudget {
+        group: Group::Builder,
+        bytes: 0,
+        note: "none",
     },
     GroupBudget {
         group: Group::Runtime,
@@ -114,6 +124,103 @@ pub const CALIBRATION_BUDGETS: [GroupBudget; 6] = [
         note: "measured 2,266 + 2 (the group budgets sum to 61,440 B: the region, 12 B left; the AHRS's multirotor mode and the gyro filter are left out, `fc-ahrs/no-multirotor`, `sensor-stack/no-gyro-filter`)",
     },
 ];
+
+/// The STM32F103CB build's budgets (`--features f103cb`: the flight build
+/// plus battery monitoring, CRSF telemetry and the settings console),
+/// set from the build measured on 2026-11-27 plus the margin noted.
+pub const CB_BUDGETS: [GroupBudget; 7] = [
+    GroupBudget {
+        group: Group::SensorsAhrs,
+        bytes: 28_300,
+        note: "the flight build's 28,280 + 20",
+    },
+    GroupBudget {
+        group: Group::FlightControl,
+        bytes: 10_700,
+        note: "the flight build's 10,180 + the low-battery descent",
+    },
+    GroupBudget {
+        group: Group::ReceiversOutputs,
+        bytes: 5_200,
+        note: "the flight build's 5,120 + the transmitter's enable bits",
+    },
+    GroupBudget {
+        group: Group::Builder,
+        bytes: 12_288,
+        note: "battery, telemetry, parameter table, console, A/B storage",
+    },
+    GroupBudget {
+        group: Group::Runtime,
+        bytes: 10_240,
+        note: "the flight build's 9,030 + rtt-target (defmt logger with a down channel)",
+    },
+    GroupBudget {
+        group: Group::Rest,
+        bytes: 7_168,
+        note: "the flight build's 6,570 + the builder task",
+    },
+    GroupBudget {
+        group: Group::Unattributed,
+        bytes: 3_072,
+        note: "the flight build's 2,260 + the table's strings",
+    },
+];
+
+/// The STM32F103CB build's target: the sum of [`CB_BUDGETS`], leaving the
+/// rest of its 124 KiB code region for what comes next.
+pub const CB_BUILD_TARGET: u64 = 76_968;
+
+/// Which build an ELF is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Build {
+    /// The C8's flight build (default CRSF, or `ppm`).
+    Flight,
+    /// The C8's calibration build (`calibrate`).
+    Calibration,
+    /// The STM32F103CB build (`f103cb`).
+    Cb,
+}
+
+impl Build {
+    /// The build of an attributed ELF: the CB's by its flash plan (a code
+    /// region over the C8's), the calibration build by what it links.
+    pub fn of(a: &Attribution) -> Build {
+        if plan_code_region(&a.plan_symbols) > PLAN_CODE_REGION {
+            Build::Cb
+        } else if is_calibration_build(a) {
+            Build::Calibration
+        } else {
+            Build::Flight
+        }
+    }
+
+    /// The build's name in the report.
+    pub fn label(self) -> &'static str {
+        match self {
+            Build::Flight => "flight build",
+            Build::Calibration => "calibration build",
+            Build::Cb => "STM32F103CB build",
+        }
+    }
+
+    /// Its group budgets.
+    pub fn budgets(self) -> &'static [GroupBudget; 7] {
+        match self {
+            Build::Flight => &FLIGHT_BUDGETS,
+            Build::Calibration => &CALIBRATION_BUDGETS,
+            Build::Cb => &CB_BUDGETS,
+        }
+    }
+
+    /// Its whole-image target below the code region, if it has one.
+    pub fn target(self) -> Option<u64> {
+        match self {
+            Build::Flight => Some(DEFAULT_BUILD_TARGET),
+            Build::Calibration => None,
+            Build::Cb => Some(CB_BUILD_TARGET),
+        }
+    }
+}
 
 /// What `size` prints besides the totals and the group table.
 #[derive(Debug, Default, Clone, Copy)]
@@ -141,11 +248,12 @@ pub fn run(elf: Option<PathBuf>, opts: Options) -> Result<(), String> {
         ));
     }
     let s = elf_sizes(&elf)?;
-    let mut over = print_totals(&elf, &s);
     let a = attribute(&elf)?;
+    let build = Build::of(&a);
+    let mut over = print_totals(&elf, &s, plan_code_region(&a.plan_symbols));
     check_sum(&a, &s)?;
-    over.extend(print_groups(&a));
-    over.extend(print_plan(&a, &s));
+    over.extend(print_groups(&a, build));
+    over.extend(print_plan(&a, &s, build));
     if let Some(n) = opts.top {
         print_top(&a, n);
     }
@@ -173,7 +281,7 @@ pub fn check_sum(a: &Attribution, s: &Sizes) -> Result<(), String> {
 }
 
 /// Flash and static RAM against their budgets; the overruns.
-fn print_totals(elf: &Path, s: &Sizes) -> Vec<String> {
+fn print_totals(elf: &Path, s: &Sizes, flash_budget: u64) -> Vec<String> {
     say!("firmware size ({})", elf.display());
     say!("  text  {:>7} B", s.text);
     say!("  data  {:>7} B", s.data);
@@ -181,8 +289,8 @@ fn print_totals(elf: &Path, s: &Sizes) -> Vec<String> {
     say!(
         "  flash {:>7} B of {} B budget ({:.1} %)",
         s.flash(),
-        FLASH_BUDGET,
-        100.0 * s.flash() as f64 / FLASH_BUDGET as f64
+        flash_budget,
+        100.0 * s.flash() as f64 / flash_budget as f64
     );
     say!(
         "  ram   {:>7} B of {} B budget ({:.1} %) static; the stack takes the rest of 20 KiB",
@@ -191,8 +299,8 @@ fn print_totals(elf: &Path, s: &Sizes) -> Vec<String> {
         100.0 * s.ram() as f64 / RAM_BUDGET as f64
     );
     let mut over = Vec::new();
-    if s.flash() > FLASH_BUDGET {
-        over.push(format!("flash {} B > {} B", s.flash(), FLASH_BUDGET));
+    if s.flash() > flash_budget {
+        over.push(format!("flash {} B > {} B", s.flash(), flash_budget));
     }
     if s.ram() > RAM_BUDGET {
         over.push(format!("static RAM {} B > {} B", s.ram(), RAM_BUDGET));
@@ -201,13 +309,9 @@ fn print_totals(elf: &Path, s: &Sizes) -> Vec<String> {
 }
 
 /// The group table (group, bytes, budget, status); the groups over budget.
-fn print_groups(a: &Attribution) -> Vec<String> {
-    let (build, budgets) = if is_calibration_build(a) {
-        ("calibration build", &CALIBRATION_BUDGETS)
-    } else {
-        ("flight build", &FLIGHT_BUDGETS)
-    };
-    say!("flash by feature group ({build} budgets):");
+fn print_groups(a: &Attribution, build: Build) -> Vec<String> {
+    let budgets = build.budgets();
+    say!("flash by feature group ({} budgets):", build.label());
     say!(
         "  {:<18} {:>7} {:>7}  {:<20} budget basis",
         "group",
@@ -246,7 +350,7 @@ fn print_groups(a: &Attribution) -> Vec<String> {
 
 /// The flash plan's code region (every build) and the flight builds'
 /// 58 KiB budget; the overruns.
-fn print_plan(a: &Attribution, s: &Sizes) -> Vec<String> {
+fn print_plan(a: &Attribution, s: &Sizes, build: Build) -> Vec<String> {
     let plan = plan_code_region(&a.plan_symbols);
     let flash = s.flash();
     let mut over = Vec::new();
@@ -261,21 +365,22 @@ fn print_plan(a: &Attribution, s: &Sizes) -> Vec<String> {
             plan - flash
         ),
     }
-    if is_calibration_build(a) {
+    let Some(target) = build.target() else {
         return over;
-    }
-    match flash.checked_sub(DEFAULT_BUILD_TARGET) {
+    };
+    let name = build.label();
+    match flash.checked_sub(target) {
         Some(d) if d > 0 => {
             say!(
-                "  flight build {flash} B of {DEFAULT_BUILD_TARGET} B (the rest of the code region is for \
-                 what comes next): OVER by {d} B"
+                "  {name} {flash} B of {target} B (the rest of the code region is for what comes \
+                 next): OVER by {d} B"
             );
-            over.push(format!("flight build {flash} B > {DEFAULT_BUILD_TARGET} B"));
+            over.push(format!("{name} {flash} B > {target} B"));
         }
         _ => say!(
-            "  flight build {flash} B of {DEFAULT_BUILD_TARGET} B (the rest of the code region is for what \
-             comes next): ok ({} B spare)",
-            DEFAULT_BUILD_TARGET - flash
+            "  {name} {flash} B of {target} B (the rest of the code region is for what comes next): \
+             ok ({} B spare)",
+            target - flash
         ),
     }
     over
@@ -386,8 +491,15 @@ mod tests {
     }
 
     #[test]
+    fn cb_target_is_its_budgets_sum_and_fits_its_region() {
+        let sum: u64 = CB_BUDGETS.iter().map(|b| b.bytes).sum();
+        assert_eq!(sum, CB_BUILD_TARGET);
+        assert!(CB_BUILD_TARGET < 124 * 1024);
+    }
+
+    #[test]
     fn budgets_cover_every_group_once() {
-        for set in [&FLIGHT_BUDGETS, &CALIBRATION_BUDGETS] {
+        for set in [&FLIGHT_BUDGETS, &CALIBRATION_BUDGETS, &CB_BUDGETS] {
             let groups: Vec<Group> = set.iter().map(|b| b.group).collect();
             assert_eq!(groups, Group::ALL.to_vec());
         }
