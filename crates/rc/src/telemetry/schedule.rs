@@ -179,7 +179,10 @@ pub const fn per_frame_rate_mhz(rc_period_us: u32, frames: u32, min_interval_us:
 /// TX) and calls only when the previous frame has left: a frame is at most
 /// [`MAX_TELEMETRY_FRAME_BYTES`] (286 µs), far less than the interval.
 /// How many frames reach the radio is the link's telemetry ratio, set in
-/// the receiver; the receiver keeps the newest frame of each type.
+/// the receiver; an ExpressLRS receiver queues one frame per broadcast
+/// type and replaces it with a newer one (`RXOTAConnector::forwardMessage`),
+/// so a faster schedule than the link carries loses old values, not new
+/// ones.
 ///
 /// ```
 /// use rc_input::telemetry::{FrameSet, TelemetryScheduler, TelemetrySnapshot};
@@ -234,10 +237,13 @@ impl TelemetryScheduler {
         self.min_interval_us
     }
 
-    /// Called when a valid RC frame has been received at `now_us` (µs,
-    /// wrapping). Returns the size of the frame written to `out`, to be
-    /// sent now, or `None` when it is not yet time or no enabled frame
-    /// has data in `snapshot`.
+    /// Called when a valid frame from the receiver has been received at
+    /// `now_us` (µs, wrapping): an RC channels frame, which sets the rates
+    /// stated at [`per_frame_rate_mhz`] (Betaflight answers any CRC-valid
+    /// frame; the interval keeps link statistics frames from adding
+    /// more). Returns the size of the frame written to `out`, to be sent
+    /// now, or `None` when it is not yet time or no enabled frame has data
+    /// in `snapshot`.
     pub fn on_rc_frame(
         &mut self,
         now_us: u32,
