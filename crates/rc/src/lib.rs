@@ -44,6 +44,11 @@
 //!   0 % link quality; the link counts as up only after frames have come
 //!   without a break for a recovery window ([`LINK_RECOVERY_US`], 0.5 s).
 //!
+//! * [`telemetry`]: CRSF telemetry frames to the receiver (battery,
+//!   barometric altitude, attitude, flight mode) from integer inputs, and
+//!   [`TelemetryScheduler`], Betaflight's schedule: at most one frame after
+//!   each RC frame, in turn, at least 100 ms / (frames) apart.
+//!
 //! What it does not do: touch hardware (the firmware feeds bytes and
 //! capture intervals), expo/rates, arming decisions or failsafe actions.
 //!
@@ -60,6 +65,7 @@ mod frame;
 mod link;
 mod map;
 pub mod ppm;
+pub mod telemetry;
 
 pub use crc::{crc8_dvb_s2, crc8_dvb_s2_update, CRC8_DVB_S2_POLY};
 pub use crsf::{CrsfParser, CrsfStats, Event, LinkStatistics};
@@ -68,3 +74,4 @@ pub use frame::{RcFrame, MAX_CHANNELS};
 pub use link::{LinkMonitor, LinkStatus, CRSF_TIMEOUT_US, LINK_RECOVERY_US, PPM_TIMEOUT_US};
 pub use map::{Axis, ChannelMap, ChannelOrder, ChannelRange, Sticks, SwitchPosition};
 pub use ppm::{CaptureIntervals, PpmConfig, PpmDecoder, PpmStats};
+pub use telemetry::{TelemetryScheduler, TelemetrySnapshot};
