@@ -135,12 +135,12 @@ mod outputs;
 // Each build uses one receiver (the `ppm` build the pilot state only of
 // `receiver`); both modules stay compiled because RTIC's generated task
 // contexts name the local resources' types outside their cfg.
-#[cfg_attr(not(feature = "ppm"), allow(dead_code))]
-mod ppm;
 #[cfg(feature = "f103cb")]
 mod adc;
 #[cfg(feature = "f103cb")]
 mod crsf_tx;
+#[cfg_attr(not(feature = "ppm"), allow(dead_code))]
+mod ppm;
 #[cfg_attr(feature = "ppm", allow(dead_code))]
 mod receiver;
 mod report;

@@ -686,6 +686,9 @@ pub struct FlightController {
     alt_engaged: bool,
     /// Altitude hold requested but unavailable (reported once per episode).
     alt_fallback: bool,
+    /// The low-battery descent is asked for ([`FlightController::set_battery_descent`]).
+    #[cfg(feature = "battery-descent")]
+    battery_descent: bool,
     /// The height altitude hold holds, Q16 m (up).
     alt_target_q16: i32,
     last_collective: f32,
@@ -752,6 +755,8 @@ impl FlightController {
             above_land_us: 0,
             alt_engaged: false,
             alt_fallback: false,
+            #[cfg(feature = "battery-descent")]
+            battery_descent: false,
             alt_target_q16: 0,
             last_collective: 0.0,
             hover_collective_q30: None,
@@ -785,6 +790,19 @@ impl FlightController {
     /// True while the motors may spin under flight control.
     pub fn is_armed(&self) -> bool {
         matches!(self.state, FlightState::Armed | FlightState::Failsafe(_))
+    }
+
+    /// Asks for (`true`) or ends the low-battery descent. Armed under
+    /// pilot control with an altitude estimate, the craft then levels and
+    /// descends at [`SafetyConfig::failsafe_descent_mps`] through the
+    /// altitude hold until the landing detector disarms it on the ground
+    /// ([`DisarmCause::Landed`]); without an altitude estimate the request
+    /// changes nothing (the low battery is then a warning only). When to
+    /// ask, and how the pilot's sticks end it, is the caller's rule
+    /// (`battery::LowBatteryDescent` in the firmware).
+    #[cfg(feature = "battery-descent")]
+    pub fn set_battery_descent(&mut self, on: bool) {
+        self.battery_descent = on;
     }
 
     /// Whether the craft is flying: armed, with the collective above the
@@ -1216,10 +1234,33 @@ impl FlightController {
         alt: Option<AltitudeEstimate>,
         out: &mut FlightOutput,
     ) -> Option<([i32; 3], f32, bool)> {
-        match self.state {
-            FlightState::Failsafe(phase) => self.failsafe_setpoints(phase, dt_us, att, alt, out),
+        match (self.state, alt) {
+            (FlightState::Failsafe(phase), _) => {
+                self.failsafe_setpoints(phase, dt_us, att, alt, out)
+            }
+            #[cfg(feature = "battery-descent")]
+            (FlightState::Armed, Some(a)) if self.battery_descent => {
+                Some(self.battery_descent_setpoints(dt_us, att, a, out))
+            }
             _ => Some(self.pilot_setpoints(dt_us, pilot, att, alt, out)),
         }
+    }
+
+    #[cfg(feature = "battery-descent")]
+    /// The low-battery descent's setpoints: level, no yaw, down at the
+    /// failsafe's rate through the altitude hold (engaged from the
+    /// present height and collective if the pilot flew another mode).
+    fn battery_descent_setpoints(
+        &mut self,
+        dt_us: u32,
+        att: &QuatQ30,
+        a: AltitudeEstimate,
+        out: &mut FlightOutput,
+    ) -> ([i32; 3], f32, bool) {
+        out.mode = FlightMode::AltitudeHold;
+        let rate_sp = self.level_rates(att, &TiltQ30::LEVEL, 0);
+        let collective = self.altitude_collective(a, -self.lim.failsafe_descent_q16, dt_us);
+        (rate_sp, collective, true)
     }
 
     /// The self-level loop's rate setpoint (Q16 rad/s) towards `tilt`

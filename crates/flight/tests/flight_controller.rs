@@ -1007,3 +1007,49 @@ fn in_flight_once_the_take_off_has_had_time_to_leave_the_ground() {
     r.expect_event_within(Event::Disarmed(DisarmCause::Landed), 5_000);
     assert!(!r.fc.in_flight());
 }
+
+// ---- low-battery descent -------------------------------------------------
+
+#[test]
+fn battery_descent_levels_and_lowers_the_height_target_at_the_failsafe_rate() {
+    let mut r = Rig::new();
+    r.vehicle.altitude = altitude(5.0, 0.0);
+    r.take_off();
+    r.pilot.mode = FlightMode::Angle;
+    r.pilot.sticks.roll = 0.5; // the pilot's stick no longer commands
+    r.fc.set_battery_descent(true);
+    let out = r.step();
+    assert_eq!(out.mode, FlightMode::AltitudeHold);
+    let h0 = r.fc.altitude_target_m().unwrap();
+    r.run_ms(2_000);
+    let h1 = r.fc.altitude_target_m().unwrap();
+    let rate = (h0 - h1) / 2.0;
+    let want = r.fc.safety().failsafe_descent_mps;
+    assert!((rate - want).abs() < 0.01 * want, "{rate} m/s, want {want}");
+    // Level: no roll rate asked of a level craft, whatever the stick says.
+    assert!(r.last.unwrap().rate_setpoint.roll_rps.abs() < 1e-3);
+    assert!(r.fc.is_armed(), "a descent never disarms in the air");
+}
+
+#[test]
+fn battery_descent_ends_when_asked_and_is_ignored_without_altitude() {
+    let mut r = Rig::new();
+    r.take_off();
+    r.pilot.mode = FlightMode::Angle;
+    r.pilot.sticks.roll = 0.5;
+    let free = r.step();
+    r.fc.set_battery_descent(true);
+    let asked = r.step();
+    assert_eq!(
+        asked.mode,
+        FlightMode::Angle,
+        "no barometer: a warning only"
+    );
+    assert_eq!(asked.rate_setpoint, free.rate_setpoint);
+    r.vehicle.altitude = altitude(5.0, 0.0);
+    assert_eq!(r.step().mode, FlightMode::AltitudeHold);
+    r.fc.set_battery_descent(false);
+    let back = r.step();
+    assert_eq!(back.mode, FlightMode::Angle);
+    assert!(back.rate_setpoint.roll_rps > 0.1, "the pilot's stick again");
+}
