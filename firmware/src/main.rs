@@ -138,6 +138,8 @@ mod outputs;
 #[cfg(feature = "f103cb")]
 mod adc;
 #[cfg(feature = "f103cb")]
+mod builder;
+#[cfg(feature = "f103cb")]
 mod crsf_tx;
 #[cfg_attr(not(feature = "ppm"), allow(dead_code))]
 mod ppm;
@@ -279,6 +281,10 @@ mod app {
         bias: BiasStatus,
         pilot: Pilot,
         outputs: GuardedOutputs,
+        /// What CRSF telemetry reports (the builder task writes it at
+        /// 10 Hz, the receiver task sends from it).
+        #[cfg(feature = "f103cb")]
+        telemetry: rc_input::telemetry::TelemetrySnapshot,
     }
 
     #[local]
@@ -298,9 +304,22 @@ mod app {
         rx: crate::receiver::CrsfRx,
         #[cfg(feature = "ppm")]
         ppm: crate::ppm::PpmInput,
+        #[cfg(feature = "f103cb")]
+        tx: crate::crsf_tx::CrsfTx,
+        #[cfg(feature = "f103cb")]
+        telemetry_schedule: rc_input::TelemetryScheduler,
+        #[cfg(feature = "f103cb")]
+        battery: Option<crate::builder::BatteryTask>,
+        #[cfg(feature = "f103cb")]
+        console_down: rtt_target::DownChannel,
     }
 
-    #[init(local = [ring: [u8; RING_BYTES] = [0; RING_BYTES]])]
+    // RTIC's init locals take no cfg: the C8 builds keep the unused
+    // telemetry buffer (64 B of RAM).
+    #[init(local = [
+        ring: [u8; RING_BYTES] = [0; RING_BYTES],
+        tx_buf: [u8; crate::crsf_tx::FRAME_BYTES] = [0; crate::crsf_tx::FRAME_BYTES],
+    ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         stack::paint();
         #[cfg(feature = "f103cb")]
@@ -341,6 +360,10 @@ mod app {
         let session = start_session(&button_pin);
         #[cfg(not(feature = "ppm"))]
         let rx = start_receiver(dp.USART1, dp.DMA1, cx.local.ring);
+        #[cfg(feature = "f103cb")]
+        let (tx, battery) = crate::builder::start(dp.ADC1, cx.local.tx_buf);
+        #[cfg(not(feature = "f103cb"))]
+        let _ = cx.local.tx_buf;
         // RTIC's init locals take no cfg: the ppm build keeps the unused
         // ring (128 B of RAM).
         #[cfg(feature = "ppm")]
@@ -356,6 +379,8 @@ mod app {
         service::spawn().ok();
         log::spawn().ok();
         guard::spawn().ok();
+        #[cfg(feature = "f103cb")]
+        builder_task::spawn().ok();
         let now = DWT::cycle_count();
         // Counted from when CYCCNT started, at reset.
         let mut clock = MicrosClock::new(cpu_hz(), 0);
@@ -371,6 +396,8 @@ mod app {
                 bias: BiasStatus::GaveUp,
                 pilot: Pilot::new(),
                 outputs,
+                #[cfg(feature = "f103cb")]
+                telemetry: rc_input::telemetry::TelemetrySnapshot::default(),
             },
             Local {
                 led,
@@ -386,6 +413,14 @@ mod app {
                 rx,
                 #[cfg(feature = "ppm")]
                 ppm,
+                #[cfg(feature = "f103cb")]
+                tx,
+                #[cfg(feature = "f103cb")]
+                telemetry_schedule: rc_input::TelemetryScheduler::new(rc_input::telemetry::FrameSet::ALL),
+                #[cfg(feature = "f103cb")]
+                battery,
+                #[cfg(feature = "f103cb")]
+                console_down,
             },
         )
     }
@@ -574,9 +609,19 @@ mod app {
             }),
             accel_calibrated: state.is_some_and(|(_, cal)| cal),
         };
-        #[cfg(not(feature = "calibrate"))]
+        #[cfg(all(not(feature = "calibrate"), not(feature = "f103cb")))]
         let out = match (cx.local.fc.as_mut(), vehicle) {
             (Some(fc), Some(v)) => Some(fc.step(now_us, &pilot, &status, &v)),
+            _ => None,
+        };
+        #[cfg(feature = "f103cb")]
+        let out = match (cx.local.fc.as_mut(), vehicle) {
+            (Some(fc), Some(v)) => {
+                fc.set_battery_descent(builder::BATTERY_DESCENT.load(Ordering::Relaxed));
+                let o = fc.step(now_us, &pilot, &status, &v);
+                builder::publish_flight(&o, fc.in_flight());
+                Some(o)
+            }
             _ => None,
         };
         // Nothing calls the controller's step, so none of it is linked.
@@ -673,6 +718,50 @@ mod app {
         });
         if let Some(i) = input {
             guard_pilot(&mut cx.shared.outputs, &i);
+            // The receiver listens for telemetry after each frame it sends.
+            #[cfg(feature = "f103cb")]
+            telemetry_tx::spawn(now_us).ok();
+        }
+    }
+
+    /// One CRSF telemetry frame after a channel frame, if the scheduler
+    /// has one due and the last one has left (priority 2: the 1 kHz
+    /// sample outranks it; the receiver queues what it is given until its
+    /// telemetry slot).
+    #[cfg(feature = "f103cb")]
+    #[task(priority = 2, local = [tx, telemetry_schedule], shared = [telemetry])]
+    async fn telemetry_tx(mut cx: telemetry_tx::Context, now_us: u32) {
+        let (tx, sched) = (cx.local.tx, cx.local.telemetry_schedule);
+        cx.shared
+            .telemetry
+            .lock(|t| tx.send(|buf| sched.on_rc_frame(now_us, t, buf).unwrap_or(0)));
+    }
+
+    /// 10 Hz: the battery (ADC, monitor, low-battery rule), the telemetry
+    /// snapshot, and the settings console's lines.
+    #[cfg(feature = "f103cb")]
+    #[task(priority = 1, local = [battery, console_down],
+           shared = [pipeline, pilot, clock, telemetry])]
+    async fn builder_task(mut cx: builder_task::Context) {
+        loop {
+            let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
+            let pilot = cx.shared.pilot.lock(|p| pilot_input(p, now_us));
+            let est = cx.shared.pipeline.lock(|p| {
+                p.as_ref().map(|p| {
+                    let e = sensor_stack::angles::euler_q16(p.quaternion_q30());
+                    (e, p.altitude_estimate())
+                })
+            });
+            let (euler, alt) = est.unwrap_or(([0; 3], None));
+            let frame = cx.local.battery.as_mut().and_then(|b| {
+                if let Some(ev) = b.step(&pilot, alt.is_some()) {
+                    builder::log_battery_event(ev, b.status());
+                }
+                builder::battery_frame(&b.status())
+            });
+            let snap = builder::snapshot(euler, alt, frame);
+            cx.shared.telemetry.lock(|t| *t = snap);
+            Mono::delay(ExtU32::millis(battery::SAMPLE_PERIOD_MS)).await;
         }
     }
 

@@ -1,0 +1,225 @@
+//! What a builder expects before a second flight, in the STM32F103CB
+//! build: the battery (ADC1 → `battery`'s monitor → the low-battery
+//! descent the flight controller honours) and the state CRSF telemetry
+//! reports. The rules are the crates' (`battery`, `rc_input::telemetry`);
+//! this module only carries values between the tasks that own them.
+//!
+//! Between tasks: the flight step (priority 3) publishes its state in
+//! [`FLIGHT`] and reads the descent request from [`BATTERY_DESCENT`]; the
+//! builder task (priority 1, 10 Hz) writes the request and the telemetry
+//! snapshot the receiver task (priority 4) sends from. Atomics, not
+//! locks: each is one word with one writer.
+
+use battery::{
+    BatteryAction, BatteryMonitor, Config, DescentConfig, Event, FlightContext, Level,
+    LowBatteryDescent, SticksQ30, Status,
+};
+use core::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+use flight::flightctl::{FlightMode, FlightOutput, FlightState, PilotInput};
+use rc_input::telemetry::{
+    Arming, Attitude, BaroAltitude, Battery, FlightMode as ModeFrame, ModeName, TelemetrySnapshot,
+};
+
+use crate::adc::BatteryAdc;
+use crate::crsf_tx::{CrsfTx, FRAME_BYTES};
+
+/// The low-battery descent is asked for (builder → flight step).
+pub static BATTERY_DESCENT: AtomicBool = AtomicBool::new(false);
+/// The flight step's state (flight step → builder): [`FlightBits`].
+pub static FLIGHT: AtomicU8 = AtomicU8::new(0);
+
+/// [`FLIGHT`]'s bits.
+struct FlightBits;
+
+impl FlightBits {
+    const ARMED: u8 = 1;
+    const IN_FLIGHT: u8 = 2;
+    const FAILSAFE: u8 = 4;
+    const ALTHOLD: u8 = 8;
+    const ACRO: u8 = 16;
+}
+
+/// Publishes a flight step's outcome for the builder task.
+pub fn publish_flight(out: &FlightOutput, in_flight: bool) {
+    let mut b = 0;
+    if matches!(out.state, FlightState::Armed | FlightState::Failsafe(_)) {
+        b |= FlightBits::ARMED;
+    }
+    if in_flight {
+        b |= FlightBits::IN_FLIGHT;
+    }
+    if matches!(out.state, FlightState::Failsafe(_)) {
+        b |= FlightBits::FAILSAFE;
+    }
+    match out.mode {
+        FlightMode::AltitudeHold => b |= FlightBits::ALTHOLD,
+        FlightMode::Acro => b |= FlightBits::ACRO,
+        FlightMode::Angle => {}
+    }
+    FLIGHT.store(b, Ordering::Relaxed);
+}
+
+/// A stick in Q30 (the battery rule's form), saturating.
+fn q30(x: f32) -> i32 {
+    (x.clamp(-1.0, 1.0) * (1u32 << 30) as f32) as i32
+}
+
+/// The battery: ADC, monitor, and the pilot's override of the descent.
+pub struct BatteryTask {
+    adc: Option<BatteryAdc>,
+    monitor: BatteryMonitor,
+    descent: LowBatteryDescent,
+    action: BatteryAction,
+}
+
+impl BatteryTask {
+    /// With the ADC (`None`: it failed to calibrate; no battery then) and
+    /// the battery settings.
+    pub fn new(adc: Option<BatteryAdc>, cfg: Config, d: DescentConfig) -> Option<Self> {
+        Some(Self {
+            adc,
+            monitor: BatteryMonitor::new(cfg).ok()?,
+            descent: LowBatteryDescent::new(d).ok()?,
+            action: BatteryAction::None,
+        })
+    }
+
+    /// One 10 Hz step: the last conversion into the monitor (the next one
+    /// started), the rule on the pilot's input and the altitude estimate,
+    /// the descent request published. The monitor's event, if any.
+    pub fn step(&mut self, pilot: &PilotInput, altitude: bool) -> Option<Event> {
+        let counts = self.adc.as_mut()?.poll()?;
+        let event = self.monitor.update(counts);
+        let bits = FLIGHT.load(Ordering::Relaxed);
+        let ctx = FlightContext {
+            armed: bits & FlightBits::ARMED != 0,
+            in_air: bits & FlightBits::IN_FLIGHT != 0,
+            altitude_available: altitude,
+            link_ok: pilot.link_ok,
+        };
+        let s = &pilot.sticks;
+        let sticks = SticksQ30 {
+            roll_q30: q30(s.roll),
+            pitch_q30: q30(s.pitch),
+            yaw_q30: q30(s.yaw),
+            throttle_q30: q30(s.throttle),
+        };
+        self.action = self
+            .descent
+            .update(self.monitor.status().level, &ctx, &sticks);
+        let descend = matches!(self.action, BatteryAction::Descend { .. });
+        BATTERY_DESCENT.store(descend, Ordering::Relaxed);
+        event
+    }
+
+    /// The monitor's status.
+    pub fn status(&self) -> Status {
+        self.monitor.status()
+    }
+
+    /// What the rule asks for now.
+    pub fn action(&self) -> BatteryAction {
+        self.action
+    }
+}
+
+/// The battery for telemetry: filtered voltage, and the charge left by
+/// the filtered cell voltage between 3.30 V (0 %) and 4.20 V (100 %),
+/// linear (no current sensor: no current, no capacity used).
+pub fn battery_frame(s: &Status) -> Option<Battery> {
+    if s.level == Level::NoBattery {
+        return None;
+    }
+    let cell = s.filtered_cell_mv.clamp(3300, 4200);
+    Some(Battery {
+        voltage_mv: s.filtered_mv,
+        current_ma: 0,
+        used_mah: 0,
+        remaining_pct: ((cell - 3300) / 9) as u8,
+    })
+}
+
+/// The snapshot telemetry sends: attitude (Q16 rad, from the Q30
+/// quaternion), barometric height (cm, cm/s) if known, battery, mode.
+pub fn snapshot(
+    euler_q16: [i32; 3],
+    altitude: Option<(f32, f32)>,
+    battery: Option<Battery>,
+) -> TelemetrySnapshot {
+    let bits = FLIGHT.load(Ordering::Relaxed);
+    let mode = if bits & FlightBits::FAILSAFE != 0 {
+        ModeName::Failsafe
+    } else if bits & FlightBits::ALTHOLD != 0 {
+        ModeName::AltitudeHold
+    } else if bits & FlightBits::ACRO != 0 {
+        ModeName::Acro
+    } else {
+        ModeName::Angle
+    };
+    let arming = if bits & FlightBits::ARMED != 0 {
+        Arming::Armed
+    } else {
+        Arming::Ready
+    };
+    TelemetrySnapshot {
+        attitude: Attitude {
+            roll_rad_q16: euler_q16[0],
+            pitch_rad_q16: euler_q16[1],
+            yaw_rad_q16: euler_q16[2],
+        },
+        baro: altitude.map(|(h, v)| BaroAltitude {
+            altitude_cm: (h * 100.0) as i32,
+            vertical_speed_cmps: (v * 100.0) as i32,
+        }),
+        battery,
+        flight_mode: ModeFrame { mode, arming },
+    }
+}
+
+/// Starts the builder's hardware in `init`, after the receiver (which
+/// clocks USART1, GPIOA and DMA1 and enables the transmitter): the
+/// telemetry transmitter and the battery's ADC. A failed ADC calibration
+/// is logged and leaves the battery unread.
+pub fn start(
+    adc1: stm32f1xx_hal::pac::ADC1,
+    tx_buf: &'static mut [u8; FRAME_BYTES],
+) -> (CrsfTx, Option<BatteryTask>) {
+    let tx = CrsfTx::start(tx_buf);
+    let adc = match BatteryAdc::start(adc1, crate::delay::cpu_hz()) {
+        Ok(a) => Some(a),
+        Err(e) => {
+            defmt::error!("battery: ADC1 {}: the pack is not monitored", e);
+            None
+        }
+    };
+    let task = BatteryTask::new(adc, Config::DEFAULT, DescentConfig::DEFAULT);
+    (tx, task)
+}
+
+/// Says what the battery monitor saw, with the numbers a pilot checks.
+pub fn log_battery_event(ev: Event, s: Status) {
+    match ev {
+        Event::Connected {
+            cells,
+            source,
+            pack_mv,
+        } => defmt::info!(
+            "battery: {=u8}S ({}) at {=u32} mV",
+            cells,
+            source,
+            pack_mv
+        ),
+        Event::Raised(Level::Critical) => defmt::error!(
+            "battery: CRITICAL {=u32} mV/cell ({=u32} mV)",
+            s.filtered_cell_mv,
+            s.filtered_mv
+        ),
+        Event::Raised(level) => defmt::warn!(
+            "battery: {} {=u32} mV/cell ({=u32} mV)",
+            level,
+            s.filtered_cell_mv,
+            s.filtered_mv
+        ),
+        Event::Disconnected => defmt::info!("battery: disconnected"),
+    }
+}
