@@ -27,10 +27,13 @@
 //!
 //! # Rules
 //!
-//! * **Sag filter**: a PT1 (`filters::Pt1Q`, state in Q16 ADC counts) with a
-//!   2 s time constant ([`SAG_FILTER_TAU_MS`]) at 10 Hz; its output is what
-//!   the thresholds compare. The raw reading is kept for telemetry
-//!   ([`Status::raw_mv`]).
+//! * **Sag filter**: a first-order low-pass at 10 Hz (state in Q16 ADC
+//!   counts) that falls with a 4 s time constant ([`SAG_FALL_TAU_MS`]) and
+//!   rises with 0.5 s ([`SAG_RISE_TAU_MS`]): it follows the voltage at the
+//!   lightest recent load, nearer the resting voltage, so a burst's sag
+//!   counts only when it lasts and the recovery after it at once. Its
+//!   output is what the thresholds compare. The raw reading is kept for
+//!   telemetry ([`Status::raw_mv`]).
 //! * **No battery**: below 2.5 V of pack ([`PRESENT_MV`]) there is no
 //!   pack (a board on USB): [`Level::NoBattery`], no cell count, no
 //!   warnings. While a pack is connected, readings below it are skipped as
@@ -91,6 +94,7 @@
 mod action;
 mod error;
 mod monitor;
+mod sag;
 mod scale;
 
 pub use action::{
@@ -100,9 +104,9 @@ pub use action::{
 pub use error::{Error, Setting};
 pub use monitor::{
     cells_from_mv, BatteryMonitor, CellSource, Config, Event, Level, Status, ABSENT_SAMPLES,
-    MAX_CELLS, PRESENT_MV, SAG_FILTER_TAU_MS, SAMPLE_PERIOD_MS, SAMPLE_RATE_HZ, SETTLE_SAMPLES,
-    STABLE_SPREAD_MV,
+    MAX_CELLS, PRESENT_MV, SAMPLE_PERIOD_MS, SAMPLE_RATE_HZ, SETTLE_SAMPLES, STABLE_SPREAD_MV,
 };
+pub use sag::{SAG_FALL_TAU_MS, SAG_RISE_TAU_MS};
 pub use scale::{
     scale_from_reading, Scale, ADC_FULL_SCALE_COUNTS, ADC_MAX_COUNT, MIN_CALIBRATION_COUNTS,
 };

@@ -2,9 +2,8 @@
 //! presence, cell count, raw and sag-filtered voltage, and the latched
 //! level (the rules are in the [crate docs](crate)).
 
-use filters::{Pt1, Pt1Q};
-
 use crate::error::{Error, Setting};
+use crate::sag::SagFilter;
 use crate::scale::{Scale, ADC_MAX_COUNT};
 
 /// The rate [`BatteryMonitor::update`] must be called at, Hz: the filter is
@@ -13,25 +12,6 @@ pub const SAMPLE_RATE_HZ: u32 = 10;
 
 /// One sample period, ms.
 pub const SAMPLE_PERIOD_MS: u32 = 1000 / SAMPLE_RATE_HZ;
-
-/// The sag filter's time constant (RC of the PT1), ms. A throttle punch
-/// sags the pack within milliseconds; 2 s keeps a burst of a few seconds
-/// from reaching the thresholds while the pack's own decline (minutes)
-/// passes with about 2 s of lag.
-pub const SAG_FILTER_TAU_MS: u32 = 2000;
-
-/// The sag filter (PT1, `filters::Pt1Q`, gain in Q30, state in Q16 ADC
-/// counts) designed at build time: cut-off 1/(2π·2 s) = 0.080 Hz at 10 Hz,
-/// gain k = 0.1 s/(2 s + 0.1 s) = 0.0476.
-// Evaluated by the compiler (a `const`): no f32 arithmetic and no panic
-// path reaches the board.
-const SAG_FILTER: Pt1Q = match Pt1::new(
-    1000.0 / (2.0 * core::f32::consts::PI * SAG_FILTER_TAU_MS as f32),
-    SAMPLE_RATE_HZ as f32,
-) {
-    Ok(f) => Pt1Q::new(&f),
-    Err(_) => panic!("SAG_FILTER_TAU_MS out of range for SAMPLE_RATE_HZ"),
-};
 
 /// Below this pack voltage no battery is connected (a board on USB reads
 /// about 0 V), mV: no cell count, no warnings. 2.5 V leaves a 1S pack's
@@ -224,9 +204,7 @@ pub struct BatteryMonitor {
     cfg: Config,
     warning_hold: u16,
     critical_hold: u16,
-    filter: Pt1Q,
-    /// The filter's output, Q16 ADC counts.
-    filtered_q16: i32,
+    filter: SagFilter,
     phase: Phase,
     raw_mv: u32,
     /// Consecutive readings below [`PRESENT_MV`] while present.
@@ -257,8 +235,7 @@ impl BatteryMonitor {
             cfg,
             warning_hold: hold_samples(cfg.warning_hold_ms),
             critical_hold: hold_samples(cfg.critical_hold_ms),
-            filter: SAG_FILTER,
-            filtered_q16: 0,
+            filter: SagFilter::new(SAMPLE_PERIOD_MS),
             phase: Phase::Absent,
             raw_mv,
             absent_run: 0,
@@ -320,9 +297,8 @@ impl BatteryMonitor {
         let n = u64::from(w.n.max(1));
         let mean_q16 = ((u64::from(w.sum_counts) << 16) + n / 2) / n;
         // ≤ 4095 · 2^16 < 2^31.
-        self.filtered_q16 = mean_q16 as i32;
-        self.filter.reset(self.filtered_q16);
-        let pack_mv = self.cfg.scale.counts_q16_to_mv(self.filtered_q16);
+        self.filter.reset(mean_q16 as i32);
+        let pack_mv = self.cfg.scale.counts_q16_to_mv(self.filter.output_q16());
         let (cells, source) = match self.cfg.cells_override {
             0 => (cells_from_mv(pack_mv, self.cfg.max_cell_mv), CellSource::Detected),
             n => (n, CellSource::Configured),
@@ -349,7 +325,7 @@ impl BatteryMonitor {
             return None;
         }
         self.absent_run = 0;
-        self.filtered_q16 = self.filter.apply(i32::from(counts) << 16);
+        self.filter.apply(i32::from(counts) << 16);
         self.update_level(cells)
     }
 
@@ -378,7 +354,7 @@ impl BatteryMonitor {
     /// The filtered pack voltage, mV (0 without a pack).
     fn filtered_mv(&self) -> u32 {
         match self.phase {
-            Phase::Present { .. } => self.cfg.scale.counts_q16_to_mv(self.filtered_q16),
+            Phase::Present { .. } => self.cfg.scale.counts_q16_to_mv(self.filter.output_q16()),
             _ => 0,
         }
     }
@@ -408,7 +384,7 @@ impl BatteryMonitor {
     #[must_use]
     pub fn filtered_counts(&self) -> Option<u16> {
         match self.phase {
-            Phase::Present { .. } => u16::try_from((self.filtered_q16 + (1 << 15)) >> 16).ok(),
+            Phase::Present { .. } => u16::try_from((self.filter.output_q16() + (1 << 15)) >> 16).ok(),
             _ => None,
         }
     }
