@@ -92,11 +92,11 @@ impl DescentConfig {
     /// # Errors
     /// [`Error::Setting`] naming the first setting out of range.
     pub fn check(&self) -> Result<(), Error> {
-        let q16 = |tenths: i32| tenths * (1 << 16) / 10;
-        let q30_20ths = |n: i32| ONE_Q30 / 20 * n;
+        // Rounded up: 0.1 m/s is 6553.6 in Q16, so 6553 is below it.
+        let q16 = |tenths: i32| (tenths * (1 << 16) + 9) / 10;
         let bad = |ok: bool, s: Setting| if ok { Ok(()) } else { Err(Error::Setting(s)) };
         bad((q16(1)..=q16(30)).contains(&self.descent_mps_q16), Setting::DescentRate)?;
-        let in_range = |x: i32| (q30_20ths(1)..=q30_20ths(10)).contains(&x);
+        let in_range = |x: i32| (ONE_Q30 / 20..=ONE_Q30 / 2).contains(&x);
         bad(in_range(self.stick_deadband_q30), Setting::StickDeadband)?;
         bad(in_range(self.throttle_move_q30), Setting::ThrottleMove)
     }
