@@ -95,7 +95,10 @@ impl DescentConfig {
         // Rounded up: 0.1 m/s is 6553.6 in Q16, so 6553 is below it.
         let q16 = |tenths: i32| (tenths * (1 << 16) + 9) / 10;
         let bad = |ok: bool, s: Setting| if ok { Ok(()) } else { Err(Error::Setting(s)) };
-        bad((q16(1)..=q16(30)).contains(&self.descent_mps_q16), Setting::DescentRate)?;
+        bad(
+            (q16(1)..=q16(30)).contains(&self.descent_mps_q16),
+            Setting::DescentRate,
+        )?;
         let in_range = |x: i32| (ONE_Q30 / 20..=ONE_Q30 / 2).contains(&x);
         bad(in_range(self.stick_deadband_q30), Setting::StickDeadband)?;
         bad(in_range(self.throttle_move_q30), Setting::ThrottleMove)
@@ -130,10 +133,8 @@ pub fn battery_action(
         Level::NoBattery | Level::Ok => BatteryAction::None,
         Level::Warning => BatteryAction::Warn,
         Level::Critical => {
-            let descend = ctx.armed
-                && ctx.altitude_available
-                && !handed_back
-                && (ctx.in_air || descending);
+            let descend =
+                ctx.armed && ctx.altitude_available && !handed_back && (ctx.in_air || descending);
             if descend {
                 BatteryAction::Descend {
                     descent_mps_q16: cfg.descent_mps_q16,
@@ -200,7 +201,12 @@ impl LowBatteryDescent {
 
     /// The action for this step (call it at every step the flight
     /// controller takes, or at least at every pilot frame).
-    pub fn update(&mut self, level: Level, ctx: &FlightContext, sticks: &SticksQ30) -> BatteryAction {
+    pub fn update(
+        &mut self,
+        level: Level,
+        ctx: &FlightContext,
+        sticks: &SticksQ30,
+    ) -> BatteryAction {
         if !ctx.armed {
             self.phase = DescentPhase::Idle;
         }

@@ -49,23 +49,23 @@ pub struct Config {
     /// Critical below this filtered cell voltage, mV (2800..warning; 3300).
     pub critical_cell_mv: u16,
     /// How long the filtered cell voltage must stay below the warning
-    /// threshold, ms (100..=30 000, rounded up to whole samples; 2000).
+    /// threshold, ms (100..=30 000, rounded up to whole samples; 3000).
     pub warning_hold_ms: u16,
-    /// How long below the critical threshold, ms (as the warning's; 2000).
+    /// How long below the critical threshold, ms (as the warning's; 3000).
     pub critical_hold_ms: u16,
 }
 
 impl Config {
     /// The defaults: 11:1 divider, cells detected, 4.30 V a full cell,
-    /// warning 3.50 V and critical 3.30 V per cell, each held 2 s.
+    /// warning 3.50 V and critical 3.30 V per cell, each held 3 s.
     pub const DEFAULT: Self = Self {
         scale: Scale::DEFAULT,
         cells_override: 0,
         max_cell_mv: 4300,
         warning_cell_mv: 3500,
         critical_cell_mv: 3300,
-        warning_hold_ms: 2000,
-        critical_hold_ms: 2000,
+        warning_hold_ms: 3000,
+        critical_hold_ms: 3000,
     };
 
     /// Checks every setting's range.
@@ -75,14 +75,26 @@ impl Config {
     pub fn check(&self) -> Result<(), Error> {
         let bad = |ok: bool, s: Setting| if ok { Ok(()) } else { Err(Error::Setting(s)) };
         bad(self.cells_override <= MAX_CELLS, Setting::CellsOverride)?;
-        bad((4000..=4500).contains(&self.max_cell_mv), Setting::MaxCellVoltage)?;
-        bad((3000..=4000).contains(&self.warning_cell_mv), Setting::WarningCellVoltage)?;
+        bad(
+            (4000..=4500).contains(&self.max_cell_mv),
+            Setting::MaxCellVoltage,
+        )?;
+        bad(
+            (3000..=4000).contains(&self.warning_cell_mv),
+            Setting::WarningCellVoltage,
+        )?;
         bad(
             (2800..self.warning_cell_mv).contains(&self.critical_cell_mv),
             Setting::CriticalCellVoltage,
         )?;
-        bad((100..=30_000).contains(&self.warning_hold_ms), Setting::WarningHold)?;
-        bad((100..=30_000).contains(&self.critical_hold_ms), Setting::CriticalHold)
+        bad(
+            (100..=30_000).contains(&self.warning_hold_ms),
+            Setting::WarningHold,
+        )?;
+        bad(
+            (100..=30_000).contains(&self.critical_hold_ms),
+            Setting::CriticalHold,
+        )
     }
 }
 
@@ -300,7 +312,10 @@ impl BatteryMonitor {
         self.filter.reset(mean_q16 as i32);
         let pack_mv = self.cfg.scale.counts_q16_to_mv(self.filter.output_q16());
         let (cells, source) = match self.cfg.cells_override {
-            0 => (cells_from_mv(pack_mv, self.cfg.max_cell_mv), CellSource::Detected),
+            0 => (
+                cells_from_mv(pack_mv, self.cfg.max_cell_mv),
+                CellSource::Detected,
+            ),
             n => (n, CellSource::Configured),
         };
         self.phase = Phase::Present { cells };
@@ -334,9 +349,14 @@ impl BatteryMonitor {
     fn update_level(&mut self, cells: u8) -> Option<Event> {
         let cell_mv = self.filtered_mv() / u32::from(cells.max(1));
         let count = |run: u16, below: bool| if below { run.saturating_add(1) } else { 0 };
-        self.below_warning = count(self.below_warning, cell_mv < u32::from(self.cfg.warning_cell_mv));
-        self.below_critical =
-            count(self.below_critical, cell_mv < u32::from(self.cfg.critical_cell_mv));
+        self.below_warning = count(
+            self.below_warning,
+            cell_mv < u32::from(self.cfg.warning_cell_mv),
+        );
+        self.below_critical = count(
+            self.below_critical,
+            cell_mv < u32::from(self.cfg.critical_cell_mv),
+        );
         let reached = if self.below_critical >= self.critical_hold {
             Level::Critical
         } else if self.below_warning >= self.warning_hold {
@@ -384,7 +404,9 @@ impl BatteryMonitor {
     #[must_use]
     pub fn filtered_counts(&self) -> Option<u16> {
         match self.phase {
-            Phase::Present { .. } => u16::try_from((self.filter.output_q16() + (1 << 15)) >> 16).ok(),
+            Phase::Present { .. } => {
+                u16::try_from((self.filter.output_q16() + (1 << 15)) >> 16).ok()
+            }
             _ => None,
         }
     }

@@ -22,7 +22,8 @@ pub const ADC_MAX_COUNT: u16 = 4095;
 /// ≤ 0.33 % of it: 2.66 V of pack on the default divider).
 pub const MIN_CALIBRATION_COUNTS: u16 = 300;
 
-/// Pack mV at 4096 ADC counts (see the [module docs](self)).
+/// The scale: pack mV at 4096 ADC counts, `pack_mv = counts ·
+/// full_scale_mv / 4096` (36 300 mV for the board's 11:1 divider on 3.3 V).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Scale {

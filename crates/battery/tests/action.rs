@@ -82,7 +82,10 @@ fn a_descent_under_way_continues_after_touch_down_until_disarmed() {
         in_air: false,
         ..FLYING
     };
-    assert_eq!(battery_action(Level::Critical, &landed, true, false, &d), DESCEND);
+    assert_eq!(
+        battery_action(Level::Critical, &landed, true, false, &d),
+        DESCEND
+    );
     assert_eq!(
         battery_action(Level::Critical, &landed, true, true, &d),
         BatteryAction::Warn
@@ -139,7 +142,11 @@ fn any_stick_beyond_the_deadband_hands_control_back_for_the_flight() {
         assert_eq!(g.update(Level::Critical, &FLYING, &sticks(0.5)), DESCEND);
         let mut s = sticks(0.5);
         mv(&mut s);
-        assert_eq!(g.update(Level::Critical, &FLYING, &s), BatteryAction::Warn, "move {k}");
+        assert_eq!(
+            g.update(Level::Critical, &FLYING, &s),
+            BatteryAction::Warn,
+            "move {k}"
+        );
         assert_eq!(g.phase(), DescentPhase::PilotControl);
         // Sticks back to centre: the pilot keeps control, warned.
         for _ in 0..100 {
@@ -230,18 +237,23 @@ fn a_warning_never_takes_control() {
 
 #[test]
 fn descent_settings_out_of_range_are_refused() {
-    let d = DescentConfig::DEFAULT;
-    let cases = [
-        (DescentConfig { descent_mps_q16: 6_553, ..d }, Setting::DescentRate),
-        (DescentConfig { descent_mps_q16: 196_609, ..d }, Setting::DescentRate),
-        (DescentConfig { descent_mps_q16: -32_768, ..d }, Setting::DescentRate),
-        (DescentConfig { stick_deadband_q30: q30(0.04), ..d }, Setting::StickDeadband),
-        (DescentConfig { stick_deadband_q30: q30(0.51), ..d }, Setting::StickDeadband),
-        (DescentConfig { throttle_move_q30: 0, ..d }, Setting::ThrottleMove),
-        (DescentConfig { throttle_move_q30: q30(0.6), ..d }, Setting::ThrottleMove),
+    type Change = fn(&mut DescentConfig);
+    let cases: [(Change, Setting); 7] = [
+        (|c| c.descent_mps_q16 = 6_553, Setting::DescentRate), // < 0.1 m/s
+        (|c| c.descent_mps_q16 = 196_609, Setting::DescentRate), // > 3 m/s
+        (|c| c.descent_mps_q16 = -32_768, Setting::DescentRate),
+        (|c| c.stick_deadband_q30 = q30(0.04), Setting::StickDeadband),
+        (|c| c.stick_deadband_q30 = q30(0.51), Setting::StickDeadband),
+        (|c| c.throttle_move_q30 = 0, Setting::ThrottleMove),
+        (|c| c.throttle_move_q30 = q30(0.6), Setting::ThrottleMove),
     ];
-    for (cfg, setting) in cases {
-        assert_eq!(LowBatteryDescent::new(cfg).unwrap_err(), Error::Setting(setting));
+    for (change, setting) in cases {
+        let mut cfg = DescentConfig::DEFAULT;
+        change(&mut cfg);
+        assert_eq!(
+            LowBatteryDescent::new(cfg).unwrap_err(),
+            Error::Setting(setting)
+        );
     }
     // The bounds themselves: 0.1 and 3 m/s, 0.05 and 0.5.
     let ok = DescentConfig {
@@ -250,9 +262,9 @@ fn descent_settings_out_of_range_are_refused() {
         throttle_move_q30: ONE_Q30 / 2,
     };
     assert!(LowBatteryDescent::new(ok).is_ok());
-    assert!(LowBatteryDescent::new(DescentConfig {
+    let fast = DescentConfig {
         descent_mps_q16: 3 << 16,
-        ..d
-    })
-    .is_ok());
+        ..DescentConfig::DEFAULT
+    };
+    assert!(LowBatteryDescent::new(fast).is_ok());
 }

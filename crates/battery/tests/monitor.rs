@@ -25,7 +25,10 @@ fn feed(m: &mut BatteryMonitor, mv: u32, n: usize) -> Vec<(usize, Event)> {
 fn connected(cfg: Config, pack_mv: u32) -> BatteryMonitor {
     let mut m = BatteryMonitor::new(cfg).unwrap();
     let events = feed(&mut m, pack_mv, usize::from(SETTLE_SAMPLES));
-    assert!(matches!(events[..], [(4, Event::Connected { .. })]), "{events:?}");
+    assert!(
+        matches!(events[..], [(4, Event::Connected { .. })]),
+        "{events:?}"
+    );
     m
 }
 
@@ -164,15 +167,15 @@ fn a_pack_below_the_warning_raises_it_after_the_hold() {
     let mut m = connected(Config::DEFAULT, 4 * 3_450);
     assert!(m.status().filtered_cell_mv < 3_500);
     let events = feed(&mut m, 4 * 3_450, 100);
-    // 2 s at 10 Hz: the 20th reading below (index 19).
-    assert_eq!(events, vec![(19, Event::Raised(Level::Warning))]);
+    // 3 s at 10 Hz: the 30th reading below (index 29).
+    assert_eq!(events, vec![(29, Event::Raised(Level::Warning))]);
     assert_eq!(m.status().level, Level::Warning);
 }
 
 #[test]
 fn a_pack_below_critical_raises_critical_after_its_hold() {
     let cfg = Config {
-        critical_hold_ms: 3_000,
+        warning_hold_ms: 2_000,
         ..Config::DEFAULT
     };
     let mut m = connected(cfg, 4 * 3_250);
@@ -202,8 +205,8 @@ fn hold_times_round_up_to_whole_readings() {
 #[test]
 fn the_hold_restarts_when_the_voltage_comes_back() {
     let mut m = connected(Config::DEFAULT, 4 * 3_450);
-    // 19 readings below, one short of the hold.
-    assert_eq!(feed(&mut m, 4 * 3_450, 19), vec![]);
+    // 29 readings below, one short of the hold.
+    assert_eq!(feed(&mut m, 4 * 3_450, 29), vec![]);
     // Back up: the filter rises at once (0.5 s time constant).
     assert_eq!(feed(&mut m, 4 * 3_800, 1), vec![]);
     assert!(m.status().filtered_cell_mv >= 3_500);
@@ -221,7 +224,7 @@ fn the_hold_restarts_when_the_voltage_comes_back() {
         }
     }
     let first = first_below.unwrap();
-    assert_eq!(raised, Some((first + 19, Event::Raised(Level::Warning))));
+    assert_eq!(raised, Some((first + 29, Event::Raised(Level::Warning))));
 }
 
 #[test]
@@ -236,7 +239,10 @@ fn levels_stay_latched_until_the_pack_is_disconnected() {
     // A new pack: disconnected, then a charged one connected.
     feed(&mut m, 0, 5);
     let events = feed(&mut m, 4 * 4_150, 100);
-    assert!(matches!(events[..], [(4, Event::Connected { cells: 4, .. })]));
+    assert!(matches!(
+        events[..],
+        [(4, Event::Connected { cells: 4, .. })]
+    ));
     assert_eq!(m.status().level, Level::Ok);
 }
 
@@ -256,7 +262,10 @@ fn the_filter_falls_with_4_s_and_rises_with_half_a_second() {
     // Held, the input is reached (no deadband to the count).
     feed(&mut m, 16_000, 200);
     assert_eq!(m.filtered_counts(), Some(counts(16_000)));
-    assert_eq!(m.status().raw_mv, Scale::DEFAULT.counts_to_mv(counts(16_000)));
+    assert_eq!(
+        m.status().raw_mv,
+        Scale::DEFAULT.counts_to_mv(counts(16_000))
+    );
 }
 
 #[test]
@@ -293,23 +302,28 @@ fn new_settings_restart_the_detection() {
 
 #[test]
 fn settings_out_of_range_are_refused() {
-    let d = Config::DEFAULT;
-    let cases = [
-        (Config { cells_override: 9, ..d }, Setting::CellsOverride),
-        (Config { max_cell_mv: 3_999, ..d }, Setting::MaxCellVoltage),
-        (Config { max_cell_mv: 4_501, ..d }, Setting::MaxCellVoltage),
-        (Config { warning_cell_mv: 2_999, ..d }, Setting::WarningCellVoltage),
-        (Config { warning_cell_mv: 4_001, ..d }, Setting::WarningCellVoltage),
-        (Config { critical_cell_mv: 2_799, ..d }, Setting::CriticalCellVoltage),
-        (Config { critical_cell_mv: 3_500, ..d }, Setting::CriticalCellVoltage),
-        (Config { warning_hold_ms: 99, ..d }, Setting::WarningHold),
-        (Config { warning_hold_ms: 30_001, ..d }, Setting::WarningHold),
-        (Config { critical_hold_ms: 0, ..d }, Setting::CriticalHold),
+    type Change = fn(&mut Config);
+    let cases: [(Change, Setting); 10] = [
+        (|c| c.cells_override = 9, Setting::CellsOverride),
+        (|c| c.max_cell_mv = 3_999, Setting::MaxCellVoltage),
+        (|c| c.max_cell_mv = 4_501, Setting::MaxCellVoltage),
+        (|c| c.warning_cell_mv = 2_999, Setting::WarningCellVoltage),
+        (|c| c.warning_cell_mv = 4_001, Setting::WarningCellVoltage),
+        (|c| c.critical_cell_mv = 2_799, Setting::CriticalCellVoltage),
+        (|c| c.critical_cell_mv = 3_500, Setting::CriticalCellVoltage),
+        (|c| c.warning_hold_ms = 99, Setting::WarningHold),
+        (|c| c.warning_hold_ms = 30_001, Setting::WarningHold),
+        (|c| c.critical_hold_ms = 0, Setting::CriticalHold),
     ];
-    for (cfg, setting) in cases {
-        assert_eq!(BatteryMonitor::new(cfg).unwrap_err(), Error::Setting(setting));
+    for (change, setting) in cases {
+        let mut cfg = Config::DEFAULT;
+        change(&mut cfg);
+        assert_eq!(
+            BatteryMonitor::new(cfg).unwrap_err(),
+            Error::Setting(setting)
+        );
         assert!(!Error::Setting(setting).to_string().is_empty());
     }
-    assert!(BatteryMonitor::new(d).is_ok());
-    assert_eq!(Config::default(), d);
+    assert!(BatteryMonitor::new(Config::DEFAULT).is_ok());
+    assert_eq!(Config::default(), Config::DEFAULT);
 }

@@ -18,7 +18,11 @@ fn runs() -> impl Strategy<Value = Vec<u16>> {
 /// The sag filter's `f64` reference: k = dt/(τ + dt), τ by direction.
 fn reference_step(y: f64, x: f64) -> f64 {
     let dt = f64::from(SAMPLE_PERIOD_MS);
-    let tau = if x < y { SAG_FALL_TAU_MS } else { SAG_RISE_TAU_MS };
+    let tau = if x < y {
+        SAG_FALL_TAU_MS
+    } else {
+        SAG_RISE_TAU_MS
+    };
     y + dt / (f64::from(tau) + dt) * (x - y)
 }
 
