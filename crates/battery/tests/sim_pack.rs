@@ -218,3 +218,33 @@ fn a_hover_on_a_nearly_empty_pack_warns_then_goes_critical() {
     assert!(t_warn > x_warn + hold_s && t_warn <= x_warn + lag_s);
     assert!(t_crit > x_crit + hold_s && t_crit <= x_crit + lag_s);
 }
+
+/// Whether a full-throttle burst of `burst_s` from the hover, with the
+/// hover before and after it, raises a level on a pack at `soc`.
+fn burst_raises(soc: f64, burst_s: f64) -> bool {
+    let mut b = Bench::new(soc);
+    b.run(1.0, Throttle::Off);
+    b.run(5.0, Throttle::Hover);
+    b.run(burst_s, Throttle::Full);
+    b.run(15.0, Throttle::Hover);
+    !b.raised().is_empty()
+}
+
+#[test]
+fn the_longest_quiet_burst_grows_with_the_charge() {
+    // In 0.1 s steps from 2 s: the longest burst that raises nothing.
+    let longest = |soc: f64| {
+        (20..120)
+            .map(|d| f64::from(d) / 10.0)
+            .take_while(|&d| !burst_raises(soc, d))
+            .last()
+            .unwrap_or(0.0)
+    };
+    let quiet: Vec<(f64, f64)> = [0.3, 0.5, 0.7].iter().map(|&s| (s, longest(s))).collect();
+    for (soc, d) in &quiet {
+        println!("charge {soc}: full-throttle bursts up to {d:.1} s raise nothing");
+    }
+    // A fuller pack sags from higher up: it takes a longer burst.
+    assert!(quiet.windows(2).all(|w| w[1].1 > w[0].1), "{quiet:?}");
+    assert!(quiet[0].1 >= 3.0);
+}
