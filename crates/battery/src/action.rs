@@ -14,8 +14,9 @@ use crate::monitor::Level;
 /// 1.0 in Q30.
 const ONE_Q30: i32 = 1 << 30;
 
-/// The pilot's sticks in Q30 (the receiver's normalised sticks, as
-/// `control::shapingq` takes them: roll, pitch, yaw −1..1, throttle 0..1).
+/// The pilot's sticks in Q30: `flight::flightctl::PilotInput::sticks`
+/// (roll, pitch, yaw −1..1, throttle 0..1) converted once per pilot frame
+/// by the bits (`control::fixed::f32_to_q(x, 30)`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SticksQ30 {
@@ -29,7 +30,9 @@ pub struct SticksQ30 {
     pub throttle_q30: i32,
 }
 
-/// The flight controller's state, as far as the rule needs it.
+/// The flight controller's state, as far as the rule needs it (from
+/// `FlightController::is_armed`, `FlightController::in_flight`,
+/// `VehicleState::altitude.is_some()` and `PilotInput::link_ok`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FlightContext {

@@ -36,13 +36,18 @@ fn counts(v: f64) -> u16 {
 
 impl Bench {
     /// The class-250 quad with `state_of_charge` (0..1) left in its pack,
-    /// connected at t = 0.
+    /// connected at t = 0, the default settings.
     fn new(state_of_charge: f64) -> Self {
+        Self::with_config(state_of_charge, Config::DEFAULT)
+    }
+
+    /// As [`Bench::new`] with the monitor's settings `cfg`.
+    fn with_config(state_of_charge: f64, cfg: Config) -> Self {
         let mut p = QuadParams::class_250();
         p.battery.used_at_start_ah = (1.0 - state_of_charge) * p.battery.capacity_ah;
         Self {
             quad: Quadcopter::new(p).unwrap(),
-            monitor: BatteryMonitor::new(Config::DEFAULT).unwrap(),
+            monitor: BatteryMonitor::new(cfg).unwrap(),
             t_s: 0.0,
             events: Vec::new(),
             trace: Vec::new(),
@@ -136,17 +141,33 @@ fn a_3_s_full_throttle_burst_on_a_part_used_pack_raises_nothing() {
     }
 }
 
-#[test]
-fn repeated_3_s_bursts_on_a_half_charged_pack_raise_nothing() {
-    let mut b = Bench::new(0.5);
+/// Six 3 s full-throttle bursts with 3 s of hover between them, from half
+/// charge (to about a third), with warning and critical held `hold_ms`.
+fn repeated_bursts(hold_ms: u16) -> Bench {
+    let cfg = Config {
+        warning_hold_ms: hold_ms,
+        critical_hold_ms: hold_ms,
+        ..Config::DEFAULT
+    };
+    let mut b = Bench::with_config(0.5, cfg);
     b.run(1.0, Throttle::Off);
     for _ in 0..6 {
         b.run(3.0, Throttle::Hover);
         b.run(3.0, Throttle::Full);
     }
     b.run(3.0, Throttle::Hover);
+    b
+}
+
+#[test]
+fn repeated_3_s_bursts_on_a_half_charged_pack_raise_nothing() {
+    let b = repeated_bursts(Config::DEFAULT.warning_hold_ms);
     assert_eq!(b.raised(), vec![]);
     assert_eq!(b.monitor.status().level, Level::Ok);
+    // Why the holds are 3 s: held 2 s, the same flight is warned.
+    let b = repeated_bursts(2000);
+    let raised = b.raised();
+    assert!(matches!(raised[..], [(_, Level::Warning)]), "{raised:?}");
 }
 
 #[test]
