@@ -5,16 +5,20 @@
 //! this module only carries values between the tasks that own them.
 //!
 //! Between tasks: the flight step (priority 3) publishes its state in
-//! [`FLIGHT`] and reads the descent request from [`BATTERY_DESCENT`]; the
-//! builder task (priority 1, 10 Hz) writes the request and the telemetry
-//! snapshot the receiver task (priority 4) sends from. Atomics, not
-//! locks: each is one word with one writer.
+//! [`FLIGHT`] and reads the descent request from [`BATTERY_DESCENT`]
+//! (atomics: one word, one writer each); the builder task (priority 1,
+//! 10 Hz) writes the request and the telemetry snapshot the telemetry
+//! task (priority 2) sends from ([`set_telemetry`], [`telemetry`]: a copy
+//! of 40 bytes in a critical section; not an RTIC resource, which would
+//! be in the C8 builds too, whose flash has no room for it).
 
 use battery::{
     BatteryAction, BatteryMonitor, Config, DescentConfig, Event, FlightContext, Level,
-    LowBatteryDescent, SticksQ30, Status,
+    LowBatteryDescent, Status, SticksQ30,
 };
+use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+use critical_section::Mutex;
 use flight::flightctl::{FlightMode, FlightOutput, FlightState, PilotInput};
 use rc_input::telemetry::{
     Arming, Attitude, BaroAltitude, Battery, FlightMode as ModeFrame, ModeName, TelemetrySnapshot,
@@ -27,6 +31,19 @@ use crate::crsf_tx::{CrsfTx, FRAME_BYTES};
 pub static BATTERY_DESCENT: AtomicBool = AtomicBool::new(false);
 /// The flight step's state (flight step → builder): [`FlightBits`].
 pub static FLIGHT: AtomicU8 = AtomicU8::new(0);
+
+/// The snapshot telemetry sends from (builder task → telemetry task).
+static TELEMETRY: Mutex<Cell<Option<TelemetrySnapshot>>> = Mutex::new(Cell::new(None));
+
+/// Replaces the snapshot telemetry sends from.
+pub fn set_telemetry(snap: TelemetrySnapshot) {
+    critical_section::with(|cs| TELEMETRY.borrow(cs).set(Some(snap)));
+}
+
+/// The latest snapshot (the default one before the first).
+pub fn telemetry() -> TelemetrySnapshot {
+    critical_section::with(|cs| TELEMETRY.borrow(cs).get()).unwrap_or_default()
+}
 
 /// [`FLIGHT`]'s bits.
 struct FlightBits;
@@ -203,12 +220,7 @@ pub fn log_battery_event(ev: Event, s: Status) {
             cells,
             source,
             pack_mv,
-        } => defmt::info!(
-            "battery: {=u8}S ({}) at {=u32} mV",
-            cells,
-            source,
-            pack_mv
-        ),
+        } => defmt::info!("battery: {=u8}S ({}) at {=u32} mV", cells, source, pack_mv),
         Event::Raised(Level::Critical) => defmt::error!(
             "battery: CRITICAL {=u32} mV/cell ({=u32} mV)",
             s.filtered_cell_mv,

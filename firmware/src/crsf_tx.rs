@@ -16,7 +16,8 @@
 use core::sync::atomic::{compiler_fence, Ordering};
 use stm32f1xx_hal::pac;
 
-/// The largest frame the buffer holds (CRSF's limit: 64 bytes).
+/// The largest frame the buffer holds (CRSF's limit: 64 bytes; `init`'s
+/// `tx_buf` local has this size).
 pub const FRAME_BYTES: usize = 64;
 /// DMA1 channel 4, index 3.
 const CH4: usize = 3;

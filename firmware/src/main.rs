@@ -148,6 +148,24 @@ mod receiver;
 mod report;
 #[cfg(feature = "f103cb")]
 mod rtt;
+
+/// The STM32F103CB build's task locals, named in the C8 builds as units:
+/// RTIC names a local resource's type in code that its `#[cfg]` does not
+/// remove (as `ppm` and `receiver` are compiled in both receiver builds).
+#[cfg(feature = "f103cb")]
+mod cb {
+    pub type Tx = crate::crsf_tx::CrsfTx;
+    pub type Schedule = rc_input::TelemetryScheduler;
+    pub type Battery = Option<crate::builder::BatteryTask>;
+    pub type Down = rtt_target::DownChannel;
+}
+#[cfg(not(feature = "f103cb"))]
+mod cb {
+    pub type Tx = ();
+    pub type Schedule = ();
+    pub type Battery = ();
+    pub type Down = ();
+}
 mod stack;
 mod store;
 mod watchdog;
@@ -203,6 +221,8 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
 #[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [SPI1, SPI2, USART3])]
 mod app {
     use crate::boot::*;
+    #[cfg(feature = "f103cb")]
+    use crate::builder;
     use crate::bus::{self, BusHandle};
     use crate::clocks::{self, Source};
     use crate::config::{self, Session};
@@ -281,10 +301,6 @@ mod app {
         bias: BiasStatus,
         pilot: Pilot,
         outputs: GuardedOutputs,
-        /// What CRSF telemetry reports (the builder task writes it at
-        /// 10 Hz, the receiver task sends from it).
-        #[cfg(feature = "f103cb")]
-        telemetry: rc_input::telemetry::TelemetrySnapshot,
     }
 
     #[local]
@@ -305,20 +321,20 @@ mod app {
         #[cfg(feature = "ppm")]
         ppm: crate::ppm::PpmInput,
         #[cfg(feature = "f103cb")]
-        tx: crate::crsf_tx::CrsfTx,
+        tx: crate::cb::Tx,
         #[cfg(feature = "f103cb")]
-        telemetry_schedule: rc_input::TelemetryScheduler,
+        telemetry_schedule: crate::cb::Schedule,
         #[cfg(feature = "f103cb")]
-        battery: Option<crate::builder::BatteryTask>,
+        battery: crate::cb::Battery,
         #[cfg(feature = "f103cb")]
-        console_down: rtt_target::DownChannel,
+        console_down: crate::cb::Down,
     }
 
     // RTIC's init locals take no cfg: the C8 builds keep the unused
     // telemetry buffer (64 B of RAM).
     #[init(local = [
         ring: [u8; RING_BYTES] = [0; RING_BYTES],
-        tx_buf: [u8; crate::crsf_tx::FRAME_BYTES] = [0; crate::crsf_tx::FRAME_BYTES],
+        tx_buf: [u8; 64] = [0; 64],
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         stack::paint();
@@ -396,8 +412,6 @@ mod app {
                 bias: BiasStatus::GaveUp,
                 pilot: Pilot::new(),
                 outputs,
-                #[cfg(feature = "f103cb")]
-                telemetry: rc_input::telemetry::TelemetrySnapshot::default(),
             },
             Local {
                 led,
@@ -416,7 +430,9 @@ mod app {
                 #[cfg(feature = "f103cb")]
                 tx,
                 #[cfg(feature = "f103cb")]
-                telemetry_schedule: rc_input::TelemetryScheduler::new(rc_input::telemetry::FrameSet::ALL),
+                telemetry_schedule: rc_input::TelemetryScheduler::new(
+                    rc_input::telemetry::FrameSet::ALL,
+                ),
                 #[cfg(feature = "f103cb")]
                 battery,
                 #[cfg(feature = "f103cb")]
@@ -729,19 +745,18 @@ mod app {
     /// sample outranks it; the receiver queues what it is given until its
     /// telemetry slot).
     #[cfg(feature = "f103cb")]
-    #[task(priority = 2, local = [tx, telemetry_schedule], shared = [telemetry])]
-    async fn telemetry_tx(mut cx: telemetry_tx::Context, now_us: u32) {
+    #[task(priority = 2, local = [tx, telemetry_schedule])]
+    async fn telemetry_tx(cx: telemetry_tx::Context, now_us: u32) {
         let (tx, sched) = (cx.local.tx, cx.local.telemetry_schedule);
-        cx.shared
-            .telemetry
-            .lock(|t| tx.send(|buf| sched.on_rc_frame(now_us, t, buf).unwrap_or(0)));
+        let snap = builder::telemetry();
+        tx.send(|buf| sched.on_rc_frame(now_us, &snap, buf).unwrap_or(0));
     }
 
     /// 10 Hz: the battery (ADC, monitor, low-battery rule), the telemetry
     /// snapshot, and the settings console's lines.
     #[cfg(feature = "f103cb")]
     #[task(priority = 1, local = [battery, console_down],
-           shared = [pipeline, pilot, clock, telemetry])]
+           shared = [pipeline, pilot, clock])]
     async fn builder_task(mut cx: builder_task::Context) {
         loop {
             let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
@@ -760,7 +775,7 @@ mod app {
                 builder::battery_frame(&b.status())
             });
             let snap = builder::snapshot(euler, alt, frame);
-            cx.shared.telemetry.lock(|t| *t = snap);
+            builder::set_telemetry(snap);
             Mono::delay(ExtU32::millis(battery::SAMPLE_PERIOD_MS)).await;
         }
     }
