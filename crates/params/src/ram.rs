@@ -174,7 +174,7 @@ impl ParamFlash for RamFlash {
         offset: usize,
         value: u16,
     ) -> Result<(), RamFlashError> {
-        if offset % 2 != 0 {
+        if !offset.is_multiple_of(2) {
             return Err(RamFlashError::Unaligned);
         }
         if offset + 2 > PAGE_SIZE {

@@ -53,7 +53,7 @@ pub const RECORD_LEN: usize = HEADER_LEN + PAYLOAD_LEN + 4;
 /// Size of each of the two flash pages.
 pub const PAGE_SIZE: usize = 1024;
 
-const _: () = assert!(RECORD_LEN % 2 == 0 && RECORD_LEN <= PAGE_SIZE);
+const _: () = assert!(RECORD_LEN.is_multiple_of(2) && RECORD_LEN <= PAGE_SIZE);
 
 /// CRC-32 of the table's shape: each name, a zero byte and its decimals,
 /// in table order. A record written for a table with another shape (a

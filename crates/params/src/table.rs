@@ -115,7 +115,7 @@ params! {
     GyroNotchQ: "gyro.notch_q", "", 2, 20, 2000, 200, "gyro notch Q";
     DtermLpf: "dterm.lpf", "Hz", 0, 0, 449, 40, "roll/pitch D low-pass, 0 off";
     FailsafeTimeout: "failsafe.timeout", "ms", 0, 20, 1000, 100, "no frames this long: link lost";
-    FailsafeHold: "failsafe.hold", "s", 2, 0, 1000, 100, "level hold before descent";
+    FailsafeHold: "failsafe.hold", "s", 2, 1, 1000, 100, "level hold before descent";
     FailsafeDescent: "failsafe.descent", "m/s", 2, 10, 300, 50, "descent speed";
     FailsafeThrottle: "failsafe.throttle", "", 2, 20, 100, 60, "max collective, no altitude";
     RcRoll: "rc.roll", "ch", 0, 1, 16, 1, "roll stick channel";
@@ -307,7 +307,7 @@ mod tests {
                 max: 20_000
             })
         );
-        assert_eq!(set.set(ParamId::TrimRoll, -1001).is_err(), true);
+        assert!(set.set(ParamId::TrimRoll, -1001).is_err());
         assert_eq!(set, before);
         assert!(!set.is_default(ParamId::RateRollP));
         assert!(set.is_default(ParamId::RateYawP));

@@ -3,6 +3,9 @@
 //! ways, must leave a flash whose load gives the values before the save or
 //! the values of the save, and nothing else.
 
+// Tests may unwrap and panic (workspace rules).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use params::ram::{EraseCut, PowerCut, ProgramCut, RamFlash, RamFlashError};
 use params::store::{
     self, decode, encode, is_newer, load, save, LoadOutcome, Page, PageError, ParamFlash,
