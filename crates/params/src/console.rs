@@ -114,15 +114,14 @@ pub struct Listing {
 }
 
 /// The commands, as `help` lists them before the parameters.
-const COMMANDS: [&[u8]; 8] = [
-    b"get NAME        show a value, its unit, range and default\n",
-    b"set NAME VALUE  change a value (disarmed; save to keep it)\n",
-    b"save            write the values to flash (disarmed)\n",
-    b"defaults        every value to its default (disarmed)\n",
-    b"dump            every value as set commands\n",
-    b"diff            the values not at their default\n",
-    b"help            this list\n",
-    b"# parameters: NAME [unit] MIN..MAX: help\n",
+const COMMANDS: [&[u8]; 7] = [
+    b"get NAME: value, unit, range, default\n",
+    b"set NAME VALUE: change it (disarmed; save keeps it)\n",
+    b"save: write to flash (disarmed)\n",
+    b"defaults: all to defaults (disarmed)\n",
+    b"dump: all as set lines\n",
+    b"diff: those not at their default\n",
+    b"help: this, then NAME unit MIN..MAX: help\n",
 ];
 
 impl Listing {
@@ -276,8 +275,9 @@ fn write_set(id: ParamId, value: i32, out: &mut impl Sink) {
 /// `[unit ]MIN..MAX`, no newline.
 fn write_unit_range(id: ParamId, out: &mut impl Sink) {
     let p = id.param();
-    if !p.unit.is_empty() {
-        out.put(p.unit.as_bytes());
+    let unit = p.unit.as_str();
+    if !unit.is_empty() {
+        out.put(unit.as_bytes());
         out.put(b" ");
     }
     out.put(fixed::format(p.min, p.decimals).as_bytes());

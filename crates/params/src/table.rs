@@ -13,13 +13,65 @@
 
 use sensor_stack::mounting::Mounting;
 
+/// A parameter's unit (a byte in the table, its text from [`Unit::as_str`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Unit {
+    /// A ratio or a count.
+    None,
+    /// Seconds per radian (a rate-loop P gain: torque per rad/s).
+    SPerRad,
+    /// Per radian (a rate-loop I gain: torque per rad).
+    PerRad,
+    /// Second² per radian (a rate-loop D gain: torque per rad/s²).
+    S2PerRad,
+    /// Per second.
+    PerS,
+    /// Degrees per second.
+    DegPerS,
+    /// Degrees.
+    Deg,
+    /// Hertz.
+    Hz,
+    /// Milliseconds.
+    Ms,
+    /// Seconds.
+    S,
+    /// Metres per second.
+    MPerS,
+    /// A receiver channel, counted from 1.
+    Ch,
+    /// Centivolts (0.01 V).
+    CentiVolt,
+}
+
+impl Unit {
+    /// As the console prints it (`""` for [`Unit::None`]).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::None => "",
+            Self::SPerRad => "s/rad",
+            Self::PerRad => "1/rad",
+            Self::S2PerRad => "s2/rad",
+            Self::PerS => "1/s",
+            Self::DegPerS => "deg/s",
+            Self::Deg => "deg",
+            Self::Hz => "Hz",
+            Self::Ms => "ms",
+            Self::S => "s",
+            Self::MPerS => "m/s",
+            Self::Ch => "ch",
+            Self::CentiVolt => "cV",
+        }
+    }
+}
+
 /// One entry of the table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Param {
     /// Dotted name, as typed on the console (`rate.roll.p`).
     pub name: &'static str,
-    /// Unit of the decimal value (`""` for a ratio or a count).
-    pub unit: &'static str,
+    /// Unit of the decimal value.
+    pub unit: Unit,
     /// Digits after the decimal point: the stored integer is the value
     /// times 10^`decimals`.
     pub decimals: u8,
@@ -49,7 +101,7 @@ fn is_rotation(code: i32) -> bool {
 /// Declares [`ParamId`], [`TABLE`] and [`ParamId::ALL`] from one list, so
 /// the three cannot disagree.
 macro_rules! params {
-    ($($id:ident: $name:literal, $unit:literal, $dec:literal, $min:literal, $max:literal,
+    ($($id:ident: $name:literal, $unit:ident, $dec:literal, $min:literal, $max:literal,
        $default:literal, $help:literal;)*) => {
         /// A parameter: the index of its [`TABLE`] entry.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -65,12 +117,13 @@ macro_rules! params {
         /// values in the flash record).
         pub static TABLE: [Param; COUNT] = [$(Param {
             name: $name,
-            unit: $unit,
+            unit: Unit::$unit,
             decimals: $dec,
             min: $min,
             max: $max,
             default: $default,
-            help: $help,
+            // The `no-help` build keeps the table but not the help text.
+            help: if cfg!(feature = "no-help") { "" } else { $help },
         },)*];
 
         impl ParamId {
@@ -90,50 +143,50 @@ pub const COUNT: usize = 44;
 // mounting are `firmware/src/config.rs`'s; the battery values and the trim
 // are new (Betaflight's 3.5 V / 3.3 V per cell; no trim).
 params! {
-    RateRollP: "rate.roll.p", "s/rad", 4, 0, 20000, 2500, "roll rate P";
-    RateRollI: "rate.roll.i", "1/rad", 4, 0, 50000, 8000, "roll rate I";
-    RateRollD: "rate.roll.d", "s2/rad", 4, 0, 1000, 45, "roll rate D";
-    RatePitchP: "rate.pitch.p", "s/rad", 4, 0, 20000, 2500, "pitch rate P";
-    RatePitchI: "rate.pitch.i", "1/rad", 4, 0, 50000, 8000, "pitch rate I";
-    RatePitchD: "rate.pitch.d", "s2/rad", 4, 0, 1000, 45, "pitch rate D";
-    RateYawP: "rate.yaw.p", "s/rad", 4, 0, 20000, 5000, "yaw rate P";
-    RateYawI: "rate.yaw.i", "1/rad", 4, 0, 50000, 8000, "yaw rate I";
-    RateYawD: "rate.yaw.d", "s2/rad", 4, 0, 1000, 0, "yaw rate D";
-    LevelP: "level.p", "1/s", 1, 1, 500, 120, "angle mode P";
-    LevelMaxRate: "level.max_rate", "deg/s", 0, 10, 1000, 200, "angle mode max roll/pitch rate";
-    LevelAngle: "level.angle", "deg", 0, 1, 80, 30, "angle mode tilt at full stick";
-    LevelExpo: "level.expo", "", 2, 0, 100, 0, "angle mode stick expo";
-    RatesRoll: "rates.roll", "deg/s", 0, 10, 2000, 500, "acro roll rate at full stick";
-    RatesPitch: "rates.pitch", "deg/s", 0, 10, 2000, 500, "acro pitch rate at full stick";
-    RatesYaw: "rates.yaw", "deg/s", 0, 10, 2000, 300, "yaw rate at full stick";
-    ExpoRoll: "expo.roll", "", 2, 0, 100, 30, "roll stick expo";
-    ExpoPitch: "expo.pitch", "", 2, 0, 100, 30, "pitch stick expo";
-    ExpoYaw: "expo.yaw", "", 2, 0, 100, 30, "yaw stick expo";
-    SticksDeadband: "sticks.deadband", "", 2, 0, 20, 2, "roll/pitch/yaw centre deadband";
-    GyroLpf: "gyro.lpf", "Hz", 0, 0, 449, 150, "gyro PT1 low-pass, 0 off";
-    GyroNotch: "gyro.notch", "Hz", 0, 0, 449, 200, "gyro notch centre, 0 off";
-    GyroNotchQ: "gyro.notch_q", "", 2, 20, 2000, 200, "gyro notch Q";
-    DtermLpf: "dterm.lpf", "Hz", 0, 0, 449, 40, "roll/pitch D low-pass, 0 off";
-    FailsafeTimeout: "failsafe.timeout", "ms", 0, 20, 1000, 100, "no frames this long: link lost";
-    FailsafeHold: "failsafe.hold", "s", 2, 1, 1000, 100, "level hold before descent";
-    FailsafeDescent: "failsafe.descent", "m/s", 2, 10, 300, 50, "descent speed";
-    FailsafeThrottle: "failsafe.throttle", "", 2, 20, 100, 60, "max collective, no altitude";
-    RcRoll: "rc.roll", "ch", 0, 1, 16, 1, "roll stick channel";
-    RcPitch: "rc.pitch", "ch", 0, 1, 16, 2, "pitch stick channel";
-    RcYaw: "rc.yaw", "ch", 0, 1, 16, 4, "yaw stick channel";
-    RcThrottle: "rc.throttle", "ch", 0, 1, 16, 3, "throttle channel";
-    RcArm: "rc.arm", "ch", 0, 1, 16, 5, "arm switch channel (high arms)";
-    RcMode: "rc.mode", "ch", 0, 1, 16, 6, "mode switch: low angle, mid alt, high acro";
-    RcMotorTest: "rc.motor_test", "ch", 0, 1, 16, 7, "motor-test switch channel";
-    BattScale: "batt.scale", "", 3, 1000, 50000, 11000, "pack volts per pin volt";
-    BattWarn: "batt.warn_cv", "cV", 0, 250, 450, 350, "warning, per cell";
-    BattCrit: "batt.crit_cv", "cV", 0, 250, 450, 330, "critical, per cell";
-    BattCells: "batt.cells", "", 0, 0, 6, 0, "cells, 0 auto";
-    ImuMount: "imu.mount", "", 0, 0, 511, 424, "mounting code, 424 face up x fwd";
-    EscIdle: "esc.idle", "", 3, 0, 300, 50, "lowest motor command armed";
-    EscTest: "esc.test", "", 3, 0, 200, 80, "motor-test command, PROPS OFF";
-    TrimRoll: "trim.roll", "deg", 2, -1000, 1000, 0, "angle mode level trim, right down +";
-    TrimPitch: "trim.pitch", "deg", 2, -1000, 1000, 0, "angle mode level trim, nose up +";
+    RateRollP: "rate.roll.p", SPerRad, 4, 0, 20000, 2500, "roll rate P";
+    RateRollI: "rate.roll.i", PerRad, 4, 0, 50000, 8000, "roll rate I";
+    RateRollD: "rate.roll.d", S2PerRad, 4, 0, 1000, 45, "roll rate D";
+    RatePitchP: "rate.pitch.p", SPerRad, 4, 0, 20000, 2500, "pitch rate P";
+    RatePitchI: "rate.pitch.i", PerRad, 4, 0, 50000, 8000, "pitch rate I";
+    RatePitchD: "rate.pitch.d", S2PerRad, 4, 0, 1000, 45, "pitch rate D";
+    RateYawP: "rate.yaw.p", SPerRad, 4, 0, 20000, 5000, "yaw rate P";
+    RateYawI: "rate.yaw.i", PerRad, 4, 0, 50000, 8000, "yaw rate I";
+    RateYawD: "rate.yaw.d", S2PerRad, 4, 0, 1000, 0, "yaw rate D";
+    LevelP: "level.p", PerS, 1, 1, 500, 120, "angle mode P";
+    LevelMaxRate: "level.max_rate", DegPerS, 0, 10, 1000, 200, "angle mode max roll/pitch rate";
+    LevelAngle: "level.angle", Deg, 0, 1, 80, 30, "angle mode tilt at full stick";
+    LevelExpo: "level.expo", None, 2, 0, 100, 0, "angle mode stick expo";
+    RatesRoll: "rates.roll", DegPerS, 0, 10, 2000, 500, "acro roll rate at full stick";
+    RatesPitch: "rates.pitch", DegPerS, 0, 10, 2000, 500, "acro pitch rate at full stick";
+    RatesYaw: "rates.yaw", DegPerS, 0, 10, 2000, 300, "yaw rate at full stick";
+    ExpoRoll: "expo.roll", None, 2, 0, 100, 30, "roll stick expo";
+    ExpoPitch: "expo.pitch", None, 2, 0, 100, 30, "pitch stick expo";
+    ExpoYaw: "expo.yaw", None, 2, 0, 100, 30, "yaw stick expo";
+    SticksDeadband: "sticks.deadband", None, 2, 0, 20, 2, "roll/pitch/yaw centre deadband";
+    GyroLpf: "gyro.lpf", Hz, 0, 0, 449, 150, "gyro PT1 low-pass, 0 off";
+    GyroNotch: "gyro.notch", Hz, 0, 0, 449, 200, "gyro notch centre, 0 off";
+    GyroNotchQ: "gyro.notch_q", None, 2, 20, 2000, 200, "gyro notch Q";
+    DtermLpf: "dterm.lpf", Hz, 0, 0, 449, 40, "roll/pitch D low-pass, 0 off";
+    FailsafeTimeout: "failsafe.timeout", Ms, 0, 20, 1000, 100, "no frames this long: link lost";
+    FailsafeHold: "failsafe.hold", S, 2, 1, 1000, 100, "level hold before descent";
+    FailsafeDescent: "failsafe.descent", MPerS, 2, 10, 300, 50, "descent speed";
+    FailsafeThrottle: "failsafe.throttle", None, 2, 20, 100, 60, "max collective, no altitude";
+    RcRoll: "rc.roll", Ch, 0, 1, 16, 1, "roll stick channel";
+    RcPitch: "rc.pitch", Ch, 0, 1, 16, 2, "pitch stick channel";
+    RcYaw: "rc.yaw", Ch, 0, 1, 16, 4, "yaw stick channel";
+    RcThrottle: "rc.throttle", Ch, 0, 1, 16, 3, "throttle channel";
+    RcArm: "rc.arm", Ch, 0, 1, 16, 5, "arm switch channel (high arms)";
+    RcMode: "rc.mode", Ch, 0, 1, 16, 6, "mode switch: low angle, mid alt, high acro";
+    RcMotorTest: "rc.motor_test", Ch, 0, 1, 16, 7, "motor-test switch channel";
+    BattScale: "batt.scale", None, 3, 1000, 50000, 11000, "pack volts per pin volt";
+    BattWarn: "batt.warn_cv", CentiVolt, 0, 250, 450, 350, "warning, per cell";
+    BattCrit: "batt.crit_cv", CentiVolt, 0, 250, 450, 330, "critical, per cell";
+    BattCells: "batt.cells", None, 0, 0, 6, 0, "cells, 0 auto";
+    ImuMount: "imu.mount", None, 0, 0, 511, 424, "mounting code, 424 face up x fwd";
+    EscIdle: "esc.idle", None, 3, 0, 300, 50, "lowest motor command armed";
+    EscTest: "esc.test", None, 3, 0, 200, 80, "motor-test command, PROPS OFF";
+    TrimRoll: "trim.roll", Deg, 2, -1000, 1000, 0, "angle mode level trim, right down +";
+    TrimPitch: "trim.pitch", Deg, 2, -1000, 1000, 0, "angle mode level trim, nose up +";
 }
 
 // Declared after the table: the macro cannot count, so the array length
@@ -278,7 +331,11 @@ mod tests {
                 "{}",
                 p.name
             );
-            assert!(!p.help.is_empty() && p.help.len() <= 44, "{}", p.name);
+            assert!(
+                p.help.len() <= 44 && (cfg!(feature = "no-help") || !p.help.is_empty()),
+                "{}",
+                p.name
+            );
             assert_eq!(ParamId::from_name(p.name.as_bytes()), Some(*id));
         }
         for (i, a) in TABLE.iter().enumerate() {
