@@ -165,30 +165,48 @@ pub fn execute(line: &[u8], params: &mut ParamSet, armed: bool, out: &mut impl S
     else {
         return Outcome::Done;
     };
-    if extra.is_some() {
-        return error(out, &[b"too many words"]);
+    let Some(index) = COMMAND_NAMES.iter().position(|n| same(n, command)) else {
+        return error(out, &[b"unknown command: ", command, b" (try help)"]);
+    };
+    let words = usize::from(a.is_some()) + usize::from(b.is_some()) + usize::from(extra.is_some());
+    if COMMAND_WORDS.get(index) != Some(&words) {
+        return error(out, &[b"usage: see help"]);
     }
-    let changes = matches!(command, b"set" | b"save" | b"defaults");
-    if changes && armed {
+    // set, save, defaults: nothing changes the values or the flash in flight.
+    if (1..=3).contains(&index) && armed {
         return error(out, &[b"armed: disarm first"]);
     }
-    match (command, a, b) {
-        (b"get", Some(name), None) => get(name, params, out),
-        (b"set", Some(name), Some(value)) => set(name, value, params, out),
-        (b"save", None, None) => Outcome::Save,
-        (b"defaults", None, None) => {
+    let (name, text) = (a.unwrap_or(&[]), b.unwrap_or(&[]));
+    match index {
+        0 => get(name, params, out),
+        1 => set(name, text, params, out),
+        2 => Outcome::Save,
+        3 => {
             *params = ParamSet::defaults();
             out.put(b"defaults loaded: save to keep them\n");
             Outcome::DefaultsLoaded
         }
-        (b"dump", None, None) => listing(ListKind::Dump),
-        (b"diff", None, None) => listing(ListKind::Diff),
-        (b"help", None, None) => listing(ListKind::Help),
-        (b"get" | b"set" | b"save" | b"defaults" | b"dump" | b"diff" | b"help", _, _) => {
-            error(out, &[b"usage: see help"])
-        }
-        _ => error(out, &[b"unknown command: ", command, b" (try help)"]),
+        4 => listing(ListKind::Dump),
+        5 => listing(ListKind::Diff),
+        _ => listing(ListKind::Help),
     }
+}
+
+/// The commands [`execute`] knows, and the words each takes after it.
+const COMMAND_NAMES: [&[u8]; 7] = [
+    b"get",
+    b"set",
+    b"save",
+    b"defaults",
+    b"dump",
+    b"diff",
+    b"help",
+];
+const COMMAND_WORDS: [usize; 7] = [1, 2, 0, 0, 0, 0, 0];
+
+/// `a == b` by a byte loop (a slice comparison links `memcmp`).
+pub(crate) fn same(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x == y)
 }
 
 fn listing(kind: ListKind) -> Outcome {

@@ -1,7 +1,8 @@
 //! A RAM model of the two parameter pages with the STM32F1's flash
-//! semantics (RM0008 §3.3.3, PM0075 §2.3: a page erase sets every bit;
+//! semantics (RM0008 §3.3.3, PM0075 §2.3.3: a page erase sets every bit;
 //! programming writes a half-word that must read 0xFFFF first, else the
-//! controller sets PGERR and writes nothing), and an injected power cut:
+//! controller sets PGERR and writes nothing, unless the value is 0x0000),
+//! and an injected power cut:
 //! the flash operation in progress at the cut leaves its cells undefined
 //! (one of the [`ProgramCut`] / [`EraseCut`] patterns), and nothing after
 //! it happens until [`RamFlash::power_on`].
@@ -11,7 +12,8 @@ use crate::store::{Page, ParamFlash, PAGE_SIZE};
 /// What a half-word being programmed holds after a cut.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ProgramCut {
-    /// Nothing was programmed: 0xFFFF.
+    /// Nothing was programmed: the cell as it was (0xFFFF after the
+    /// erase).
     Erased,
     /// The programming completed, but was not reported.
     Intended,
@@ -55,7 +57,8 @@ pub enum RamFlashError {
     OutOfBounds,
     /// Odd offset (the flash programs half-words).
     Unaligned,
-    /// Programming a half-word that is not 0xFFFF (the F1's PGERR).
+    /// Programming a value other than 0x0000 into a half-word that is not
+    /// 0xFFFF (the F1's PGERR).
     NotErased,
     /// The power is off (cut at or before this operation).
     PowerCut,
@@ -184,8 +187,8 @@ impl ParamFlash for RamFlash {
         let bytes = self.page_mut(page);
         let old = u16::from_le_bytes([bytes[offset], bytes[offset + 1]]);
         let (new, result) = match cut {
-            None if old != 0xFFFF => return Err(RamFlashError::NotErased),
-            None => (value, Ok(())),
+            None if old != 0xFFFF && value != 0 => return Err(RamFlashError::NotErased),
+            None => (old & value, Ok(())),
             Some(c) => (
                 cut_value(c.program, old, value, offset),
                 Err(RamFlashError::PowerCut),

@@ -31,6 +31,12 @@
 //! other page as it was: the load finds the previous values. Only a
 //! completed save makes the new record the newest.
 //!
+//! While the STM32F1's flash erases or programs, a fetch from it stalls
+//! the core (PM0075 §2.3): a save (one page erase, 20–40 ms, and
+//! [`RECORD_LEN`]/2 half-words at 40–70 µs each; DS5319 table 24) stops every task for about 25–50 ms, which is why the
+//! console refuses it while armed and why the watchdog's period must
+//! cover it.
+//!
 //! A record of another format version, or written for another table (a
 //! firmware whose parameters differ), is not read: the load falls back to
 //! the other page or to the defaults, and says why. There is no
@@ -127,7 +133,7 @@ impl Page {
 /// The two parameter pages, with the STM32F1's flash semantics: an erase
 /// sets a whole page to 0xFF; a half-word can be programmed once after it
 /// (programming a half-word that is not 0xFFFF is an error, the F1's
-/// PGERR). Offsets are bytes from the page's start.
+/// PGERR, except for 0x0000; PM0075 §2.3.3). Offsets are bytes from the page's start.
 pub trait ParamFlash {
     /// The flash's own error.
     type Error;
@@ -159,6 +165,8 @@ pub struct Record {
 pub enum PageError<E> {
     /// The page could not be read.
     Read(E),
+    /// Fewer bytes than a record (only from [`decode`] of a short slice).
+    TooShort,
     /// The header reads all 0xFF: never written (or erased).
     Blank,
     /// No parameter record (the magic is wrong).
@@ -184,7 +192,7 @@ pub enum PageError<E> {
 /// Decodes a record image (at least [`RECORD_LEN`] bytes). Errors:
 /// [`PageError`] other than `Read`.
 pub fn decode<E>(image: &[u8]) -> Result<Record, PageError<E>> {
-    let image = image.get(..RECORD_LEN).ok_or(PageError::CrcMismatch)?;
+    let image = image.get(..RECORD_LEN).ok_or(PageError::TooShort)?;
     if image.iter().take(HEADER_LEN).all(|&b| b == 0xFF) {
         return Err(PageError::Blank);
     }

@@ -221,7 +221,7 @@ impl ParamId {
         Self::ALL
             .iter()
             .copied()
-            .find(|id| id.param().name.as_bytes() == name)
+            .find(|id| crate::console::same(id.param().name.as_bytes(), name))
     }
 }
 

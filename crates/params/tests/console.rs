@@ -130,7 +130,7 @@ fn errors_name_the_problem_and_change_nothing() {
         ("set rate.roll.p", "error: usage: see help"),
         ("get", "error: usage: see help"),
         ("save now", "error: usage: see help"),
-        ("set a b c", "error: too many words"),
+        ("set a b c", "error: usage: see help"),
     ];
     for (line, want) in cases {
         let (outcome, lines) = run(line, &mut set, false);

@@ -300,6 +300,7 @@ fn every_single_bit_flip_is_detected() {
 #[test]
 fn each_reason_a_page_is_refused() {
     assert_eq!(decode_err(&[0xFF; RECORD_LEN]), PageError::Blank);
+    assert_eq!(decode_err(&[0xFF; RECORD_LEN - 1]), PageError::TooShort);
     let img = encode(&values(1), 1);
     let mut bad = img;
     bad[0] = b'X';
@@ -405,6 +406,10 @@ fn the_flash_model_refuses_what_the_f1_refuses() {
     let mut buf = [0u8; 2];
     flash.read(Page::A, 0, &mut buf).unwrap();
     assert_eq!(buf, [0x34, 0x12], "little-endian half-words");
+    // 0x0000 may be written over anything (PM0075 §2.3.3).
+    flash.program_halfword(Page::A, 0, 0).unwrap();
+    flash.read(Page::A, 0, &mut buf).unwrap();
+    assert_eq!(buf, [0, 0]);
     flash.erase_page(Page::A).unwrap();
     flash.read(Page::A, 0, &mut buf).unwrap();
     assert_eq!(buf, [0xFF, 0xFF]);
