@@ -19,7 +19,7 @@
 
 use crate::fixed::{self, NumError};
 use crate::store::{Page, SaveError, Saved};
-use crate::table::{ParamError, ParamSet};
+use crate::table::{same, ParamError, ParamSet};
 use crate::{ParamId, COUNT};
 
 /// Longest line any command writes, newline included.
@@ -203,11 +203,6 @@ const COMMAND_NAMES: [&[u8]; 7] = [
     b"help",
 ];
 const COMMAND_WORDS: [usize; 7] = [1, 2, 0, 0, 0, 0, 0];
-
-/// `a == b` by a byte loop (a slice comparison links `memcmp`).
-pub(crate) fn same(a: &[u8], b: &[u8]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x == y)
-}
 
 fn listing(kind: ListKind) -> Outcome {
     Outcome::Listing(Listing { kind, next: 0 })

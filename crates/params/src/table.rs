@@ -221,8 +221,13 @@ impl ParamId {
         Self::ALL
             .iter()
             .copied()
-            .find(|id| crate::console::same(id.param().name.as_bytes(), name))
+            .find(|id| same(id.param().name.as_bytes(), name))
     }
+}
+
+/// `a == b` by a byte loop (a slice comparison links `memcmp`).
+pub(crate) fn same(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x == y)
 }
 
 /// Why a value was refused.
