@@ -15,7 +15,7 @@
 //! | 6 | 2 | payload length in bytes ([`PAYLOAD_LEN`]) |
 //! | 8 | 4 | sequence number (the newer record has the larger one, modulo 2³²) |
 //! | 12 | 4 | table fingerprint [`TABLE_FINGERPRINT`] (names, decimals, order) |
-//! | 16 | 4·[`COUNT`] | the values, `i32`, in [`ParamId`](crate::ParamId) order |
+//! | 16 | 4·[`COUNT`] | the values, `i32`, in [`ParamId`] order |
 //! | 16 + 4·`COUNT` | 4 | CRC-32/IEEE of every byte before it |
 //!
 //! # Save and load
