@@ -429,3 +429,54 @@ fn the_flash_model_refuses_what_the_f1_refuses() {
     assert!(flash.read(Page::A, 0, &mut buf).is_ok());
     let _ = store::read_page(&mut flash, Page::A);
 }
+
+mod histories {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn program_cut() -> impl Strategy<Value = ProgramCut> {
+        prop_oneof![
+            Just(ProgramCut::Erased),
+            Just(ProgramCut::Intended),
+            any::<u32>().prop_map(ProgramCut::Partial),
+            any::<u32>().prop_map(ProgramCut::Random),
+        ]
+    }
+
+    fn erase_cut() -> impl Strategy<Value = EraseCut> {
+        prop_oneof![
+            Just(EraseCut::Untouched),
+            Just(EraseCut::Complete),
+            Just(EraseCut::FirstHalf),
+            any::<u32>().prop_map(EraseCut::Partial),
+            any::<u32>().prop_map(EraseCut::Random),
+        ]
+    }
+
+    proptest! {
+        /// Saves, some cut, in any order: after each, the load gives the
+        /// last completed save's values or the cut one's, never older ones.
+        #[test]
+        fn a_history_of_cut_saves_never_goes_back(
+            steps in proptest::collection::vec(
+                (0i32..1000, proptest::option::of((0..OPS_PER_SAVE, program_cut(), erase_cut()))),
+                1..12,
+            )
+        ) {
+            let mut flash = RamFlash::default();
+            let mut last = ParamSet::defaults();
+            for (k, cut) in steps {
+                let new = values(k);
+                if let Some((at_op, program, erase)) = cut {
+                    flash.arm(PowerCut { at_op, program, erase });
+                }
+                let done = save(&mut flash, &new).is_ok();
+                flash.power_on();
+                let got = load(&mut flash).set();
+                prop_assert!(got == last || got == new);
+                prop_assert!(!done || got == new);
+                last = got;
+            }
+        }
+    }
+}
