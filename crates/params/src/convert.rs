@@ -17,7 +17,21 @@
 //! | `rc.*` | [`ParamSet::channel_map`], [`ParamSet::mode_channel`], [`ParamSet::motor_test_channel`] |
 //! | `failsafe.timeout` | [`ParamSet::link_timeout_us`] (`rc_input::LinkMonitor::new`) |
 //! | `imu.mount` | [`ParamSet::mounting`] |
-//! | `batt.*`, `trim.*` | read with [`ParamSet::get`] (scaled integers) |
+//! | `batt.*`, `trim.*` | read with [`ParamSet::get`] (scaled integers), below |
+//!
+//! Not yet consumed by a configuration type, so read as scaled integers:
+//!
+//! * `batt.scale` (3 decimals): the resistor divider's ratio, pack volts
+//!   per volt at the ADC pin (11.000 for 10 kΩ over 1 kΩ). From one
+//!   multimeter reading: new scale = old scale × measured / shown.
+//! * `batt.warn_cv`, `batt.crit_cv`: per-cell thresholds in 0.01 V
+//!   (Betaflight's 3.50 V and 3.30 V); `batt.cells`: the cell count, 0 to
+//!   detect it when the pack is connected.
+//! * `trim.roll`, `trim.pitch` (2 decimals, degrees): the tilt angle mode
+//!   holds with centred sticks, which cancels the accelerometer's level
+//!   error (the calibration residue of a few tenths of a degree that makes
+//!   the craft drift); added to the self-level loop's tilt setpoint (rad =
+//!   value × π / 18000).
 //!
 //! The f32 values are the scaled integer divided by 10^decimals, which is
 //! the f32 nearest the decimal (both operands are exact), so the defaults
