@@ -1,0 +1,174 @@
+//! From the table's scaled integers to the configurations the firmware's
+//! crates take. The mapping (every other field stays the `base`'s):
+//!
+//! | parameter | field |
+//! |---|---|
+//! | `rate.AXIS.p/i/d` | `FlightConfig::rate.AXIS.kp/ki/kd` |
+//! | `dterm.lpf` | `rate.roll/pitch.d_cutoff_hz` (yaw has no D filter) |
+//! | `level.p` | `level.kp_per_s` |
+//! | `level.max_rate` | `level.max_rate_rps` (°/s → rad/s) |
+//! | `level.angle`, `level.expo` | `sticks.max_angle_deg`, `sticks.angle_expo` |
+//! | `rates.AXIS`, `expo.AXIS` | `sticks.AXIS.max_rate_dps`, `.expo` |
+//! | `sticks.deadband` | `sticks.roll/pitch/yaw.deadband` |
+//! | `esc.idle` | `mixer.idle` |
+//! | `esc.test` | `safety.motor_test_command` |
+//! | `failsafe.hold/descent/throttle` | `safety.failsafe_hold_s/_descent_mps/_collective_max` |
+//! | `gyro.lpf`, `gyro.notch`, `gyro.notch_q` | [`ParamSet::gyro_filter`] |
+//! | `rc.*` | [`ParamSet::channel_map`], [`ParamSet::mode_channel`], [`ParamSet::motor_test_channel`] |
+//! | `failsafe.timeout` | [`ParamSet::link_timeout_us`] (`rc_input::LinkMonitor::new`) |
+//! | `imu.mount` | [`ParamSet::mounting`] |
+//! | `batt.*`, `trim.*` | read with [`ParamSet::get`] (scaled integers), below |
+//!
+//! Not yet consumed by a configuration type, so read as scaled integers:
+//!
+//! * `batt.scale` (3 decimals): the resistor divider's ratio, pack volts
+//!   per volt at the ADC pin (11.000 for 10 kΩ over 1 kΩ). From one
+//!   multimeter reading: new scale = old scale × measured / shown.
+//! * `batt.warn_cv`, `batt.crit_cv`: per-cell thresholds in 0.01 V
+//!   (Betaflight's 3.50 V and 3.30 V); `batt.cells`: the cell count, 0 to
+//!   detect it when the pack is connected.
+//! * `trim.roll`, `trim.pitch` (2 decimals, degrees): the tilt angle mode
+//!   holds with centred sticks, which cancels the accelerometer's level
+//!   error (the calibration residue of a few tenths of a degree that makes
+//!   the craft drift); added to the self-level loop's tilt setpoint (rad =
+//!   value × π / 18000).
+//!
+//! The f32 values are the scaled integer divided by 10^decimals, which is
+//! the f32 nearest the decimal (both operands are exact), so the defaults
+//! convert to the very constants they replace. The conversion runs where
+//! the configuration is built (at boot, or when a value changes), never
+//! on the per-sample path.
+
+use crate::table::ParamSet;
+use crate::ParamId as P;
+use flight::flightctl::FlightConfig;
+use rc_input::{ChannelMap, ChannelOrder, ConfigError, SwitchPosition};
+use sensor_stack::gyro_filter::{GyroFilterConfig, GyroLowPass, GyroNotch};
+use sensor_stack::mounting::Mounting;
+
+impl ParamSet {
+    /// `id`'s value as an f32 (the scaled integer / 10^decimals).
+    pub fn real(&self, id: P) -> f32 {
+        let scale = match id.param().decimals {
+            0 => 1.0,
+            1 => 10.0,
+            2 => 100.0,
+            3 => 1000.0,
+            _ => 10_000.0,
+        };
+        self.get(id) as f32 / scale
+    }
+
+    /// `base` with the table's tuning (the module's mapping).
+    pub fn flight_config(&self, base: FlightConfig) -> FlightConfig {
+        let mut c = base;
+        let pids = [
+            (&mut c.rate.roll, [P::RateRollP, P::RateRollI, P::RateRollD]),
+            (
+                &mut c.rate.pitch,
+                [P::RatePitchP, P::RatePitchI, P::RatePitchD],
+            ),
+            (&mut c.rate.yaw, [P::RateYawP, P::RateYawI, P::RateYawD]),
+        ];
+        for (pid, [p, i, d]) in pids {
+            pid.kp = self.real(p);
+            pid.ki = self.real(i);
+            pid.kd = self.real(d);
+        }
+        c.rate.roll.d_cutoff_hz = self.real(P::DtermLpf);
+        c.rate.pitch.d_cutoff_hz = self.real(P::DtermLpf);
+        c.level.kp_per_s = self.real(P::LevelP);
+        c.level.max_rate_rps = self.real(P::LevelMaxRate) * core::f32::consts::PI / 180.0;
+        c.sticks.max_angle_deg = self.real(P::LevelAngle);
+        c.sticks.angle_expo = self.real(P::LevelExpo);
+        let axes = [
+            (&mut c.sticks.roll, P::RatesRoll, P::ExpoRoll),
+            (&mut c.sticks.pitch, P::RatesPitch, P::ExpoPitch),
+            (&mut c.sticks.yaw, P::RatesYaw, P::ExpoYaw),
+        ];
+        for (axis, rate, expo) in axes {
+            axis.max_rate_dps = self.real(rate);
+            axis.expo = self.real(expo);
+            axis.deadband = self.real(P::SticksDeadband);
+        }
+        c.mixer.idle = self.real(P::EscIdle);
+        c.safety.motor_test_command = self.real(P::EscTest);
+        c.safety.failsafe_hold_s = self.real(P::FailsafeHold);
+        c.safety.failsafe_descent_mps = self.real(P::FailsafeDescent);
+        c.safety.failsafe_collective_max = self.real(P::FailsafeThrottle);
+        c
+    }
+
+    /// The rate loop's gyro filters: a PT1 low-pass and a notch, each off
+    /// at 0 Hz. Designing it (`GyroFilterConfig::design`) is the caller's.
+    pub fn gyro_filter(&self) -> GyroFilterConfig {
+        let low_pass = match self.get(P::GyroLpf) {
+            0 => GyroLowPass::Off,
+            _ => GyroLowPass::Pt1 {
+                cutoff_hz: self.real(P::GyroLpf),
+            },
+        };
+        let notch = (self.get(P::GyroNotch) != 0).then(|| GyroNotch {
+            center_hz: self.real(P::GyroNotch),
+            q: self.real(P::GyroNotchQ),
+        });
+        GyroFilterConfig { low_pass, notch }
+    }
+
+    /// The 0-based channel index of a 1-based channel parameter.
+    fn index(&self, id: P) -> u8 {
+        u8::try_from(self.get(id).saturating_sub(1)).unwrap_or(u8::MAX)
+    }
+
+    /// Sticks and arm switch (active high), nominal ranges. Errors: two of
+    /// the sticks, the arm, mode and motor-test switches on one channel
+    /// ([`ConfigError::DuplicateChannel`], 0-based).
+    pub fn channel_map(&self) -> Result<ChannelMap, ConfigError> {
+        let order = ChannelOrder::new(
+            self.index(P::RcRoll),
+            self.index(P::RcPitch),
+            self.index(P::RcYaw),
+            self.index(P::RcThrottle),
+        )?;
+        let map =
+            ChannelMap::new(order).with_arm_switch(self.index(P::RcArm), SwitchPosition::High)?;
+        let used = [P::RcRoll, P::RcPitch, P::RcYaw, P::RcThrottle, P::RcArm];
+        for switch in [P::RcMode, P::RcMotorTest] {
+            let clash = used
+                .iter()
+                .chain([P::RcMode].iter().filter(|_| switch == P::RcMotorTest));
+            if clash.map(|&u| self.get(u)).any(|c| c == self.get(switch)) {
+                return Err(ConfigError::DuplicateChannel {
+                    channel: self.index(switch),
+                });
+            }
+        }
+        Ok(map)
+    }
+
+    /// The flight-mode switch's 0-based channel index.
+    pub fn mode_channel(&self) -> u8 {
+        self.index(P::RcMode)
+    }
+
+    /// The motor-test switch's 0-based channel index.
+    pub fn motor_test_channel(&self) -> u8 {
+        self.index(P::RcMotorTest)
+    }
+
+    /// The receiver's link-loss timeout, µs.
+    pub fn link_timeout_us(&self) -> u32 {
+        u32::try_from(self.get(P::FailsafeTimeout))
+            .unwrap_or(0)
+            .saturating_mul(1000)
+    }
+
+    /// The MPU-9250's mounting (the set only holds rotation codes; the
+    /// default mounting if that were ever broken).
+    pub fn mounting(&self) -> Mounting {
+        u16::try_from(self.get(P::ImuMount))
+            .ok()
+            .and_then(|c| Mounting::from_code(c).ok())
+            .unwrap_or_default()
+    }
+}
