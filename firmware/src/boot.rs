@@ -53,6 +53,51 @@ pub fn start_outputs(tim: pac::TIM3) -> EscOutputs {
     esc
 }
 
+/// Boot step (STM32F103CB build): the parameter table's values from the
+/// A/B pages, or the defaults (with each page's reason) when neither
+/// holds a valid record.
+#[cfg(feature = "f103cb")]
+#[inline(never)]
+pub fn load_params(flash: &mut flash::Parts) -> params::ParamSet {
+    let outcome = params::store::load(&mut crate::store::ParamPages::new(flash));
+    match &outcome {
+        params::store::LoadOutcome::Stored { page, record } => defmt::info!(
+            "settings: loaded from PARAMS_{} (save {=u32})",
+            if *page == params::store::Page::A {
+                "A"
+            } else {
+                "B"
+            },
+            record.sequence
+        ),
+        params::store::LoadOutcome::Defaults { .. } => {
+            defmt::info!("settings: defaults (no saved settings)")
+        }
+    }
+    outcome.set()
+}
+
+/// Boot step (STM32F103CB build): the flight controller with the
+/// parameter table's tuning over the board's settings; an invalid
+/// combination falls back to the board's settings, then to none.
+#[cfg(feature = "f103cb")]
+#[inline(never)]
+pub fn start_flight_controller_with(p: &params::ParamSet) -> Option<FlightController> {
+    match FlightController::new(p.flight_config(settings::flight_config())) {
+        Ok(fc) => {
+            defmt::info!("flight controller: ready, disarmed (settings applied)");
+            Some(fc)
+        }
+        Err(e) => {
+            defmt::error!(
+                "flight controller: settings refused ({}); board defaults",
+                e
+            );
+            start_flight_controller()
+        }
+    }
+}
+
 /// Boot step: the flight controller (disarmed). Without one (an invalid
 /// configuration) the motors stay off.
 #[cfg(not(feature = "calibrate"))]

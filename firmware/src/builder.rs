@@ -14,12 +14,13 @@
 
 use battery::{
     BatteryAction, BatteryMonitor, Config, DescentConfig, Event, FlightContext, Level,
-    LowBatteryDescent, Status, SticksQ30,
+    LowBatteryDescent, Scale, Status, SticksQ30,
 };
 use core::cell::Cell;
-use core::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU16, AtomicU8, Ordering};
 use critical_section::Mutex;
 use flight::flightctl::{FlightMode, FlightOutput, FlightState, PilotInput};
+use params::{ParamId, ParamSet};
 use rc_input::telemetry::{
     Arming, Attitude, BaroAltitude, Battery, FlightMode as ModeFrame, ModeName, TelemetrySnapshot,
 };
@@ -31,6 +32,14 @@ use crate::crsf_tx::{CrsfTx, FRAME_BYTES};
 pub static BATTERY_DESCENT: AtomicBool = AtomicBool::new(false);
 /// The flight step's state (flight step → builder): [`FlightBits`].
 pub static FLIGHT: AtomicU8 = AtomicU8::new(0);
+/// The battery monitor's filtered ADC reading for the console's `vbat`
+/// (builder → log task; 0: none yet).
+static FILTERED_COUNTS: AtomicU16 = AtomicU16::new(0);
+
+/// The monitor's filtered ADC reading, once it has one.
+pub fn filtered_counts() -> Option<u16> {
+    Some(FILTERED_COUNTS.load(Ordering::Relaxed)).filter(|&c| c > 0)
+}
 
 /// The snapshot telemetry sends from (builder task → telemetry task).
 static TELEMETRY: Mutex<Cell<Option<TelemetrySnapshot>>> = Mutex::new(Cell::new(None));
@@ -107,6 +116,8 @@ impl BatteryTask {
     pub fn step(&mut self, pilot: &PilotInput, altitude: bool) -> Option<Event> {
         let counts = self.adc.as_mut()?.poll()?;
         let event = self.monitor.update(counts);
+        let filtered = self.monitor.filtered_counts().unwrap_or(0);
+        FILTERED_COUNTS.store(filtered, Ordering::Relaxed);
         let bits = FLIGHT.load(Ordering::Relaxed);
         let ctx = FlightContext {
             armed: bits & FlightBits::ARMED != 0,
@@ -200,6 +211,7 @@ pub fn snapshot(
 pub fn start(
     adc1: stm32f1xx_hal::pac::ADC1,
     tx_buf: &'static mut [u8; FRAME_BYTES],
+    params: &ParamSet,
 ) -> (CrsfTx, Option<BatteryTask>) {
     let tx = CrsfTx::start(tx_buf);
     let adc = match BatteryAdc::start(adc1, crate::delay::cpu_hz()) {
@@ -209,8 +221,28 @@ pub fn start(
             None
         }
     };
-    let task = BatteryTask::new(adc, Config::DEFAULT, DescentConfig::DEFAULT);
+    let cfg = battery_config(params).unwrap_or_else(|| {
+        defmt::error!("battery: settings refused (critical not below warning?); defaults used");
+        Config::DEFAULT
+    });
+    let task = BatteryTask::new(adc, cfg, DescentConfig::DEFAULT);
     (tx, task)
+}
+
+/// The battery settings from the parameter table: `batt.scale` (pack
+/// volts per pin volt, 3 decimals; × 3300 mV at full scale),
+/// `batt.cells` (0: detect), `batt.warn_cv` and `batt.crit_cv`
+/// (centivolts per cell). `None` if the monitor refuses them.
+pub fn battery_config(p: &ParamSet) -> Option<Config> {
+    let ratio_milli = p.get(ParamId::BattScale) as u32;
+    let cfg = Config {
+        scale: Scale::new(ratio_milli * 3300 / 1000).ok()?,
+        cells_override: p.get(ParamId::BattCells) as u8,
+        warning_cell_mv: (p.get(ParamId::BattWarn) * 10) as u16,
+        critical_cell_mv: (p.get(ParamId::BattCrit) * 10) as u16,
+        ..Config::DEFAULT
+    };
+    cfg.check().ok().map(|()| cfg)
 }
 
 /// Says what the battery monitor saw, with the numbers a pilot checks.

@@ -140,6 +140,8 @@ mod adc;
 #[cfg(feature = "f103cb")]
 mod builder;
 #[cfg(feature = "f103cb")]
+mod console;
+#[cfg(feature = "f103cb")]
 mod crsf_tx;
 #[cfg_attr(not(feature = "ppm"), allow(dead_code))]
 mod ppm;
@@ -157,14 +159,14 @@ mod cb {
     pub type Tx = crate::crsf_tx::CrsfTx;
     pub type Schedule = rc_input::TelemetryScheduler;
     pub type Battery = Option<crate::builder::BatteryTask>;
-    pub type Down = rtt_target::DownChannel;
+    pub type Console = crate::console::Console;
 }
 #[cfg(not(feature = "f103cb"))]
 mod cb {
     pub type Tx = ();
     pub type Schedule = ();
     pub type Battery = ();
-    pub type Down = ();
+    pub type Console = ();
 }
 mod stack;
 mod store;
@@ -326,8 +328,9 @@ mod app {
         telemetry_schedule: crate::cb::Schedule,
         #[cfg(feature = "f103cb")]
         battery: crate::cb::Battery,
-        #[cfg(feature = "f103cb")]
-        console_down: crate::cb::Down,
+        /// The settings console (a unit in the C8 builds, which have
+        /// none: named in the log task's locals in every build).
+        console: crate::cb::Console,
     }
 
     // RTIC's init locals take no cfg: the C8 builds keep the unused
@@ -371,13 +374,15 @@ mod app {
         recover_bus_at_boot();
         let sensors = probe_sensors();
         let record = load_calibration(&mut flash);
+        #[cfg(feature = "f103cb")]
+        let params = load_params(&mut flash);
         let pipeline = build_pipeline(&sensors, &sensors.capabilities(), &record);
         let bias = start_gyro_bias(&sensors);
         let session = start_session(&button_pin);
         #[cfg(not(feature = "ppm"))]
         let rx = start_receiver(dp.USART1, dp.DMA1, cx.local.ring);
         #[cfg(feature = "f103cb")]
-        let (tx, battery) = crate::builder::start(dp.ADC1, cx.local.tx_buf);
+        let (tx, battery) = crate::builder::start(dp.ADC1, cx.local.tx_buf, &params);
         #[cfg(not(feature = "f103cb"))]
         let _ = cx.local.tx_buf;
         // RTIC's init locals take no cfg: the ppm build keeps the unused
@@ -422,7 +427,10 @@ mod app {
                 record,
                 step: SampleStep::new(bias),
                 dt: DtClock::new(cpu_hz(), IMU_RATE_HZ),
+                #[cfg(not(feature = "f103cb"))]
                 fc: start_flight_controller(),
+                #[cfg(feature = "f103cb")]
+                fc: start_flight_controller_with(&params),
                 #[cfg(not(feature = "ppm"))]
                 rx,
                 #[cfg(feature = "ppm")]
@@ -436,7 +444,9 @@ mod app {
                 #[cfg(feature = "f103cb")]
                 battery,
                 #[cfg(feature = "f103cb")]
-                console_down,
+                console: crate::console::Console::new(console_down, params),
+                #[cfg(not(feature = "f103cb"))]
+                console: (),
             },
         )
     }
@@ -755,7 +765,7 @@ mod app {
     /// 10 Hz: the battery (ADC, monitor, low-battery rule), the telemetry
     /// snapshot, and the settings console's lines.
     #[cfg(feature = "f103cb")]
-    #[task(priority = 1, local = [battery, console_down],
+    #[task(priority = 1, local = [battery],
            shared = [pipeline, pilot, clock])]
     async fn builder_task(mut cx: builder_task::Context) {
         loop {
@@ -980,7 +990,7 @@ mod app {
     }
 
     /// 20 Hz: watchdog, button and calibration session, live log, LED.
-    #[task(priority = 1, local = [led, button_pin, iwdg, flash, record],
+    #[task(priority = 1, local = [led, button_pin, iwdg, flash, record, console],
            shared = [sensors, pipeline, stats, session, bias, pilot, clock, outputs])]
     async fn log(mut cx: log::Context) {
         let mut link = LinkStatus::NeverReceived;
@@ -1028,6 +1038,15 @@ mod app {
                     &mut cx.shared.stats,
                     &mut cx.shared.bias,
                 );
+            }
+            #[cfg(feature = "f103cb")]
+            {
+                let counts = builder::filtered_counts();
+                let armed = ARMED.load(Ordering::Relaxed);
+                let after = cx.local.console.poll(cx.local.flash, armed, counts);
+                if after == crate::console::After::Restart {
+                    cortex_m::peripheral::SCB::sys_reset();
+                }
             }
             // Heartbeat: 1 Hz normally, 5 Hz while calibrating.
             let calibrating = matches!(

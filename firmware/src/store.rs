@@ -60,3 +60,69 @@ impl CalibrationStore for FlashPage<'_> {
         self.writer.write(PAGE_OFFSET + offset, data)
     }
 }
+
+/// The parameter pages (`PARAMS_A`, `PARAMS_B`: the STM32F103CB's flash
+/// plan, `memory-cb.x`) through the HAL's flash writer, for
+/// `params::store`. The F1 programs half-words; the HAL's `write` takes a
+/// byte slice of whole half-words and programs them in order.
+#[cfg(feature = "f103cb")]
+pub struct ParamPages<'a> {
+    writer: FlashWriter<'a>,
+}
+
+#[cfg(feature = "f103cb")]
+impl<'a> ParamPages<'a> {
+    /// Offset of `PARAMS_A` from the start of flash (`_params_a_page`).
+    pub const A_OFFSET: u32 = 0x0001_F000;
+    /// Offset of `PARAMS_B` (`_params_b_page`).
+    pub const B_OFFSET: u32 = 0x0001_F400;
+
+    /// A writer for the two pages (per-word verification off:
+    /// `params::store::save` reads the whole record back).
+    pub fn new(flash: &'a mut Parts) -> Self {
+        let mut writer = flash.writer(SectorSize::Sz1K, CHIP_FLASH);
+        writer.change_verification(false);
+        Self { writer }
+    }
+
+    fn offset(page: params::store::Page) -> u32 {
+        match page {
+            params::store::Page::A => Self::A_OFFSET,
+            params::store::Page::B => Self::B_OFFSET,
+        }
+    }
+}
+
+#[cfg(feature = "f103cb")]
+impl params::store::ParamFlash for ParamPages<'_> {
+    type Error = Error;
+
+    fn erase_page(&mut self, page: params::store::Page) -> Result<(), Error> {
+        self.writer.page_erase(Self::offset(page))
+    }
+
+    fn program_halfword(
+        &mut self,
+        page: params::store::Page,
+        offset: usize,
+        value: u16,
+    ) -> Result<(), Error> {
+        let at = Self::offset(page) + offset as u32;
+        self.writer.write(at, &value.to_le_bytes())
+    }
+
+    fn read(
+        &mut self,
+        page: params::store::Page,
+        offset: usize,
+        buf: &mut [u8],
+    ) -> Result<(), Error> {
+        let src = self
+            .writer
+            .read(Self::offset(page) + offset as u32, buf.len())?;
+        for (d, s) in buf.iter_mut().zip(src) {
+            *d = *s;
+        }
+        Ok(())
+    }
+}
