@@ -114,7 +114,20 @@ pub enum Scenario {
     /// alone, without the hand, leaves acro's throttle at mid stick and
     /// the tilt to drift.
     Chirp,
+    /// The take-off and a hover in altitude hold on a small, nearly empty
+    /// pack ([`LOW_BATTERY_CAPACITY_AH`], [`LOW_BATTERY_CHARGE`] left): the
+    /// loaded cell voltage crosses the warning and then the critical
+    /// level within a minute; a board with battery monitoring warns, then
+    /// descends and lands itself. The pilot's sticks stay centred.
+    LowBattery,
 }
+
+/// [`Scenario::LowBattery`]'s pack capacity (A·h): a 3S 650 mAh pack, a
+/// minute of hover at its last tenth of charge instead of minutes.
+pub const LOW_BATTERY_CAPACITY_AH: f64 = 0.65;
+/// [`Scenario::LowBattery`]'s charge left at the start (fraction): the
+/// cell's resting voltage on the steep end of the LiPo curve.
+pub const LOW_BATTERY_CHARGE: f64 = 0.16;
 
 /// Time the arm switch is flipped (s): after boot and the start-up gyro bias.
 pub const ARM_AT_S: f64 = 2.5;
@@ -168,7 +181,7 @@ pub const REVERSED_PROP_FRACTION: f64 = 0.7;
 
 impl Scenario {
     /// Names for the command line.
-    pub const NAMES: [&'static str; 10] = [
+    pub const NAMES: [&'static str; 11] = [
         "takeoff",
         "steps",
         "althold",
@@ -179,6 +192,7 @@ impl Scenario {
         "climbloss",
         "flapping",
         "chirp",
+        "lowbattery",
     ];
 
     /// By name.
@@ -194,6 +208,7 @@ impl Scenario {
             "climbloss" => Self::ClimbLinkLoss,
             "flapping" => Self::Flapping,
             "chirp" => Self::Chirp,
+            "lowbattery" => Self::LowBattery,
             _ => return None,
         })
     }
@@ -211,6 +226,7 @@ impl Scenario {
             Self::ClimbLinkLoss => "climbloss",
             Self::Flapping => "flapping",
             Self::Chirp => "chirp",
+            Self::LowBattery => "lowbattery",
         }
     }
 
@@ -226,6 +242,7 @@ impl Scenario {
             Self::ClimbLinkLoss => 26.0,
             Self::Flapping => 18.0,
             Self::Chirp => CHIRP_START_S + 3.0 * CHIRP_AXIS_PERIOD_S,
+            Self::LowBattery => 45.0,
         }
     }
 
@@ -236,6 +253,12 @@ impl Scenario {
         match self {
             Self::Swapped => quad.with_swapped_esc_signals(0, 1),
             Self::ReversedProp => quad.with_reversed_motor(0, REVERSED_PROP_FRACTION),
+            Self::LowBattery => {
+                let mut q = quad;
+                q.battery.capacity_ah = LOW_BATTERY_CAPACITY_AH;
+                q.battery.used_at_start_ah = LOW_BATTERY_CAPACITY_AH * (1.0 - LOW_BATTERY_CHARGE);
+                q
+            }
             _ => quad,
         }
     }
@@ -320,7 +343,8 @@ impl Scenario {
             | Self::MotorFailure
             | Self::Swapped
             | Self::ReversedProp
-            | Self::Flapping => {}
+            | Self::Flapping
+            | Self::LowBattery => {}
         }
         if t_s < ARM_AT_S {
             mode = Mode::Angle;

@@ -411,6 +411,7 @@ pub fn figures(log: &FlightLog) -> Figures {
         Scenario::ClimbLinkLoss => sim::scenario::CLIMB_LOSS_THROTTLE_S,
         Scenario::Flapping => sim::scenario::FLAP_S,
         Scenario::Chirp => sim::scenario::CHIRP_START_S,
+        Scenario::LowBattery => CLIMB_TO_S + 10.0,
     };
     let mut f = Figures {
         hover: height_hold(s, CLIMB_TO_S + 3.0, hover_end),
@@ -430,8 +431,9 @@ pub fn figures(log: &FlightLog) -> Figures {
         }
         Scenario::MotorFailure => f.motor_failure = motor_failure(s),
         Scenario::Swapped | Scenario::ReversedProp | Scenario::Takeoff => f.runaway = runaway(s),
-        // The sweep's figures are the loop's frequency response (`tuning`).
-        Scenario::Chirp => {}
+        // The sweep's figures are the loop's frequency response (`tuning`);
+        // the pack's, the battery voltage.
+        Scenario::Chirp | Scenario::LowBattery => {}
     }
     f
 }
