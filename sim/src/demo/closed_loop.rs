@@ -39,6 +39,9 @@ pub struct ControlInput {
     pub accel_calibrated: bool,
     /// The pilot input as the firmware's receiver code delivers it.
     pub pilot: PilotInput,
+    /// The pack's terminal voltage (V), which the board reads through
+    /// its divider on PA4.
+    pub battery_v: f64,
 }
 
 /// What the controller asks of the motors, and what it aimed at.
@@ -204,7 +207,12 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
         };
         let pilot = hand.fly(opts.scenario.pilot(now_s), &seen(&quad, &out), now_s);
         let now_us = clock.now_us() as u32;
-        let input = ControlInput::from_stack(&stack, now_us, radio.poll(now_s, now_us, pilot));
+        let input = ControlInput::from_stack(
+            &stack,
+            now_us,
+            radio.poll(now_s, now_us, pilot),
+            quad.state().battery_voltage_v,
+        );
         out = fc.step(&input)?;
         stack.set_in_flight(out.in_flight);
         events.extend(fc.drain_events().into_iter().map(|e| (now_s, e)));
@@ -228,7 +236,7 @@ pub fn fly(opts: &ClosedLoopOptions, fc: &mut dyn FlightControl) -> Result<Fligh
 impl ControlInput {
     /// What the flight controller gets at `now_us`: the stack's state and
     /// the pilot's input.
-    fn from_stack(stack: &Stack, now_us: u32, pilot: PilotInput) -> Self {
+    fn from_stack(stack: &Stack, now_us: u32, pilot: PilotInput, battery_v: f64) -> Self {
         Self {
             now_us,
             sensors_healthy: true,
@@ -236,6 +244,7 @@ impl ControlInput {
             gyro_bias_done: stack.gyro_bias_rps().is_some(),
             accel_calibrated: stack.pipeline().accel_calibrated(),
             pilot,
+            battery_v,
         }
     }
 }
@@ -496,6 +505,63 @@ mod tests {
         // Disarmed for good: motors off to the end.
         let end = log.samples.last().unwrap();
         assert!(!end.out.armed && end.out.motors == [0.0; 4] && end.quad.on_ground);
+    }
+
+    /// The time of the first event named `name`.
+    fn event_s(log: &FlightLog, name: &str) -> f64 {
+        let found = log.events.iter().find(|(_, e)| e == name);
+        found
+            .map(|(t, _)| *t)
+            .unwrap_or_else(|| panic!("no {name:?}"))
+    }
+
+    /// The last time before `t_s` the pack's terminal voltage was at or
+    /// above `cell_v` per cell: it stayed below from then on.
+    fn pack_last_above_s(log: &FlightLog, cell_v: f64, t_s: f64) -> f64 {
+        let cells = f64::from(Scenario::LowBattery.airframe().battery.cells);
+        let above = log.samples.iter().filter(|x| x.t_s < t_s);
+        let above = above.filter(|x| x.quad.battery_voltage_v >= cell_v * cells);
+        above.last().map_or(0.0, |x| x.t_s)
+    }
+
+    #[test]
+    fn a_low_battery_warns_then_descends_and_lands_without_a_disarm_in_the_air() {
+        let (log, _) = flown(Scenario::LowBattery, 1);
+        let (warn, crit) = (
+            event_s(&log, "battery: Warning"),
+            event_s(&log, "battery: Critical"),
+        );
+        let landed = event_s(&log, "disarmed: landed");
+        // Each level once the pack stayed below it for the hold (3 s; the
+        // take-off's sag dips below it for less), and within the sag
+        // filter's settling (4 s) plus the hold after that.
+        for (t, cell_v) in [(warn, 3.5), (crit, 3.3)] {
+            let below_since = pack_last_above_s(&log, cell_v, t);
+            let held = t - below_since;
+            assert!(
+                (3.0..12.0).contains(&held),
+                "{t} s: below since {below_since} s"
+            );
+        }
+        let height = |t: f64| {
+            let s = log.samples.iter().find(|x| x.t_s >= t).unwrap();
+            -s.quad.position_ned_m[2]
+        };
+        // Held in the air until the critical level, then down at the
+        // failsafe's rate.
+        assert!(height(crit - 0.5) > 1.5, "{} m", height(crit - 0.5));
+        let rate = (height(crit + 1.5) - height(crit + 3.0)) / 1.5;
+        let want = f64::from(settings::flight_config().safety.failsafe_descent_mps);
+        assert!((rate - want).abs() < 0.3 * want, "{rate} m/s");
+        assert!(landed > crit, "{landed} s");
+        // Armed whenever airborne: the only disarm is on the ground.
+        for x in log
+            .samples
+            .iter()
+            .filter(|x| !x.quad.on_ground && x.t_s > 4.0)
+        {
+            assert!(x.out.armed, "disarmed in the air at {} s", x.t_s);
+        }
     }
 
     #[test]

@@ -2,12 +2,19 @@
 //! arming checks, modes, rate and self-level loops, altitude hold, mixer,
 //! crash/landing disarm, failsafe) as the closed loop's [`FlightControl`].
 //! The scenarios fly it with its default configuration, as the firmware
-//! ships it.
+//! ships it, with the STM32F103CB build's battery monitoring: the pack's
+//! voltage through the board's 11:1 divider and an ideal 12-bit ADC into
+//! `battery`'s monitor and low-battery rule every 100 ms, the descent it
+//! asks for into the controller (as `firmware/src/builder.rs` does).
 
 use super::closed_loop::{ControlInput, ControlOutput, FlightControl, Mode};
+use battery::{
+    BatteryAction, BatteryMonitor, Config, DescentConfig, FlightContext, Level, LowBatteryDescent,
+    SticksQ30, SAMPLE_PERIOD_MS,
+};
 use control::shaping::StickShaping;
 use flight::flightctl::{
-    Event, FailsafePhase, FlightConfig, FlightController, FlightState, SystemStatus,
+    Event, FailsafePhase, FlightConfig, FlightController, FlightState, PilotInput, SystemStatus,
 };
 
 /// The firmware's flight controller in the loop.
@@ -15,6 +22,10 @@ pub struct FirmwareFc {
     fc: FlightController,
     shaping: StickShaping,
     events: Vec<String>,
+    battery: BatteryMonitor,
+    descent: LowBatteryDescent,
+    level: Level,
+    next_battery_us: Option<u32>,
 }
 
 impl FirmwareFc {
@@ -24,7 +35,51 @@ impl FirmwareFc {
             fc: FlightController::new(cfg).map_err(|e| e.to_string())?,
             shaping: StickShaping::new(cfg.sticks).map_err(|e| format!("sticks: {e}"))?,
             events: Vec::new(),
+            battery: BatteryMonitor::new(Config::DEFAULT).map_err(|e| e.to_string())?,
+            descent: LowBatteryDescent::new(DescentConfig::DEFAULT).map_err(|e| e.to_string())?,
+            level: Level::NoBattery,
+            next_battery_us: None,
         })
+    }
+
+    /// Every [`SAMPLE_PERIOD_MS`]: the pack into the monitor, the rule
+    /// into the controller's descent request; its level changes as events.
+    fn battery_step(&mut self, input: &ControlInput) {
+        let due = self.next_battery_us.unwrap_or(input.now_us);
+        if (input.now_us.wrapping_sub(due) as i32) < 0 {
+            return;
+        }
+        self.next_battery_us = Some(due.wrapping_add(SAMPLE_PERIOD_MS * 1000));
+        // 11:1 divider, 3.3 V full scale, 12 bits.
+        let counts = (input.battery_v / 11.0 / 3.3 * 4096.0)
+            .round()
+            .clamp(0.0, 4095.0) as u16;
+        self.battery.update(counts);
+        let level = self.battery.status().level;
+        if level != self.level {
+            self.events.push(format!("battery: {level:?}"));
+            self.level = level;
+        }
+        let ctx = FlightContext {
+            armed: self.fc.is_armed(),
+            in_air: self.fc.in_flight(),
+            altitude_available: input.vehicle.altitude.is_some(),
+            link_ok: input.pilot.link_ok,
+        };
+        let action = self.descent.update(level, &ctx, &sticks_q30(&input.pilot));
+        self.fc
+            .set_battery_descent(matches!(action, BatteryAction::Descend { .. }));
+    }
+}
+
+/// The pilot's sticks in Q30, as the battery rule takes them.
+fn sticks_q30(p: &PilotInput) -> SticksQ30 {
+    let q = |x: f32| (f64::from(x.clamp(-1.0, 1.0)) * f64::from(1u32 << 30)) as i32;
+    SticksQ30 {
+        roll_q30: q(p.sticks.roll),
+        pitch_q30: q(p.sticks.pitch),
+        yaw_q30: q(p.sticks.yaw),
+        throttle_q30: q(p.sticks.throttle),
     }
 }
 
@@ -40,6 +95,7 @@ impl FlightControl for FirmwareFc {
             calibration_running: false,
             accel_calibrated: input.accel_calibrated,
         };
+        self.battery_step(input);
         let out = self
             .fc
             .step(input.now_us, &input.pilot, &status, &input.vehicle);
