@@ -520,8 +520,8 @@ mod tests {
     fn pack_last_above_s(log: &FlightLog, cell_v: f64, t_s: f64) -> f64 {
         let cells = f64::from(Scenario::LowBattery.airframe().battery.cells);
         let above = log.samples.iter().filter(|x| x.t_s < t_s);
-        let above = above.filter(|x| x.quad.battery_voltage_v >= cell_v * cells);
-        above.last().map_or(0.0, |x| x.t_s)
+        let mut above = above.filter(|x| x.quad.battery_voltage_v >= cell_v * cells);
+        above.next_back().map_or(0.0, |x| x.t_s)
     }
 
     #[test]
