@@ -25,7 +25,7 @@ use crate::gpio::{Afio, PinConfig, Port};
 use crate::i2c1::{I2c1, PinMode};
 use crate::iwdg::{Iwdg, LSI_NOMINAL_HZ};
 use crate::rcc::{CoreClock, Rcc, ResetCause, HSI_HZ};
-use crate::rtt::{LogLine, RttHost, RttMode, TargetMemory};
+use crate::rtt::{LogLine, RttError, RttHost, RttMode, TargetMemory};
 use crate::scs::{Dwt, Nvic, SysTick, IRQ0, SYSTICK};
 use crate::tim::GpTimer;
 use crate::usart::Usart;
@@ -1216,6 +1216,26 @@ fn scan_block(code: &[u8], addr: u32) -> (u32, bool) {
     (n.max(1), branch_to_start && only_waits)
 }
 
+/// Target memory as the debug probe sees it (no CPU cycles).
+struct ProbeView<'a, 'b>(&'a mut Unicorn<'b, Hw>);
+
+impl TargetMemory for ProbeView<'_, '_> {
+    fn read_u32(&mut self, addr: u32) -> Option<u32> {
+        let mut b = [0u8; 4];
+        self.0.mem_read(u64::from(addr), &mut b).ok()?;
+        Some(u32::from_le_bytes(b))
+    }
+    fn write_u32(&mut self, addr: u32, v: u32) -> Option<()> {
+        self.0.mem_write(u64::from(addr), &v.to_le_bytes()).ok()
+    }
+    fn read_bytes(&mut self, addr: u32, buf: &mut [u8]) -> Option<()> {
+        self.0.mem_read(u64::from(addr), buf).ok()
+    }
+    fn write_bytes(&mut self, addr: u32, bytes: &[u8]) -> Option<()> {
+        self.0.mem_write(u64::from(addr), bytes).ok()
+    }
+}
+
 /// Builds the configuration of a board.
 #[derive(Clone, Debug)]
 pub struct BoardConfig {
@@ -1935,23 +1955,19 @@ impl Board {
     }
 
     fn poll_rtt(&mut self) {
-        struct Mem<'a, 'b>(&'a mut Unicorn<'b, Hw>);
-        impl TargetMemory for Mem<'_, '_> {
-            fn read_u32(&mut self, addr: u32) -> Option<u32> {
-                let mut b = [0u8; 4];
-                self.0.mem_read(u64::from(addr), &mut b).ok()?;
-                Some(u32::from_le_bytes(b))
-            }
-            fn write_u32(&mut self, addr: u32, v: u32) -> Option<()> {
-                self.0.mem_write(u64::from(addr), &v.to_le_bytes()).ok()
-            }
-            fn read_bytes(&mut self, addr: u32, buf: &mut [u8]) -> Option<()> {
-                self.0.mem_read(u64::from(addr), buf).ok()
-            }
-        }
         let now = self.now_ns();
-        let new = self.rtt.poll(&mut Mem(&mut self.uc), now);
+        let new = self.rtt.poll(&mut ProbeView(&mut self.uc), now);
         self.lines.extend(new);
+    }
+
+    /// Writes `bytes` into RTT down channel `channel` as a probe does when
+    /// the user types into `cargo embed`'s terminal: what fits in the ring
+    /// without passing the target's read offset, now. Returns how many
+    /// bytes went in; an error when the control block has no such down
+    /// channel (see [`RttError`]).
+    pub fn rtt_write_down(&mut self, channel: u32, bytes: &[u8]) -> Result<usize, RttError> {
+        self.rtt
+            .write_down(&mut ProbeView(&mut self.uc), channel, bytes)
     }
 
     /// Brings the peripherals to the current time and acts on what they
@@ -2216,6 +2232,44 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn the_probe_writes_a_down_channel_in_target_ram() {
+        let fw = bare(&[0xE7FE], 0);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        let e = b.rtt_write_down(0, b"x").err();
+        assert_eq!(e, Some(RttError::NoControlBlock { address: RAM_BASE }));
+        // "SEGGER RTT", one up and one down channel, the down channel's
+        // 32-byte buffer at 0x2000_0100.
+        let id = *b"SEGGER RTT\0\0\0\0\0\0";
+        for (i, w) in id.chunks_exact(4).enumerate() {
+            let w = u32::from_le_bytes([w[0], w[1], w[2], w[3]]);
+            b.debug_write(RAM_BASE + 4 * i as u32, w)
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        let down = RAM_BASE + 24 + 24;
+        for (a, v) in [
+            (RAM_BASE + 16, 1),
+            (RAM_BASE + 20, 1),
+            (down + 4, RAM_BASE + 0x100),
+            (down + 8, 32),
+        ] {
+            b.debug_write(a, v).unwrap_or_else(|e| panic!("{e}"));
+        }
+        assert_eq!(b.rtt_write_down(0, b"save\n"), Ok(5));
+        assert_eq!(b.read_word(down + 12), Some(5));
+        assert_eq!(
+            b.read_word(RAM_BASE + 0x100),
+            Some(u32::from_le_bytes(*b"save"))
+        );
+        assert!(matches!(
+            b.rtt_write_down(1, b"x"),
+            Err(RttError::NoDownChannel {
+                channel: 1,
+                available: 1
+            })
+        ));
     }
 
     #[test]
