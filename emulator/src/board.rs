@@ -28,7 +28,7 @@ use crate::rcc::{CoreClock, Rcc, ResetCause, HSI_HZ};
 use crate::rtt::{LogLine, RttError, RttHost, RttMode, TargetMemory};
 use crate::scs::{Dwt, Nvic, SysTick, IRQ0, SYSTICK};
 use crate::tim::GpTimer;
-use crate::usart::Usart;
+use crate::usart::{TxByte, Usart};
 use std::path::Path;
 use unicorn_engine::unicorn_const::{uc_error, Arch, Mode, Prot};
 use unicorn_engine::{ArmCpuModel, RegisterARM, Unicorn};
@@ -65,8 +65,9 @@ pub const TIM4_IRQ: usize = IRQ0 + 30;
 /// and PB9 (TIM4_CH4) are free and 5 V tolerant.
 pub const TIM4_PINS: [(usize, u32); 4] = [(1, 6), (1, 7), (1, 8), (1, 9)];
 /// Pins the board already drives (button, MPU INT, I2C1, TIM3's outputs,
-/// USART1 RX, the LED): a test waveform may not fight them.
-const BOARD_DRIVEN_PINS: [(usize, u32); 10] = [
+/// USART1 TX and RX, the LED): a test waveform may not fight them.
+const BOARD_DRIVEN_PINS: [(usize, u32); 11] = [
+    (0, 9),
     (0, 0),
     (1, 5),
     (1, 6),
@@ -80,6 +81,8 @@ const BOARD_DRIVEN_PINS: [(usize, u32); 10] = [
 ];
 /// USART1's exception number (IRQ 37).
 pub const USART1_IRQ: usize = IRQ0 + 37;
+/// DMA1 channel 4's exception number (IRQ 14): USART1_TX's channel.
+pub const DMA1_CHANNEL4_IRQ: usize = IRQ0 + dma::CHANNEL1_IRQ + 3;
 /// DMA1 channel 5's exception number (IRQ 15; channel `n` is IRQ `10 + n`).
 pub const DMA1_CHANNEL5_IRQ: usize = IRQ0 + dma::CHANNEL1_IRQ + 4;
 /// DMA1's registers (RM0008 §3.3, table 3).
@@ -457,6 +460,10 @@ impl Hw {
                     .unwrap_or(0);
                 return self.tim3.output_high(ch, now);
             }
+            (0, 9) if self.usart1_tx_wired() => {
+                self.usart1.advance(now);
+                return self.usart1.tx_line_high(now);
+            }
             (1, 6) if self.afio.mapr & 2 == 0 => {
                 self.sync_clock();
                 return self.i2c.scl_high(now);
@@ -468,6 +475,19 @@ impl Hw {
             _ => None,
         };
         self.ports[port].level(pin, external)
+    }
+
+    /// USART1's TX output reaches PA9: an alternate-function output, and
+    /// USART1 not remapped to PB6 (AFIO_MAPR.USART1_REMAP, RM0008 §9.3.8).
+    fn usart1_tx_wired(&self) -> bool {
+        matches!(self.ports[0].config(9), PinConfig::Alternate { .. }) && self.afio.mapr & 4 == 0
+    }
+
+    /// Tells USART1 whether its TX line reaches the pin (after a GPIOA or
+    /// AFIO write, or a reset).
+    fn update_usart1_tx_pin(&mut self) {
+        let wired = self.usart1_tx_wired();
+        self.usart1.set_tx_pin_connected(wired);
     }
 
     fn idr(&mut self, port: usize) -> u32 {
@@ -651,6 +671,7 @@ impl Hw {
             0x4001_0000..=0x4001_03FF => {
                 self.drive_pins_to(now);
                 let ok = self.afio.write(a - 0x4001_0000, v, mask);
+                self.update_usart1_tx_pin();
                 if self.afio.mapr & 2 != 0 {
                     self.fail(BoardError::Unsupported(
                         "I2C1 remapped to PB8/PB9 (AFIO_MAPR.I2C1_REMAP)".into(),
@@ -666,6 +687,7 @@ impl Hw {
                 if port == 1 {
                     self.update_i2c_pins();
                 }
+                self.update_usart1_tx_pin();
                 ok
             }
             0x4002_1000..=0x4002_13FF => {
@@ -700,6 +722,7 @@ impl Hw {
                 if self.rcc.apb2rstr & 1 != 0 {
                     self.afio = Afio::default();
                 }
+                self.update_usart1_tx_pin();
                 true
             }
             0x4002_2000..=0x4002_23FF => match self.flash.write(a - 0x4002_2000, v & mask) {
@@ -1034,7 +1057,7 @@ fn dma_side(a: u32) -> bool {
 /// [`serve_dma`] wherever its model advances to an event that raises the
 /// request, as [`catch_up_usart1`] does for USART1.
 fn dma1_requests(hw: &Hw) -> u8 {
-    u8::from(hw.usart1.rx_dma_request()) << 4
+    u8::from(hw.usart1.rx_dma_request()) << 4 | u8::from(hw.usart1.tx_dma_request()) << 3
 }
 
 /// What a DMA access reaches (RM0008 §3.3, table 3 and figure 1: the DMA
@@ -1145,13 +1168,18 @@ fn serve_dma(uc: &mut Unicorn<'_, Hw>, at_ns: u64) {
     }
 }
 
-/// Brings USART1 to `now_ns` one received byte at a time, serving its DMA
-/// request as each byte lands (the CPU may have been stalled, or its
-/// registers not read, for many byte times).
+/// Brings USART1 to `now_ns` one received byte and one transmitted frame
+/// at a time, serving its DMA requests as each byte lands in DR and as
+/// each frame leaves the shift register (the CPU may have been stalled,
+/// or its registers not read, for many byte times).
 fn catch_up_usart1(uc: &mut Unicorn<'_, Hw>, now_ns: u64) {
     loop {
         let hw = uc.get_data_mut();
-        let Some(t) = hw.usart1.next_byte_ns().filter(|&t| t <= now_ns) else {
+        let next = [hw.usart1.next_byte_ns(), hw.usart1.next_tx_ns()]
+            .into_iter()
+            .flatten()
+            .min();
+        let Some(t) = next.filter(|&t| t <= now_ns) else {
             break;
         };
         hw.usart1.advance(t);
@@ -1567,6 +1595,7 @@ impl Board {
             hw.drive_pins_to(now);
             hw.tim4.reset();
             hw.usart1.reset();
+            hw.update_usart1_tx_pin();
             // Back on the HSI (RM0008 §7.3.2: CFGR resets to 0).
             hw.follow_clock_tree(now);
             hw.dma1 = Dma::new();
@@ -1850,6 +1879,28 @@ impl Board {
     /// last reset.
     pub fn usart1_counts(&self) -> (u64, u64) {
         self.uc.get_data().usart1.counts()
+    }
+
+    /// USART1's TX line: the data frames that reached PA9 so far (kept
+    /// across MCU resets), in order, up to now.
+    pub fn usart1_tx_log(&mut self) -> &[TxByte] {
+        let now = self.now_ns();
+        catch_up_usart1(&mut self.uc, now);
+        self.uc.get_data().usart1.tx_log()
+    }
+
+    /// Takes USART1's TX line log up to now (the log starts empty again):
+    /// for a long scenario that decodes the line as it goes.
+    pub fn usart1_take_tx(&mut self) -> Vec<TxByte> {
+        let now = self.now_ns();
+        catch_up_usart1(&mut self.uc, now);
+        self.uc.get_data_mut().usart1.take_tx_log()
+    }
+
+    /// USART1 data frames shifted out while PA9 was not wired to the
+    /// transmitter (not an alternate-function output, or remapped).
+    pub fn usart1_tx_unseen(&self) -> u64 {
+        self.uc.get_data().usart1.tx_unseen()
     }
 
     /// DMA1: items each channel moved since the last reset.
@@ -2270,6 +2321,61 @@ mod tests {
                 available: 1
             })
         ));
+    }
+
+    /// Writes `(address, value)` pairs as a debugger does.
+    fn poke(b: &mut Board, writes: &[(u32, u32)]) {
+        for &(a, v) in writes {
+            b.debug_write(a, v)
+                .unwrap_or_else(|e| panic!("{a:#x} <- {v:#x}: {e}"));
+        }
+    }
+
+    #[test]
+    fn usart1_sends_a_dma_buffer_on_pa9() {
+        let fw = bare(&[0xE7FE], 0);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        b.debug_write(
+            RAM_BASE + 0x100,
+            u32::from_le_bytes([0xC8, 0x04, 0x21, 0x7E]),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        // GPIOA, USART1, DMA1 clocked; PA9 alternate push-pull; 115200
+        // baud at 8 MHz (BRR 69: 115,942 baud); TE, DMAT.
+        poke(
+            &mut b,
+            &[
+                (0x4002_1018, (1 << 2) | (1 << 14)),
+                (0x4002_1014, 0x15),
+                (0x4001_0804, 0x4444_44B4),
+                (USART1_BASE + 8, 69),
+                (USART1_BASE + 0x0C, (1 << 13) | (1 << 3)),
+                (USART1_BASE + 0x14, 1 << 7),
+                (USART1_BASE, !(1 << 6)),
+                (DMA1_BASE + dma::reg::cpar(4), USART1_BASE + 4),
+                (DMA1_BASE + dma::reg::cmar(4), RAM_BASE + 0x100),
+                (DMA1_BASE + dma::reg::cndtr(4), 4),
+                (
+                    DMA1_BASE + dma::reg::ccr(4),
+                    dma::ccr::DIR | dma::ccr::MINC | dma::ccr::EN,
+                ),
+            ],
+        );
+        let t0 = b.now_ns();
+        b.run_for_ns(1_000_000).unwrap_or_else(|e| panic!("{e}"));
+        let log = b.usart1_tx_log().to_vec();
+        let bytes: Vec<u8> = log.iter().map(|f| f.byte).collect();
+        assert_eq!(bytes, [0xC8, 0x04, 0x21, 0x7E]);
+        // After the idle frame, back to back, ten bits of 69 / 8 MHz each.
+        let frame_ns = 10.0 * 69.0 / 8.0e6 * 1e9;
+        assert!((log[0].start_ns - t0) as f64 >= frame_ns - 1.0);
+        for w in log.windows(2) {
+            assert_eq!(w[0].end_ns, w[1].start_ns);
+            assert!(((w[1].end_ns - w[1].start_ns) as f64 - frame_ns).abs() <= 1.0);
+        }
+        assert_eq!(b.dma1_served()[3], 4);
+        assert_ne!(b.debug_read(USART1_BASE).unwrap_or(0) & (1 << 6), 0, "TC");
+        assert!(b.pin_high(0, 9), "the line idles high");
     }
 
     #[test]

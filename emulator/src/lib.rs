@@ -52,4 +52,5 @@ pub use board::{
 pub use cycles::CycleModel;
 pub use elf::{release_elf_path, Firmware};
 pub use rcc::ResetCause;
-pub use rtt::{LogLine, RttMode};
+pub use rtt::{LogLine, RttError, RttMode};
+pub use usart::TxByte;
