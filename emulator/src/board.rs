@@ -15,6 +15,7 @@
 //! access its bridge cycles ([`BoardConfig::cycle_model`] picks typical or
 //! pessimistic figures).
 
+use crate::adc::{Adc, AdcError};
 use crate::cycles::{self, CycleModel, ExceptionStep};
 use crate::dma::{self, Dma};
 use crate::elf::{Firmware, FLASH_BASE, FLASH_SIZE};
@@ -88,6 +89,25 @@ pub const DMA1_CHANNEL5_IRQ: usize = IRQ0 + dma::CHANNEL1_IRQ + 4;
 /// DMA1's registers (RM0008 §3.3, table 3).
 const DMA1_BASE: u32 = 0x4002_0000;
 const DMA1_END: u32 = 0x4002_03FF;
+/// ADC1's exception number (ADC1_2, IRQ 18).
+pub const ADC1_2_IRQ: usize = IRQ0 + 18;
+/// ADC1's registers (RM0008 §3.3, table 3).
+const ADC1_BASE: u32 = 0x4001_2400;
+const ADC1_END: u32 = 0x4001_27FF;
+/// ADC1 input pins of the 48-pin package, channel `n` at index `n`
+/// (ADC12_IN0..9: PA0..PA7, PB0, PB1; datasheet DS5319 table 5).
+pub const ADC1_PINS: [(usize, u32); 10] = [
+    (0, 0),
+    (0, 1),
+    (0, 2),
+    (0, 3),
+    (0, 4),
+    (0, 5),
+    (0, 6),
+    (0, 7),
+    (1, 0),
+    (1, 1),
+];
 const USART1_BASE: u32 = 0x4001_3800;
 const USART1_END: u32 = 0x4001_3BFF;
 /// TIM3 channel outputs in channel order: PA6, PA7, PB0, PB1 (RM0008
@@ -132,6 +152,10 @@ pub enum BoardError {
     /// The firmware configured a clock tree outside the manual's limits
     /// (RM0008 §7.2 maxima, §3.3.3 flash wait states for SYSCLK).
     Clock(String),
+    /// The firmware used a peripheral against the manual's sequence
+    /// (on silicon an undefined or wrong result, e.g. an ADC conversion
+    /// before t_STAB or of a pin not in analog mode).
+    Misuse(String),
     /// The firmware ELF could not be used.
     Elf(String),
 }
@@ -167,6 +191,7 @@ impl std::fmt::Display for BoardError {
             Self::FlashBusError(e) => write!(f, "flash bus error: {e}"),
             Self::StackOutsideRam { sp } => write!(f, "exception frame at {sp:#010x} outside RAM"),
             Self::Clock(e) => write!(f, "clock configuration: {e}"),
+            Self::Misuse(e) => write!(f, "used against the manual: {e}"),
             Self::Elf(e) => write!(f, "{e}"),
         }
     }
@@ -302,6 +327,7 @@ pub struct Hw {
     tim4: GpTimer,
     usart1: Usart,
     dma1: Dma,
+    adc1: Adc,
     driven: Vec<DrivenPin>,
     clock: sim::SimClock,
     tail_base: u32,
@@ -538,6 +564,7 @@ impl Hw {
             0x4000_0400..=0x4000_07FF => ("TIM3", self.rcc.apb1enr & (1 << 1) != 0),
             0x4000_0800..=0x4000_0BFF => ("TIM4", self.rcc.apb1enr & (1 << 2) != 0),
             USART1_BASE..=USART1_END => ("USART1", self.rcc.apb2enr & (1 << 14) != 0),
+            ADC1_BASE..=ADC1_END => ("ADC1", self.rcc.apb2enr & (1 << 9) != 0),
             DMA1_BASE..=DMA1_END => ("DMA1", self.rcc.ahbenr() & 1 != 0),
             _ => return None,
         };
@@ -582,6 +609,10 @@ impl Hw {
                 self.usart1.read(a - USART1_BASE, now)
             }
             DMA1_BASE..=DMA1_END => self.dma1.read(a - DMA1_BASE),
+            ADC1_BASE..=ADC1_END => {
+                self.resched = true;
+                self.adc1.read(a - ADC1_BASE, now)
+            }
             0x4000_5400..=0x4000_5420 => {
                 self.sync_clock();
                 let off = a - 0x4000_5400;
@@ -643,6 +674,10 @@ impl Hw {
                 let r = self.usart1.write(a - USART1_BASE, merged(0), now);
                 self.peripheral_result(r)
             }
+            ADC1_BASE..=ADC1_END => {
+                let r = self.adc1.write(a - ADC1_BASE, merged(0), now);
+                self.adc_result(r)
+            }
             DMA1_BASE..=DMA1_END => {
                 let off = a - DMA1_BASE;
                 let current = self.dma1.read(off).unwrap_or(0);
@@ -688,6 +723,8 @@ impl Hw {
                     self.update_i2c_pins();
                 }
                 self.update_usart1_tx_pin();
+                self.adc1.advance(now);
+                self.update_adc1_pins();
                 ok
             }
             0x4002_1000..=0x4002_13FF => {
@@ -713,6 +750,9 @@ impl Hw {
                 if self.rcc.apb2rstr & (1 << 14) != 0 {
                     self.usart1.reset();
                 }
+                if self.rcc.apb2rstr & (1 << 9) != 0 {
+                    self.adc1.reset();
+                }
                 self.follow_clock_tree(now);
                 for (bit, port) in [(2, 0), (3, 1), (4, 2)] {
                     if self.rcc.apb2rstr & (1 << bit) != 0 && old2 & (1 << bit) == 0 {
@@ -723,6 +763,7 @@ impl Hw {
                     self.afio = Afio::default();
                 }
                 self.update_usart1_tx_pin();
+                self.update_adc1_pins();
                 true
             }
             0x4002_2000..=0x4002_23FF => match self.flash.write(a - 0x4002_2000, v & mask) {
@@ -758,6 +799,7 @@ impl Hw {
         self.tim3.set_clock_hz(self.rcc.apb1_timer_hz(), now);
         self.tim4.set_clock_hz(self.rcc.apb1_timer_hz(), now);
         self.usart1.set_pclk_hz(self.rcc.pclk2_hz());
+        self.adc1.set_clock_hz(self.rcc.adc_hz(), now);
         self.sync_clock();
         self.i2c.set_pclk1_hz(self.rcc.pclk1_hz(), now);
         self.core.retune(self.rcc.hclk_hz(), self.cycles);
@@ -814,6 +856,27 @@ impl Hw {
                 true
             }
             Some(Ok(())) => true,
+        }
+    }
+
+    /// Acts on an ADC1 write: not a register (`false`), or an error that
+    /// stops the board.
+    fn adc_result(&mut self, r: Option<Result<(), AdcError>>) -> bool {
+        match r {
+            None => false,
+            Some(Err(e)) => {
+                self.fail(adc_board_error(e));
+                true
+            }
+            Some(Ok(())) => true,
+        }
+    }
+
+    /// Tells ADC1 which inputs have their pin in analog mode.
+    fn update_adc1_pins(&mut self) {
+        for (ch, &(port, pin)) in ADC1_PINS.iter().enumerate() {
+            let analog = matches!(self.ports[port].config(pin), PinConfig::Analog);
+            self.adc1.set_pin_analog(ch, analog);
         }
     }
 
@@ -918,6 +981,7 @@ pub fn refresh_irq_lines(hw: &mut Hw) {
         (TIM3_IRQ, hw.tim3.irq()),
         (TIM4_IRQ, hw.tim4.irq()),
         (USART1_IRQ, hw.usart1.irq()),
+        (ADC1_2_IRQ, hw.adc1.irq()),
     ] {
         if on && !hw.nvic.active.contains(&n) {
             hw.nvic.pending[n] = true;
@@ -936,6 +1000,15 @@ pub fn refresh_irq_lines(hw: &mut Hw) {
                 hw.nvic.pending[n] = true;
             }
         }
+    }
+}
+
+/// The board's error for an ADC1 error.
+fn adc_board_error(e: AdcError) -> BoardError {
+    match e {
+        AdcError::Unmodelled(s) => BoardError::Unsupported(s),
+        AdcError::Clock(s) => BoardError::Clock(s),
+        AdcError::Misuse(s) => BoardError::Misuse(s),
     }
 }
 
@@ -1389,6 +1462,7 @@ impl Board {
             tim4: GpTimer::new("TIM4", HSI_HZ),
             usart1: Usart::new("USART1", HSI_HZ),
             dma1: Dma::new(),
+            adc1: Adc::new(HSI_HZ / 2),
             driven: Vec::new(),
             clock,
             tail_base,
@@ -1596,6 +1670,8 @@ impl Board {
             hw.tim4.reset();
             hw.usart1.reset();
             hw.update_usart1_tx_pin();
+            hw.adc1.reset();
+            hw.update_adc1_pins();
             // Back on the HSI (RM0008 §7.3.2: CFGR resets to 0).
             hw.follow_clock_tree(now);
             hw.dma1 = Dma::new();
@@ -1881,6 +1957,31 @@ impl Board {
         self.uc.get_data().usart1.counts()
     }
 
+    /// Sets the voltage on ADC1 input `channel` (0..16; 0..9 are PA0..PA7,
+    /// PB0, PB1) from now on: a conversion whose sample phase ends later
+    /// converts it (VREF+ = 3.3 V, 12 bits, clamped).
+    pub fn adc1_set_input_v(&mut self, channel: usize, volts: f64) {
+        let now = self.now_ns();
+        self.uc.get_data_mut().adc1.set_input_v(channel, volts, now);
+    }
+
+    /// Sets the offset (LSB) ADC1 adds to every code until it is
+    /// calibrated (the chip's; 0 unless set).
+    pub fn adc1_set_uncalibrated_offset_lsb(&mut self, lsb: i32) {
+        self.uc.get_data_mut().adc1.set_uncalibrated_offset_lsb(lsb);
+    }
+
+    /// ADC1: regular and injected conversions completed and calibrations
+    /// run since the last reset.
+    pub fn adc1_counts(&self) -> (u64, u64, u64) {
+        self.uc.get_data().adc1.counts()
+    }
+
+    /// Whether ADC1 completed a calibration since its last power-up.
+    pub fn adc1_calibrated(&self) -> bool {
+        self.uc.get_data().adc1.calibrated()
+    }
+
     /// USART1's TX line: the data frames that reached PA9 so far (kept
     /// across MCU resets), in order, up to now.
     pub fn usart1_tx_log(&mut self) -> &[TxByte] {
@@ -2042,6 +2143,10 @@ impl Board {
         hw.tim3.advance(now);
         hw.drive_pins_to(now);
         hw.tim4.advance(now);
+        hw.adc1.advance(now);
+        if let Some(e) = hw.adc1.take_fault() {
+            return Err(adc_board_error(e));
+        }
         hw.sample_exti();
         refresh_irq_lines(hw);
         if hw.nvic.reset_requested {
@@ -2072,6 +2177,7 @@ impl Board {
         at_ns(hw.tim4.next_input_ns());
         at_ns(hw.next_pin_edge_ns());
         at_ns(hw.usart1.next_event_ns());
+        at_ns(hw.adc1.next_event_ns());
         let s = self.bus.state();
         at_ns(Some(s.mpu.next_sample_ns()));
         if let Some(last) = s.mpu.last_sample_ns() {
@@ -2329,6 +2435,61 @@ mod tests {
             b.debug_write(a, v)
                 .unwrap_or_else(|e| panic!("{a:#x} <- {v:#x}: {e}"));
         }
+    }
+
+    #[test]
+    fn adc1_converts_the_host_voltage_on_its_pin_and_pends_adc1_2() {
+        let fw = bare(&[0xE7FE], 0);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        let e = b.debug_write(ADC1_BASE + 8, 1).err();
+        assert!(
+            matches!(
+                e,
+                Some(BoardError::ClockDisabled {
+                    peripheral: "ADC1",
+                    ..
+                })
+            ),
+            "{e:?}"
+        );
+        // GPIOA and ADC1 clocked; PA1 analog, PA2 floating input. ADCCLK
+        // from reset: 8 MHz HSI / 2 = 4 MHz.
+        poke(
+            &mut b,
+            &[
+                (0x4002_1018, (1 << 2) | (1 << 9)),
+                (0x4001_0800, 0x4444_4404),
+            ],
+        );
+        poke(&mut b, &[(ADC1_BASE + 8, 1)]);
+        b.run_for_ns(2_000).unwrap_or_else(|e| panic!("{e}"));
+        poke(&mut b, &[(ADC1_BASE + 8, 1 | (1 << 2))]);
+        // t_CAL: 83 cycles at 4 MHz, 20.75 µs.
+        b.run_for_ns(20_000).unwrap_or_else(|e| panic!("{e}"));
+        assert_ne!(b.debug_read(ADC1_BASE + 8).unwrap_or(0) & (1 << 2), 0);
+        b.run_for_ns(1_000).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(b.debug_read(ADC1_BASE + 8).unwrap_or(0) & (1 << 2), 0);
+        assert!(b.adc1_calibrated());
+        b.adc1_set_input_v(1, 1.0);
+        // SQ1 = channel 1, EOCIE, ADON written again: 14 cycles, 3.5 µs.
+        poke(
+            &mut b,
+            &[
+                (ADC1_BASE + 0x34, 1),
+                (ADC1_BASE + 4, 1 << 5),
+                (ADC1_BASE + 8, 1),
+            ],
+        );
+        b.run_for_ns(3_000).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!b.uc.get_data().nvic.pending[ADC1_2_IRQ]);
+        b.run_for_ns(1_000).unwrap_or_else(|e| panic!("{e}"));
+        assert!(b.uc.get_data().nvic.pending[ADC1_2_IRQ], "EOC with EOCIE");
+        assert_eq!(b.debug_read(ADC1_BASE + 0x4C).ok(), Some(1241));
+        assert_eq!(b.adc1_counts(), (1, 0, 1));
+        // PA2 is not an analog input: the sample stops the board.
+        poke(&mut b, &[(ADC1_BASE + 0x34, 2), (ADC1_BASE + 8, 1)]);
+        let e = b.run_for_ns(5_000).err();
+        assert!(matches!(e, Some(BoardError::Misuse(_))), "{e:?}");
     }
 
     #[test]

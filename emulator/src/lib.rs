@@ -24,6 +24,7 @@
 //! other than TIM3 and TIM4, USART transmit and USART2/3, ADC, sleep modes beyond
 //! "idle until the next event".
 
+pub mod adc;
 pub mod board;
 pub mod calpage;
 pub mod crsf;
@@ -46,8 +47,9 @@ pub mod tim;
 pub mod usart;
 
 pub use board::{
-    Board, BoardConfig, BoardError, BoardEvent, BoardFault, Executed, DMA1_CHANNEL5_IRQ, EXTI9_5,
-    TIM3_IRQ, TIM3_PINS, TIM4_IRQ, TIM4_PINS, USART1_IRQ,
+    Board, BoardConfig, BoardError, BoardEvent, BoardFault, Executed, ADC1_2_IRQ, ADC1_PINS,
+    DMA1_CHANNEL4_IRQ, DMA1_CHANNEL5_IRQ, EXTI9_5, TIM3_IRQ, TIM3_PINS, TIM4_IRQ, TIM4_PINS,
+    USART1_IRQ,
 };
 pub use cycles::CycleModel;
 pub use elf::{release_elf_path, Firmware};
