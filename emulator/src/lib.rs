@@ -5,7 +5,8 @@
 //! NVIC priorities, tail-chaining) and every peripheral the firmware
 //! touches are register-level models written from RM0008 and PM0056
 //! (`scs`, `exceptions`, `rcc`, `flash`, `gpio`, `exti`, `iwdg`, `i2c1`,
-//! `tim` for TIM3 and TIM4, `usart` for USART1's receiver, `dma` for DMA1);
+//! `tim` for TIM3 and TIM4, `usart` for USART1's receiver and transmitter,
+//! `dma` for DMA1, `adc` for ADC1);
 //! the sensor chips on I2C1 are the simulator's (`sim`). The firmware's
 //! defmt-RTT output is read like a probe does and decoded from the ELF's
 //! own table (`rtt`). Any access to a register that is not modelled stops
@@ -21,7 +22,7 @@
 //! model of `cycles` (no bus contention with DMA, no data-dependent
 //! multiply/divide times),
 //! the process stack, MPU/FPU (none on the M3 part used), DMA2, timers
-//! other than TIM3 and TIM4, USART transmit and USART2/3, ADC, sleep modes beyond
+//! other than TIM3 and TIM4, USART2/3, ADC2, sleep modes beyond
 //! "idle until the next event".
 
 pub mod adc;
