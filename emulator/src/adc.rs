@@ -381,18 +381,26 @@ impl Adc {
             || (self.sr & sr::JEOC != 0 && self.cr1 & cr1::JEOCIE != 0)
     }
 
-    /// When the next conversion or calibration step ends (ns).
+    /// When the next conversion whose end raises the interrupt line ends
+    /// (ns), for the scheduler. Everything else the ADC does shows only in
+    /// its registers, which bring it up to date when they are read.
     pub fn next_event_ns(&self) -> Option<u64> {
-        [
-            self.cal_end,
-            self.rstcal_end,
-            self.regular.map(|c| c.end),
-            self.injected.map(|g| g.conv.end),
-        ]
-        .into_iter()
-        .flatten()
-        .min_by(f64::total_cmp)
-        .map(|t| t.ceil() as u64)
+        let regular = self
+            .regular
+            .filter(|_| self.cr1 & cr1::EOCIE != 0 && self.injected.is_none())
+            .map(|c| c.end);
+        // The injected group's end also restarts a regular conversion.
+        let eoc_after =
+            self.cr1 & cr1::EOCIE != 0 && (self.regular.is_some() || self.regular_waiting);
+        let injected = self
+            .injected
+            .filter(|_| self.cr1 & cr1::JEOCIE != 0 || eoc_after)
+            .map(|g| g.conv.end);
+        [regular, injected]
+            .into_iter()
+            .flatten()
+            .min_by(f64::total_cmp)
+            .map(|t| t.ceil() as u64)
     }
 }
 

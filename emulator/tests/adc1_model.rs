@@ -389,3 +389,26 @@ fn unmodelled_features_and_a_fast_clock_stop_the_board() {
     r.wr(reg::SQR3, 0);
     assert_eq!(r.adc.take_fault(), None);
 }
+
+/// The scheduler is woken for the ends that raise the interrupt line (and
+/// for the injected end that restarts an interrupted regular conversion).
+#[test]
+fn the_next_event_is_the_end_that_raises_the_line() {
+    let mut r = Rig::ready(ADC_12M);
+    r.adc.set_pin_analog(4, true);
+    r.regular(CH, 7);
+    r.wr(reg::JSQR, 4 << 15);
+    let t0 = r.now;
+    r.swstart();
+    assert_eq!(r.adc.next_event_ns(), None, "EOCIE clear");
+    r.wr(reg::CR1, cr1::EOCIE);
+    let end = t0 as f64 + 252.0 * CYCLE_12M;
+    assert_eq!(r.adc.next_event_ns(), Some(end.ceil() as u64));
+    r.at(t0 + 1_000);
+    r.jswstart();
+    let jend = (t0 + 1_000) as f64 + 14.0 * CYCLE_12M;
+    assert_eq!(r.adc.next_event_ns(), Some(jend.ceil() as u64));
+    r.at(jend.ceil() as u64);
+    let restart_end = jend + 252.0 * CYCLE_12M;
+    assert_eq!(r.adc.next_event_ns(), Some(restart_end.ceil() as u64));
+}
