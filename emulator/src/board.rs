@@ -15,6 +15,7 @@
 //! access its bridge cycles ([`BoardConfig::cycle_model`] picks typical or
 //! pessimistic figures).
 
+use crate::adc::{Adc, AdcError};
 use crate::cycles::{self, CycleModel, ExceptionStep};
 use crate::dma::{self, Dma};
 use crate::elf::{Firmware, FLASH_BASE};
@@ -25,10 +26,10 @@ use crate::gpio::{Afio, PinConfig, Port};
 use crate::i2c1::{I2c1, PinMode};
 use crate::iwdg::{Iwdg, LSI_NOMINAL_HZ};
 use crate::rcc::{CoreClock, Rcc, ResetCause, HSI_HZ};
-use crate::rtt::{LogLine, RttHost, RttMode, TargetMemory};
+use crate::rtt::{LogLine, RttError, RttHost, RttMode, TargetMemory};
 use crate::scs::{Dwt, Nvic, SysTick, IRQ0, SYSTICK};
 use crate::tim::GpTimer;
-use crate::usart::Usart;
+use crate::usart::{TxByte, Usart};
 use std::path::Path;
 use unicorn_engine::unicorn_const::{uc_error, Arch, Mode, Prot};
 use unicorn_engine::{ArmCpuModel, RegisterARM, Unicorn};
@@ -65,8 +66,9 @@ pub const TIM4_IRQ: usize = IRQ0 + 30;
 /// and PB9 (TIM4_CH4) are free and 5 V tolerant.
 pub const TIM4_PINS: [(usize, u32); 4] = [(1, 6), (1, 7), (1, 8), (1, 9)];
 /// Pins the board already drives (button, MPU INT, I2C1, TIM3's outputs,
-/// USART1 RX, the LED): a test waveform may not fight them.
-const BOARD_DRIVEN_PINS: [(usize, u32); 10] = [
+/// USART1 TX and RX, the LED): a test waveform may not fight them.
+const BOARD_DRIVEN_PINS: [(usize, u32); 11] = [
+    (0, 9),
     (0, 0),
     (1, 5),
     (1, 6),
@@ -80,11 +82,32 @@ const BOARD_DRIVEN_PINS: [(usize, u32); 10] = [
 ];
 /// USART1's exception number (IRQ 37).
 pub const USART1_IRQ: usize = IRQ0 + 37;
+/// DMA1 channel 4's exception number (IRQ 14): USART1_TX's channel.
+pub const DMA1_CHANNEL4_IRQ: usize = IRQ0 + dma::CHANNEL1_IRQ + 3;
 /// DMA1 channel 5's exception number (IRQ 15; channel `n` is IRQ `10 + n`).
 pub const DMA1_CHANNEL5_IRQ: usize = IRQ0 + dma::CHANNEL1_IRQ + 4;
 /// DMA1's registers (RM0008 §3.3, table 3).
 const DMA1_BASE: u32 = 0x4002_0000;
 const DMA1_END: u32 = 0x4002_03FF;
+/// ADC1's exception number (ADC1_2, IRQ 18).
+pub const ADC1_2_IRQ: usize = IRQ0 + 18;
+/// ADC1's registers (RM0008 §3.3, table 3).
+const ADC1_BASE: u32 = 0x4001_2400;
+const ADC1_END: u32 = 0x4001_27FF;
+/// ADC1 input pins of the 48-pin package, channel `n` at index `n`
+/// (ADC12_IN0..9: PA0..PA7, PB0, PB1; datasheet DS5319 table 5).
+pub const ADC1_PINS: [(usize, u32); 10] = [
+    (0, 0),
+    (0, 1),
+    (0, 2),
+    (0, 3),
+    (0, 4),
+    (0, 5),
+    (0, 6),
+    (0, 7),
+    (1, 0),
+    (1, 1),
+];
 const USART1_BASE: u32 = 0x4001_3800;
 const USART1_END: u32 = 0x4001_3BFF;
 /// TIM3 channel outputs in channel order: PA6, PA7, PB0, PB1 (RM0008
@@ -129,6 +152,10 @@ pub enum BoardError {
     /// The firmware configured a clock tree outside the manual's limits
     /// (RM0008 §7.2 maxima, §3.3.3 flash wait states for SYSCLK).
     Clock(String),
+    /// The firmware used a peripheral against the manual's sequence
+    /// (on silicon an undefined or wrong result, e.g. an ADC conversion
+    /// before t_STAB or of a pin not in analog mode).
+    Misuse(String),
     /// The firmware ELF could not be used.
     Elf(String),
 }
@@ -164,6 +191,7 @@ impl std::fmt::Display for BoardError {
             Self::FlashBusError(e) => write!(f, "flash bus error: {e}"),
             Self::StackOutsideRam { sp } => write!(f, "exception frame at {sp:#010x} outside RAM"),
             Self::Clock(e) => write!(f, "clock configuration: {e}"),
+            Self::Misuse(e) => write!(f, "used against the manual: {e}"),
             Self::Elf(e) => write!(f, "{e}"),
         }
     }
@@ -299,6 +327,7 @@ pub struct Hw {
     tim4: GpTimer,
     usart1: Usart,
     dma1: Dma,
+    adc1: Adc,
     driven: Vec<DrivenPin>,
     clock: sim::SimClock,
     tail_base: u32,
@@ -457,6 +486,10 @@ impl Hw {
                     .unwrap_or(0);
                 return self.tim3.output_high(ch, now);
             }
+            (0, 9) if self.usart1_tx_wired() => {
+                self.usart1.advance(now);
+                return self.usart1.tx_line_high(now);
+            }
             (1, 6) if self.afio.mapr & 2 == 0 => {
                 self.sync_clock();
                 return self.i2c.scl_high(now);
@@ -468,6 +501,19 @@ impl Hw {
             _ => None,
         };
         self.ports[port].level(pin, external)
+    }
+
+    /// USART1's TX output reaches PA9: an alternate-function output, and
+    /// USART1 not remapped to PB6 (AFIO_MAPR.USART1_REMAP, RM0008 §9.3.8).
+    fn usart1_tx_wired(&self) -> bool {
+        matches!(self.ports[0].config(9), PinConfig::Alternate { .. }) && self.afio.mapr & 4 == 0
+    }
+
+    /// Tells USART1 whether its TX line reaches the pin (after a GPIOA or
+    /// AFIO write, or a reset).
+    fn update_usart1_tx_pin(&mut self) {
+        let wired = self.usart1_tx_wired();
+        self.usart1.set_tx_pin_connected(wired);
     }
 
     fn idr(&mut self, port: usize) -> u32 {
@@ -518,6 +564,7 @@ impl Hw {
             0x4000_0400..=0x4000_07FF => ("TIM3", self.rcc.apb1enr & (1 << 1) != 0),
             0x4000_0800..=0x4000_0BFF => ("TIM4", self.rcc.apb1enr & (1 << 2) != 0),
             USART1_BASE..=USART1_END => ("USART1", self.rcc.apb2enr & (1 << 14) != 0),
+            ADC1_BASE..=ADC1_END => ("ADC1", self.rcc.apb2enr & (1 << 9) != 0),
             DMA1_BASE..=DMA1_END => ("DMA1", self.rcc.ahbenr() & 1 != 0),
             _ => return None,
         };
@@ -562,6 +609,10 @@ impl Hw {
                 self.usart1.read(a - USART1_BASE, now)
             }
             DMA1_BASE..=DMA1_END => self.dma1.read(a - DMA1_BASE),
+            ADC1_BASE..=ADC1_END => {
+                self.resched = true;
+                self.adc1.read(a - ADC1_BASE, now)
+            }
             0x4000_5400..=0x4000_5420 => {
                 self.sync_clock();
                 let off = a - 0x4000_5400;
@@ -623,6 +674,10 @@ impl Hw {
                 let r = self.usart1.write(a - USART1_BASE, merged(0), now);
                 self.peripheral_result(r)
             }
+            ADC1_BASE..=ADC1_END => {
+                let r = self.adc1.write(a - ADC1_BASE, merged(0), now);
+                self.adc_result(r)
+            }
             DMA1_BASE..=DMA1_END => {
                 let off = a - DMA1_BASE;
                 let current = self.dma1.read(off).unwrap_or(0);
@@ -651,6 +706,7 @@ impl Hw {
             0x4001_0000..=0x4001_03FF => {
                 self.drive_pins_to(now);
                 let ok = self.afio.write(a - 0x4001_0000, v, mask);
+                self.update_usart1_tx_pin();
                 if self.afio.mapr & 2 != 0 {
                     self.fail(BoardError::Unsupported(
                         "I2C1 remapped to PB8/PB9 (AFIO_MAPR.I2C1_REMAP)".into(),
@@ -666,6 +722,9 @@ impl Hw {
                 if port == 1 {
                     self.update_i2c_pins();
                 }
+                self.update_usart1_tx_pin();
+                self.adc1.advance(now);
+                self.update_adc1_pins();
                 ok
             }
             0x4002_1000..=0x4002_13FF => {
@@ -691,6 +750,9 @@ impl Hw {
                 if self.rcc.apb2rstr & (1 << 14) != 0 {
                     self.usart1.reset();
                 }
+                if self.rcc.apb2rstr & (1 << 9) != 0 {
+                    self.adc1.reset();
+                }
                 self.follow_clock_tree(now);
                 for (bit, port) in [(2, 0), (3, 1), (4, 2)] {
                     if self.rcc.apb2rstr & (1 << bit) != 0 && old2 & (1 << bit) == 0 {
@@ -700,6 +762,8 @@ impl Hw {
                 if self.rcc.apb2rstr & 1 != 0 {
                     self.afio = Afio::default();
                 }
+                self.update_usart1_tx_pin();
+                self.update_adc1_pins();
                 true
             }
             0x4002_2000..=0x4002_23FF => match self.flash.write(a - 0x4002_2000, v & mask) {
@@ -735,6 +799,7 @@ impl Hw {
         self.tim3.set_clock_hz(self.rcc.apb1_timer_hz(), now);
         self.tim4.set_clock_hz(self.rcc.apb1_timer_hz(), now);
         self.usart1.set_pclk_hz(self.rcc.pclk2_hz());
+        self.adc1.set_clock_hz(self.rcc.adc_hz(), now);
         self.sync_clock();
         self.i2c.set_pclk1_hz(self.rcc.pclk1_hz(), now);
         self.core.retune(self.rcc.hclk_hz(), self.cycles);
@@ -791,6 +856,27 @@ impl Hw {
                 true
             }
             Some(Ok(())) => true,
+        }
+    }
+
+    /// Acts on an ADC1 write: not a register (`false`), or an error that
+    /// stops the board.
+    fn adc_result(&mut self, r: Option<Result<(), AdcError>>) -> bool {
+        match r {
+            None => false,
+            Some(Err(e)) => {
+                self.fail(adc_board_error(e));
+                true
+            }
+            Some(Ok(())) => true,
+        }
+    }
+
+    /// Tells ADC1 which inputs have their pin in analog mode.
+    fn update_adc1_pins(&mut self) {
+        for (ch, &(port, pin)) in ADC1_PINS.iter().enumerate() {
+            let analog = matches!(self.ports[port].config(pin), PinConfig::Analog);
+            self.adc1.set_pin_analog(ch, analog);
         }
     }
 
@@ -895,6 +981,7 @@ pub fn refresh_irq_lines(hw: &mut Hw) {
         (TIM3_IRQ, hw.tim3.irq()),
         (TIM4_IRQ, hw.tim4.irq()),
         (USART1_IRQ, hw.usart1.irq()),
+        (ADC1_2_IRQ, hw.adc1.irq()),
     ] {
         if on && !hw.nvic.active.contains(&n) {
             hw.nvic.pending[n] = true;
@@ -913,6 +1000,15 @@ pub fn refresh_irq_lines(hw: &mut Hw) {
                 hw.nvic.pending[n] = true;
             }
         }
+    }
+}
+
+/// The board's error for an ADC1 error.
+fn adc_board_error(e: AdcError) -> BoardError {
+    match e {
+        AdcError::Unmodelled(s) => BoardError::Unsupported(s),
+        AdcError::Clock(s) => BoardError::Clock(s),
+        AdcError::Misuse(s) => BoardError::Misuse(s),
     }
 }
 
@@ -1034,7 +1130,7 @@ fn dma_side(a: u32) -> bool {
 /// [`serve_dma`] wherever its model advances to an event that raises the
 /// request, as [`catch_up_usart1`] does for USART1.
 fn dma1_requests(hw: &Hw) -> u8 {
-    u8::from(hw.usart1.rx_dma_request()) << 4
+    u8::from(hw.usart1.rx_dma_request()) << 4 | u8::from(hw.usart1.tx_dma_request()) << 3
 }
 
 /// What a DMA access reaches (RM0008 §3.3, table 3 and figure 1: the DMA
@@ -1145,13 +1241,18 @@ fn serve_dma(uc: &mut Unicorn<'_, Hw>, at_ns: u64) {
     }
 }
 
-/// Brings USART1 to `now_ns` one received byte at a time, serving its DMA
-/// request as each byte lands (the CPU may have been stalled, or its
-/// registers not read, for many byte times).
+/// Brings USART1 to `now_ns` one received byte and one transmitted frame
+/// at a time, serving its DMA requests as each byte lands in DR and as
+/// each frame leaves the shift register (the CPU may have been stalled,
+/// or its registers not read, for many byte times).
 fn catch_up_usart1(uc: &mut Unicorn<'_, Hw>, now_ns: u64) {
     loop {
         let hw = uc.get_data_mut();
-        let Some(t) = hw.usart1.next_byte_ns().filter(|&t| t <= now_ns) else {
+        let next = [hw.usart1.next_byte_ns(), hw.usart1.next_tx_ns()]
+            .into_iter()
+            .flatten()
+            .min();
+        let Some(t) = next.filter(|&t| t <= now_ns) else {
             break;
         };
         hw.usart1.advance(t);
@@ -1214,6 +1315,26 @@ fn scan_block(code: &[u8], addr: u32) -> (u32, bool) {
     };
     let only_waits = hws[..li].iter().all(|&h| h == 0xBF00 || h == 0xBF30);
     (n.max(1), branch_to_start && only_waits)
+}
+
+/// Target memory as the debug probe sees it (no CPU cycles).
+struct ProbeView<'a, 'b>(&'a mut Unicorn<'b, Hw>);
+
+impl TargetMemory for ProbeView<'_, '_> {
+    fn read_u32(&mut self, addr: u32) -> Option<u32> {
+        let mut b = [0u8; 4];
+        self.0.mem_read(u64::from(addr), &mut b).ok()?;
+        Some(u32::from_le_bytes(b))
+    }
+    fn write_u32(&mut self, addr: u32, v: u32) -> Option<()> {
+        self.0.mem_write(u64::from(addr), &v.to_le_bytes()).ok()
+    }
+    fn read_bytes(&mut self, addr: u32, buf: &mut [u8]) -> Option<()> {
+        self.0.mem_read(u64::from(addr), buf).ok()
+    }
+    fn write_bytes(&mut self, addr: u32, bytes: &[u8]) -> Option<()> {
+        self.0.mem_write(u64::from(addr), bytes).ok()
+    }
 }
 
 /// Builds the configuration of a board.
@@ -1342,6 +1463,7 @@ impl Board {
             tim4: GpTimer::new("TIM4", HSI_HZ),
             usart1: Usart::new("USART1", HSI_HZ),
             dma1: Dma::new(),
+            adc1: Adc::new(HSI_HZ / 2),
             driven: Vec::new(),
             clock,
             tail_base,
@@ -1552,6 +1674,9 @@ impl Board {
             hw.drive_pins_to(now);
             hw.tim4.reset();
             hw.usart1.reset();
+            hw.update_usart1_tx_pin();
+            hw.adc1.reset();
+            hw.update_adc1_pins();
             // Back on the HSI (RM0008 §7.3.2: CFGR resets to 0).
             hw.follow_clock_tree(now);
             hw.dma1 = Dma::new();
@@ -1837,6 +1962,53 @@ impl Board {
         self.uc.get_data().usart1.counts()
     }
 
+    /// Sets the voltage on ADC1 input `channel` (0..16; 0..9 are PA0..PA7,
+    /// PB0, PB1) from now on: a conversion whose sample phase ends later
+    /// converts it (VREF+ = 3.3 V, 12 bits, clamped).
+    pub fn adc1_set_input_v(&mut self, channel: usize, volts: f64) {
+        let now = self.now_ns();
+        self.uc.get_data_mut().adc1.set_input_v(channel, volts, now);
+    }
+
+    /// Sets the offset (LSB) ADC1 adds to every code until it is
+    /// calibrated (the chip's; 0 unless set).
+    pub fn adc1_set_uncalibrated_offset_lsb(&mut self, lsb: i32) {
+        self.uc.get_data_mut().adc1.set_uncalibrated_offset_lsb(lsb);
+    }
+
+    /// ADC1: regular and injected conversions completed and calibrations
+    /// run since the last reset.
+    pub fn adc1_counts(&self) -> (u64, u64, u64) {
+        self.uc.get_data().adc1.counts()
+    }
+
+    /// Whether ADC1 completed a calibration since its last power-up.
+    pub fn adc1_calibrated(&self) -> bool {
+        self.uc.get_data().adc1.calibrated()
+    }
+
+    /// USART1's TX line: the data frames that reached PA9 so far (kept
+    /// across MCU resets), in order, up to now.
+    pub fn usart1_tx_log(&mut self) -> &[TxByte] {
+        let now = self.now_ns();
+        catch_up_usart1(&mut self.uc, now);
+        self.uc.get_data().usart1.tx_log()
+    }
+
+    /// Takes USART1's TX line log up to now (the log starts empty again):
+    /// for a long scenario that decodes the line as it goes.
+    pub fn usart1_take_tx(&mut self) -> Vec<TxByte> {
+        let now = self.now_ns();
+        catch_up_usart1(&mut self.uc, now);
+        self.uc.get_data_mut().usart1.take_tx_log()
+    }
+
+    /// USART1 data frames shifted out while PA9 was not wired to the
+    /// transmitter (not an alternate-function output, or remapped).
+    pub fn usart1_tx_unseen(&self) -> u64 {
+        self.uc.get_data().usart1.tx_unseen()
+    }
+
     /// DMA1: items each channel moved since the last reset.
     pub fn dma1_served(&self) -> [u64; dma::CHANNELS] {
         self.uc.get_data().dma1.served()
@@ -1940,23 +2112,19 @@ impl Board {
     }
 
     fn poll_rtt(&mut self) {
-        struct Mem<'a, 'b>(&'a mut Unicorn<'b, Hw>);
-        impl TargetMemory for Mem<'_, '_> {
-            fn read_u32(&mut self, addr: u32) -> Option<u32> {
-                let mut b = [0u8; 4];
-                self.0.mem_read(u64::from(addr), &mut b).ok()?;
-                Some(u32::from_le_bytes(b))
-            }
-            fn write_u32(&mut self, addr: u32, v: u32) -> Option<()> {
-                self.0.mem_write(u64::from(addr), &v.to_le_bytes()).ok()
-            }
-            fn read_bytes(&mut self, addr: u32, buf: &mut [u8]) -> Option<()> {
-                self.0.mem_read(u64::from(addr), buf).ok()
-            }
-        }
         let now = self.now_ns();
-        let new = self.rtt.poll(&mut Mem(&mut self.uc), now);
+        let new = self.rtt.poll(&mut ProbeView(&mut self.uc), now);
         self.lines.extend(new);
+    }
+
+    /// Writes `bytes` into RTT down channel `channel` as a probe does when
+    /// the user types into `cargo embed`'s terminal: what fits in the ring
+    /// without passing the target's read offset, now. Returns how many
+    /// bytes went in; an error when the control block has no such down
+    /// channel (see [`RttError`]).
+    pub fn rtt_write_down(&mut self, channel: u32, bytes: &[u8]) -> Result<usize, RttError> {
+        self.rtt
+            .write_down(&mut ProbeView(&mut self.uc), channel, bytes)
     }
 
     /// Brings the peripherals to the current time and acts on what they
@@ -1980,6 +2148,10 @@ impl Board {
         hw.tim3.advance(now);
         hw.drive_pins_to(now);
         hw.tim4.advance(now);
+        hw.adc1.advance(now);
+        if let Some(e) = hw.adc1.take_fault() {
+            return Err(adc_board_error(e));
+        }
         hw.sample_exti();
         refresh_irq_lines(hw);
         if hw.nvic.reset_requested {
@@ -2010,6 +2182,7 @@ impl Board {
         at_ns(hw.tim4.next_input_ns());
         at_ns(hw.next_pin_edge_ns());
         at_ns(hw.usart1.next_event_ns());
+        at_ns(hw.adc1.next_event_ns());
         let s = self.bus.state();
         at_ns(Some(s.mpu.next_sample_ns()));
         if let Some(last) = s.mpu.last_sample_ns() {
@@ -2222,6 +2395,154 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn the_probe_writes_a_down_channel_in_target_ram() {
+        let fw = bare(&[0xE7FE], 0);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        let e = b.rtt_write_down(0, b"x").err();
+        assert_eq!(e, Some(RttError::NoControlBlock { address: RAM_BASE }));
+        // "SEGGER RTT", one up and one down channel, the down channel's
+        // 32-byte buffer at 0x2000_0100.
+        let id = *b"SEGGER RTT\0\0\0\0\0\0";
+        for (i, w) in id.chunks_exact(4).enumerate() {
+            let w = u32::from_le_bytes([w[0], w[1], w[2], w[3]]);
+            b.debug_write(RAM_BASE + 4 * i as u32, w)
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        let down = RAM_BASE + 24 + 24;
+        for (a, v) in [
+            (RAM_BASE + 16, 1),
+            (RAM_BASE + 20, 1),
+            (down + 4, RAM_BASE + 0x100),
+            (down + 8, 32),
+        ] {
+            b.debug_write(a, v).unwrap_or_else(|e| panic!("{e}"));
+        }
+        assert_eq!(b.rtt_write_down(0, b"save\n"), Ok(5));
+        assert_eq!(b.read_word(down + 12), Some(5));
+        assert_eq!(
+            b.read_word(RAM_BASE + 0x100),
+            Some(u32::from_le_bytes(*b"save"))
+        );
+        assert!(matches!(
+            b.rtt_write_down(1, b"x"),
+            Err(RttError::NoDownChannel {
+                channel: 1,
+                available: 1
+            })
+        ));
+    }
+
+    /// Writes `(address, value)` pairs as a debugger does.
+    fn poke(b: &mut Board, writes: &[(u32, u32)]) {
+        for &(a, v) in writes {
+            b.debug_write(a, v)
+                .unwrap_or_else(|e| panic!("{a:#x} <- {v:#x}: {e}"));
+        }
+    }
+
+    #[test]
+    fn adc1_converts_the_host_voltage_on_its_pin_and_pends_adc1_2() {
+        let fw = bare(&[0xE7FE], 0);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        let e = b.debug_write(ADC1_BASE + 8, 1).err();
+        assert!(
+            matches!(
+                e,
+                Some(BoardError::ClockDisabled {
+                    peripheral: "ADC1",
+                    ..
+                })
+            ),
+            "{e:?}"
+        );
+        // GPIOA and ADC1 clocked; PA1 analog, PA2 floating input. ADCCLK
+        // from reset: 8 MHz HSI / 2 = 4 MHz.
+        poke(
+            &mut b,
+            &[
+                (0x4002_1018, (1 << 2) | (1 << 9)),
+                (0x4001_0800, 0x4444_4404),
+            ],
+        );
+        poke(&mut b, &[(ADC1_BASE + 8, 1)]);
+        b.run_for_ns(2_000).unwrap_or_else(|e| panic!("{e}"));
+        poke(&mut b, &[(ADC1_BASE + 8, 1 | (1 << 2))]);
+        // t_CAL: 83 cycles at 4 MHz, 20.75 µs.
+        b.run_for_ns(20_000).unwrap_or_else(|e| panic!("{e}"));
+        assert_ne!(b.debug_read(ADC1_BASE + 8).unwrap_or(0) & (1 << 2), 0);
+        b.run_for_ns(1_000).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(b.debug_read(ADC1_BASE + 8).unwrap_or(0) & (1 << 2), 0);
+        assert!(b.adc1_calibrated());
+        b.adc1_set_input_v(1, 1.0);
+        // SQ1 = channel 1, EOCIE, ADON written again: 14 cycles, 3.5 µs.
+        poke(
+            &mut b,
+            &[
+                (ADC1_BASE + 0x34, 1),
+                (ADC1_BASE + 4, 1 << 5),
+                (ADC1_BASE + 8, 1),
+            ],
+        );
+        b.run_for_ns(3_000).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!b.uc.get_data().nvic.pending[ADC1_2_IRQ]);
+        b.run_for_ns(1_000).unwrap_or_else(|e| panic!("{e}"));
+        assert!(b.uc.get_data().nvic.pending[ADC1_2_IRQ], "EOC with EOCIE");
+        assert_eq!(b.debug_read(ADC1_BASE + 0x4C).ok(), Some(1241));
+        assert_eq!(b.adc1_counts(), (1, 0, 1));
+        // PA2 is not an analog input: the sample stops the board.
+        poke(&mut b, &[(ADC1_BASE + 0x34, 2), (ADC1_BASE + 8, 1)]);
+        let e = b.run_for_ns(5_000).err();
+        assert!(matches!(e, Some(BoardError::Misuse(_))), "{e:?}");
+    }
+
+    #[test]
+    fn usart1_sends_a_dma_buffer_on_pa9() {
+        let fw = bare(&[0xE7FE], 0);
+        let mut b = Board::new(&fw, BoardConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        b.debug_write(
+            RAM_BASE + 0x100,
+            u32::from_le_bytes([0xC8, 0x04, 0x21, 0x7E]),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        // GPIOA, USART1, DMA1 clocked; PA9 alternate push-pull; 115200
+        // baud at 8 MHz (BRR 69: 115,942 baud); TE, DMAT.
+        poke(
+            &mut b,
+            &[
+                (0x4002_1018, (1 << 2) | (1 << 14)),
+                (0x4002_1014, 0x15),
+                (0x4001_0804, 0x4444_44B4),
+                (USART1_BASE + 8, 69),
+                (USART1_BASE + 0x0C, (1 << 13) | (1 << 3)),
+                (USART1_BASE + 0x14, 1 << 7),
+                (USART1_BASE, !(1 << 6)),
+                (DMA1_BASE + dma::reg::cpar(4), USART1_BASE + 4),
+                (DMA1_BASE + dma::reg::cmar(4), RAM_BASE + 0x100),
+                (DMA1_BASE + dma::reg::cndtr(4), 4),
+                (
+                    DMA1_BASE + dma::reg::ccr(4),
+                    dma::ccr::DIR | dma::ccr::MINC | dma::ccr::EN,
+                ),
+            ],
+        );
+        let t0 = b.now_ns();
+        b.run_for_ns(1_000_000).unwrap_or_else(|e| panic!("{e}"));
+        let log = b.usart1_tx_log().to_vec();
+        let bytes: Vec<u8> = log.iter().map(|f| f.byte).collect();
+        assert_eq!(bytes, [0xC8, 0x04, 0x21, 0x7E]);
+        // After the idle frame, back to back, ten bits of 69 / 8 MHz each.
+        let frame_ns = 10.0 * 69.0 / 8.0e6 * 1e9;
+        assert!((log[0].start_ns - t0) as f64 >= frame_ns - 1.0);
+        for w in log.windows(2) {
+            assert_eq!(w[0].end_ns, w[1].start_ns);
+            assert!(((w[1].end_ns - w[1].start_ns) as f64 - frame_ns).abs() <= 1.0);
+        }
+        assert_eq!(b.dma1_served()[3], 4);
+        assert_ne!(b.debug_read(USART1_BASE).unwrap_or(0) & (1 << 6), 0, "TC");
+        assert!(b.pin_high(0, 9), "the line idles high");
     }
 
     #[test]

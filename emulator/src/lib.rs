@@ -5,7 +5,8 @@
 //! NVIC priorities, tail-chaining) and every peripheral the firmware
 //! touches are register-level models written from RM0008 and PM0056
 //! (`scs`, `exceptions`, `rcc`, `flash`, `gpio`, `exti`, `iwdg`, `i2c1`,
-//! `tim` for TIM3 and TIM4, `usart` for USART1's receiver, `dma` for DMA1);
+//! `tim` for TIM3 and TIM4, `usart` for USART1's receiver and transmitter,
+//! `dma` for DMA1, `adc` for ADC1);
 //! the sensor chips on I2C1 are the simulator's (`sim`). The firmware's
 //! defmt-RTT output is read like a probe does and decoded from the ELF's
 //! own table (`rtt`). Any access to a register that is not modelled stops
@@ -21,9 +22,10 @@
 //! model of `cycles` (no bus contention with DMA, no data-dependent
 //! multiply/divide times),
 //! the process stack, MPU/FPU (none on the M3 part used), DMA2, timers
-//! other than TIM3 and TIM4, USART transmit and USART2/3, ADC, sleep modes beyond
+//! other than TIM3 and TIM4, USART2/3, ADC2, sleep modes beyond
 //! "idle until the next event".
 
+pub mod adc;
 pub mod board;
 pub mod calpage;
 pub mod crsf;
@@ -46,10 +48,12 @@ pub mod tim;
 pub mod usart;
 
 pub use board::{
-    Board, BoardConfig, BoardError, BoardEvent, BoardFault, Executed, DMA1_CHANNEL5_IRQ, EXTI9_5,
-    TIM3_IRQ, TIM3_PINS, TIM4_IRQ, TIM4_PINS, USART1_IRQ,
+    Board, BoardConfig, BoardError, BoardEvent, BoardFault, Executed, ADC1_2_IRQ, ADC1_PINS,
+    DMA1_CHANNEL4_IRQ, DMA1_CHANNEL5_IRQ, EXTI9_5, TIM3_IRQ, TIM3_PINS, TIM4_IRQ, TIM4_PINS,
+    USART1_IRQ,
 };
 pub use cycles::CycleModel;
 pub use elf::{release_elf_path, Firmware};
 pub use rcc::ResetCause;
-pub use rtt::{LogLine, RttMode};
+pub use rtt::{LogLine, RttError, RttMode};
+pub use usart::TxByte;

@@ -266,6 +266,11 @@ impl Rcc {
         self.hclk_hz() >> Self::apb_shift((self.cfgr >> 11) & 7)
     }
 
+    /// ADCCLK: PCLK2 through CFGR.ADCPRE (÷2, ÷4, ÷6, ÷8; RM0008 §7.3.2).
+    pub fn adc_hz(&self) -> u32 {
+        self.pclk2_hz() / (2 * (((self.cfgr >> 14) & 3) + 1))
+    }
+
     /// AHBENR (DMA1, SRAM, FLITF clocks).
     pub fn ahbenr(&self) -> u32 {
         self.ahbenr

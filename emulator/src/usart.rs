@@ -28,9 +28,32 @@
 //! read to clear (§27.6.1). With DMAR, EIE raises the interrupt on FE, NE
 //! or ORE (§27.4, figure 296).
 //!
-//! Not modelled (stop the board with an error if switched on): the
-//! transmitter and its DMA (DMAT), parity, 9-bit words, LIN, IrDA,
-//! smartcard, half-duplex, hardware flow control, multiprocessor wake-up.
+//! Transmitter (§27.3.2, figure 282): setting TE (with UE) sends an idle
+//! frame (ten bit times high) first. A DR write puts the byte in TDR
+//! (clears TXE); TDR moves into the shift register as soon as that is
+//! free, which sets TXE again, and the frame (start bit, eight data bits
+//! LSB first, one stop bit: ten bit times at f_PCLK / BRR) goes out from
+//! that instant. Back-to-back bytes follow each other without a gap while
+//! TDR is refilled before the frame on the line ends. TC sets when a frame
+//! containing data ends with TXE set; it clears by an SR read followed by
+//! a DR write, or by writing 0 to it (§27.6.1). A DR write while TXE is
+//! clear replaces the byte waiting in TDR (the one before it is lost). A
+//! byte written while TE or UE is clear waits in TDR and goes out after
+//! the idle frame that setting TE sends. Every data frame that reaches
+//! the TX pin is in a line log of (start, end, byte) ([`TxByte`]); the
+//! board tells the model whether the pin is wired (PA9 as alternate
+//! function output, no remap).
+//!
+//! Transmitter DMA (CR3.DMAT, §27.3.13 "Transmission using DMA"): TXE is
+//! a request to the DMA (USART1_TX is DMA1 channel 4); the DMA's write of
+//! DR is a DR write like the CPU's (it clears TXE, and TC when an SR read
+//! came before it). TC after the last byte, with TCIE, is the end of the
+//! transfer on the line, as the manual's sequence uses it.
+//!
+//! Not modelled (stop the board with an error if switched on): clearing
+//! TE or UE while a data frame is on the line (§27.3.2: it corrupts the
+//! frame), send break, parity, 9-bit words, LIN, IrDA, smartcard,
+//! half-duplex, hardware flow control, multiprocessor wake-up.
 
 use std::collections::VecDeque;
 
@@ -78,6 +101,10 @@ pub mod cr1 {
     pub const RE: u32 = 1 << 2;
     /// Transmitter enable.
     pub const TE: u32 = 1 << 3;
+    /// TC interrupt enable.
+    pub const TCIE: u32 = 1 << 6;
+    /// TXE interrupt enable.
+    pub const TXEIE: u32 = 1 << 7;
     /// IDLE interrupt enable.
     pub const IDLEIE: u32 = 1 << 4;
     /// RXNE (and ORE) interrupt enable.
@@ -92,6 +119,30 @@ pub mod cr3 {
     pub const EIE: u32 = 1 << 0;
     /// DMA enable receiver.
     pub const DMAR: u32 = 1 << 6;
+    /// DMA enable transmitter.
+    pub const DMAT: u32 = 1 << 7;
+}
+
+/// One data frame the transmitter put on the TX pin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TxByte {
+    /// The start bit's falling edge (ns).
+    pub start_ns: u64,
+    /// The end of the stop bit (ns): ten bit times after the start.
+    pub end_ns: u64,
+    /// The byte (8 data bits).
+    pub byte: u8,
+}
+
+/// The frame in the transmit shift register.
+#[derive(Clone, Copy, Debug)]
+struct Shift {
+    start: f64,
+    end: f64,
+    /// `None`: the idle frame.
+    byte: Option<u8>,
+    /// The TX pin was wired when the frame started.
+    on_pin: bool,
 }
 
 /// Receiver tolerance to the line's baud rate (RM0008 §27.3.5, table 180):
@@ -131,6 +182,18 @@ pub struct Usart {
     overruns: u64,
     /// The receiver looks for a start edge after this time (ns).
     search_from: f64,
+    /// TDR: the byte written and not yet in the shift register.
+    tdr: Option<u8>,
+    /// The frame being shifted out.
+    shift: Option<Shift>,
+    /// The last SR read saw TC (the first half of its clear sequence).
+    tc_seen: bool,
+    /// Whether the TX pin carries the transmitter's output.
+    tx_pin: bool,
+    /// Data frames that reached the pin, in order.
+    tx_log: Vec<TxByte>,
+    /// Data frames shifted out while the pin was not wired.
+    tx_unseen: u64,
 }
 
 fn bit_ns(baud: u32) -> f64 {
@@ -165,15 +228,26 @@ impl Usart {
             received: 0,
             overruns: 0,
             search_from: 0.0,
+            tdr: None,
+            shift: None,
+            tc_seen: false,
+            tx_pin: true,
+            tx_log: Vec::new(),
+            tx_unseen: 0,
         }
     }
 
     /// Peripheral or MCU reset: registers to reset values; what is on the
-    /// line stays on the line.
+    /// RX line stays on the line, the TX line log stays (a frame being
+    /// shifted out is cut and not logged), the TX pin's wiring stays.
     pub fn reset(&mut self) {
         let line = std::mem::take(&mut self.line);
+        let tx_log = std::mem::take(&mut self.tx_log);
         *self = Self {
             line,
+            tx_log,
+            tx_pin: self.tx_pin,
+            tx_unseen: self.tx_unseen,
             ..Self::new(self.name, self.pclk_hz)
         };
     }
@@ -280,9 +354,15 @@ impl Usart {
         }
     }
 
-    /// Brings the receiver to `now_ns`: every byte whose stop bit has been
-    /// sampled lands in DR (or overruns); a quiet line sets IDLE.
+    /// Brings the USART to `now_ns`: every byte whose stop bit has been
+    /// sampled lands in DR (or overruns), a quiet line sets IDLE, and the
+    /// transmitter's frames that ended are on the line log.
     pub fn advance(&mut self, now_ns: u64) {
+        self.advance_tx(now_ns);
+        self.advance_rx(now_ns);
+    }
+
+    fn advance_rx(&mut self, now_ns: u64) {
         let now = now_ns as f64;
         if !self.receiving() {
             self.search_from = self.search_from.max(now);
@@ -351,9 +431,13 @@ impl Usart {
         self.read(reg::DR, now_ns).unwrap_or(0)
     }
 
-    /// When the next byte lands in DR or IDLE sets (for the scheduler).
+    /// When the next byte lands in DR or IDLE sets, or the frame on the
+    /// TX line ends (for the scheduler).
     pub fn next_event_ns(&self) -> Option<u64> {
-        let byte = self.next_byte_ns();
+        let byte = [self.next_byte_ns(), self.next_tx_ns()]
+            .into_iter()
+            .flatten()
+            .min();
         let idle = self.idle_from_ns.and_then(|t| {
             self.baud()
                 .map(|b| t + (10.0 * 1e9 / b).round() as u64)
@@ -366,13 +450,16 @@ impl Usart {
     }
 
     /// The interrupt line (RM0008 §27.4, figure 296): RXNE or ORE with
-    /// RXNEIE, IDLE with IDLEIE, FE/NE/ORE with EIE and DMAR.
+    /// RXNEIE, IDLE with IDLEIE, FE/NE/ORE with EIE and DMAR, TXE with
+    /// TXEIE, TC with TCIE.
     pub fn irq(&self) -> bool {
+        let tx = (self.cr1 & cr1::TXEIE != 0 && self.sr & sr::TXE != 0)
+            || (self.cr1 & cr1::TCIE != 0 && self.sr & sr::TC != 0);
         let rx = self.cr1 & cr1::RXNEIE != 0 && self.sr & (sr::RXNE | sr::ORE) != 0;
         let idle = self.cr1 & cr1::IDLEIE != 0 && self.sr & sr::IDLE != 0;
         let err = self.cr3 & (cr3::EIE | cr3::DMAR) == cr3::EIE | cr3::DMAR
             && self.sr & (sr::FE | sr::NE | sr::ORE) != 0;
-        rx || idle || err
+        rx || idle || err || tx
     }
 
     /// Register read at `offset`; `None`: not modelled.
@@ -381,6 +468,7 @@ impl Usart {
         Some(match offset {
             reg::SR => {
                 self.sr_read = self.sr & (sr::PE | sr::FE | sr::NE | sr::ORE | sr::IDLE);
+                self.tc_seen = self.sr & sr::TC != 0;
                 self.sr
             }
             reg::DR => {
@@ -413,36 +501,18 @@ impl Usart {
                     self.sr &= !sr::TC;
                 }
             }
-            reg::DR => return unsupported("transmitter (DR write)"),
+            reg::DR => self.write_dr(v as u8, now_ns),
             reg::BRR => self.brr = v & 0xFFFF,
-            reg::CR1 => {
-                let allowed = cr1::UE | cr1::RE | cr1::RXNEIE | cr1::IDLEIE;
-                if v & !allowed != 0 {
-                    return unsupported(
-                        "CR1 bits other than UE, RE, RXNEIE, IDLEIE (transmitter, parity, 9-bit, wake-up)",
-                    );
-                }
-                if !self.receiving() {
-                    // A receiver switched on looks for start bits from now.
-                    self.search_from = now_ns as f64;
-                }
-                if v & cr1::UE != 0 && self.brr < 16 {
-                    return Some(Err(format!(
-                        "{}: enabled with BRR = {:#x} (below 16: no valid baud rate)",
-                        self.name, self.brr
-                    )));
-                }
-                self.cr1 = v & 0x3FFF;
-            }
+            reg::CR1 => return Some(self.write_cr1(v, now_ns)),
             reg::CR2 => {
                 if v & (3 << 12) != 0 || v & (1 << 14) != 0 {
                     return unsupported("stop bits other than 1, LIN");
                 }
             }
             reg::CR3 => {
-                if v & !(cr3::DMAR | cr3::EIE) != 0 {
+                if v & !(cr3::DMAR | cr3::DMAT | cr3::EIE) != 0 {
                     return unsupported(
-                        "CR3 bits other than DMAR and EIE (transmit DMA, flow control, IrDA, smartcard, half-duplex)",
+                        "CR3 bits other than DMAR, DMAT and EIE (flow control, IrDA, smartcard, half-duplex)",
                     );
                 }
                 self.cr3 = v;
@@ -455,5 +525,167 @@ impl Usart {
             _ => return None,
         }
         Some(Ok(()))
+    }
+}
+
+impl Usart {
+    /// A CR1 write: the features the model has, the receiver's and the
+    /// transmitter's switching on.
+    fn write_cr1(&mut self, v: u32, now_ns: u64) -> Result<(), String> {
+        let allowed =
+            cr1::UE | cr1::RE | cr1::TE | cr1::RXNEIE | cr1::IDLEIE | cr1::TXEIE | cr1::TCIE;
+        if v & !allowed != 0 {
+            return Err(format!(
+                "{}: CR1 bits other than UE, RE, TE, RXNEIE, IDLEIE, TXEIE, TCIE (send break, parity, 9-bit, wake-up) not modelled",
+                self.name
+            ));
+        }
+        self.check_tx_switch(v)?;
+        let was_on = self.transmitting();
+        if !self.receiving() {
+            // A receiver switched on looks for start bits from now.
+            self.search_from = now_ns as f64;
+        }
+        if v & cr1::UE != 0 && self.brr < 16 {
+            return Err(format!(
+                "{}: enabled with BRR = {:#x} (below 16: no valid baud rate)",
+                self.name, self.brr
+            ));
+        }
+        self.cr1 = v & 0x3FFF;
+        if !was_on && self.transmitting() {
+            // §27.3.2: setting TE sends an idle frame first.
+            self.start_frame(None, now_ns as f64);
+        }
+        Ok(())
+    }
+
+    fn transmitting(&self) -> bool {
+        self.cr1 & (cr1::UE | cr1::TE) == cr1::UE | cr1::TE
+    }
+
+    /// Tells the model whether the TX pin carries its output (the board:
+    /// PA9 configured as an alternate-function output, USART1 not
+    /// remapped). Frames shifted out while it does not are not logged.
+    pub fn set_tx_pin_connected(&mut self, wired: bool) {
+        self.tx_pin = wired;
+    }
+
+    /// Data frames that reached the TX pin since power-on (kept across
+    /// resets), in order.
+    pub fn tx_log(&self) -> &[TxByte] {
+        &self.tx_log
+    }
+
+    /// Takes the frames logged so far (the log starts empty again).
+    pub fn take_tx_log(&mut self) -> Vec<TxByte> {
+        std::mem::take(&mut self.tx_log)
+    }
+
+    /// Data frames shifted out while the TX pin was not wired.
+    pub fn tx_unseen(&self) -> u64 {
+        self.tx_unseen
+    }
+
+    /// The TX line's level at `now_ns` (call after [`Usart::advance`]):
+    /// high when idle and during the idle frame, else the frame's bit.
+    pub fn tx_line_high(&self, now_ns: u64) -> bool {
+        let Some(Shift {
+            start,
+            end,
+            byte: Some(b),
+            ..
+        }) = self.shift
+        else {
+            return true;
+        };
+        let k = ((now_ns as f64 - start) / ((end - start) / 10.0)).floor();
+        !(0.0..10.0).contains(&k) || frame_bit(b, k as u32)
+    }
+
+    /// When the frame on the TX line ends (ns), if one is being sent.
+    pub fn next_tx_ns(&self) -> Option<u64> {
+        self.shift.map(|f| f.end.round() as u64)
+    }
+
+    /// The transmitter's DMA request (USART1_TX: DMA1 channel 4): TXE with
+    /// CR3.DMAT.
+    pub fn tx_dma_request(&self) -> bool {
+        self.cr3 & cr3::DMAT != 0 && self.sr & sr::TXE != 0
+    }
+
+    /// The DMA's write of DR: the same bus access as the CPU's.
+    pub fn dma_write_dr(&mut self, v: u32, now_ns: u64) {
+        self.advance(now_ns);
+        self.write_dr(v as u8, now_ns);
+    }
+
+    /// Clearing TE or UE while a data frame is on the line corrupts it
+    /// (§27.3.2): not modelled.
+    fn check_tx_switch(&self, cr1_new: u32) -> Result<(), String> {
+        let stays_on = cr1_new & (cr1::UE | cr1::TE) == cr1::UE | cr1::TE;
+        match self.shift {
+            Some(Shift { byte: Some(b), .. }) if !stays_on => Err(format!(
+                "{}: TE or UE cleared while byte {b:#04x} is on the TX line (RM0008 §27.3.2: the frame is corrupted)",
+                self.name
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// A DR write: the byte goes to TDR (an SR read before it clears TC),
+    /// then into the shift register if that is free.
+    fn write_dr(&mut self, byte: u8, now_ns: u64) {
+        if std::mem::take(&mut self.tc_seen) {
+            self.sr &= !sr::TC;
+        }
+        self.tdr = Some(byte);
+        self.sr &= !sr::TXE;
+        self.load_shift(now_ns as f64);
+    }
+
+    /// TDR into a free shift register at `t` (ns): TXE sets, the frame
+    /// starts.
+    fn load_shift(&mut self, t: f64) {
+        if self.shift.is_some() || !self.transmitting() {
+            return;
+        }
+        if let Some(b) = self.tdr.take() {
+            self.sr |= sr::TXE;
+            self.start_frame(Some(b), t);
+        }
+    }
+
+    fn start_frame(&mut self, byte: Option<u8>, t: f64) {
+        let bit = self.baud().map_or(0.0, |b| 1e9 / b);
+        self.shift = Some(Shift {
+            start: t,
+            end: t + 10.0 * bit,
+            byte,
+            on_pin: self.tx_pin,
+        });
+    }
+
+    /// Ends the frames on the TX line up to `now_ns`, each followed at
+    /// once by the byte waiting in TDR.
+    fn advance_tx(&mut self, now_ns: u64) {
+        while let Some(f) = self.shift.filter(|f| f.end.round() as u64 <= now_ns) {
+            self.shift = None;
+            if let Some(byte) = f.byte {
+                if f.on_pin {
+                    self.tx_log.push(TxByte {
+                        start_ns: f.start.round() as u64,
+                        end_ns: f.end.round() as u64,
+                        byte,
+                    });
+                } else {
+                    self.tx_unseen += 1;
+                }
+            }
+            self.load_shift(f.end);
+            if self.shift.is_none() && f.byte.is_some() && self.sr & sr::TXE != 0 {
+                self.sr |= sr::TC;
+            }
+        }
     }
 }

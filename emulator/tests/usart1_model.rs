@@ -199,18 +199,25 @@ fn features_outside_the_model_are_refused() {
     );
     u.write(reg::BRR, BRR_420K, 0);
     assert!(
-        matches!(u.write(reg::CR1, cr1::UE | cr1::TE, 0), Some(Err(_))),
-        "transmitter"
+        matches!(u.write(reg::CR1, cr1::UE | cr1::TE | 1, 0), Some(Err(_))),
+        "send break"
+    );
+    assert!(
+        matches!(u.write(reg::CR1, cr1::UE | (1 << 10), 0), Some(Err(_))),
+        "parity"
     );
     assert!(
         matches!(u.write(reg::CR1, cr1::UE | (1 << 12), 0), Some(Err(_))),
         "9 bits"
     );
     assert!(
-        matches!(u.write(reg::CR3, 1 << 7, 0), Some(Err(_))),
-        "transmit DMA"
+        matches!(u.write(reg::CR3, 1 << 8, 0), Some(Err(_))),
+        "RTS flow control"
     );
-    assert!(matches!(u.write(reg::DR, 0x55, 0), Some(Err(_))));
+    assert!(
+        matches!(u.write(reg::CR3, 1 << 3, 0), Some(Err(_))),
+        "half-duplex"
+    );
     assert_eq!(u.read(0x1C, 0), None);
 }
 
