@@ -65,6 +65,12 @@ use sim::scenario::{AcroHand, Mode, Pilot, Scenario, Seen, FRAME_PERIOD_S};
 use sim::{QuadLink, QuadParams, Quadcopter, SensorErrors, TruthSample};
 use std::path::Path;
 
+/// The ADC channel the pack's divider feeds: PA4 = ADC12_IN4 (README's
+/// wiring table).
+pub const BATTERY_ADC_CHANNEL: usize = 4;
+/// The wiring's divider, 10 kΩ over 1 kΩ: the pin sees 1/11 of the pack.
+pub const BATTERY_DIVIDER: f64 = 11.0;
+
 /// The rig's step (ns): the ESCs are read and the quad flown in these.
 pub const STEP_NS: u64 = 500_000;
 /// Time an ESC must see its stop pulse before it runs its motor (s).
@@ -406,6 +412,10 @@ impl FlightRig {
         let (pulse_us, commands) = self.read_escs(t0_s, t1_s - t0_s);
         self.quad.advance_to(t1_s, commands);
         self.link.publish(&self.quad);
+        // The pack on PA4 (ADC12_IN4) through the wiring's divider.
+        let pack_v = self.quad.state().battery_voltage_v;
+        self.board
+            .adc1_set_input_v(BATTERY_ADC_CHANNEL, pack_v / BATTERY_DIVIDER);
         self.board.run_until_ns(t1_ns)?;
         self.record_imu();
         self.samples.push(RigSample {

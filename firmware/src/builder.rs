@@ -13,8 +13,8 @@
 //! be in the C8 builds too, whose flash has no room for it).
 
 use battery::{
-    BatteryAction, BatteryMonitor, Config, DescentConfig, Event, FlightContext, Level,
-    LowBatteryDescent, Scale, Status, SticksQ30,
+    BatteryAction, BatteryMonitor, Config, DescentConfig, DescentPhase, Event, FlightContext,
+    Level, LowBatteryDescent, Scale, Status, SticksQ30,
 };
 use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicU16, AtomicU8, Ordering};
@@ -132,9 +132,11 @@ impl BatteryTask {
             yaw_q30: q30(s.yaw),
             throttle_q30: q30(s.throttle),
         };
+        let before = self.descent.phase();
         self.action = self
             .descent
             .update(self.monitor.status().level, &ctx, &sticks);
+        log_phase(before, self.descent.phase());
         let descend = matches!(self.action, BatteryAction::Descend { .. });
         BATTERY_DESCENT.store(descend, Ordering::Relaxed);
         event
@@ -243,6 +245,20 @@ pub fn battery_config(p: &ParamSet) -> Option<Config> {
         ..Config::DEFAULT
     };
     cfg.check().ok().map(|()| cfg)
+}
+
+/// Says when the low-battery descent starts and when the pilot takes
+/// over (README "Flying": the rule).
+fn log_phase(before: DescentPhase, now: DescentPhase) {
+    match (before, now) {
+        (DescentPhase::Idle, DescentPhase::Descending { .. }) => defmt::error!(
+            "battery: low-battery descent: level, down at the failsafe rate; a roll, pitch or yaw stick past 20 % or the throttle moved 20 % takes over"
+        ),
+        (DescentPhase::Descending { .. }, DescentPhase::PilotControl) => {
+            defmt::warn!("battery: the pilot took over the descent (warning only from now)")
+        }
+        _ => {}
+    }
 }
 
 /// Says what the battery monitor saw, with the numbers a pilot checks.

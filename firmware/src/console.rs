@@ -24,11 +24,11 @@ const READ_BYTES: usize = 64;
 /// up channel with room for the log.
 const LINES_PER_POLL: u8 = 8;
 
-/// A reply line: defmt's `=[u8]:a` prints the bytes as text.
+/// A reply line, as text (the console writes ASCII only).
 fn emit(line: &LineBuf) {
     let b = line.as_bytes();
     let b = b.strip_suffix(b"\n").unwrap_or(b);
-    defmt::println!("{=[u8]:a}", b);
+    defmt::println!("{=str}", core::str::from_utf8(b).unwrap_or("(not text)"));
 }
 
 /// Sends each finished line to the log as it comes.

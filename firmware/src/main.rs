@@ -995,6 +995,8 @@ mod app {
     async fn log(mut cx: log::Context) {
         let mut link = LinkStatus::NeverReceived;
         let mut tick: u32 = 0;
+        #[cfg(feature = "f103cb")]
+        let mut restart_in: Option<u8> = None;
         loop {
             tick = tick.wrapping_add(1);
             // Fed while sample steps complete, or while the outputs are off
@@ -1039,13 +1041,19 @@ mod app {
                     &mut cx.shared.bias,
                 );
             }
+            // A restart after `save` waits two rounds (100 ms): the probe
+            // reads the reply out of RAM before the reset clears it.
             #[cfg(feature = "f103cb")]
             {
+                if restart_in == Some(0) {
+                    cortex_m::peripheral::SCB::sys_reset();
+                }
+                restart_in = restart_in.map(|n| n.saturating_sub(1));
                 let counts = builder::filtered_counts();
                 let armed = ARMED.load(Ordering::Relaxed);
                 let after = cx.local.console.poll(cx.local.flash, armed, counts);
                 if after == crate::console::After::Restart {
-                    cortex_m::peripheral::SCB::sys_reset();
+                    restart_in = Some(2);
                 }
             }
             // Heartbeat: 1 Hz normally, 5 Hz while calibrating.

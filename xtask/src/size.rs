@@ -9,10 +9,6 @@ use crate::{elf_sizes, say, target_dir, Sizes};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Flash budget for the release firmware: `memory.x`'s FLASH region, the
-/// flash plan's 60 KiB code region (the linker refuses more; this says by
-/// how much before it does).
-pub const FLASH_BUDGET: u64 = 60 * 1024;
 /// Static RAM (.data + .bss + .uninit) budget; the stack takes the rest.
 pub const RAM_BUDGET: u64 = 12 * 1024;
 /// The flash plan's code region when the ELF does not name it
