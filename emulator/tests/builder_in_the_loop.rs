@@ -49,6 +49,9 @@ fn line_s(b: &Board, pat: &str) -> f64 {
     l.host_time_ns as f64 * 1e-9
 }
 
+/// Whether a frame is of one kind.
+type FrameTest = fn(&TelemetryFrame) -> bool;
+
 /// The CRSF frames in the bytes the USART sent, with the time each began.
 fn frames(b: &mut Board) -> Vec<(f64, TelemetryFrame)> {
     let tx = b.usart1_tx_log().to_vec();
@@ -102,8 +105,7 @@ fn a_low_pack_warns_then_descends_and_lands_on_the_board() {
         let last_above = r
             .samples()
             .iter()
-            .filter(|s| s.t_s < t && s.quad.battery_voltage_v >= cell_v * cells)
-            .next_back()
+            .rfind(|s| s.t_s < t && s.quad.battery_voltage_v >= cell_v * cells)
             .map_or(0.0, |s| s.t_s);
         assert!(
             (3.0..12.0).contains(&(t - last_above)),
@@ -138,13 +140,13 @@ fn telemetry_frames_leave_pa9_at_5_hz_each_with_the_crafts_state() {
         return;
     };
     let f = frames(r.board_mut());
-    let count = |t0: f64, t1: f64, kind: fn(&TelemetryFrame) -> bool| {
+    let count = |t0: f64, t1: f64, kind: FrameTest| {
         f.iter()
             .filter(|(t, x)| *t >= t0 && *t < t1 && kind(x))
             .count() as f64
             / (t1 - t0)
     };
-    let kinds: [(&str, fn(&TelemetryFrame) -> bool); 4] = [
+    let kinds: [(&str, FrameTest); 4] = [
         ("battery", |x| matches!(x, TelemetryFrame::Battery { .. })),
         ("attitude", |x| matches!(x, TelemetryFrame::Attitude { .. })),
         ("baro", |x| matches!(x, TelemetryFrame::BaroAltitude { .. })),
