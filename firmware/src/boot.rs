@@ -239,6 +239,7 @@ pub fn build_pipeline(
     sensors: &Sensors<BusHandle>,
     caps: &Capabilities,
     record: &CalibrationRecord,
+    #[cfg(feature = "f103cb")] gyro_filter: sensor_stack::gyro_filter::GyroFilterDesign,
 ) -> Option<Pipeline> {
     let scale = sensors.mpu_scale();
     let cfg = PipelineConfig {
@@ -248,6 +249,8 @@ pub fn build_pipeline(
         mag_ut_per_lsb: sensors.mag_ut_per_lsb(),
         ahrs_mode: caps.ahrs,
         altitude: caps.altitude,
+        #[cfg(feature = "f103cb")]
+        gyro_filter,
         ..settings::pipeline_config()
     };
     let p = Pipeline::new(cfg, record).ok();

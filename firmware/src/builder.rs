@@ -24,6 +24,8 @@ use params::{ParamId, ParamSet};
 use rc_input::telemetry::{
     Arming, Attitude, BaroAltitude, Battery, FlightMode as ModeFrame, ModeName, TelemetrySnapshot,
 };
+use sensor_stack::gyro_filter::GyroFilterDesign;
+use sensor_stack::storage::CalibrationRecord;
 
 use crate::adc::BatteryAdc;
 use crate::crsf_tx::{CrsfTx, FRAME_BYTES};
@@ -258,6 +260,31 @@ fn log_phase(before: DescentPhase, now: DescentPhase) {
             defmt::warn!("battery: the pilot took over the descent (warning only from now)")
         }
         _ => {}
+    }
+}
+
+/// The calibration record with the settings' mounting and level trim
+/// (`params::ParamSet::level_trim_mpu_g`: an accelerometer offset in the
+/// MPU frame, added to the calibrated one).
+pub fn with_settings(mut rec: CalibrationRecord, p: &ParamSet) -> CalibrationRecord {
+    rec.mounting = p.mounting();
+    let trim = p.level_trim_mpu_g(&rec.mounting);
+    for (o, t) in rec.accel_offset_g.iter_mut().zip(trim) {
+        *o += t;
+    }
+    rec
+}
+
+/// The rate loop's gyro filter from the settings, designed at boot for
+/// the sample rate; the board's own (`settings`) if the design refuses
+/// them (the table's ranges are meant to make that impossible).
+pub fn gyro_filter(p: &ParamSet) -> GyroFilterDesign {
+    match p.gyro_filter().design(settings::IMU_RATE_HZ as f32) {
+        Ok(d) => d,
+        Err(e) => {
+            defmt::error!("settings: gyro filter refused ({}); board default", e);
+            settings::GYRO_FILTER_DESIGN
+        }
     }
 }
 

@@ -39,7 +39,7 @@ use sensor_stack::Mounting;
 /// Sticks and arm switch: AETR on channels 1-4, arm on channel 5 (AUX1,
 /// which ExpressLRS always sends at full rate) in the high position.
 #[inline(always)]
-pub fn channel_map() -> ChannelMap {
+pub const fn channel_map() -> ChannelMap {
     ChannelMap::DEFAULT
 }
 

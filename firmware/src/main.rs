@@ -376,7 +376,15 @@ mod app {
         let record = load_calibration(&mut flash);
         #[cfg(feature = "f103cb")]
         let params = load_params(&mut flash);
-        let pipeline = build_pipeline(&sensors, &sensors.capabilities(), &record);
+        #[cfg(feature = "f103cb")]
+        let record = crate::builder::with_settings(record, &params);
+        let pipeline = build_pipeline(
+            &sensors,
+            &sensors.capabilities(),
+            &record,
+            #[cfg(feature = "f103cb")]
+            crate::builder::gyro_filter(&params),
+        );
         let bias = start_gyro_bias(&sensors);
         let session = start_session(&button_pin);
         #[cfg(not(feature = "ppm"))]
@@ -415,7 +423,10 @@ mod app {
                 stats: LoopStats::new(now),
                 session,
                 bias: BiasStatus::GaveUp,
+                #[cfg(not(feature = "f103cb"))]
                 pilot: Pilot::new(),
+                #[cfg(feature = "f103cb")]
+                pilot: Pilot::new().with_settings(&params),
                 outputs,
             },
             Local {

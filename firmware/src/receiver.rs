@@ -307,6 +307,11 @@ pub struct Pilot {
     /// The PPM input's counters (the `ppm` build's receiver).
     #[cfg(feature = "ppm")]
     pub ppm: crate::ppm::PpmCounters,
+    /// The channel map and the mode and motor-test switch channels from
+    /// the settings (the STM32F103CB build; the C8's are `config`'s
+    /// constants).
+    #[cfg(feature = "f103cb")]
+    channels: (ChannelMap, u8, u8),
 }
 
 impl Pilot {
@@ -332,7 +337,46 @@ impl Pilot {
             },
             #[cfg(feature = "ppm")]
             ppm: crate::ppm::PpmCounters::ZERO,
+            #[cfg(feature = "f103cb")]
+            channels: (
+                config::channel_map(),
+                config::MODE_CHANNEL,
+                config::MOTOR_TEST_CHANNEL,
+            ),
         }
+    }
+
+    /// With the settings' channels and link timeout (the STM32F103CB
+    /// build). A set the receiver code refuses (a switch on a stick's
+    /// channel, a timeout out of range) is logged and the board's
+    /// defaults kept.
+    #[cfg(feature = "f103cb")]
+    pub fn with_settings(mut self, p: &params::ParamSet) -> Self {
+        match p.channel_map() {
+            Ok(map) => self.channels = (map, p.mode_channel(), p.motor_test_channel()),
+            Err(e) => defmt::error!("settings: channels refused ({}); board defaults", e),
+        }
+        match LinkMonitor::new(p.link_timeout_us()) {
+            Ok(link) => self.link = link,
+            Err(e) => defmt::error!("settings: link timeout refused ({}); default", e),
+        }
+        self
+    }
+
+    /// The channel map and the mode and motor-test channels.
+    #[cfg(feature = "f103cb")]
+    fn channels(&self) -> (ChannelMap, u8, u8) {
+        self.channels
+    }
+
+    /// The channel map and the mode and motor-test channels.
+    #[cfg(not(feature = "f103cb"))]
+    fn channels(&self) -> (ChannelMap, u8, u8) {
+        (
+            config::channel_map(),
+            config::MODE_CHANNEL,
+            config::MOTOR_TEST_CHANNEL,
+        )
     }
 
     /// A parsed frame at `now_us`.
@@ -369,14 +413,11 @@ impl Pilot {
     /// link otherwise (also for a frame missing a stick or the arm switch).
     pub fn input(&mut self, now_us: u32) -> PilotInput {
         if core::mem::take(&mut self.remap) {
-            self.mapped = self.frame.as_ref().and_then(|f| {
-                map_frame(
-                    f,
-                    &config::channel_map(),
-                    config::MODE_CHANNEL,
-                    config::MOTOR_TEST_CHANNEL,
-                )
-            });
+            let (map, mode, test) = self.channels();
+            self.mapped = self
+                .frame
+                .as_ref()
+                .and_then(|f| map_frame(f, &map, mode, test));
         }
         let link_up = !self.link.is_lost(now_us);
         match self.mapped {

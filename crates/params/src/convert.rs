@@ -17,7 +17,8 @@
 //! | `rc.*` | [`ParamSet::channel_map`], [`ParamSet::mode_channel`], [`ParamSet::motor_test_channel`] |
 //! | `failsafe.timeout` | [`ParamSet::link_timeout_us`] (`rc_input::LinkMonitor::new`) |
 //! | `imu.mount` | [`ParamSet::mounting`] |
-//! | `batt.*`, `trim.*` | read with [`ParamSet::get`] (scaled integers), below |
+//! | `trim.roll`, `trim.pitch` | [`ParamSet::level_trim_mpu_g`] (an accelerometer offset) |
+//! | `batt.*` | read with [`ParamSet::get`] (scaled integers), below |
 //!
 //! Not yet consumed by a configuration type, so read as scaled integers:
 //!
@@ -30,8 +31,8 @@
 //! * `trim.roll`, `trim.pitch` (2 decimals, degrees): the tilt angle mode
 //!   holds with centred sticks, which cancels the accelerometer's level
 //!   error (the calibration residue of a few tenths of a degree that makes
-//!   the craft drift); added to the self-level loop's tilt setpoint (rad =
-//!   value × π / 18000).
+//!   the craft drift): an accelerometer offset ([`ParamSet::level_trim_mpu_g`])
+//!   that makes the attitude estimate read level at that tilt.
 //!
 //! The f32 values are the scaled integer divided by 10^decimals, which is
 //! the f32 nearest the decimal (both operands are exact), so the defaults
@@ -170,5 +171,31 @@ impl ParamSet {
             .ok()
             .and_then(|c| Mounting::from_code(c).ok())
             .unwrap_or_default()
+    }
+
+    /// The level trim as an offset to add to the calibration's
+    /// accelerometer offset (g, MPU sensor frame, `mounting` taking body
+    /// FRD to it). At rest tilted by roll φ and pitch θ the accelerometer
+    /// reads (g sin θ, −g sin φ cos θ, ·) in body FRD; subtracting
+    /// (sin θ_t, −sin φ_t, 0) g from it makes the estimate read level at
+    /// (φ_t, θ_t), so angle mode holds the craft there with centred sticks
+    /// (`trim.roll` > 0: right side down; `trim.pitch` > 0: nose up). The
+    /// sine by its Taylor series to the cube (within 2·10⁻⁶ at the ±10°
+    /// limit): no libm on the board for two numbers at boot.
+    pub fn level_trim_mpu_g(&self, mounting: &Mounting) -> [f32; 3] {
+        let rad = |id: P| self.real(id) * (core::f32::consts::PI / 180.0);
+        let sin = |x: f32| x - x * x * x / 6.0;
+        let body = [sin(rad(P::TrimPitch)), -sin(rad(P::TrimRoll)), 0.0];
+        // Body → MPU: the transpose of the signed permutation `mounting`
+        // applies (MPU → body); its columns are the images of the axes.
+        let col = |i: usize| {
+            let mut e = [0.0f32; 3];
+            if let Some(x) = e.get_mut(i) {
+                *x = 1.0;
+            }
+            mounting.apply_f32(e)
+        };
+        let dot = |c: [f32; 3]| c[0] * body[0] + c[1] * body[1] + c[2] * body[2];
+        [dot(col(0)), dot(col(1)), dot(col(2))]
     }
 }
