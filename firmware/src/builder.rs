@@ -279,7 +279,7 @@ pub fn with_settings(mut rec: CalibrationRecord, p: &ParamSet) -> CalibrationRec
 /// the sample rate; the board's own (`settings`) if the design refuses
 /// them (the table's ranges are meant to make that impossible).
 pub fn gyro_filter(p: &ParamSet) -> GyroFilterDesign {
-    match p.gyro_filter().design(settings::IMU_RATE_HZ as f32) {
+    match p.gyro_filter().design(settings::IMU_RATE_HZ) {
         Ok(d) => d,
         Err(e) => {
             defmt::error!("settings: gyro filter refused ({}); board default", e);
