@@ -56,6 +56,64 @@ pub fn telemetry() -> TelemetrySnapshot {
     critical_section::with(|cs| TELEMETRY.borrow(cs).get()).unwrap_or_default()
 }
 
+/// The rate loop's last raw-log period: setpoint and gyro per axis (body
+/// FRD, °/s, interleaved as the raw log's columns), flight step → raw-log
+/// task.
+static RATE_BLOCK: Mutex<Cell<[f32; 6]>> = Mutex::new(Cell::new([f32::NAN; 6]));
+
+/// The rate loop's setpoint and the filtered gyro it controls, averaged
+/// over each raw-log period (10 samples: a boxcar before the 100 Hz
+/// decimation, so rotor vibration does not alias into the band the
+/// analysis reads), for the raw log's rate columns (`cargo sim --analyse`).
+pub struct RateLog {
+    sum: [f32; 6],
+    n: u16,
+}
+
+impl RateLog {
+    /// Nothing summed.
+    pub const fn new() -> Self {
+        Self {
+            sum: [0.0; 6],
+            n: 0,
+        }
+    }
+
+    /// One flight step: its rate setpoint (rad/s) and the gyro the loop
+    /// saw (Q16 rad/s); each full period published for the raw log.
+    pub fn push(&mut self, out: &FlightOutput, gyro_q16: Option<[i32; 3]>) {
+        let Some(g) = gyro_q16 else {
+            return;
+        };
+        let sp = &out.rate_setpoint;
+        let deg = 180.0 / core::f32::consts::PI;
+        let q16 = |x: i32| x as f32 * (deg / 65_536.0);
+        let v = [
+            sp.roll_rps * deg,
+            q16(g[0]),
+            sp.pitch_rps * deg,
+            q16(g[1]),
+            sp.yaw_rps * deg,
+            q16(g[2]),
+        ];
+        for (s, x) in self.sum.iter_mut().zip(v) {
+            *s += x;
+        }
+        self.n += 1;
+        if self.n >= sensor_stack::calmode::RAW_LOG_DIVIDER {
+            let k = 1.0 / f32::from(self.n);
+            let block = self.sum.map(|s| s * k);
+            critical_section::with(|cs| RATE_BLOCK.borrow(cs).set(block));
+            *self = Self::new();
+        }
+    }
+}
+
+/// The last published rate block (NaN before the first).
+pub fn rate_block() -> [f32; 6] {
+    critical_section::with(|cs| RATE_BLOCK.borrow(cs).get())
+}
+
 /// [`FLIGHT`]'s bits.
 struct FlightBits;
 

@@ -160,6 +160,7 @@ mod cb {
     pub type Schedule = rc_input::TelemetryScheduler;
     pub type Battery = Option<crate::builder::BatteryTask>;
     pub type Console = crate::console::Console;
+    pub type RateLog = crate::builder::RateLog;
 }
 #[cfg(not(feature = "f103cb"))]
 mod cb {
@@ -167,6 +168,7 @@ mod cb {
     pub type Schedule = ();
     pub type Battery = ();
     pub type Console = ();
+    pub type RateLog = ();
 }
 mod stack;
 mod store;
@@ -331,6 +333,8 @@ mod app {
         /// The settings console (a unit in the C8 builds, which have
         /// none: named in the log task's locals in every build).
         console: crate::cb::Console,
+        /// The raw log's rate columns (a unit in the C8 builds).
+        rate_log: crate::cb::RateLog,
     }
 
     // RTIC's init locals take no cfg: the C8 builds keep the unused
@@ -458,6 +462,10 @@ mod app {
                 console: crate::console::Console::new(console_down, params),
                 #[cfg(not(feature = "f103cb"))]
                 console: (),
+                #[cfg(feature = "f103cb")]
+                rate_log: crate::builder::RateLog::new(),
+                #[cfg(not(feature = "f103cb"))]
+                rate_log: (),
             },
         )
     }
@@ -508,7 +516,7 @@ mod app {
     /// and the flight controller, set the ESC outputs (through the output
     /// guard: a forced off first disarms the controller, and holds).
     #[task(binds = CAN_RX1, priority = 3,
-           local = [step, fc],
+           local = [step, fc, rate_log],
            shared = [sensors, pipeline, stats, session, bias, pilot, started, outputs])]
     fn sample_done(mut cx: sample_done::Context) {
         let t0 = DWT::cycle_count();
@@ -657,6 +665,7 @@ mod app {
                 fc.set_battery_descent(builder::BATTERY_DESCENT.load(Ordering::Relaxed));
                 let o = fc.step(now_us, &pilot, &status, &v);
                 builder::publish_flight(&o, fc.in_flight());
+                cx.local.rate_log.push(&o, v.gyro_rps_q16);
                 Some(o)
             }
             _ => None,
@@ -872,10 +881,21 @@ mod app {
     #[task(priority = 1)]
     async fn raw_log(_cx: raw_log::Context, r: RawLogRow) {
         let c = r.columns();
+        #[cfg(not(feature = "f103cb"))]
         defmt::println!(
             "{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},nan,nan,nan,nan,0",
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9]
         );
+        // The CB build adds the rate loop's columns (`RATE_LOG_COLUMNS`).
+        #[cfg(feature = "f103cb")]
+        {
+            let k = builder::rate_block();
+            defmt::println!(
+                "{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},nan,nan,nan,nan,0,{=f32},{=f32},{=f32},{=f32},{=f32},{=f32}",
+                c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9],
+                k[0], k[1], k[2], k[3], k[4], k[5]
+            );
+        }
     }
 
     /// Barometer schedule, configuration checks and one maintenance step
@@ -1097,8 +1117,14 @@ mod app {
                     // `RAW_LOG_HEADER` as an interned literal (a `{=str}`
                     // argument would put its 125 bytes in flash); the
                     // emulated board's raw-log test checks the two agree.
+                    #[cfg(not(feature = "f103cb"))]
                     defmt::println!(
                         "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving"
+                    );
+                    // `RAW_LOG_HEADER` and `RATE_LOG_COLUMNS`.
+                    #[cfg(feature = "f103cb")]
+                    defmt::println!(
+                        "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving,sp_roll_rate_dps,gyro_roll_dps,sp_pitch_rate_dps,gyro_pitch_dps,sp_yaw_rate_dps,gyro_yaw_dps"
                     );
                 }
             }

@@ -384,6 +384,13 @@ pub const RAW_LOG_HEADER: &str =
     "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,\
 mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving";
 
+/// The columns the STM32F103CB build adds to [`RAW_LOG_HEADER`]: the rate
+/// loop's setpoint and the filtered gyro it controls, body FRD, °/s,
+/// averaged over each raw-log period, as `cargo sim --analyse` reads them
+/// (the scenario CSV's names).
+pub const RATE_LOG_COLUMNS: &str = "sp_roll_rate_dps,gyro_roll_dps,sp_pitch_rate_dps,\
+gyro_pitch_dps,sp_yaw_rate_dps,gyro_yaw_dps";
+
 /// Raw-log rate: every [`RAW_LOG_DIVIDER`]th IMU sample (100 Hz at 1 kHz,
 /// on the magnetometer's tick; ~45 bytes a row of defmt-encoded floats,
 /// ≈ 4.5 KB/s over RTT).

@@ -2,9 +2,11 @@
 //! from a log instead of a simulated flight. The log needs a time column
 //! `t_s` and, per axis, the rate setpoint the controller used and the gyro
 //! it saw: `sp_roll_rate_dps` and `gyro_roll_dps` (and pitch, yaw), as the
-//! scenario CSV (`cargo sim --scenario NAME --csv FILE`) has them. The
-//! board's raw log (`sensor_stack::calmode::RAW_LOG_HEADER`) holds the
-//! gyro only, at 100 Hz, with no setpoint: it is recognised and refused
+//! scenario CSV (`cargo sim --scenario NAME --csv FILE`) has them, and
+//! the STM32F103CB build's raw log at 100 Hz
+//! (`sensor_stack::calmode::RATE_LOG_COLUMNS` after `RAW_LOG_HEADER`): a
+//! real flight's log is analysed the same way. The C8 build's raw log
+//! holds the sensors only, with no setpoint: it is recognised and refused
 //! with that reason.
 
 use super::tuning::{self, AxisReport, AxisSignals, AXES};
@@ -53,11 +55,12 @@ fn columns(header: &[&str], names: &[String]) -> Result<Vec<usize>, String> {
 pub fn parse(text: &str) -> Result<LogSignals, String> {
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().ok_or("empty file")?.split(',').collect();
-    if header.contains(&RAW_LOG_GYRO) {
+    if header.contains(&RAW_LOG_GYRO) && !header.contains(&"sp_roll_rate_dps") {
         return Err(
-            "this is the board's raw log: gyro, accelerometer and magnetometer at 100 Hz in the sensor frame, \
+            "this is the C8 build's raw log: gyro, accelerometer and magnetometer at 100 Hz in the sensor frame, \
              with no rate setpoint (nor sticks, nor torque), so the loop's response cannot be measured from it; \
-             the analysis needs t_s, sp_<axis>_rate_dps and gyro_<axis>_dps (the scenario CSV's columns)"
+             the analysis needs t_s, sp_<axis>_rate_dps and gyro_<axis>_dps (the scenario CSV's columns, \
+             and the STM32F103CB build's raw log)"
                 .into(),
         );
     }
@@ -191,6 +194,22 @@ mod tests {
             sensor_stack::calmode::RAW_LOG_HEADER
         );
         assert!(parse(&raw).unwrap_err().contains("no rate setpoint"));
+        // The CB build's raw log carries the rate columns: read by name.
+        let mut cb = format!(
+            "{},{}\n",
+            sensor_stack::calmode::RAW_LOG_HEADER,
+            sensor_stack::calmode::RATE_LOG_COLUMNS
+        );
+        for i in 0..200 {
+            let sp = (f64::from(i) * 0.3).sin() * 100.0;
+            cb.push_str(&format!(
+                "{},0,0,0,0,0,9.8,1,2,3,nan,nan,nan,nan,0,{sp},{sp},{sp},{sp},{sp},{sp}\n",
+                f64::from(i) * 0.01
+            ));
+        }
+        let l = parse(&cb).unwrap();
+        assert_eq!((l.rows, l.fs_hz.round()), (200, 100.0));
+        assert!((l.axes[0].gyro_rps[10] - l.axes[0].setpoint_rps[10]).abs() < 1e-12);
         assert!(parse("t_s,sp_roll_rate_dps\n0,1\n")
             .unwrap_err()
             .contains("gyro_roll_dps"));
