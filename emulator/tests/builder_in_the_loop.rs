@@ -197,6 +197,18 @@ fn telemetry_frames_leave_pa9_at_5_hz_each_with_the_crafts_state() {
         }
     }
     assert!(checked.iter().all(|&n| n >= 50), "{checked:?}");
+    // The frames leave by DMA: the 1 kHz loop keeps every sample.
+    let loops: Vec<_> = r
+        .board()
+        .log_lines()
+        .iter()
+        .filter(|l| (8.5e9..18e9).contains(&(l.host_time_ns as f64)) && l.text.contains("loop:"))
+        .map(|l| (field(&l.text, "loop:"), l.text.clone()))
+        .collect();
+    assert!(loops.len() >= 8, "{} loop lines", loops.len());
+    for (runs, text) in loops {
+        assert!(runs >= 990, "{text}");
+    }
 }
 
 /// `PARAMS_B`'s offset in the CB's flash (`memory-cb.x`).
