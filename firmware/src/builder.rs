@@ -14,13 +14,13 @@
 
 use battery::{
     BatteryAction, BatteryMonitor, Config, DescentConfig, DescentPhase, Event, FlightContext,
-    Level, LowBatteryDescent, Scale, Status, SticksQ30,
+    Level, LowBatteryDescent, Status, SticksQ30,
 };
 use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicU16, AtomicU8, Ordering};
 use critical_section::Mutex;
 use flight::flightctl::{FlightMode, FlightOutput, FlightState, PilotInput};
-use params::{ParamId, ParamSet};
+use params::ParamSet;
 use rc_input::telemetry::{
     Arming, Attitude, BaroAltitude, Battery, FlightMode as ModeFrame, ModeName, TelemetrySnapshot,
 };
@@ -283,28 +283,12 @@ pub fn start(
             None
         }
     };
-    let cfg = battery_config(params).unwrap_or_else(|| {
-        defmt::error!("battery: settings refused (critical not below warning?); defaults used");
+    let cfg = params.battery_config().unwrap_or_else(|e| {
+        defmt::error!("battery: settings refused ({}); defaults used", e);
         Config::DEFAULT
     });
     let task = BatteryTask::new(adc, cfg, DescentConfig::DEFAULT);
     (tx, task)
-}
-
-/// The battery settings from the parameter table: `batt.scale` (pack
-/// volts per pin volt, 3 decimals; × 3300 mV at full scale),
-/// `batt.cells` (0: detect), `batt.warn_cv` and `batt.crit_cv`
-/// (centivolts per cell). `None` if the monitor refuses them.
-pub fn battery_config(p: &ParamSet) -> Option<Config> {
-    let ratio_milli = p.get(ParamId::BattScale) as u32;
-    let cfg = Config {
-        scale: Scale::new(ratio_milli * 3300 / 1000).ok()?,
-        cells_override: p.get(ParamId::BattCells) as u8,
-        warning_cell_mv: (p.get(ParamId::BattWarn) * 10) as u16,
-        critical_cell_mv: (p.get(ParamId::BattCrit) * 10) as u16,
-        ..Config::DEFAULT
-    };
-    cfg.check().ok().map(|()| cfg)
 }
 
 /// Says when the low-battery descent starts and when the pilot takes

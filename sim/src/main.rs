@@ -141,6 +141,19 @@ struct Cli {
     /// DLPF_CFG 1..=6, e.g. gyro.dlpf=1:3:3); with a torque-noise column.
     #[arg(long, value_name = "SPEC", requires = "scenario", conflicts_with_all = ["csv", "bode"])]
     sweep: Option<demo::sweep::SweepSpec>,
+    /// With --scenario: fly the board's settings changed by FILE, the
+    /// lines the board's console prints for `dump` or `diff` (`set NAME
+    /// VALUE`, `#` comments): the rate and level gains, rates and expo,
+    /// gyro and D-term filters, failsafe timings, ESC idle and the battery
+    /// thresholds act on the model; the channel map, link timeout,
+    /// mounting and trim are the board's wiring, which the model has not.
+    #[arg(
+        long,
+        value_name = "FILE",
+        requires = "scenario",
+        conflicts_with = "sweep"
+    )]
+    settings: Option<PathBuf>,
     /// No progress line on stderr.
     #[arg(short, long)]
     quiet: bool,
@@ -474,7 +487,7 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
     if let Some(spec) = &cli.sweep {
         return demo::tuning_cli::sweep(spec, &opts, outputs.plot);
     }
-    let mut fc = demo::flight_fc::FirmwareFc::new(settings::flight_config())?;
+    let mut fc = board_settings(cli, &mut opts)?;
     say!(
         "sim: closed loop, scenario {}, seed {} (board {}), {} s; 250-class quad model, flight pipeline with the {}, {}",
         scenario.name(),
@@ -503,6 +516,39 @@ fn execute_scenario(name: &str, cli: &Cli, outputs: Outputs) -> Result<(), Strin
         demo::tuning_cli::report_chirp(&log, opts.seed, bode)?;
     }
     Ok(())
+}
+
+/// The flight controller with the board's settings, changed by
+/// `--settings` (its gyro filter into `opts`' boot configuration).
+fn board_settings(
+    cli: &Cli,
+    opts: &mut demo::closed_loop::ClosedLoopOptions,
+) -> Result<demo::flight_fc::FirmwareFc, String> {
+    let Some(path) = &cli.settings else {
+        return demo::flight_fc::FirmwareFc::new(settings::flight_config());
+    };
+    let set = demo::settings_file::read(path)?;
+    let changed = demo::settings_file::changed(&set);
+    say!(
+        "sim: settings from {}: {}",
+        path.display(),
+        if changed.is_empty() {
+            "the defaults".to_string()
+        } else {
+            changed.join(", ")
+        }
+    );
+    let rate = settings::IMU_RATE_HZ;
+    opts.boot.pipeline.gyro_filter = set
+        .gyro_filter()
+        .design(rate)
+        .map_err(|e| format!("{}: gyro filter: {e:?}", path.display()))?;
+    let battery = set
+        .battery_config()
+        .map_err(|e| format!("{}: battery: {e}", path.display()))?;
+    let cfg = set.flight_config(settings::flight_config());
+    demo::flight_fc::FirmwareFc::with_battery(cfg, battery)
+        .map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Writes the scenario's plot and CSV beside their targets, then renames

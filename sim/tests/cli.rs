@@ -405,3 +405,42 @@ fn the_chirp_is_measured_and_its_csv_can_be_analysed() {
     assert_eq!(same.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(d);
 }
+
+#[test]
+fn a_settings_file_from_the_boards_console_is_flown_and_a_bad_line_refused() {
+    let d = dir("settings");
+    let file = d.join("diff.txt");
+    let rise = |o: &Output| -> f64 {
+        let out = String::from_utf8_lossy(&o.stdout);
+        let line = out
+            .lines()
+            .find(|l| l.starts_with("roll (estimate) step"))
+            .unwrap();
+        let at = line.find("rise (10-90 %) ").unwrap() + "rise (10-90 %) ".len();
+        line[at..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let board = sim(&["--scenario", "steps", "-q"]);
+    // Half the level loop's gain: the angle step rises about twice as slowly.
+    std::fs::write(&file, "# the board's `diff`\nset level.p 6.0 # 1/s\n").unwrap();
+    let slower = sim(&[
+        "--scenario",
+        "steps",
+        "-q",
+        "--settings",
+        file.to_str().unwrap(),
+    ]);
+    assert_eq!(slower.status.code(), Some(0), "{}", stderr(&slower));
+    let (r0, r1) = (rise(&board), rise(&slower));
+    assert!(r1 > 1.6 * r0, "rise {r0} s → {r1} s");
+    std::fs::write(&file, "set level.p 6.0\nset level.p 99\n").unwrap();
+    let bad = sim(&["--scenario", "steps", "--settings", file.to_str().unwrap()]);
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(stderr(&bad).contains("line 2: error"), "{}", stderr(&bad));
+    assert!(bad.stdout.is_empty(), "flew before refusing");
+    let _ = std::fs::remove_dir_all(d);
+}

@@ -18,7 +18,7 @@
 //! | `failsafe.timeout` | [`ParamSet::link_timeout_us`] (`rc_input::LinkMonitor::new`) |
 //! | `imu.mount` | [`ParamSet::mounting`] |
 //! | `trim.roll`, `trim.pitch` | [`ParamSet::level_trim_mpu_g`] (an accelerometer offset) |
-//! | `batt.*` | read with [`ParamSet::get`] (scaled integers), below |
+//! | `batt.*` | [`ParamSet::battery_config`] |
 //!
 //! Not yet consumed by a configuration type, so read as scaled integers:
 //!
@@ -42,6 +42,7 @@
 
 use crate::table::ParamSet;
 use crate::ParamId as P;
+use battery::Scale;
 use flight::flightctl::FlightConfig;
 use rc_input::{ChannelMap, ChannelOrder, ConfigError, SwitchPosition};
 use sensor_stack::gyro_filter::{GyroFilterConfig, GyroLowPass, GyroNotch};
@@ -171,6 +172,24 @@ impl ParamSet {
             .ok()
             .and_then(|c| Mounting::from_code(c).ok())
             .unwrap_or_default()
+    }
+
+    /// The battery monitor's settings: `batt.scale` (pack volts per pin
+    /// volt, 3 decimals; × 3300 mV at the ADC's full scale), `batt.cells`
+    /// (0: detect), `batt.warn_cv`, `batt.crit_cv` (0.01 V a cell); the
+    /// rest `battery::Config::DEFAULT`'s. The monitor's own range check
+    /// refuses a critical level at or above the warning, and the table's
+    /// wider ranges below 3.00 / 2.80 V.
+    pub fn battery_config(&self) -> Result<battery::Config, battery::Error> {
+        let v = |id: P| u32::try_from(self.get(id)).unwrap_or(0);
+        let cfg = battery::Config {
+            scale: Scale::new(v(P::BattScale) * 3300 / 1000)?,
+            cells_override: u8::try_from(v(P::BattCells)).unwrap_or(0),
+            warning_cell_mv: u16::try_from(v(P::BattWarn) * 10).unwrap_or(0),
+            critical_cell_mv: u16::try_from(v(P::BattCrit) * 10).unwrap_or(0),
+            ..battery::Config::DEFAULT
+        };
+        cfg.check().map(|()| cfg)
     }
 
     /// The level trim as an offset to add to the calibration's

@@ -83,7 +83,7 @@ fn the_wiring_is_the_firmware_configs() {
     assert_eq!(d.mounting(), Mounting::FACE_UP_X_FORWARD);
     let text = include_str!("../../../firmware/src/config.rs");
     assert!(
-        text.contains("pub fn channel_map() -> ChannelMap {\n    ChannelMap::DEFAULT\n}"),
+        text.contains("pub const fn channel_map() -> ChannelMap {\n    ChannelMap::DEFAULT\n}"),
         "firmware's channel_map() is no longer ChannelMap::DEFAULT: update rc.* defaults"
     );
     assert_eq!(d.channel_map(), Ok(ChannelMap::DEFAULT));
@@ -159,4 +159,19 @@ fn every_flight_config_within_the_table_is_accepted() {
             );
         }
     }
+}
+
+#[test]
+fn the_battery_settings_default_to_the_monitors_and_refuse_a_critical_above_the_warning() {
+    let mut p = ParamSet::defaults();
+    assert_eq!(p.battery_config(), Ok(battery::Config::DEFAULT));
+    p.set(ParamId::BattCells, 4).unwrap();
+    p.set(ParamId::BattScale, 10_000).unwrap();
+    let c = p.battery_config().unwrap();
+    assert_eq!((c.cells_override, c.scale.full_scale_mv()), (4, 33_000));
+    p.set(ParamId::BattCrit, 360).unwrap();
+    assert!(
+        p.battery_config().is_err(),
+        "critical 3.60 V above the 3.50 V warning"
+    );
 }

@@ -31,11 +31,16 @@ pub struct FirmwareFc {
 impl FirmwareFc {
     /// With `cfg`.
     pub fn new(cfg: FlightConfig) -> Result<Self, String> {
+        Self::with_battery(cfg, Config::DEFAULT)
+    }
+
+    /// With `cfg` and the battery monitor's settings `battery`.
+    pub fn with_battery(cfg: FlightConfig, battery: Config) -> Result<Self, String> {
         Ok(Self {
             fc: FlightController::new(cfg).map_err(|e| e.to_string())?,
             shaping: StickShaping::new(cfg.sticks).map_err(|e| format!("sticks: {e}"))?,
             events: Vec::new(),
-            battery: BatteryMonitor::new(Config::DEFAULT).map_err(|e| e.to_string())?,
+            battery: BatteryMonitor::new(battery).map_err(|e| e.to_string())?,
             descent: LowBatteryDescent::new(DescentConfig::DEFAULT).map_err(|e| e.to_string())?,
             level: Level::NoBattery,
             next_battery_us: None,

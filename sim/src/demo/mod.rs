@@ -33,6 +33,7 @@ pub mod plot_closed;
 pub mod radio;
 pub mod run;
 pub mod scenario_csv;
+pub mod settings_file;
 pub mod spectrum;
 pub mod stack;
 pub mod sweep;
