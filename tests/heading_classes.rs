@@ -512,39 +512,53 @@ fn a_hard_iron_residual_learnt_while_turning_takes_the_riding_magnet_out() {
     println!("fastturns +3 %: heading {t0:.2}° today, {t1:.2}° with τ_d 20 s");
 }
 
-#[test]
-fn the_hard_iron_candidate_on_the_dev_trials() {
-    // The same candidate on the seven BROAD dev trials, with replay's
-    // `--sensor calibrated` gains (scale tolerance 1 %, τ_h 80 s); figures for
-    // the leave-one-out in the fc-ahrs README. Only the candidate's own
-    // bookkeeping is checked here: off, it is the filter as replay runs it.
+/// The seven BROAD dev trials (name, first segment), or `None` (printed
+/// "skipped") when `../shared` is absent.
+fn dev_trials() -> Option<Vec<(String, Vec<Sample>)>> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/broad");
     let Ok(entries) = std::fs::read_dir(&dir) else {
         println!("skipped: {} absent", dir.display());
-        return;
+        return None;
     };
     let mut files: Vec<_> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "csv"))
         .collect();
     files.sort();
+    let read = |path: &std::path::PathBuf| {
+        let text =
+            std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let rec = replay::csv::read(&text, replay::csv::ReadOptions::default())
+            .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+        let name = path
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        rec.segments
+            .into_iter()
+            .next()
+            .map(|seg| (name, seg.samples))
+    };
+    Some(files.iter().filter_map(read).collect())
+}
+
+#[test]
+fn the_hard_iron_candidate_on_the_dev_trials() {
+    // The same candidate on the seven BROAD dev trials, with replay's
+    // `--sensor calibrated` gains (scale tolerance 1 %, τ_h 80 s); figures for
+    // the leave-one-out in the fc-ahrs README. Only the candidate's own
+    // bookkeeping is checked here: off, it is the filter as replay runs it.
+    let Some(trials) = dev_trials() else {
+        return;
+    };
     let cfg = Config {
         gyro_scale_tol: 0.01,
         heading_tau_s: 80.0,
         ..Config::DEFAULT
     };
-    for path in &files {
-        let text =
-            std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let rec = replay::csv::read(&text, replay::csv::ReadOptions::default())
-            .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
-        let Some(seg) = rec.segments.first() else {
-            continue;
-        };
-        let s = &seg.samples;
+    for (name, s) in &trials {
         let off = replay::score(s, &run_hard_iron_candidate(s, &cfg, 0.0, 1));
         let today = replay::score(s, &replay::run(s, FilterKind::F32, Mode::Marg, &cfg));
-        assert_eq!(off, today, "{}", path.display());
+        assert_eq!(off, today, "{name}");
         let totals: Vec<f64> = [0.0, 10.0, 20.0, 40.0, 80.0, 160.0]
             .iter()
             .map(|&tau| {
@@ -552,12 +566,7 @@ fn the_hard_iron_candidate_on_the_dev_trials() {
                     .map_or(f64::NAN, |x| x.total_deg)
             })
             .collect();
-        println!(
-            "{}: total {:.3?}° for τ_d off, 10, 20, 40, 80, 160 s",
-            path.file_name()
-                .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
-            totals
-        );
+        println!("{name}: total {totals:.3?}° for τ_d off, 10, 20, 40, 80, 160 s");
     }
 }
 
@@ -670,70 +679,60 @@ fn the_tilt_gate_candidate_on_the_fast_axes_and_magnet_classes() {
 fn the_tilt_gate_candidate_on_the_dev_trials_by_leave_one_out() {
     // Each gate's total per dev trial (replay's `--sensor calibrated` gains),
     // then the gate chosen on six trials and scored on the seventh.
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/broad");
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        println!("skipped: {} absent", dir.display());
+    let Some(trials) = dev_trials() else {
         return;
     };
-    let mut files: Vec<_> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
-        .collect();
-    files.sort();
     let cfg = Config {
         gyro_scale_tol: 0.01,
         heading_tau_s: 80.0,
         ..Config::DEFAULT
     };
-    let mut table: Vec<Vec<f64>> = Vec::new();
-    for path in &files {
-        let text =
-            std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let rec = replay::csv::read(&text, replay::csv::ReadOptions::default())
-            .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
-        let Some(seg) = rec.segments.first() else {
-            continue;
-        };
-        let s = &seg.samples;
-        let totals: Vec<f64> = GATES_DEG
-            .iter()
-            .map(|&g| {
-                replay::score(s, &run_tilt_gate_candidate(s, &cfg, g, GATE_TAU_S))
-                    .map_or(f64::NAN, |x| x.total_deg)
-            })
-            .collect();
-        println!(
-            "{}: total {totals:.3?}° for gates {GATES_DEG:?}°",
-            path.display()
-        );
-        table.push(totals);
-    }
+    let table: Vec<Vec<f64>> = trials
+        .iter()
+        .map(|(name, s)| {
+            let totals: Vec<f64> = GATES_DEG
+                .iter()
+                .map(|&g| {
+                    replay::score(s, &run_tilt_gate_candidate(s, &cfg, g, GATE_TAU_S))
+                        .map_or(f64::NAN, |x| x.total_deg)
+                })
+                .collect();
+            println!("{name}: total {totals:.3?}° for gates {GATES_DEG:?}°");
+            totals
+        })
+        .collect();
+    let means: Vec<f64> = (0..GATES_DEG.len())
+        .map(|g| table.iter().map(|r| r[g]).sum::<f64>() / table.len() as f64)
+        .collect();
+    println!(
+        "mean over all per gate {means:.3?}°; leave-one-out mean {:.3}°",
+        leave_one_out(&table)
+    );
+}
+
+/// The leave-one-out mean of `table` (rows: trials, columns: choices): for
+/// each trial the column with the lowest mean over the others, scored on it.
+fn leave_one_out(table: &[Vec<f64>]) -> f64 {
     let n = table.len();
-    if n < 2 {
-        return;
-    }
-    let mut loo = 0.0;
+    let cols = table.first().map_or(0, Vec::len);
+    let mut total = 0.0;
     for out in 0..n {
-        let mean_without = |g: usize| {
+        let mean_without = |c: usize| {
             (0..n)
                 .filter(|&i| i != out)
-                .map(|i| table[i][g])
+                .map(|i| table[i][c])
                 .sum::<f64>()
-                / (n - 1) as f64
         };
-        let best = (0..GATES_DEG.len())
+        let best = (0..cols)
             .min_by(|&a, &b| mean_without(a).total_cmp(&mean_without(b)))
             .unwrap_or(0);
         println!(
-            "  without trial {out}: gate {}° picked, scores {:.3}°",
-            GATES_DEG[best], table[out][best]
+            "  without trial {out}: choice {best} picked, scores {:.3}°",
+            table[out][best]
         );
-        loo += table[out][best] / n as f64;
+        total += table[out][best];
     }
-    let means: Vec<f64> = (0..GATES_DEG.len())
-        .map(|g| table.iter().map(|r| r[g]).sum::<f64>() / n as f64)
-        .collect();
-    println!("mean over all per gate {means:.3?}°; leave-one-out mean {loo:.3}°");
+    total / n.max(1) as f64
 }
 
 #[test]

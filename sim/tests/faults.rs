@@ -103,6 +103,25 @@ fn the_kinds_do_what_their_names_say() {
         FaultAction::Inject(Fault::Magnet(m)) => assert_eq!(m.peak_time_s, 12.0),
         other => panic!("{other:?}"),
     }
+    // `imu` is accepted for the MPU-9250 and printed as `mpu`.
+    assert_eq!(
+        parse("3:frozen:imu", Rig::Sim).unwrap().to_string(),
+        "3:frozen:mpu"
+    );
+}
+
+/// `spec` is refused on `rig` with an error containing every `want`.
+fn refused(spec: &str, rig: Rig, want: &[&str]) {
+    let e = parse(spec, rig).expect_err(spec);
+    for w in want {
+        assert!(e.contains(w), "{spec}: wanted `{w}` in `{e}`");
+    }
+    assert!(e.contains(&format!("`{spec}`")), "{spec}: {e}");
+}
+
+#[test]
+fn a_riding_dipole_adds_its_equatorial_field_fixed_in_the_body() {
+    let act = |s: &str| parse(s, Rig::Sim).unwrap().action();
     // A dipole riding in its equatorial plane: 0.1·m/r³ µT against its moment,
     // here a 3 × 1 mm NdFeB disc (6.8·10⁻³ A·m²) 60 mm away: 3.15 µT; body-fixed.
     match act("20:dipole-ride:60:6800") {
@@ -125,20 +144,6 @@ fn the_kinds_do_what_their_names_say() {
     ] {
         assert!(parse(bad, Rig::Sim).is_err(), "{bad}");
     }
-    // `imu` is accepted for the MPU-9250 and printed as `mpu`.
-    assert_eq!(
-        parse("3:frozen:imu", Rig::Sim).unwrap().to_string(),
-        "3:frozen:mpu"
-    );
-}
-
-/// `spec` is refused on `rig` with an error containing every `want`.
-fn refused(spec: &str, rig: Rig, want: &[&str]) {
-    let e = parse(spec, rig).expect_err(spec);
-    for w in want {
-        assert!(e.contains(w), "{spec}: wanted `{w}` in `{e}`");
-    }
-    assert!(e.contains(&format!("`{spec}`")), "{spec}: {e}");
 }
 
 #[test]
