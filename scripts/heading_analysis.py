@@ -7,6 +7,14 @@
    the share the 10 %/10 deg check rejects, and the compass error of the fields it accepts.
 3. A one-dimensional model of the full filter's heading loop through fast turns with rests:
    e' = s*w - tol*|wbar|*sat(tan(e)/zone) - sat(tan(e))/tau_h, wbar' = (w - wbar)/tau_w.
+4. Fast turns about tilted axes (the simulator's `fastaxes`): the loss s*A splits into
+   heading (the axis's vertical part) and tilt (its horizontal part); the accelerometer's
+   critically damped correction (double pole at 1/tau_tilt) leaves (1 + T/tau)e^(-T/tau) of
+   a tilt error after T; a tilt error d about the field's horizontal direction turns the
+   field seen in the estimate's frame by atan(tan(dip)*sin d) in heading while its dip
+   moves only in second order, so the norm/dip check cannot see it.
+5. The simulator's dipole classes (`dipole-ride:MM:UAM2`): |d|, eps, the largest norm and
+   dip change and the largest compass error, asin(|d|/B_h).
 No arguments; pure Python (no numpy); deterministic.
 """
 import math
@@ -92,7 +100,51 @@ def fast_turns():
     print("  loss per turn without correction: 1 %% %.1f, 3 %% %.1f, 7 %% %.1f deg" % (3.6, 10.8, 25.2))
 
 
+def unit3(v):
+    n = math.sqrt(sum(x * x for x in v))
+    return [x / n for x in v]
+
+
+def tilted_axes(tau_tilt=3.0, dip=60.0, a_deg=720.0):
+    axes = ((0, 0, 1), (1, 0, 0), (0, -1, 0), (1, 0, -1), (0, 1, 1), (-1, 1, -1))
+    print("4. fast turns about tilted axes: two turns (720 deg), tilt tau %.0f s, dip %.0f deg"
+          % (tau_tilt, dip))
+    for s in (0.02, 0.03, 0.07):
+        row = []
+        for ax in axes:
+            u = unit3(ax)
+            h = math.sqrt(u[0] ** 2 + u[1] ** 2)
+            row.append("(%+.0f,%+.0f,%+.0f) %5.1f / %5.1f" % (*ax, s * a_deg * abs(u[2]), s * a_deg * h))
+        print("  s %.2f: heading / tilt loss (deg) per axis: %s" % (s, "; ".join(row)))
+    for t in (1.0, 3.0, 4.0, 6.0, 10.0):
+        print("  tilt left after %4.1f s: %3.0f %%" % (t, 100 * (1 + t / tau_tilt) * math.exp(-t / tau_tilt)))
+    td = math.tan(math.radians(dip))
+    for d in (1, 2, 5, 10, 15, 20):
+        r = math.radians(d)
+        bn, bv = math.cos(math.radians(dip)), math.sin(math.radians(dip))
+        # The field (bn, 0, bv) turned by d about north: (bn, -bv sin d, bv cos d).
+        dip_seen = math.degrees(math.atan2(bv * math.cos(r), math.hypot(bn, bv * math.sin(r))))
+        print("  tilt error %2d deg about north: compass error %5.1f deg, dip change %4.2f deg;"
+              " about east: compass 0, dip change %2d deg"
+              % (d, math.degrees(math.atan(td * math.sin(r))), dip - dip_seen, d))
+
+
+def dipole_classes(total=50.0, dip=60.0):
+    bh = total * math.cos(math.radians(dip))
+    print("5. dipole-ride classes (field %.0f uT, dip %.0f deg, B_h %.1f uT)" % (total, dip, bh))
+    for mm, uam2, what in ((60, 6800, "NdFeB disc 3x1 mm"), (30, 1500, "NdFeB disc 2x0.5 mm"),
+                           (45, 6800, "NdFeB disc 3x1 mm")):
+        d = 0.1 * uam2 * 1e-6 / (mm * 1e-3) ** 3
+        eps = d / total
+        print("  %-20s m %.1e A*m2 at %2d mm: |d| %.2f uT, eps %.3f: norm +-%.1f %%, dip +-%.1f deg"
+              " (check: 10 %%, 10 deg); compass error up to %.1f deg"
+              % (what, uam2 * 1e-6, mm, d, eps, 100 * eps, math.degrees(math.asin(min(1, eps))),
+                 math.degrees(math.asin(min(1.0, d / bh)))))
+
+
 if __name__ == "__main__":
     sources()
     offsets()
     fast_turns()
+    tilted_axes()
+    dipole_classes()

@@ -512,39 +512,53 @@ fn a_hard_iron_residual_learnt_while_turning_takes_the_riding_magnet_out() {
     println!("fastturns +3 %: heading {t0:.2}° today, {t1:.2}° with τ_d 20 s");
 }
 
-#[test]
-fn the_hard_iron_candidate_on_the_dev_trials() {
-    // The same candidate on the seven BROAD dev trials, with replay's
-    // `--sensor calibrated` gains (scale tolerance 1 %, τ_h 80 s); figures for
-    // the leave-one-out in the fc-ahrs README. Only the candidate's own
-    // bookkeeping is checked here: off, it is the filter as replay runs it.
+/// The seven BROAD dev trials (name, first segment), or `None` (printed
+/// "skipped") when `../shared` is absent.
+fn dev_trials() -> Option<Vec<(String, Vec<Sample>)>> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/broad");
     let Ok(entries) = std::fs::read_dir(&dir) else {
         println!("skipped: {} absent", dir.display());
-        return;
+        return None;
     };
     let mut files: Vec<_> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "csv"))
         .collect();
     files.sort();
+    let read = |path: &std::path::PathBuf| {
+        let text =
+            std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let rec = replay::csv::read(&text, replay::csv::ReadOptions::default())
+            .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+        let name = path
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        rec.segments
+            .into_iter()
+            .next()
+            .map(|seg| (name, seg.samples))
+    };
+    Some(files.iter().filter_map(read).collect())
+}
+
+#[test]
+fn the_hard_iron_candidate_on_the_dev_trials() {
+    // The same candidate on the seven BROAD dev trials, with replay's
+    // `--sensor calibrated` gains (scale tolerance 1 %, τ_h 80 s); figures for
+    // the leave-one-out in the fc-ahrs README. Only the candidate's own
+    // bookkeeping is checked here: off, it is the filter as replay runs it.
+    let Some(trials) = dev_trials() else {
+        return;
+    };
     let cfg = Config {
         gyro_scale_tol: 0.01,
         heading_tau_s: 80.0,
         ..Config::DEFAULT
     };
-    for path in &files {
-        let text =
-            std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let rec = replay::csv::read(&text, replay::csv::ReadOptions::default())
-            .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
-        let Some(seg) = rec.segments.first() else {
-            continue;
-        };
-        let s = &seg.samples;
+    for (name, s) in &trials {
         let off = replay::score(s, &run_hard_iron_candidate(s, &cfg, 0.0, 1));
         let today = replay::score(s, &replay::run(s, FilterKind::F32, Mode::Marg, &cfg));
-        assert_eq!(off, today, "{}", path.display());
+        assert_eq!(off, today, "{name}");
         let totals: Vec<f64> = [0.0, 10.0, 20.0, 40.0, 80.0, 160.0]
             .iter()
             .map(|&tau| {
@@ -552,11 +566,249 @@ fn the_hard_iron_candidate_on_the_dev_trials() {
                     .map_or(f64::NAN, |x| x.total_deg)
             })
             .collect();
+        println!("{name}: total {totals:.3?}° for τ_d off, 10, 20, 40, 80, 160 s");
+    }
+}
+
+/// A board after its boot calibrations, as `cargo sim` flies it: the gyro's
+/// drawn scale and cross-axis errors and bias walk (its start-up bias
+/// removed), calibrated accelerometer and magnetometer (noise only); the gyro
+/// scale set to `scale` on every axis where given.
+fn calibrated_board(seed: u64, scale: Option<f64>) -> SensorErrors {
+    let clean = SensorErrors::noise_only();
+    let mut e = SensorErrors::datasheet(seed);
+    e.gyro_dps.bias = [0.0; 3];
+    e.accel_mps2 = clean.accel_mps2;
+    e.mag = clean.mag;
+    if let Some(s) = scale {
+        for (i, row) in e.gyro_dps.misalignment.iter_mut().enumerate() {
+            row[i] = 1.0 + s;
+        }
+    }
+    e
+}
+
+/// A candidate outside the filter (f32, public API): the magnetometer is
+/// left out (an IMU update) while the accelerometer, low-passed with `tau_s`
+/// in the estimate's earth frame, is more than `gate_deg` off the vertical.
+/// At rest that angle is the tilt error, and a tilt error δ about the field's
+/// horizontal direction is a compass error of atan(tan(dip)·sin δ) that the
+/// norm/dip check cannot see. `gate_deg` 0: off (the filter as it is).
+fn run_tilt_gate_candidate(
+    samples: &[Sample],
+    cfg: &Config,
+    gate_deg: f32,
+    tau_s: f32,
+) -> Vec<Quaternion> {
+    let Some(first) = samples.first() else {
+        return Vec::new();
+    };
+    let mut f = Madgwick::from_accel_mag(*cfg, first.acc_mps2, first.mag_ut);
+    let mut lp = [0.0f32, 0.0, -1.0];
+    let mut prev_t = first.t_s - samples.get(1).map_or(0.001, |s| s.t_s - first.t_s);
+    let tan_gate = gate_deg.to_radians().tan();
+    let mut out = Vec::with_capacity(samples.len());
+    for s in samples {
+        let dt = (s.t_s - prev_t) as f32;
+        prev_t = s.t_s;
+        let a = f.quaternion().rotate(s.acc_mps2);
+        let n = a.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-6);
+        let k = (dt / tau_s).min(1.0);
+        for j in 0..3 {
+            lp[j] += k * (a[j] / n - lp[j]);
+        }
+        let off = (lp[0] * lp[0] + lp[1] * lp[1]).sqrt() > tan_gate * (-lp[2]).max(1e-6);
+        if gate_deg > 0.0 && off {
+            f.update_imu(s.gyr_rps, s.acc_mps2, dt);
+        } else {
+            f.update_marg(s.gyr_rps, s.acc_mps2, s.mag_ut, dt);
+        }
+        out.push(frames::enu_from_ned(f.quaternion()));
+    }
+    out
+}
+
+/// The gates the candidate is scored with (°; 0 = off).
+const GATES_DEG: [f32; 5] = [0.0, 1.0, 2.0, 4.0, 8.0];
+/// Its low-pass (s): shorter than a 3 s rest.
+const GATE_TAU_S: f32 = 1.0;
+
+#[test]
+fn the_tilt_gate_candidate_on_the_fast_axes_and_magnet_classes() {
+    // Figures for the fc-ahrs README; checked only that off is the filter.
+    let cfg = Config::DEFAULT;
+    let duration = Trajectory::REST_S + 120.0;
+    for (label, scale) in [("board", None), ("+3 %", Some(0.03)), ("-3 %", Some(-0.03))] {
+        let mut heading = vec![0.0; GATES_DEG.len()];
+        for seed in 1..=3 {
+            let mut w = world(
+                Trajectory::FastAxes,
+                calibrated_board(seed, scale),
+                vec![],
+                seed,
+            );
+            let s = record(&mut w, duration);
+            let off = replay::score(&s, &run_tilt_gate_candidate(&s, &cfg, 0.0, GATE_TAU_S));
+            let today = replay::score(&s, &replay::run(&s, FilterKind::F32, Mode::Marg, &cfg));
+            assert_eq!(off, today);
+            for (h, &g) in heading.iter_mut().zip(&GATES_DEG) {
+                *h += heading_rms(&s, &run_tilt_gate_candidate(&s, &cfg, g, GATE_TAU_S)) / 3.0;
+            }
+        }
         println!(
-            "{}: total {:.3?}° for τ_d off, 10, 20, 40, 80, 160 s",
-            path.file_name()
-                .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
-            totals
+            "fastaxes, scale {label}: heading {heading:.2?}° (seeds 1-3) for gates {GATES_DEG:?}°"
         );
+    }
+    let m = ndfeb_disc_moment_am2() / 2f64.sqrt();
+    let d = dipole_field_ut([m, 0.0, m], [0.0, 0.06, 0.0]);
+    for tr in [Trajectory::HandHeld, Trajectory::HandHeldSlow] {
+        let mut w = world(tr.clone(), calibrated_board(1, None), vec![riding(d)], 1);
+        let s = record(&mut w, HAND_HELD_S);
+        let figures: Vec<f64> = GATES_DEG
+            .iter()
+            .map(|&g| heading_rms(&s, &run_tilt_gate_candidate(&s, &cfg, g, GATE_TAU_S)))
+            .collect();
+        println!(
+            "{}, disc at 60 mm: heading {figures:.2?}° for gates {GATES_DEG:?}°",
+            tr.name()
+        );
+    }
+}
+
+#[test]
+fn the_tilt_gate_candidate_on_the_dev_trials_by_leave_one_out() {
+    // Each gate's total per dev trial (replay's `--sensor calibrated` gains),
+    // then the gate chosen on six trials and scored on the seventh.
+    let Some(trials) = dev_trials() else {
+        return;
+    };
+    let cfg = Config {
+        gyro_scale_tol: 0.01,
+        heading_tau_s: 80.0,
+        ..Config::DEFAULT
+    };
+    let table: Vec<Vec<f64>> = trials
+        .iter()
+        .map(|(name, s)| {
+            let totals: Vec<f64> = GATES_DEG
+                .iter()
+                .map(|&g| {
+                    replay::score(s, &run_tilt_gate_candidate(s, &cfg, g, GATE_TAU_S))
+                        .map_or(f64::NAN, |x| x.total_deg)
+                })
+                .collect();
+            println!("{name}: total {totals:.3?}° for gates {GATES_DEG:?}°");
+            totals
+        })
+        .collect();
+    let means: Vec<f64> = (0..GATES_DEG.len())
+        .map(|g| table.iter().map(|r| r[g]).sum::<f64>() / table.len() as f64)
+        .collect();
+    println!(
+        "mean over all per gate {means:.3?}°; leave-one-out mean {:.3}°",
+        leave_one_out(&table)
+    );
+}
+
+/// The leave-one-out mean of `table` (rows: trials, columns: choices): for
+/// each trial the column with the lowest mean over the others, scored on it.
+fn leave_one_out(table: &[Vec<f64>]) -> f64 {
+    let n = table.len();
+    let cols = table.first().map_or(0, Vec::len);
+    let mut total = 0.0;
+    for out in 0..n {
+        let mean_without = |c: usize| {
+            (0..n)
+                .filter(|&i| i != out)
+                .map(|i| table[i][c])
+                .sum::<f64>()
+        };
+        let best = (0..cols)
+            .min_by(|&a, &b| mean_without(a).total_cmp(&mean_without(b)))
+            .unwrap_or(0);
+        println!(
+            "  without trial {out}: choice {best} picked, scores {:.3}°",
+            table[out][best]
+        );
+        total += table[out][best];
+    }
+    total / n.max(1) as f64
+}
+
+#[test]
+fn a_weak_disc_on_a_calibrated_board_moved_slowly_is_never_rejected_and_leaves_tilt_alone() {
+    // The 3 × 1 mm disc 60 mm away (3.15 µT, ε 0.063) on the board `cargo sim`
+    // flies after its calibrations (the gyro's drawn scale, cross-axis and bias
+    // walk), turned slowly by hand: below the 10 %/10° check at every
+    // attitude, heading within the no-disc figure plus asin(|d|/B_h).
+    let m = ndfeb_disc_moment_am2() / 2f64.sqrt();
+    let d = dipole_field_ut([m, 0.0, m], [0.0, 0.06, 0.0]);
+    let bound_deg = (math::norm(d) / horizontal_ut()).asin().to_degrees();
+    let cfg = Config::DEFAULT;
+    for seed in 1..=2 {
+        let board = calibrated_board(seed, None);
+        let tr = Trajectory::HandHeldSlow;
+        let clean = record(&mut world(tr.clone(), board, vec![], seed), HAND_HELD_S);
+        let disc = record(&mut world(tr, board, vec![riding(d)], seed), HAND_HELD_S);
+        let (c, _, _) = scored(&clean, FilterKind::Fixed, &cfg);
+        let (f, _, rejected) = scored(&disc, FilterKind::Fixed, &cfg);
+        let (f32s, _, _) = scored(&disc, FilterKind::F32, &cfg);
+        print(
+            &format!("seed {seed} handheld-slow, calibrated board (fixed)"),
+            &c,
+        );
+        print(
+            &format!("seed {seed} handheld-slow, disc at 60 mm (fixed)"),
+            &f,
+        );
+        assert_eq!(rejected, 0);
+        assert!(f.heading_deg <= c.heading_deg + bound_deg);
+        assert!((f.inclination_deg - c.inclination_deg).abs() <= 0.1);
+        assert_f32_matches_fixed(&f32s, &f);
+    }
+}
+
+#[test]
+fn fast_turns_about_tilted_axes_leave_a_tilt_the_accelerometer_takes_at_its_double_pole() {
+    // A scale error s over two turns (A = 720°) about an axis whose horizontal
+    // part is h leaves a tilt s·A·h (+ the cross-axis terms, which rotate with
+    // the body and stay within ~1°); the accelerometer's critically damped
+    // correction leaves (1 + T/τ)·e^(−T/τ) of it after the T = 4 s from the
+    // turn's end to the rest's end. With what the previous cycles left, the
+    // tilt at the end of rest k is at most B_k = r·(B_(k−1) + s·A·h_k + 1°).
+    let cfg = Config::DEFAULT;
+    let s = 0.03;
+    let a_deg = Trajectory::FAST_AXES_ANGLE_RAD.to_degrees();
+    let tau = f64::from(cfg.tilt_tau_s);
+    let t = Trajectory::FAST_AXES_MOVE_S + Trajectory::FAST_AXES_REST_S;
+    let r = (1.0 + t / tau) * (-t / tau).exp();
+    let samples = record(
+        &mut world(
+            Trajectory::FastAxes,
+            calibrated_board(1, Some(s)),
+            vec![],
+            1,
+        ),
+        Trajectory::REST_S + Trajectory::fast_axes_start_s(12),
+    );
+    let (f, est, _) = scored(&samples, FilterKind::Fixed, &cfg);
+    let (f32s, _, _) = scored(&samples, FilterKind::F32, &cfg);
+    print("fastaxes, gyro scale +3 %, calibrated board (fixed)", &f);
+    assert_f32_matches_fixed(&f32s, &f);
+    let mut bound = 0.0;
+    for k in 0..12 {
+        let ax = Trajectory::FAST_AXES_AXES[k % 6];
+        let h = ax[0].hypot(ax[1]) / math::norm(ax);
+        bound = r * (bound + s * a_deg * h + 1.0);
+        let t_end = Trajectory::REST_S + Trajectory::fast_axes_start_s(k + 1) - 0.01;
+        let i = ((t_end * IMU_HZ) as usize).min(samples.len() - 1);
+        let q_ref = samples[i].reference.unwrap_or(Quaternion::IDENTITY);
+        let (_, heading, incl) = replay::errors(&est[i], &q_ref);
+        println!(
+            "  rest {k}: inclination {:.2}° (bound {bound:.1}°), heading {:.2}°",
+            incl.to_degrees(),
+            heading.to_degrees()
+        );
+        assert!(incl.to_degrees() <= bound, "rest {k}");
     }
 }

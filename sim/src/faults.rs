@@ -49,6 +49,8 @@ pub enum ArgKind {
     ChipCount,
     /// A chip and an id byte in hex: `CHIP:ID`.
     ChipId,
+    /// A dipole's distance (mm) and moment (µA·m²): `MM:UAM2`.
+    Dipole,
 }
 
 impl ArgKind {
@@ -60,6 +62,7 @@ impl ArgKind {
             Self::Count => ":N",
             Self::ChipCount => ":CHIP:N",
             Self::ChipId => ":CHIP:ID",
+            Self::Dipole => ":MM:UAM2",
         }
     }
 }
@@ -93,6 +96,8 @@ pub enum Kind {
     Magnet,
     /// `magnet-ride`.
     MagnetRide,
+    /// `dipole-ride:MM:UAM2`.
+    DipoleRide,
     /// `vibration`.
     Vibration,
     /// `clear`.
@@ -147,7 +152,7 @@ const fn kind(
 }
 
 /// Every fault kind, in `--help` order.
-pub const KINDS: [KindInfo; 23] = [
+pub const KINDS: [KindInfo; 24] = [
     kind(Kind::Missing, "missing", ArgKind::Chip, false, "CHIP never answers (NACK) from TIME on"),
     kind(Kind::Nack, "nack", ArgKind::ChipCount, false, "the next N transfers to CHIP are not acknowledged"),
     kind(Kind::ChipReset, "chip-reset", ArgKind::Chip, false, "CHIP resets itself (registers back to power-on values)"),
@@ -162,6 +167,8 @@ pub const KINDS: [KindInfo; 23] = [
     kind(Kind::Arbitration, "arbitration", ArgKind::Count, false, "the next N transfers lose arbitration"),
     kind(Kind::Magnet, "magnet", ArgKind::None, false, "a magnet passes the board: 60 µT peak on body x, 4 s wide, peaking 2 s after TIME"),
     kind(Kind::MagnetRide, "magnet-ride", ArgKind::None, false, "a magnet ~5 cm away rides along: 30 µT body-fixed (20, -15, 15 on x, y, z), reached 2 s after TIME"),
+    kind(Kind::DipoleRide, "dipole-ride", ArgKind::Dipole, false, "a magnetic dipole of UAM2 µA·m² rides MM mm to the board's right (body y; 5..=1000 mm), its moment \
+         along (x + z)/√2: a body-fixed μ0/(4π)·m/r³ (0.1·m/r³ µT, m in A·m², r in m), reached 1 s after TIME; e.g. a 3 × 1 mm NdFeB disc, 6800 µA·m², at 60 mm: 3.1 µT"),
     kind(Kind::Vibration, "vibration", ArgKind::None, false, "unbalanced props from TIME on: 3 m/s² and 4 °/s at 85 Hz on every axis"),
     kind(Kind::Clear, "clear", ArgKind::None, false, "clears every persistent chip/bus fault (not sda-held: only the wire frees that)"),
     kind(Kind::BusyLockup, "busy-lockup", ArgKind::None, true, "errata ES096: I2C1's analog filter locks BUSY"),
@@ -217,6 +224,8 @@ pub enum FaultArg {
     ChipCount(Chip, u32),
     /// A chip and an id byte.
     ChipId(Chip, u8),
+    /// A dipole's distance (mm) and moment (µA·m²).
+    Dipole(u32, u32),
 }
 
 /// One `--fault`: when, which kind, its ARG.
@@ -260,6 +269,13 @@ fn parse_chip(s: &str) -> Result<Chip, String> {
 fn parse_count(s: &str) -> Result<u32, String> {
     s.parse()
         .map_err(|_| format!("N `{s}` is not a count (0 .. 4294967295)"))
+}
+
+fn parse_distance_mm(s: &str) -> Result<u32, String> {
+    s.parse()
+        .ok()
+        .filter(|mm| (5..=1000).contains(mm))
+        .ok_or_else(|| format!("MM `{s}` is not a distance of 5..=1000 mm"))
 }
 
 fn parse_id(s: &str) -> Result<u8, String> {
@@ -325,6 +341,7 @@ fn parse_arg(k: &KindInfo, args: &[&str]) -> Result<FaultArg, String> {
         (ArgKind::Count, [n]) => FaultArg::Count(parse_count(n)?),
         (ArgKind::ChipCount, [c, n]) => FaultArg::ChipCount(parse_chip(c)?, parse_count(n)?),
         (ArgKind::ChipId, [c, id]) => FaultArg::ChipId(parse_chip(c)?, parse_id(id)?),
+        (ArgKind::Dipole, [mm, m]) => FaultArg::Dipole(parse_distance_mm(mm)?, parse_count(m)?),
         _ => FaultArg::None,
     })
 }
@@ -404,15 +421,26 @@ impl fmt::Display for FaultSpec {
             FaultArg::Count(n) => write!(f, ":{n}"),
             FaultArg::ChipCount(c, n) => write!(f, ":{}:{n}", chip_name(c)),
             FaultArg::ChipId(c, id) => write!(f, ":{}:{id:02x}", chip_name(c)),
+            FaultArg::Dipole(mm, m) => write!(f, ":{mm}:{m}"),
         }
     }
 }
 
 impl FaultSpec {
+    /// A `dipole-ride`'s field at the board (µT, body FRD): the dipole
+    /// `MM` to the right, its moment along (x + z)/√2; zero for other kinds.
+    pub fn dipole_field_body_ut(&self) -> crate::math::Vec3 {
+        let FaultArg::Dipole(mm, uam2) = self.arg else {
+            return [0.0; 3];
+        };
+        let m = 1e-6 * f64::from(uam2) * std::f64::consts::FRAC_1_SQRT_2;
+        crate::physics::dipole_field_ut([m, 0.0, m], [0.0, 1e-3 * f64::from(mm), 0.0])
+    }
+
     fn chip(&self) -> Chip {
         match self.arg {
             FaultArg::Chip(c) | FaultArg::ChipCount(c, _) | FaultArg::ChipId(c, _) => c,
-            FaultArg::None | FaultArg::Count(_) => Chip::Mpu9250,
+            FaultArg::None | FaultArg::Count(_) | FaultArg::Dipole(..) => Chip::Mpu9250,
         }
     }
 
@@ -420,7 +448,7 @@ impl FaultSpec {
         match self.arg {
             FaultArg::Count(n) | FaultArg::ChipCount(_, n) => n,
             FaultArg::ChipId(_, id) => u32::from(id),
-            FaultArg::None | FaultArg::Chip(_) => 0,
+            FaultArg::None | FaultArg::Chip(_) | FaultArg::Dipole(..) => 0,
         }
     }
 
@@ -450,6 +478,7 @@ impl FaultSpec {
             },
             Kind::Magnet => magnet_pass([60.0, 0.0, 0.0], self.at_s + 2.0, 4.0),
             Kind::MagnetRide => magnet_ride([20.0, -15.0, 15.0], self.at_s + 2.0, 4.0),
+            Kind::DipoleRide => magnet_ride(self.dipole_field_body_ut(), self.at_s + 1.0, 1.0),
             Kind::Vibration => Fault::Vibration(Vibration {
                 accel_amplitude_mps2: 3.0,
                 gyro_amplitude_dps: 4.0,

@@ -89,6 +89,16 @@ pub enum Trajectory {
     /// ramps), then still until the next [`Trajectory::FAST_TURN_CYCLE_S`]
     /// cycle; three turns one way, then three the other.
     FastTurns,
+    /// [`Trajectory::HandHeld`]'s attitudes and holds with slower moves
+    /// ([`Trajectory::HAND_HELD_SLOW_MOVE_S`], peak ~30 °/s).
+    HandHeldSlow,
+    /// Fast rotations about varied axes with short rests: from each attitude
+    /// of [`Trajectory::FAST_AXES_POSES`], two whole turns about the earth-fixed
+    /// axis of [`Trajectory::FAST_AXES_AXES`] at [`Trajectory::FAST_TURN_RATES_DPS`]
+    /// (300–500 °/s, 0.25 s smooth ramps), back where it started; then moved by
+    /// hand to the next attitude in [`Trajectory::FAST_AXES_MOVE_S`] and held
+    /// still for [`Trajectory::FAST_AXES_REST_S`].
+    FastAxes,
     /// A user-supplied pose function of time (s).
     Custom(Rc<dyn Fn(f64) -> Pose>),
     /// A user-supplied truth function of time (s): the pose with its
@@ -221,9 +231,10 @@ fn vibration_pose(tau: f64, env: f64) -> Pose {
 }
 
 /// The hand-held attitude `tau` s after the rest phase: a smooth turn from one of
-/// [`Trajectory::HAND_HELD_POSES`] to the next, then a hold with a hand's tremor.
-fn hand_held_attitude(tau: f64) -> Quat {
-    let seg = Trajectory::HAND_HELD_MOVE_S + Trajectory::HAND_HELD_HOLD_S;
+/// [`Trajectory::HAND_HELD_POSES`] to the next in `move_s`, then a hold with a
+/// hand's tremor.
+fn hand_held_attitude(tau: f64, move_s: f64) -> Quat {
+    let seg = move_s + Trajectory::HAND_HELD_HOLD_S;
     let pose = |k: usize| {
         let [r, p, y] = Trajectory::HAND_HELD_POSES[k % Trajectory::HAND_HELD_POSES.len()];
         Quat::from_euler(r.to_radians(), p.to_radians(), y.to_radians())
@@ -234,15 +245,11 @@ fn hand_held_attitude(tau: f64) -> Quat {
     let k = (tau / seg).floor();
     let x = tau - k * seg;
     let k = k as usize;
-    let s = smoothstep(x, 0.0, Trajectory::HAND_HELD_MOVE_S);
+    let s = smoothstep(x, 0.0, move_s);
     let base = pose(k).slerp(&pose(k + 1), s);
     // The tremor fades in after the move and out before the next, so the attitude
     // stays smooth.
-    let hold = smoothstep(
-        x,
-        Trajectory::HAND_HELD_MOVE_S,
-        Trajectory::HAND_HELD_MOVE_S + 0.5,
-    ) * (1.0 - smoothstep(x, seg - 0.5, seg));
+    let hold = smoothstep(x, move_s, move_s + 0.5) * (1.0 - smoothstep(x, seg - 0.5, seg));
     let a = hold * 1.5f64.to_radians();
     base.mul(&Quat::from_euler(
         a * sin_hz(x, 0.4, 0.0),
@@ -267,13 +274,39 @@ fn fast_turns_yaw(tau: f64) -> f64 {
     // Rate ω·(S(x; 0, r) − S(x; T − r, T)), S the smoothstep; ∫S in closed form
     // as for the whirl.
     let r = Trajectory::FAST_TURN_RAMP_S;
-    let ramp_int = |x: f64, a: f64| {
-        let u = ((x - a) / r).clamp(0.0, 1.0);
-        r * u * u * u * u * (u * (u - 3.0) + 2.5) + (x - a - r).max(0.0)
-    };
     let t = Trajectory::fast_turn_duration_s(k);
     let rate = Trajectory::FAST_TURN_RATES_DPS[k % 6].to_radians();
-    done + dir(k) * rate * (ramp_int(x, 0.0) - ramp_int(x, t - r))
+    done + dir(k) * rate * (ramp_integral(x, 0.0, r) - ramp_integral(x, t - r, r))
+}
+
+/// ∫ of a rate that ramps up smoothly over `r` s from `a` (the smoothstep),
+/// then stays at 1, from −∞ to `x`: the angle turned at unit rate.
+fn ramp_integral(x: f64, a: f64, r: f64) -> f64 {
+    let u = ((x - a) / r).clamp(0.0, 1.0);
+    r * u * u * u * u * (u * (u - 3.0) + 2.5) + (x - a - r).max(0.0)
+}
+
+/// The attitude of [`Trajectory::FastAxes`] `tau` s after the rest phase.
+fn fast_axes_attitude(tau: f64) -> Quat {
+    if tau <= 0.0 {
+        return Quat::IDENTITY;
+    }
+    let mut k = 6 * (tau / Trajectory::fast_axes_start_s(6)).floor() as usize;
+    while Trajectory::fast_axes_start_s(k + 1) <= tau {
+        k += 1;
+    }
+    let x = tau - Trajectory::fast_axes_start_s(k);
+    let t = Trajectory::fast_axes_turn_s(k);
+    let pose = Trajectory::fast_axes_pose(k);
+    if x < t {
+        let r = Trajectory::FAST_TURN_RAMP_S;
+        let rate = Trajectory::FAST_TURN_RATES_DPS[k % 6].to_radians();
+        let angle = rate * (ramp_integral(x, 0.0, r) - ramp_integral(x, t - r, r));
+        let axis = Trajectory::FAST_AXES_AXES[k % 6];
+        return Quat::from_axis_angle(axis, angle).mul(&pose);
+    }
+    let s = smoothstep(x, t, t + Trajectory::FAST_AXES_MOVE_S);
+    pose.slerp(&Trajectory::fast_axes_pose(k + 1), s)
 }
 
 /// The field (µT) at the sensor of a magnetic dipole of moment `moment_am2` (A·m²)
@@ -298,7 +331,7 @@ impl Trajectory {
     pub const REST_S: f64 = 3.0;
 
     /// Names accepted by [`Trajectory::from_name`].
-    pub const NAMES: [&'static str; 11] = [
+    pub const NAMES: [&'static str; 13] = [
         "rest",
         "spin",
         "slow",
@@ -310,6 +343,8 @@ impl Trajectory {
         "vibration",
         "handheld",
         "fastturns",
+        "handheld-slow",
+        "fastaxes",
     ];
 
     /// The attitudes of [`Trajectory::HandHeld`], (roll, pitch, yaw) in degrees,
@@ -328,6 +363,34 @@ impl Trajectory {
     ];
     /// Time to turn from one hand-held attitude to the next (s).
     pub const HAND_HELD_MOVE_S: f64 = 2.5;
+    /// The same in [`Trajectory::HandHeldSlow`] (s).
+    pub const HAND_HELD_SLOW_MOVE_S: f64 = 6.0;
+    /// The rest attitudes of [`Trajectory::FastAxes`], (roll, pitch, yaw) in
+    /// degrees; the first is the start's level, north.
+    pub const FAST_AXES_POSES: [[f64; 3]; 6] = [
+        [0.0, 0.0, 0.0],
+        [15.0, -10.0, 100.0],
+        [-20.0, 15.0, 210.0],
+        [10.0, 25.0, 300.0],
+        [-15.0, -20.0, 40.0],
+        [25.0, 5.0, 160.0],
+    ];
+    /// The turn axes of [`Trajectory::FastAxes`] in the earth frame (NED, not
+    /// normalised): yaw, roll, pitch and three oblique axes, signs mixed.
+    pub const FAST_AXES_AXES: [[f64; 3]; 6] = [
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [1.0, 0.0, -1.0],
+        [0.0, 1.0, 1.0],
+        [-1.0, 1.0, -1.0],
+    ];
+    /// Angle of each turn of [`Trajectory::FastAxes`] (rad): two whole turns.
+    pub const FAST_AXES_ANGLE_RAD: f64 = 4.0 * PI;
+    /// The hand's move to the next rest attitude (s).
+    pub const FAST_AXES_MOVE_S: f64 = 1.0;
+    /// The rest after each move (s).
+    pub const FAST_AXES_REST_S: f64 = 3.0;
     /// Time each hand-held attitude is held (s).
     pub const HAND_HELD_HOLD_S: f64 = 3.5;
     /// Turn rates of the cycles of [`Trajectory::FastTurns`] (°/s), in turn;
@@ -345,6 +408,29 @@ impl Trajectory {
     pub fn fast_turn_duration_s(k: usize) -> f64 {
         let rate = Self::FAST_TURN_RATES_DPS[k % 6].to_radians();
         Self::FAST_TURN_ANGLE_RAD / rate + Self::FAST_TURN_RAMP_S
+    }
+
+    /// Duration of the turn of [`Trajectory::FastAxes`]'s cycle `k` (s).
+    pub fn fast_axes_turn_s(k: usize) -> f64 {
+        let rate = Self::FAST_TURN_RATES_DPS[k % 6].to_radians();
+        Self::FAST_AXES_ANGLE_RAD / rate + Self::FAST_TURN_RAMP_S
+    }
+
+    /// Start (s after the rest phase) of [`Trajectory::FastAxes`]'s cycle `k`:
+    /// its turn, then the move and the rest.
+    pub fn fast_axes_start_s(k: usize) -> f64 {
+        let six: f64 = (0..6).map(Self::fast_axes_cycle_s).sum();
+        (k / 6) as f64 * six + (0..k % 6).map(Self::fast_axes_cycle_s).sum::<f64>()
+    }
+
+    fn fast_axes_cycle_s(k: usize) -> f64 {
+        Self::fast_axes_turn_s(k) + Self::FAST_AXES_MOVE_S + Self::FAST_AXES_REST_S
+    }
+
+    /// The rest attitude `k` of [`Trajectory::FastAxes`] (cyclic).
+    pub fn fast_axes_pose(k: usize) -> Quat {
+        let [r, p, y] = Self::FAST_AXES_POSES[k % Self::FAST_AXES_POSES.len()];
+        Quat::from_euler(r.to_radians(), p.to_radians(), y.to_radians())
     }
 
     /// How long each face is held still in [`Trajectory::SixPosition`] (s).
@@ -448,7 +534,8 @@ impl Trajectory {
     }
 
     /// Built-in by name: `rest`, `spin` (rest, then yaw at 90°/s), `slow`, `figure8`,
-    /// `hover`, `aggressive`, `sixpos`, `whirl`, `vibration`, `handheld`, `fastturns`.
+    /// `hover`, `aggressive`, `sixpos`, `whirl`, `vibration`, `handheld`, `fastturns`,
+    /// `handheld-slow`, `fastaxes`.
     pub fn from_name(name: &str) -> Option<Self> {
         Some(match name {
             "rest" => Self::at_rest(),
@@ -462,6 +549,8 @@ impl Trajectory {
             "vibration" => Trajectory::Vibration,
             "handheld" => Trajectory::HandHeld,
             "fastturns" => Trajectory::FastTurns,
+            "handheld-slow" => Trajectory::HandHeldSlow,
+            "fastaxes" => Trajectory::FastAxes,
             _ => return None,
         })
     }
@@ -480,6 +569,8 @@ impl Trajectory {
             Trajectory::Vibration => "vibration",
             Trajectory::HandHeld => "handheld",
             Trajectory::FastTurns => "fastturns",
+            Trajectory::HandHeldSlow => "handheld-slow",
+            Trajectory::FastAxes => "fastaxes",
             Trajectory::Custom(_) => "custom/spin",
             Trajectory::Motion(_) => "motion",
         }
@@ -510,7 +601,12 @@ impl Trajectory {
             Trajectory::SixPosition => ([0.0; 3], Self::six_position_at(t_s)),
             Trajectory::Whirl => whirl_pose(tau, env),
             Trajectory::Vibration => vibration_pose(tau, env),
-            Trajectory::HandHeld => ([0.0; 3], hand_held_attitude(tau)),
+            Trajectory::HandHeld => ([0.0; 3], hand_held_attitude(tau, Self::HAND_HELD_MOVE_S)),
+            Trajectory::HandHeldSlow => (
+                [0.0; 3],
+                hand_held_attitude(tau, Self::HAND_HELD_SLOW_MOVE_S),
+            ),
+            Trajectory::FastAxes => ([0.0; 3], fast_axes_attitude(tau)),
             Trajectory::FastTurns => ([0.0; 3], Quat::from_euler(0.0, 0.0, fast_turns_yaw(tau))),
             Trajectory::Custom(f) => f(t_s),
             Trajectory::Motion(f) => {
@@ -713,6 +809,76 @@ mod tests {
             assert!(turned.min(2.0 * PI - turned) < 1e-6, "cycle {k}");
             assert!(t < cycle - 7.0, "each rest lasts at least 7 s");
             yaw0 = yaw;
+        }
+    }
+
+    #[test]
+    fn fast_axes_turn_twice_about_each_axis_at_their_rate_and_rest_between() {
+        let tr = Trajectory::FastAxes;
+        for k in 0..7 {
+            let start = Trajectory::REST_S + Trajectory::fast_axes_start_s(k);
+            let t = Trajectory::fast_axes_turn_s(k);
+            // Mid-turn: the rate is the cycle's, about the cycle's earth axis.
+            let mid = tr.sample(start + 0.5 * t);
+            let w_ned = mid.q_ned_from_body.rotate(mid.omega_body_rps);
+            let axis = Trajectory::FAST_AXES_AXES[k % 6];
+            let want = math::scale(
+                axis,
+                Trajectory::FAST_TURN_RATES_DPS[k % 6].to_radians() / norm(axis),
+            );
+            assert!(norm(math::sub(w_ned, want)) < 1e-3, "cycle {k}: {w_ned:?}");
+            // Two whole turns: back at the attitude it started from.
+            let pose = Trajectory::fast_axes_pose(k);
+            assert!(tr.pose(start + t).1.angle_to(&pose) < 1e-6, "cycle {k}");
+            assert!(tr.pose(start).1.angle_to(&pose) < 1e-6, "cycle {k}");
+            // Still for the rest, at the next attitude.
+            let rest0 = start + t + Trajectory::FAST_AXES_MOVE_S;
+            for x in [
+                0.01,
+                0.5 * Trajectory::FAST_AXES_REST_S,
+                Trajectory::FAST_AXES_REST_S - 0.01,
+            ] {
+                let s = tr.sample(rest0 + x);
+                assert!(
+                    !s.moving && norm(s.omega_body_rps) < 1e-6,
+                    "cycle {k} at {x}"
+                );
+                assert!(
+                    s.q_ned_from_body
+                        .angle_to(&Trajectory::fast_axes_pose(k + 1))
+                        < 1e-6
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn hand_held_slow_visits_the_same_poses_at_under_half_the_rate() {
+        let peak = |tr: &Trajectory| {
+            (0..(60.0 / 0.01) as usize)
+                .map(|i| {
+                    norm(
+                        tr.sample(Trajectory::REST_S + i as f64 * 0.01)
+                            .omega_body_rps,
+                    )
+                })
+                .fold(0.0f64, f64::max)
+        };
+        let (fast, slow) = (peak(&Trajectory::HandHeld), peak(&Trajectory::HandHeldSlow));
+        // Same angles over 6 s instead of 2.5 s: the peak rate scales by 2.5/6.
+        assert!(
+            slow < 0.5 * fast && slow.to_degrees() > 15.0,
+            "{slow} vs {fast}"
+        );
+        let seg = Trajectory::HAND_HELD_SLOW_MOVE_S + Trajectory::HAND_HELD_HOLD_S;
+        for k in 1..10 {
+            let [r, p, y] = Trajectory::HAND_HELD_POSES[k];
+            let want = Quat::from_euler(r.to_radians(), p.to_radians(), y.to_radians());
+            let t = Trajectory::REST_S + (k - 1) as f64 * seg + Trajectory::HAND_HELD_SLOW_MOVE_S;
+            assert!(
+                Trajectory::HandHeldSlow.pose(t).1.angle_to(&want) < 1e-6,
+                "pose {k}"
+            );
         }
     }
 

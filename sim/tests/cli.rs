@@ -58,6 +58,10 @@ fn bad_values_are_refused_before_work() {
     refused(&["-d", "10", "--fault", "20:magnet"], "after the end");
     refused(&["--plot", "x.jpg"], "unsupported plot format `.jpg`");
     refused(&["--plot", "noext"], "needs an extension");
+    refused(&["--gyro-scale", "0.2"], "outside ±0.1");
+    refused(&["--gyro-scale=-0.11"], "outside ±0.1");
+    refused(&["--gyro-scale", "3%"], "not a number");
+    refused(&["--fault", "3:dipole-ride:2:6800"], "5..=1000 mm");
     refused(&["--vibration", "-1"], "out of range");
     refused(&["--vibration=nan"], "out of range");
     refused(&["--spectrum", "x.jpg"], "unsupported plot format `.jpg`");
@@ -170,6 +174,10 @@ fn a_scenario_refuses_the_open_loop_options() {
     );
     refused(
         &["--scenario", "steps", "--trajectory", "slow"],
+        "cannot be used with",
+    );
+    refused(
+        &["--scenario", "steps", "--gyro-scale", "0.03"],
         "cannot be used with",
     );
     refused(

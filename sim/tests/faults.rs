@@ -18,6 +18,7 @@ fn example_arg(arg: ArgKind) -> &'static str {
         ArgKind::Count => ":7",
         ArgKind::ChipCount => ":mag:200",
         ArgKind::ChipId => ":mpu:0x70",
+        ArgKind::Dipole => ":45:6800",
     }
 }
 
@@ -116,6 +117,33 @@ fn refused(spec: &str, rig: Rig, want: &[&str]) {
         assert!(e.contains(w), "{spec}: wanted `{w}` in `{e}`");
     }
     assert!(e.contains(&format!("`{spec}`")), "{spec}: {e}");
+}
+
+#[test]
+fn a_riding_dipole_adds_its_equatorial_field_fixed_in_the_body() {
+    let act = |s: &str| parse(s, Rig::Sim).unwrap().action();
+    // A dipole riding in its equatorial plane: 0.1·m/r³ µT against its moment,
+    // here a 3 × 1 mm NdFeB disc (6.8·10⁻³ A·m²) 60 mm away: 3.15 µT; body-fixed.
+    match act("20:dipole-ride:60:6800") {
+        FaultAction::Inject(Fault::Magnet(m)) => {
+            let want = 0.1 * 6.8e-3 / (0.06f64 * 0.06 * 0.06);
+            let b = m.peak_body_ut;
+            let n = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+            assert!(
+                (n - want).abs() < 1e-9 && b[1] == 0.0 && b[0] < 0.0,
+                "{b:?}"
+            );
+            assert!((b[0] - b[2]).abs() < 1e-12 && m.stays && m.peak_time_s == 21.0);
+        }
+        other => panic!("{other:?}"),
+    }
+    for bad in [
+        "1:dipole-ride:4:100",
+        "1:dipole-ride:1001:100",
+        "1:dipole-ride:60",
+    ] {
+        assert!(parse(bad, Rig::Sim).is_err(), "{bad}");
+    }
 }
 
 #[test]

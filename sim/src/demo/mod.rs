@@ -59,6 +59,7 @@ mod tests {
             mag_dance_s: 30.0,
             faults: Vec::new(),
             progress: false,
+            gyro_scale: None,
         };
         run(&opts, sinks).unwrap()
     }

@@ -26,6 +26,23 @@ pub struct RunOptions {
     pub faults: Vec<FaultSpec>,
     /// Show a progress line on stderr during long runs.
     pub progress: bool,
+    /// The gyro's sensitivity error on every axis (fraction), instead of the
+    /// one drawn with the board (`None`: the board's).
+    pub gyro_scale: Option<f64>,
+}
+
+impl RunOptions {
+    /// The board's errors: drawn from `board_seed`, with the gyro's sensitivity
+    /// error replaced by `gyro_scale` where given (cross-axis terms kept).
+    pub fn errors(&self) -> SensorErrors {
+        let mut e = SensorErrors::datasheet(self.board_seed);
+        if let Some(s) = self.gyro_scale {
+            for (i, row) in e.gyro_dps.misalignment.iter_mut().enumerate() {
+                row[i] = 1.0 + s;
+            }
+        }
+        e
+    }
 }
 
 /// One row of the run (one MPU sample).
@@ -136,7 +153,7 @@ pub fn run(opts: &RunOptions, sinks: &mut [&mut dyn RecordSink]) -> Result<RunRe
     let base = SimConfig {
         trajectory: opts.trajectory.clone(),
         env: Environment::default(),
-        errors: SensorErrors::datasheet(opts.board_seed),
+        errors: opts.errors(),
         seed: opts.seed,
         ..SimConfig::default()
     };
@@ -148,6 +165,12 @@ pub fn run(opts: &RunOptions, sinks: &mut [&mut dyn RecordSink]) -> Result<RunRe
         opts.duration_s,
         sensor_stack::pipeline::AHRS_KIND
     );
+    if let Some(scale) = opts.gyro_scale {
+        say!(
+            "sim: gyro sensitivity error {:+.1} % on every axis (--gyro-scale)",
+            100.0 * scale
+        );
+    }
     let (accel_cal, mag_cal) = ground_calibrations(&base, opts.mag_dance_s)?;
     let record = stack::calibration_record(&accel_cal.calibration, &mag_cal.calibration)?;
     let flight = fly(opts, &base, &record, sinks, wall)?;
