@@ -19,6 +19,15 @@ fn main() {
     };
     let memory_x = PathBuf::from(manifest).join(layout);
     fs::copy(&memory_x, out.join("memory.x")).expect("copy the memory layout to OUT_DIR");
+    // `builder`: the builder's features (battery, telemetry, settings
+    // console), in the STM32F103CB's flight build; its calibration build
+    // (`f103cb` + `calibrate`) is the C8's calibration build on the CB's
+    // layout.
+    println!("cargo::rustc-check-cfg=cfg(builder)");
+    let cb = env::var_os("CARGO_FEATURE_F103CB").is_some();
+    if cb && env::var_os("CARGO_FEATURE_CALIBRATE").is_none() {
+        println!("cargo:rustc-cfg=builder");
+    }
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed={}", memory_x.display());
     println!("cargo:rerun-if-changed=build.rs");

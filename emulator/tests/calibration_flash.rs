@@ -19,7 +19,12 @@ use emulator::{Board, BoardConfig, BoardFault, ResetCause};
 use sensor_stack::storage::{self, CalibrationRecord, ValidParts};
 use sim::Trajectory;
 
-const PAGE: usize = (storage::PAGE_ADDRESS - 0x0800_0000) as usize;
+/// The calibration page's offset in a flash image: the chip's last 1 KiB
+/// page (the C8's `0x0800_FC00`, the CB's `0x0801_FC00`), so these
+/// scenarios run on the calibration build of either chip.
+fn page_of(image: &[u8]) -> usize {
+    emulator::calpage::page_offset(image.len())
+}
 const CRSF_BAUD: u32 = 420_000;
 
 /// Which firmware build a board runs, from its flight-controller boot line.
@@ -103,9 +108,10 @@ fn corrupt_page_gives_defaults_with_the_reason() {
     };
     rec.valid.0 |= ValidParts::GYRO;
     let bytes = storage::encode(&rec);
-    image[PAGE..PAGE + bytes.len()].copy_from_slice(&bytes);
-    image[PAGE + storage::HEADER_LEN + 6] ^= 0x10;
-    let before = image[PAGE..PAGE + 1024].to_vec();
+    let at = page_of(&image);
+    image[at..at + bytes.len()].copy_from_slice(&bytes);
+    image[at + storage::HEADER_LEN + 6] ^= 0x10;
+    let before = image[at..at + 1024].to_vec();
     let mut b = emulator::Board::new(
         &fw,
         emulator::BoardConfig {
@@ -120,11 +126,12 @@ fn corrupt_page_gives_defaults_with_the_reason() {
         &b,
         "calibration: using defaults (the record is corrupt (CRC stored",
     );
-    assert_eq!(&b.flash_image()[PAGE..PAGE + 1024], &before[..]);
+    assert_eq!(&b.flash_image()[at..at + 1024], &before[..]);
 }
 
 fn assert_read_back_after_reset(mut b: emulator::Board, part: u16) {
-    let page = b.flash_image()[PAGE..PAGE + storage::RECORD_LEN].to_vec();
+    let at = page_of(b.flash_image());
+    let page = b.flash_image()[at..at + storage::RECORD_LEN].to_vec();
     let rec = storage::decode(&page).expect("a valid record in flash");
     assert!(rec.valid.has(part), "parts {:#x}", rec.valid.0);
     let t = b.now_ns();
@@ -195,7 +202,8 @@ fn the_flight_build_refuses_calibration_sessions_and_leaves_the_page() {
     }) else {
         return;
     };
-    let before = b.flash_image()[PAGE..PAGE + 1024].to_vec();
+    let at = page_of(b.flash_image());
+    let before = b.flash_image()[at..at + 1024].to_vec();
     run_until(&mut b, S);
     b.apply(BoardFault::Button(false));
     run_until(&mut b, 2 * S);
@@ -217,7 +225,7 @@ fn the_flight_build_refuses_calibration_sessions_and_leaves_the_page() {
         "{}",
         tail(&b, 30)
     );
-    assert_eq!(&b.flash_image()[PAGE..PAGE + 1024], &before[..]);
+    assert_eq!(&b.flash_image()[at..at + 1024], &before[..]);
 }
 
 /// A CRSF frame: sticks centred, throttle at `throttle_us`, the arm

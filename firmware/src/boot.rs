@@ -56,7 +56,7 @@ pub fn start_outputs(tim: pac::TIM3) -> EscOutputs {
 /// Boot step (STM32F103CB build): the parameter table's values from the
 /// A/B pages, or the defaults (with each page's reason) when neither
 /// holds a valid record.
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 #[inline(never)]
 pub fn load_params(flash: &mut flash::Parts) -> params::ParamSet {
     let outcome = params::store::load(&mut crate::store::ParamPages::new(flash));
@@ -80,7 +80,7 @@ pub fn load_params(flash: &mut flash::Parts) -> params::ParamSet {
 /// Boot step (STM32F103CB build): the flight controller with the
 /// parameter table's tuning over the board's settings; an invalid
 /// combination falls back to the board's settings, then to none.
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 #[inline(never)]
 pub fn start_flight_controller_with(p: &params::ParamSet) -> Option<FlightController> {
     match FlightController::new(p.flight_config(settings::flight_config())) {
@@ -239,7 +239,7 @@ pub fn build_pipeline(
     sensors: &Sensors<BusHandle>,
     caps: &Capabilities,
     record: &CalibrationRecord,
-    #[cfg(feature = "f103cb")] gyro_filter: sensor_stack::gyro_filter::GyroFilterDesign,
+    #[cfg(builder)] gyro_filter: sensor_stack::gyro_filter::GyroFilterDesign,
 ) -> Option<Pipeline> {
     let scale = sensors.mpu_scale();
     let cfg = PipelineConfig {
@@ -249,7 +249,7 @@ pub fn build_pipeline(
         mag_ut_per_lsb: sensors.mag_ut_per_lsb(),
         ahrs_mode: caps.ahrs,
         altitude: caps.altitude,
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         gyro_filter,
         ..settings::pipeline_config()
     };

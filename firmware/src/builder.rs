@@ -19,7 +19,9 @@ use battery::{
 use core::cell::Cell;
 use core::sync::atomic::{AtomicBool, AtomicU16, AtomicU8, Ordering};
 use critical_section::Mutex;
-use flight::flightctl::{FlightMode, FlightOutput, FlightState, PilotInput};
+use flight::flightctl::{
+    FlightController, FlightMode, FlightOutput, FlightState, PilotInput, SystemStatus, VehicleState,
+};
 use params::ParamSet;
 use rc_input::telemetry::{
     Arming, Attitude, BaroAltitude, Battery, FlightMode as ModeFrame, ModeName, TelemetrySnapshot,
@@ -114,6 +116,21 @@ pub fn rate_block() -> [f32; 6] {
     critical_section::with(|cs| RATE_BLOCK.borrow(cs).get())
 }
 
+/// One flight-controller step with the builder's parts around it: the
+/// low-battery descent request in, the flight state out for the builder
+/// task, the rate loop's signals into the raw log's block.
+pub fn flight_step(
+    fc: &mut FlightController,
+    rate_log: &mut RateLog,
+    (now_us, pilot, status, v): (u32, &PilotInput, &SystemStatus, &VehicleState),
+) -> FlightOutput {
+    fc.set_battery_descent(BATTERY_DESCENT.load(Ordering::Relaxed));
+    let o = fc.step(now_us, pilot, status, v);
+    publish_flight(&o, fc.in_flight());
+    rate_log.push(&o, v.gyro_rps_q16);
+    o
+}
+
 /// [`FLIGHT`]'s bits.
 struct FlightBits;
 
@@ -171,11 +188,15 @@ impl BatteryTask {
     }
 
     /// One 10 Hz step: the last conversion into the monitor (the next one
-    /// started), the rule on the pilot's input and the altitude estimate,
-    /// the descent request published. The monitor's event, if any.
+    /// started), the rule on the monitor's level, the pilot's input and
+    /// the altitude estimate, the descent request published. The
+    /// monitor's event, if any.
     pub fn step(&mut self, pilot: &PilotInput, altitude: bool) -> Option<Event> {
-        let counts = self.adc.as_mut()?.poll()?;
-        let event = self.monitor.update(counts);
+        // A new conversion into the monitor; the rule below runs every
+        // step on its last level, so the pilot's sticks end a descent even
+        // if the ADC stopped converting.
+        let counts = self.adc.as_mut().and_then(BatteryAdc::poll);
+        let event = counts.and_then(|c| self.monitor.update(c));
         let filtered = self.monitor.filtered_counts().unwrap_or(0);
         FILTERED_COUNTS.store(filtered, Ordering::Relaxed);
         let bits = FLIGHT.load(Ordering::Relaxed);

@@ -115,7 +115,10 @@ impl Console {
                     Outcome::Done
                 }
             };
-            after = self.on_outcome(outcome, flash, &mut out);
+            // A later line in the same read never cancels a restart.
+            if self.on_outcome(outcome, flash, &mut out) == After::Restart {
+                after = After::Restart;
+            }
         }
         out.flush();
         after

@@ -125,6 +125,11 @@
 #![no_main]
 #![deny(unsafe_code)]
 
+// The STM32F103CB build transmits telemetry on USART1's TX: it needs the
+// CRSF receiver there, not PPM.
+#[cfg(all(feature = "f103cb", feature = "ppm"))]
+compile_error!("`f103cb` and `ppm` do not combine: the CB build's telemetry needs CRSF on USART1");
+
 mod boot;
 mod bus;
 mod clocks;
@@ -135,26 +140,26 @@ mod outputs;
 // Each build uses one receiver (the `ppm` build the pilot state only of
 // `receiver`); both modules stay compiled because RTIC's generated task
 // contexts name the local resources' types outside their cfg.
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 mod adc;
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 mod builder;
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 mod console;
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 mod crsf_tx;
 #[cfg_attr(not(feature = "ppm"), allow(dead_code))]
 mod ppm;
 #[cfg_attr(feature = "ppm", allow(dead_code))]
 mod receiver;
 mod report;
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 mod rtt;
 
 /// The STM32F103CB build's task locals, named in the C8 builds as units:
 /// RTIC names a local resource's type in code that its `#[cfg]` does not
 /// remove (as `ppm` and `receiver` are compiled in both receiver builds).
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 mod cb {
     pub type Tx = crate::crsf_tx::CrsfTx;
     pub type Schedule = rc_input::TelemetryScheduler;
@@ -162,7 +167,7 @@ mod cb {
     pub type Console = crate::console::Console;
     pub type RateLog = crate::builder::RateLog;
 }
-#[cfg(not(feature = "f103cb"))]
+#[cfg(not(builder))]
 mod cb {
     pub type Tx = ();
     pub type Schedule = ();
@@ -174,7 +179,7 @@ mod stack;
 mod store;
 mod watchdog;
 
-#[cfg(not(feature = "f103cb"))]
+#[cfg(not(builder))]
 use defmt_rtt as _;
 
 /// Turns the LED (PC13, active low) off.
@@ -225,7 +230,7 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
 #[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [SPI1, SPI2, USART3])]
 mod app {
     use crate::boot::*;
-    #[cfg(feature = "f103cb")]
+    #[cfg(builder)]
     use crate::builder;
     use crate::bus::{self, BusHandle};
     use crate::clocks::{self, Source};
@@ -324,11 +329,11 @@ mod app {
         rx: crate::receiver::CrsfRx,
         #[cfg(feature = "ppm")]
         ppm: crate::ppm::PpmInput,
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         tx: crate::cb::Tx,
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         telemetry_schedule: crate::cb::Schedule,
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         battery: crate::cb::Battery,
         /// The settings console (a unit in the C8 builds, which have
         /// none: named in the log task's locals in every build).
@@ -345,7 +350,7 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         stack::paint();
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         let console_down = crate::rtt::init();
         let mut core = cx.core;
         let dp: pac::Peripherals = cx.device;
@@ -378,24 +383,24 @@ mod app {
         recover_bus_at_boot();
         let sensors = probe_sensors();
         let record = load_calibration(&mut flash);
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         let params = load_params(&mut flash);
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         let record = crate::builder::with_settings(record, &params);
         let pipeline = build_pipeline(
             &sensors,
             &sensors.capabilities(),
             &record,
-            #[cfg(feature = "f103cb")]
+            #[cfg(builder)]
             crate::builder::gyro_filter(&params),
         );
         let bias = start_gyro_bias(&sensors);
         let session = start_session(&button_pin);
         #[cfg(not(feature = "ppm"))]
         let rx = start_receiver(dp.USART1, dp.DMA1, cx.local.ring);
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         let (tx, battery) = crate::builder::start(dp.ADC1, cx.local.tx_buf, &params);
-        #[cfg(not(feature = "f103cb"))]
+        #[cfg(not(builder))]
         let _ = cx.local.tx_buf;
         // RTIC's init locals take no cfg: the ppm build keeps the unused
         // ring (128 B of RAM).
@@ -412,7 +417,7 @@ mod app {
         service::spawn().ok();
         log::spawn().ok();
         guard::spawn().ok();
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         builder_task::spawn().ok();
         let now = DWT::cycle_count();
         // Counted from when CYCCNT started, at reset.
@@ -427,9 +432,9 @@ mod app {
                 stats: LoopStats::new(now),
                 session,
                 bias: BiasStatus::GaveUp,
-                #[cfg(not(feature = "f103cb"))]
+                #[cfg(not(builder))]
                 pilot: Pilot::new(),
-                #[cfg(feature = "f103cb")]
+                #[cfg(builder)]
                 pilot: Pilot::new().with_settings(&params),
                 outputs,
             },
@@ -442,29 +447,29 @@ mod app {
                 record,
                 step: SampleStep::new(bias),
                 dt: DtClock::new(cpu_hz(), IMU_RATE_HZ),
-                #[cfg(not(feature = "f103cb"))]
+                #[cfg(not(builder))]
                 fc: start_flight_controller(),
-                #[cfg(feature = "f103cb")]
+                #[cfg(builder)]
                 fc: start_flight_controller_with(&params),
                 #[cfg(not(feature = "ppm"))]
                 rx,
                 #[cfg(feature = "ppm")]
                 ppm,
-                #[cfg(feature = "f103cb")]
+                #[cfg(builder)]
                 tx,
-                #[cfg(feature = "f103cb")]
+                #[cfg(builder)]
                 telemetry_schedule: rc_input::TelemetryScheduler::new(
                     rc_input::telemetry::FrameSet::ALL,
                 ),
-                #[cfg(feature = "f103cb")]
+                #[cfg(builder)]
                 battery,
-                #[cfg(feature = "f103cb")]
+                #[cfg(builder)]
                 console: crate::console::Console::new(console_down, params),
-                #[cfg(not(feature = "f103cb"))]
+                #[cfg(not(builder))]
                 console: (),
-                #[cfg(feature = "f103cb")]
+                #[cfg(builder)]
                 rate_log: crate::builder::RateLog::new(),
-                #[cfg(not(feature = "f103cb"))]
+                #[cfg(not(builder))]
                 rate_log: (),
             },
         )
@@ -654,20 +659,18 @@ mod app {
             }),
             accel_calibrated: state.is_some_and(|(_, cal)| cal),
         };
-        #[cfg(all(not(feature = "calibrate"), not(feature = "f103cb")))]
+        #[cfg(all(not(feature = "calibrate"), not(builder)))]
         let out = match (cx.local.fc.as_mut(), vehicle) {
             (Some(fc), Some(v)) => Some(fc.step(now_us, &pilot, &status, &v)),
             _ => None,
         };
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         let out = match (cx.local.fc.as_mut(), vehicle) {
-            (Some(fc), Some(v)) => {
-                fc.set_battery_descent(builder::BATTERY_DESCENT.load(Ordering::Relaxed));
-                let o = fc.step(now_us, &pilot, &status, &v);
-                builder::publish_flight(&o, fc.in_flight());
-                cx.local.rate_log.push(&o, v.gyro_rps_q16);
-                Some(o)
-            }
+            (Some(fc), Some(v)) => Some(builder::flight_step(
+                fc,
+                cx.local.rate_log,
+                (now_us, &pilot, &status, &v),
+            )),
             _ => None,
         };
         // Nothing calls the controller's step, so none of it is linked.
@@ -765,7 +768,7 @@ mod app {
         if let Some(i) = input {
             guard_pilot(&mut cx.shared.outputs, &i);
             // The receiver listens for telemetry after each frame it sends.
-            #[cfg(feature = "f103cb")]
+            #[cfg(builder)]
             telemetry_tx::spawn(now_us).ok();
         }
     }
@@ -774,7 +777,7 @@ mod app {
     /// has one due and the last one has left (priority 2: the 1 kHz
     /// sample outranks it; the receiver queues what it is given until its
     /// telemetry slot).
-    #[cfg(feature = "f103cb")]
+    #[cfg(builder)]
     #[task(priority = 2, local = [tx, telemetry_schedule])]
     async fn telemetry_tx(cx: telemetry_tx::Context, now_us: u32) {
         let (tx, sched) = (cx.local.tx, cx.local.telemetry_schedule);
@@ -784,20 +787,22 @@ mod app {
 
     /// 10 Hz: the battery (ADC, monitor, low-battery rule), the telemetry
     /// snapshot, and the settings console's lines.
-    #[cfg(feature = "f103cb")]
+    #[cfg(builder)]
     #[task(priority = 1, local = [battery],
            shared = [pipeline, pilot, clock])]
     async fn builder_task(mut cx: builder_task::Context) {
         loop {
             let now_us = cx.shared.clock.lock(|c| c.now_us(DWT::cycle_count()));
             let pilot = cx.shared.pilot.lock(|p| pilot_input(p, now_us));
+            // Copied under the lock (its ceiling is the 1 kHz step's), the
+            // angles worked out after it.
             let est = cx.shared.pipeline.lock(|p| {
-                p.as_ref().map(|p| {
-                    let e = sensor_stack::angles::euler_q16(p.quaternion_q30());
-                    (e, p.altitude_estimate())
-                })
+                p.as_ref()
+                    .map(|p| (p.quaternion_q30(), p.altitude_estimate()))
             });
-            let (euler, alt) = est.unwrap_or(([0; 3], None));
+            let (euler, alt) = est.map_or(([0; 3], None), |(q, alt)| {
+                (sensor_stack::angles::euler_q16(q), alt)
+            });
             let frame = cx.local.battery.as_mut().and_then(|b| {
                 if let Some(ev) = b.step(&pilot, alt.is_some()) {
                     builder::log_battery_event(ev, b.status());
@@ -881,13 +886,13 @@ mod app {
     #[task(priority = 1)]
     async fn raw_log(_cx: raw_log::Context, r: RawLogRow) {
         let c = r.columns();
-        #[cfg(not(feature = "f103cb"))]
+        #[cfg(not(builder))]
         defmt::println!(
             "{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},{=f32},nan,nan,nan,nan,0",
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9]
         );
         // The CB build adds the rate loop's columns (`RATE_LOG_COLUMNS`).
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         {
             let k = builder::rate_block();
             defmt::println!(
@@ -1026,7 +1031,7 @@ mod app {
     async fn log(mut cx: log::Context) {
         let mut link = LinkStatus::NeverReceived;
         let mut tick: u32 = 0;
-        #[cfg(feature = "f103cb")]
+        #[cfg(builder)]
         let mut restart_in: Option<u8> = None;
         loop {
             tick = tick.wrapping_add(1);
@@ -1072,20 +1077,9 @@ mod app {
                     &mut cx.shared.bias,
                 );
             }
-            // A restart after `save` waits two rounds (100 ms): the probe
-            // reads the reply out of RAM before the reset clears it.
-            #[cfg(feature = "f103cb")]
+            #[cfg(builder)]
             {
-                if restart_in == Some(0) {
-                    cortex_m::peripheral::SCB::sys_reset();
-                }
-                restart_in = restart_in.map(|n| n.saturating_sub(1));
-                let counts = builder::filtered_counts();
-                let armed = ARMED.load(Ordering::Relaxed);
-                let after = cx.local.console.poll(cx.local.flash, armed, counts);
-                if after == crate::console::After::Restart {
-                    restart_in = Some(2);
-                }
+                restart_in = console_round(cx.local.console, cx.local.flash, restart_in);
             }
             // Heartbeat: 1 Hz normally, 5 Hz while calibrating.
             let calibrating = matches!(
@@ -1097,6 +1091,52 @@ mod app {
             }
             Mono::delay(ExtU32::millis(50)).await;
         }
+    }
+
+    /// One round of the settings console (STM32F103CB build). A restart
+    /// after `save` comes two rounds (100 ms) later, so the probe reads the
+    /// reply out of RAM before the reset clears it, and never while armed
+    /// (`save` is refused armed, but the pilot may arm in between): then
+    /// the saved values apply at the next power-up. Returns the restart
+    /// still pending.
+    #[cfg(builder)]
+    fn console_round(
+        console: &mut crate::console::Console,
+        flash: &mut flash::Parts,
+        restart_in: Option<u8>,
+    ) -> Option<u8> {
+        let armed = ARMED.load(Ordering::Relaxed);
+        match restart_in {
+            Some(0) if armed => {
+                defmt::warn!(
+                    "settings: armed: no restart; the saved values apply at the next power-up"
+                )
+            }
+            Some(0) => cortex_m::peripheral::SCB::sys_reset(),
+            _ => {}
+        }
+        let pending = restart_in.and_then(|n| n.checked_sub(1));
+        let after = console.poll(flash, armed, builder::filtered_counts());
+        if after == crate::console::After::Restart {
+            return Some(1);
+        }
+        pending
+    }
+
+    /// The raw log's header: `RAW_LOG_HEADER`, and in the STM32F103CB
+    /// build `RATE_LOG_COLUMNS` after it, as interned literals (a `{=str}`
+    /// argument would put its 125 bytes in flash); the emulated board's
+    /// raw-log tests check they agree.
+    #[inline(always)]
+    fn log_raw_header() {
+        #[cfg(not(builder))]
+        defmt::println!(
+            "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving"
+        );
+        #[cfg(builder)]
+        defmt::println!(
+            "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving,sp_roll_rate_dps,gyro_roll_dps,sp_pitch_rate_dps,gyro_pitch_dps,sp_yaw_rate_dps,gyro_yaw_dps"
+        );
     }
 
     /// Logs a calibration event; a finished calibration is saved to flash
@@ -1114,18 +1154,7 @@ mod app {
             CalEvent::ModeChanged { from, to } => {
                 defmt::info!("mode {} -> {}", from, to);
                 if to == sensor_stack::calmode::Mode::RawLog {
-                    // `RAW_LOG_HEADER` as an interned literal (a `{=str}`
-                    // argument would put its 125 bytes in flash); the
-                    // emulated board's raw-log test checks the two agree.
-                    #[cfg(not(feature = "f103cb"))]
-                    defmt::println!(
-                        "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving"
-                    );
-                    // `RAW_LOG_HEADER` and `RATE_LOG_COLUMNS`.
-                    #[cfg(feature = "f103cb")]
-                    defmt::println!(
-                        "t_s,gyr_x_rad_s,gyr_y_rad_s,gyr_z_rad_s,acc_x_m_s2,acc_y_m_s2,acc_z_m_s2,mag_x_ut,mag_y_ut,mag_z_ut,ref_qw,ref_qx,ref_qy,ref_qz,moving,sp_roll_rate_dps,gyro_roll_dps,sp_pitch_rate_dps,gyro_pitch_dps,sp_yaw_rate_dps,gyro_yaw_dps"
-                    );
+                    log_raw_header();
                 }
             }
             CalEvent::Unavailable { .. } => crate::boot::log_not_in_this_build(),

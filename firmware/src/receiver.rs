@@ -73,9 +73,9 @@ const CR1_UE: u16 = 1 << 13;
 const CR3_DMAR: u16 = 1 << 6;
 /// The STM32F103CB build also transmits telemetry (`crsf_tx.rs`): TE in
 /// CR1, DMAT in CR3 (RM0008 §27.6.4, §27.6.6).
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 const TX_BITS: (u16, u16) = (1 << 3, 1 << 7);
-#[cfg(not(feature = "f103cb"))]
+#[cfg(not(builder))]
 const TX_BITS: (u16, u16) = (0, 0);
 /// DMA1 channel 5 (USART1_RX, RM0008 §13.3.7 table 78), index 4.
 const CH5: usize = 4;
@@ -310,7 +310,7 @@ pub struct Pilot {
     /// The channel map and the mode and motor-test switch channels from
     /// the settings (the STM32F103CB build; the C8's are `config`'s
     /// constants).
-    #[cfg(feature = "f103cb")]
+    #[cfg(builder)]
     channels: (ChannelMap, u8, u8),
 }
 
@@ -337,7 +337,7 @@ impl Pilot {
             },
             #[cfg(feature = "ppm")]
             ppm: crate::ppm::PpmCounters::ZERO,
-            #[cfg(feature = "f103cb")]
+            #[cfg(builder)]
             channels: (
                 config::channel_map(),
                 config::MODE_CHANNEL,
@@ -350,7 +350,7 @@ impl Pilot {
     /// build). A set the receiver code refuses (a switch on a stick's
     /// channel, a timeout out of range) is logged and the board's
     /// defaults kept.
-    #[cfg(feature = "f103cb")]
+    #[cfg(builder)]
     pub fn with_settings(mut self, p: &params::ParamSet) -> Self {
         match p.channel_map() {
             Ok(map) => self.channels = (map, p.mode_channel(), p.motor_test_channel()),
@@ -364,13 +364,13 @@ impl Pilot {
     }
 
     /// The channel map and the mode and motor-test channels.
-    #[cfg(feature = "f103cb")]
+    #[cfg(builder)]
     fn channels(&self) -> (ChannelMap, u8, u8) {
         self.channels
     }
 
     /// The channel map and the mode and motor-test channels.
-    #[cfg(not(feature = "f103cb"))]
+    #[cfg(not(builder))]
     fn channels(&self) -> (ChannelMap, u8, u8) {
         (
             config::channel_map(),

@@ -65,12 +65,12 @@ impl CalibrationStore for FlashPage<'_> {
 /// plan, `memory-cb.x`) through the HAL's flash writer, for
 /// `params::store`. The F1 programs half-words; the HAL's `write` takes a
 /// byte slice of whole half-words and programs them in order.
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 pub struct ParamPages<'a> {
     writer: FlashWriter<'a>,
 }
 
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 impl<'a> ParamPages<'a> {
     /// Offset of `PARAMS_A` from the start of flash (`_params_a_page`).
     pub const A_OFFSET: u32 = 0x0001_F000;
@@ -93,7 +93,7 @@ impl<'a> ParamPages<'a> {
     }
 }
 
-#[cfg(feature = "f103cb")]
+#[cfg(builder)]
 impl params::store::ParamFlash for ParamPages<'_> {
     type Error = Error;
 

@@ -179,13 +179,15 @@ pub enum Build {
 }
 
 impl Build {
-    /// The build of an attributed ELF: the CB's by its flash plan (a code
-    /// region over the C8's), the calibration build by what it links.
+    /// The build of an attributed ELF: the calibration build by what it
+    /// links (the same code on either chip: `f103cb` + `calibrate` is the
+    /// C8's calibration build on the CB's layout), the CB's flight build by
+    /// its flash plan (a code region over the C8's).
     pub fn of(a: &Attribution) -> Build {
-        if plan_code_region(&a.plan_symbols) > PLAN_CODE_REGION {
-            Build::Cb
-        } else if is_calibration_build(a) {
+        if is_calibration_build(a) {
             Build::Calibration
+        } else if plan_code_region(&a.plan_symbols) > PLAN_CODE_REGION {
+            Build::Cb
         } else {
             Build::Flight
         }

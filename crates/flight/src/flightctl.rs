@@ -793,11 +793,13 @@ impl FlightController {
     }
 
     /// Asks for (`true`) or ends the low-battery descent. Armed under
-    /// pilot control with an altitude estimate, the craft then levels and
-    /// descends at [`SafetyConfig::failsafe_descent_mps`] through the
+    /// pilot control in a self-levelling mode (angle or altitude hold)
+    /// with an altitude estimate, the craft then levels and descends at [`SafetyConfig::failsafe_descent_mps`] through the
     /// altitude hold until the landing detector disarms it on the ground
-    /// ([`DisarmCause::Landed`]); without an altitude estimate the request
-    /// changes nothing (the low battery is then a warning only). When to
+    /// ([`DisarmCause::Landed`]); in acro (which arms without the
+    /// accelerometer's calibration, and may be flying inverted) or without
+    /// an altitude estimate the request changes nothing (the low battery
+    /// is then a warning only). When to
     /// ask, and how the pilot's sticks end it, is the caller's rule
     /// (`battery::LowBatteryDescent` in the firmware).
     #[cfg(feature = "battery-descent")]
@@ -1239,7 +1241,9 @@ impl FlightController {
                 self.failsafe_setpoints(phase, dt_us, att, alt, out)
             }
             #[cfg(feature = "battery-descent")]
-            (FlightState::Armed, Some(a)) if self.battery_descent => {
+            (FlightState::Armed, Some(a))
+                if self.battery_descent && pilot.mode != FlightMode::Acro =>
+            {
                 Some(self.battery_descent_setpoints(dt_us, att, a, out))
             }
             _ => Some(self.pilot_setpoints(dt_us, pilot, att, alt, out)),

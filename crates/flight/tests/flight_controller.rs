@@ -1053,3 +1053,17 @@ fn battery_descent_ends_when_asked_and_is_ignored_without_altitude() {
     assert_eq!(back.mode, FlightMode::Angle);
     assert!(back.rate_setpoint.roll_rps > 0.1, "the pilot's stick again");
 }
+
+#[test]
+fn battery_descent_is_ignored_in_acro() {
+    let mut r = Rig::new();
+    r.vehicle.altitude = altitude(5.0, 0.0);
+    r.take_off();
+    r.pilot.mode = FlightMode::Acro;
+    r.pilot.sticks.roll = 0.5;
+    let free = r.step();
+    r.fc.set_battery_descent(true);
+    let asked = r.step();
+    assert_eq!(asked.mode, FlightMode::Acro, "acro: a warning only");
+    assert_eq!(asked.rate_setpoint, free.rate_setpoint);
+}

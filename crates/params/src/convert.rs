@@ -20,11 +20,12 @@
 //! | `trim.roll`, `trim.pitch` | [`ParamSet::level_trim_mpu_g`] (an accelerometer offset) |
 //! | `batt.*` | [`ParamSet::battery_config`] |
 //!
-//! Not yet consumed by a configuration type, so read as scaled integers:
+//! What the battery and trim values mean:
 //!
 //! * `batt.scale` (3 decimals): the resistor divider's ratio, pack volts
 //!   per volt at the ADC pin (11.000 for 10 kΩ over 1 kΩ). From one
-//!   multimeter reading: new scale = old scale × measured / shown.
+//!   multimeter reading: new scale = old scale × measured / shown (the
+//!   board's console does it: `vbat VOLTS`).
 //! * `batt.warn_cv`, `batt.crit_cv`: per-cell thresholds in 0.01 V
 //!   (Betaflight's 3.50 V and 3.30 V); `batt.cells`: the cell count, 0 to
 //!   detect it when the pack is connected.
@@ -177,9 +178,10 @@ impl ParamSet {
     /// The battery monitor's settings: `batt.scale` (pack volts per pin
     /// volt, 3 decimals; × 3300 mV at the ADC's full scale), `batt.cells`
     /// (0: detect), `batt.warn_cv`, `batt.crit_cv` (0.01 V a cell); the
-    /// rest `battery::Config::DEFAULT`'s. The monitor's own range check
-    /// refuses a critical level at or above the warning, and the table's
-    /// wider ranges below 3.00 / 2.80 V.
+    /// rest `battery::Config::DEFAULT`'s. The table's ranges are the
+    /// monitor's (the scale's 10–80 V at full scale, the levels' 3.00–4.00
+    /// and 2.80–3.99 V, up to 8 cells); what it checks besides is the
+    /// critical level below the warning.
     pub fn battery_config(&self) -> Result<battery::Config, battery::Error> {
         let v = |id: P| u32::try_from(self.get(id)).unwrap_or(0);
         let cfg = battery::Config {

@@ -178,10 +178,10 @@ params! {
     RcArm: "rc.arm", Ch, 0, 1, 16, 5, "arm switch channel (high arms)";
     RcMode: "rc.mode", Ch, 0, 1, 16, 6, "mode switch: low angle, mid alt, high acro";
     RcMotorTest: "rc.motor_test", Ch, 0, 1, 16, 7, "motor-test switch channel";
-    BattScale: "batt.scale", None, 3, 1000, 50000, 11000, "pack volts per pin volt";
-    BattWarn: "batt.warn_cv", CentiVolt, 0, 250, 450, 350, "warning, per cell";
-    BattCrit: "batt.crit_cv", CentiVolt, 0, 250, 450, 330, "critical, per cell";
-    BattCells: "batt.cells", None, 0, 0, 6, 0, "cells, 0 auto";
+    BattScale: "batt.scale", None, 3, 3100, 24200, 11000, "pack volts per pin volt";
+    BattWarn: "batt.warn_cv", CentiVolt, 0, 300, 400, 350, "warning, per cell";
+    BattCrit: "batt.crit_cv", CentiVolt, 0, 280, 399, 330, "critical, per cell, below warn";
+    BattCells: "batt.cells", None, 0, 0, 8, 0, "cells, 0 auto";
     ImuMount: "imu.mount", None, 0, 0, 511, 424, "mounting code, 424 face up x fwd";
     EscIdle: "esc.idle", None, 3, 0, 300, 50, "lowest motor command armed";
     EscTest: "esc.test", None, 3, 0, 200, 80, "motor-test command, PROPS OFF";

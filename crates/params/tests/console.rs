@@ -69,7 +69,7 @@ fn get_shows_value_unit_range_and_default_as_a_pasteable_line() {
         ["set rate.roll.d 0.0045 # s2/rad 0.0000..0.1000, default 0.0045"]
     );
     let (_, lines) = run("get batt.warn_cv", &mut set, false);
-    assert_eq!(lines, ["set batt.warn_cv 350 # cV 250..450, default 350"]);
+    assert_eq!(lines, ["set batt.warn_cv 350 # cV 300..400, default 350"]);
     let (_, lines) = run("get trim.roll", &mut set, false);
     assert_eq!(
         lines,
@@ -112,7 +112,7 @@ fn errors_name_the_problem_and_change_nothing() {
         ),
         (
             "set batt.cells four",
-            "error: batt.cells: not a number: four (0..6)",
+            "error: batt.cells: not a number: four (0..8)",
         ),
         (
             "set rate.roll.p 99999999999",
