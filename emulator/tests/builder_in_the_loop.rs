@@ -32,13 +32,21 @@ fn is_cb() -> bool {
     false
 }
 
+/// The low-battery flight; at 10 s, armed and hovering, the pilot's
+/// laptop types `set` and `save` into the console.
 fn low_battery_flight() -> Option<FlightRig> {
     if !is_cb() {
         return None;
     }
     let mut r = rig_with(RigOptions::new(Scenario::LowBattery, 1))?;
-    r.fly()
-        .unwrap_or_else(|e| panic!("{e}\n{}", tail(r.board(), 30)));
+    if let Err(e) = r.run_until_s(10.0) {
+        panic!("{e}\n{}", tail(r.board(), 30));
+    }
+    let typed = b"set rate.roll.p 0.3\nsave\n";
+    assert_eq!(r.board_mut().rtt_write_down(0, typed).unwrap(), typed.len());
+    if let Err(e) = r.fly() {
+        panic!("{e}\n{}", tail(r.board(), 30));
+    }
     Some(r)
 }
 
@@ -125,6 +133,11 @@ fn a_low_pack_warns_then_descends_and_lands_on_the_board() {
     let rate = (height(descent + 1.5) - height(descent + 3.0)) / 1.5;
     assert!((rate - 0.5).abs() < 0.15, "descent {rate} m/s");
     assert!(landed > descent);
+    // The console refused both while armed: nothing saved, no restart.
+    let refused = lines_after(b, 10 * S, "armed: disarm first");
+    assert_eq!(refused.len(), 2, "{}", tail(b, 30));
+    assert!(lines_with(b, "saved (").is_empty());
+    assert_no_reset(b);
     // Never disarmed in the air: every pulse off is on the ground.
     for s in r.samples().iter().filter(|s| s.t_s > 4.0 && s.t_s < landed) {
         assert!(
