@@ -58,6 +58,15 @@ pub fn telemetry() -> TelemetrySnapshot {
     critical_section::with(|cs| TELEMETRY.borrow(cs).get()).unwrap_or_default()
 }
 
+/// The raw log is on (log task → flight step): the rate block is summed
+/// only then, its soft float kept off the 1 kHz step otherwise.
+static RAW_LOG_ON: AtomicBool = AtomicBool::new(false);
+
+/// The raw log was switched on or off.
+pub fn set_raw_log(on: bool) {
+    RAW_LOG_ON.store(on, Ordering::Relaxed);
+}
+
 /// The rate loop's last raw-log period: setpoint and gyro per axis (body
 /// FRD, °/s, interleaved as the raw log's columns), flight step → raw-log
 /// task.
@@ -84,7 +93,7 @@ impl RateLog {
     /// One flight step: its rate setpoint (rad/s) and the gyro the loop
     /// saw (Q16 rad/s); each full period published for the raw log.
     pub fn push(&mut self, out: &FlightOutput, gyro_q16: Option<[i32; 3]>) {
-        let Some(g) = gyro_q16 else {
+        let Some(g) = gyro_q16.filter(|_| RAW_LOG_ON.load(Ordering::Relaxed)) else {
             return;
         };
         let sp = &out.rate_setpoint;

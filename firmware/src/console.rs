@@ -131,6 +131,12 @@ impl Console {
                 self.continue_listing(out);
             }
             Outcome::Save => {
+                if let Err(why) = self.params.validate(settings::IMU_RATE_HZ) {
+                    out.put(b"error: not saved: ");
+                    out.put(why.as_bytes());
+                    out.put(b"\n");
+                    return After::Continue;
+                }
                 let r = params::store::save(&mut ParamPages::new(flash), &self.params);
                 console::report_save(&r, out);
                 if r.is_ok() {

@@ -1153,6 +1153,8 @@ mod app {
         match ev {
             CalEvent::ModeChanged { from, to } => {
                 defmt::info!("mode {} -> {}", from, to);
+                #[cfg(builder)]
+                builder::set_raw_log(to == sensor_stack::calmode::Mode::RawLog);
                 if to == sensor_stack::calmode::Mode::RawLog {
                     log_raw_header();
                 }

@@ -118,6 +118,23 @@ impl ParamSet {
         GyroFilterConfig { low_pass, notch }
     }
 
+    /// Whether the board will take these values at boot, beyond each one's
+    /// range: the battery levels (critical below warning), the channels
+    /// (no two functions on one), the gyro filter (designable at the
+    /// sample rate `imu_rate_hz`). `Err` names what it would refuse; the
+    /// console's `save` checks it first, so a saved set never boots into
+    /// the defaults.
+    pub fn validate(&self, imu_rate_hz: f32) -> Result<(), &'static str> {
+        self.battery_config()
+            .map_err(|_| "batt.crit_cv must be below batt.warn_cv")?;
+        self.channel_map()
+            .map_err(|_| "two rc.* functions on one channel")?;
+        self.gyro_filter()
+            .design(imu_rate_hz)
+            .map_err(|_| "the gyro filter cannot be designed at the sample rate")?;
+        Ok(())
+    }
+
     /// The 0-based channel index of a 1-based channel parameter.
     fn index(&self, id: P) -> u8 {
         u8::try_from(self.get(id).saturating_sub(1)).unwrap_or(u8::MAX)

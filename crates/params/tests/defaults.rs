@@ -175,3 +175,14 @@ fn the_battery_settings_default_to_the_monitors_and_refuse_a_critical_above_the_
         "critical 3.60 V above the 3.50 V warning"
     );
 }
+
+#[test]
+fn validate_names_what_the_board_would_refuse_at_boot() {
+    let mut p = ParamSet::defaults();
+    assert_eq!(p.validate(1000.0), Ok(()));
+    p.set(ParamId::BattCrit, 360).unwrap();
+    assert!(p.validate(1000.0).unwrap_err().contains("batt.crit_cv"));
+    let mut p = ParamSet::defaults();
+    p.set(ParamId::RcMode, 1).unwrap(); // the roll stick's channel
+    assert!(p.validate(1000.0).unwrap_err().contains("rc."));
+}

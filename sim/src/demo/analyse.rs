@@ -50,7 +50,7 @@ fn columns(header: &[&str], names: &[String]) -> Result<Vec<usize>, String> {
 }
 
 /// Parses a CSV log: the rows with a setpoint and a gyro on every axis
-/// (rows without, as while disarmed, are left out, so the rows used must
+/// (rows without, or with NaN, as while disarmed, are left out, so the rows used must
 /// be one stretch of evenly spaced samples).
 pub fn parse(text: &str) -> Result<LogSignals, String> {
     let mut lines = text.lines();
@@ -79,6 +79,11 @@ pub fn parse(text: &str) -> Result<LogSignals, String> {
             .map(|&i| cells.get(i).and_then(|c| c.trim().parse::<f64>().ok()))
             .collect();
         let Some(v) = values else { continue };
+        // NaN: no value yet (the CB raw log's first rows, before a full
+        // block of the rate loop's samples), left out like an empty cell.
+        if v.iter().any(|x| x.is_nan()) {
+            continue;
+        }
         if v.iter().any(|x| !x.is_finite()) {
             return Err(format!("row {}: a value is not finite", n + 2));
         }
