@@ -9,8 +9,9 @@
    e' = s*w - tol*|wbar|*sat(tan(e)/zone) - sat(tan(e))/tau_h, wbar' = (w - wbar)/tau_w.
 4. Fast turns about tilted axes (the simulator's `fastaxes`): the loss s*A splits into
    heading (the axis's vertical part) and tilt (its horizontal part); the accelerometer's
-   critically damped correction (double pole at 1/tau_tilt) leaves (1 + T/tau)e^(-T/tau) of
-   a tilt error after T; a tilt error d about the field's horizontal direction turns the
+   correction (natural frequency 1/tau_tilt, damping 3/4) leaves
+   e^(-3T/(4tau))(cos(wd T) + (3/4)/(wd tau) sin(wd T)), wd = sqrt(7)/(4 tau), of a tilt
+   error after T; a tilt error d about the field's horizontal direction turns the
    field seen in the estimate's frame by atan(tan(dip)*sin d) in heading while its dip
    moves only in second order, so the norm/dip check cannot see it.
 5. The simulator's dipole classes (`dipole-ride:MM:UAM2`): |d|, eps, the largest norm and
@@ -22,6 +23,15 @@ import random
 
 MU0_4PI = 1e-7
 
+
+
+def tilt_left(t, tau):
+    """The share of a tilt error the accelerometer's correction leaves after t: the
+    step response's remainder of e'' + (3/2)e'/tau + e/tau^2 (natural frequency 1/tau,
+    damping 3/4; fc-ahrs README, "The full filter", step 4)."""
+    zeta = 0.75
+    sigma, wd = zeta / tau, math.sqrt(1.0 - zeta * zeta) / tau
+    return math.exp(-sigma * t) * (math.cos(wd * t) + sigma / wd * math.sin(wd * t))
 
 def dipole_ut(m_am2, r_m, axial):
     return MU0_4PI * m_am2 / r_m ** 3 * (2 if axial else 1) * 1e6
@@ -117,7 +127,7 @@ def tilted_axes(tau_tilt=3.0, dip=60.0, a_deg=720.0):
             row.append("(%+.0f,%+.0f,%+.0f) %5.1f / %5.1f" % (*ax, s * a_deg * abs(u[2]), s * a_deg * h))
         print("  s %.2f: heading / tilt loss (deg) per axis: %s" % (s, "; ".join(row)))
     for t in (1.0, 3.0, 4.0, 6.0, 10.0):
-        print("  tilt left after %4.1f s: %3.0f %%" % (t, 100 * (1 + t / tau_tilt) * math.exp(-t / tau_tilt)))
+        print("  tilt left after %4.1f s: %3.0f %%" % (t, 100 * tilt_left(t, tau_tilt)))
     td = math.tan(math.radians(dip))
     for d in (1, 2, 5, 10, 15, 20):
         r = math.radians(d)

@@ -809,11 +809,12 @@ fn a_weak_disc_on_a_calibrated_board_moved_slowly_is_never_rejected_and_leaves_t
 }
 
 #[test]
-fn fast_turns_about_tilted_axes_leave_a_tilt_the_accelerometer_takes_at_its_double_pole() {
+fn fast_turns_about_tilted_axes_leave_a_tilt_the_accelerometer_takes_at_its_loop_rate() {
     // A scale error s over two turns (A = 720°) about an axis whose horizontal
     // part is h leaves a tilt s·A·h (+ the cross-axis terms, which rotate with
-    // the body and stay within ~1°); the accelerometer's critically damped
-    // correction leaves (1 + T/τ)·e^(−T/τ) of it after the T = 4 s from the
+    // the body and stay within ~1°); the accelerometer's correction (natural
+    // frequency 1/τ, damping ζ = ¾) leaves e^(−ζT/τ)·(cos ω_d·T +
+    // ζ/√(1−ζ²)·sin ω_d·T), ω_d = √(1−ζ²)/τ, of it after the T = 4 s from the
     // turn's end to the rest's end. With what the previous cycles left, the
     // tilt at the end of rest k is at most B_k = r·(B_(k−1) + s·A·h_k + 1°).
     let cfg = Config::DEFAULT;
@@ -821,7 +822,8 @@ fn fast_turns_about_tilted_axes_leave_a_tilt_the_accelerometer_takes_at_its_doub
     let a_deg = Trajectory::FAST_AXES_ANGLE_RAD.to_degrees();
     let tau = f64::from(cfg.tilt_tau_s);
     let t = Trajectory::FAST_AXES_MOVE_S + Trajectory::FAST_AXES_REST_S;
-    let r = (1.0 + t / tau) * (-t / tau).exp();
+    let (zeta, wd) = (0.75, (1.0f64 - 0.75 * 0.75).sqrt() / tau);
+    let r = (-zeta * t / tau).exp() * ((wd * t).cos() + zeta / (wd * tau) * (wd * t).sin());
     let samples = record(
         &mut world(
             Trajectory::FastAxes,

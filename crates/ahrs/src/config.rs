@@ -20,8 +20,10 @@ pub struct Config {
     /// The estimate's earth frame is (nearly) inertial, so the accelerations of a body
     /// that moves but goes nowhere average out there, gravity does not. With the
     /// correction closing the loop, inclination follows the accelerometer through a
-    /// critically damped second-order low-pass (double pole at 1/τ): a linear acceleration
-    /// at f is attenuated by (2π·f·τ)² and a residual gyro bias b leaves a tilt of 2·b·τ.
+    /// second-order low-pass of natural frequency 1/τ and damping ζ = ¾ (the first stage
+    /// turns by half of each tilt correction, the second by all of it): a linear
+    /// acceleration at f is attenuated by (2π·f·τ)², a tilt error decays at e^(−¾·t/τ)
+    /// with a 2.8 % overshoot, and a residual gyro bias b leaves a tilt of 1.5·b·τ.
     pub tilt_tau_s: f32,
     /// Rotor drag of a multirotor per unit mass (1/s; N per m/s of body velocity per
     /// kg); 0 (the default) for a body that is not a multirotor.

@@ -404,6 +404,23 @@ fn propagate_inline(q: [i32; 4], hw: [i32; 3]) -> [i64; 4] {
     ]
 }
 
+/// Turns a tilt low-pass state `s` (Q26 g) by the small rotation `t` (Q30 rad):
+/// s += t × s.
+#[inline(never)]
+fn turn_state(s: &mut [i32; 3], t: [i32; 3]) {
+    let [s0, s1, s2] = *s;
+    let [t0, t1, t2] = t;
+    // t × s: Q30·Q26 >> 30 → Q26.
+    let c0 = (m64(t1, s2) - m64(t2, s1)) >> 30;
+    let c1 = (m64(t2, s0) - m64(t0, s2)) >> 30;
+    let c2 = (m64(t0, s1) - m64(t1, s0)) >> 30;
+    *s = [
+        sat32(i64::from(s0) + c0),
+        sat32(i64::from(s1) + c1),
+        sat32(i64::from(s2) + c2),
+    ];
+}
+
 /// Renormalise the Q60 accumulator to a unit Q30 quaternion; `None` if (near) zero
 /// (‖acc‖ < 2^-10). Bound: ‖acc‖ < (1.87 + 3·½)·2^60 = 3.37·2^60 (propagation, two
 /// gradient steps and the heading term, each ≤ ½), so the Q29 components are < 2^31 and
@@ -1311,19 +1328,10 @@ impl MadgwickFixed {
             return false;
         };
         self.q = n;
-        for s in &mut self.acc_lp {
-            let [s0, s1, s2] = *s;
-            let [t0, t1, t2] = theta;
-            // θ × s: Q30·Q26 >> 30 → Q26.
-            let c0 = (m64(t1, s2) - m64(t2, s1)) >> 30;
-            let c1 = (m64(t2, s0) - m64(t0, s2)) >> 30;
-            let c2 = (m64(t0, s1) - m64(t1, s0)) >> 30;
-            *s = [
-                sat32(i64::from(s0) + c0),
-                sat32(i64::from(s1) + c1),
-                sat32(i64::from(s2) + c2),
-            ];
-        }
+        // The first stage turns by half the tilt (as the f32 filter's `fuse`).
+        let [s_first, s_second] = &mut self.acc_lp;
+        turn_state(s_first, [p1, p2, theta[2]]);
+        turn_state(s_second, theta);
         // The drag model turns its states by it when it next runs.
         if !cfg!(feature = "no-multirotor") {
             self.drag_tz = theta[2];
