@@ -11,7 +11,8 @@
    heading (the axis's vertical part) and tilt (its horizontal part); the accelerometer's
    correction (natural frequency 1/tau_tilt, damping 3/4) leaves
    e^(-3T/(4tau))(cos(wd T) + (3/4)/(wd tau) sin(wd T)), wd = sqrt(7)/(4 tau), of a tilt
-   error after T; a tilt error d about the field's horizontal direction turns the
+   error after T, and at rest (once the gyro bias estimator's rest test holds) the same
+   loop at tau = 0.25 s; a tilt error d about the field's horizontal direction turns the
    field seen in the estimate's frame by atan(tan(dip)*sin d) in heading while its dip
    moves only in second order, so the norm/dip check cannot see it.
 5. The simulator's dipole classes (`dipole-ride:MM:UAM2`): |d|, eps, the largest norm and
@@ -25,6 +26,9 @@ MU0_4PI = 1e-7
 
 
 
+
+# fc-ahrs Config::rest_tilt_tau_s (s).
+REST_TILT_TAU = 0.25
 def tilt_left(t, tau):
     """The share of a tilt error the accelerometer's correction leaves after t: the
     step response's remainder of e'' + (3/2)e'/tau + e/tau^2 (natural frequency 1/tau,
@@ -128,6 +132,10 @@ def tilted_axes(tau_tilt=3.0, dip=60.0, a_deg=720.0):
         print("  s %.2f: heading / tilt loss (deg) per axis: %s" % (s, "; ".join(row)))
     for t in (1.0, 3.0, 4.0, 6.0, 10.0):
         print("  tilt left after %4.1f s: %3.0f %%" % (t, 100 * tilt_left(t, tau_tilt)))
+    # At rest (the bias estimator's test, 1.5 s) the stages run at REST_TILT_TAU.
+    for t in (0.5, 1.0, 1.5):
+        print("  at rest, %.1f s after the rest test (tau %.2f s): %5.1f %% left"
+              % (t, REST_TILT_TAU, 100 * abs(tilt_left(t, REST_TILT_TAU))))
     td = math.tan(math.radians(dip))
     for d in (1, 2, 5, 10, 15, 20):
         r = math.radians(d)

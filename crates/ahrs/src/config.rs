@@ -25,6 +25,22 @@ pub struct Config {
     /// acceleration at f is attenuated by (2π·f·τ)², a tilt error decays at e^(−¾·t/τ)
     /// with a 2.8 % overshoot, and a residual gyro bias b leaves a tilt of 1.5·b·τ.
     pub tilt_tau_s: f32,
+    /// Time constant (s) of the same two stages while the body is at rest (the gyro
+    /// bias estimator's test, [`BiasConfig`]: rate below `rest_gyro_rps` and specific
+    /// force within `rest_accel_tol` of 1 g for `rest_time_s`) and not flying
+    /// ([`crate::Madgwick::set_in_flight`]), where it is shorter than the time constant
+    /// they would run with; `tilt_tau_s` or more: off.
+    ///
+    /// At rest there is no acceleration for the long `tilt_tau_s` to reject: the
+    /// accelerometer's direction is the vertical, up to its noise (the MPU-9250's
+    /// 300 µg/√Hz is 0.02° through this loop at 0.25 s) and a hand's tremor (8–12 Hz,
+    /// attenuated 250× by it). A tilt error the gyro left (a scale error over a fast
+    /// turn about a tilted axis: 3 % of 720° is 21.6°) is then gone within the first
+    /// second of the rest instead of 70 % of it still there after 3 s, and with it the
+    /// compass error it makes (tan(dip) per degree, which the norm/dip check cannot
+    /// see). It never applies while the craft flies: a hovering quad's accelerometer
+    /// does not see its tilt.
+    pub rest_tilt_tau_s: f32,
     /// Rotor drag of a multirotor per unit mass (1/s; N per m/s of body velocity per
     /// kg); 0 (the default) for a body that is not a multirotor.
     ///
@@ -182,7 +198,9 @@ pub struct MagRejectionConfig {
     /// tolerance band follow the room's mean field and accept more of its local
     /// distortions (on the BROAD dev trials with 20 s, 5.5 % of the samples are
     /// rejected instead of 9.4 % and the mean heading error grows by 0.09°; see the
-    /// crate README).
+    /// crate README). The fixed-point filter follows only with the crate's
+    /// `mag-ref-follow` feature (default on); without it its reference stays frozen
+    /// whatever this says (the firmware leaves it out: 0.5 KiB of flash).
     pub ref_tau_s: f32,
 }
 
@@ -259,6 +277,7 @@ impl Config {
         algorithm: Algorithm::Full,
         beta: 0.02,
         tilt_tau_s: 3.0,
+        rest_tilt_tau_s: 0.25,
         rotor_drag_per_s: 0.0,
         form_drag_per_m: 0.0,
         heading_tau_s: 40.0,

@@ -573,6 +573,8 @@ pub struct FixedConfig {
     inv_mag_ref_tau_q30: i64,
     inv_tilt_tau_q20: i64,
     inv_tilt_tau0_q20: i64,
+    /// 1/`rest_tilt_tau_s` in Q20.
+    inv_rest_tilt_tau_q20: i64,
     inv_g_q32: i32,
     acc_pre_shift: u32,
     acc_pre_lim: i32,
@@ -686,6 +688,7 @@ impl FixedConfig {
             },
             inv_tilt_tau_q20: inv_q20(cfg.tilt_tau_s),
             inv_tilt_tau0_q20: inv_q20(cfg.tilt_tau_s.min(crate::madgwick::STARTUP_TILT_TAU_S)),
+            inv_rest_tilt_tau_q20: inv_q20(cfg.rest_tilt_tau_s),
             inv_g_q32,
             acc_pre_shift,
             acc_pre_lim: i32::MAX >> acc_pre_shift,
@@ -1099,6 +1102,10 @@ impl MadgwickFixed {
         } else {
             c.inv_tilt_tau_q20
         };
+        // At rest and not flying: `rest_tilt_tau_s` where that is faster (as the f32
+        // filter).
+        let rest = i64::from(st.at_rest & !self.in_flight);
+        let inv_tau = inv_tau.max(c.inv_rest_tilt_tau_q20 * rest);
         let k = ((i64::from(dt_q31) * inv_tau) >> 21).max(0).min(ONE_Q30) as i32;
         let [s1, s2] = &mut self.acc_lp;
         let [u0, u1, u2] = u;
@@ -1443,7 +1450,9 @@ impl MadgwickFixed {
             |rf: &MagRef| n2 >= rf.lo && n2 <= rf.hi && (hz - rf.hz_q30).abs() <= rf.hz_tol_q30;
         if ok(re) {
             let (ref_n2, ref_hz_q30, hz_tol_q30) = (re.n2, re.hz_q30, re.hz_tol_q30);
-            let moving = c.inv_mag_ref_tau_q30 > 0 && w2_q40 > c.mag_min_rate_sq_q40;
+            let moving = cfg!(feature = "mag-ref-follow")
+                && c.inv_mag_ref_tau_q30 > 0
+                && w2_q40 > c.mag_min_rate_sq_q40;
             self.clear_disturbance();
             if moving {
                 self.follow_reference(n2, hz, ref_n2, ref_hz_q30, hz_tol_q30, dt_q31);

@@ -571,7 +571,11 @@ impl Madgwick {
             self.acc_lp = [u, u];
             self.acc_lp_valid = true;
         }
-        let inv_tau = inv_tilt_tau(&cfg, self.time_s, initialising);
+        let mut inv_tau = inv_tilt_tau(&cfg, self.time_s, initialising);
+        // At rest and not flying: `rest_tilt_tau_s` where that is faster.
+        if st.at_rest && !self.in_flight {
+            inv_tau = inv_tau.max(inv_tau_of(cfg.rest_tilt_tau_s));
+        }
         let k = (dt_s * inv_tau).clamp(0.0, 1.0);
         let [s1, s2] = &mut self.acc_lp;
         for i in 0..3 {
@@ -990,16 +994,19 @@ pub(crate) fn inv_heading_tau(tau_s: f32) -> f32 {
     }
 }
 
+/// 1/τ (1/s, ≤ 2000; 2000 for τ ≤ 0 or NaN) of a tilt stage's time constant τ (s).
+fn inv_tau_of(tau_s: f32) -> f32 {
+    if tau_s > 0.0 {
+        (1.0 / tau_s).min(2000.0)
+    } else {
+        2000.0
+    }
+}
+
 /// 1/τ of the tilt low-pass stages (1/s, ≤ 2000): ramps linearly from
 /// 1/[`STARTUP_TILT_TAU_S`] to 1/[`Config::tilt_tau_s`] during the start-up phase.
 fn inv_tilt_tau(cfg: &Config, time_s: f32, initialising: bool) -> f32 {
-    let inv = |t: f32| {
-        if t > 0.0 {
-            (1.0 / t).min(2000.0)
-        } else {
-            2000.0
-        }
-    };
+    let inv = inv_tau_of;
     let i = inv(cfg.tilt_tau_s);
     if initialising && cfg.startup_s > 0.0 {
         let i0 = inv(cfg.tilt_tau_s.min(STARTUP_TILT_TAU_S));

@@ -69,6 +69,10 @@ struct Cli {
     /// accelerometer's tilt correction goes through, s, > 0.
     #[arg(long, value_name = "S", value_parser = above(0.0))]
     tilt_tau: Option<f32>,
+    /// The same stages' time constant at rest (the bias estimator's test)
+    /// where shorter, s, > 0 (`--tilt-tau`'s value or more: off).
+    #[arg(long, value_name = "S", value_parser = above(0.0))]
+    rest_tilt_tau: Option<f32>,
     /// Disable gyro bias estimation at rest.
     #[arg(long)]
     no_bias_est: bool,
@@ -225,6 +229,7 @@ fn config(cli: &Cli) -> fc_ahrs::Config {
     set(&mut c.gyro_scale_tol, cli.gyro_scale_tol);
     set(&mut c.gyro_scale_tau_s, cli.gyro_scale_tau);
     set(&mut c.tilt_tau_s, cli.tilt_tau);
+    set(&mut c.rest_tilt_tau_s, cli.rest_tilt_tau);
     if cli.no_bias_est {
         c.bias.enabled = false;
     }
