@@ -1335,9 +1335,15 @@ impl MadgwickFixed {
             return false;
         };
         self.q = n;
-        // The first stage turns by half the tilt (as the f32 filter's `fuse`).
+        // The first stage turns by half the tilt on the ground, by all of it in
+        // flight (as the f32 filter's `fuse`).
+        let first = if self.in_flight {
+            theta
+        } else {
+            [p1, p2, theta[2]]
+        };
         let [s_first, s_second] = &mut self.acc_lp;
-        turn_state(s_first, [p1, p2, theta[2]]);
+        turn_state(s_first, first);
         turn_state(s_second, theta);
         // The drag model turns its states by it when it next runs.
         if !cfg!(feature = "no-multirotor") {

@@ -741,12 +741,17 @@ impl Madgwick {
             return false;
         };
         self.q = n;
-        // The second stage turns with the estimate; the first by half its tilt (all
-        // of its heading): that damps the loop at ζ = ¾ instead of 1 with the same
-        // natural frequency 1/τ, so the same rejection of linear acceleration
-        // (see `Config::tilt_tau_s`).
-        let half_tilt = [0.5 * theta[0], 0.5 * theta[1], theta[2]];
-        for (s, t) in self.acc_lp.iter_mut().zip([half_tilt, theta]) {
+        // The second stage turns with the estimate; the first, on the ground, by half
+        // its tilt (all of its heading): that damps the loop at ζ = ¾ instead of 1 with
+        // the same natural frequency 1/τ, so the same rejection of linear acceleration
+        // (see `Config::tilt_tau_s`). In flight by all of it: critically damped, no
+        // overshoot on the step the drag model's error leaves at a release.
+        let first = if self.in_flight {
+            theta
+        } else {
+            [0.5 * theta[0], 0.5 * theta[1], theta[2]]
+        };
+        for (s, t) in self.acc_lp.iter_mut().zip([first, theta]) {
             let c = cross(t, *s);
             for (v, c) in s.iter_mut().zip(c) {
                 *v += c;
