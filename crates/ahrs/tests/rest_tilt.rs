@@ -4,7 +4,8 @@
 //! with a gyro scale error). The long tilt time constant (3 s, ζ = ¾) leaves
 //! a fifth of the error after 2.5 s; at rest (the bias estimator's test holds
 //! after 1.5 s) the stages run at 0.25 s and the error is gone by then. In
-//! flight, or with the rest time constant set to the tilt one, nothing changes.
+//! flight, or with the rest time constant set to the tilt one, the 3 s loop
+//! runs throughout (critically damped in flight).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use fc_ahrs::fixed::{dt_s_to_q31, FixedConfig, MadgwickFixed};
@@ -83,17 +84,18 @@ fn at_rest_a_tilt_error_is_gone_within_a_second_of_the_rest_test() {
 fn in_flight_or_switched_off_the_tilt_loop_keeps_its_3_s() {
     // The same 2.5 s with the 3 s loop throughout: the filter starts its stages
     // on the first reading, so the loop corrects from the first sample, and
-    // after 2.5 s it has taken about 80 %; at rest it takes all of it.
+    // after 2.5 s it has taken about 80 % (ζ = ¾ on the ground; in flight the
+    // loop is critically damped and a little slower); at rest it takes all.
     let tau = Config::DEFAULT.tilt_tau_s;
     let rest = Config::DEFAULT.rest_tilt_tau_s;
     for (name, flying, off) in [
         ("f32", run_f32(rest, true), run_f32(tau, false)),
         ("fixed", run_fixed(rest, true), run_fixed(tau, false)),
     ] {
-        assert!(
-            (flying - off).abs() < 0.01,
-            "{name}: {flying}° flying, {off}° off"
-        );
         assert!(off > 1.0 && off < 0.5 * TILT0_DEG, "{name}: {off}° left");
+        assert!(
+            flying > off && flying < 0.5 * TILT0_DEG,
+            "{name}: {flying}° left in flight, {off}° on the ground"
+        );
     }
 }
