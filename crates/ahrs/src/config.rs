@@ -20,10 +20,13 @@ pub struct Config {
     /// The estimate's earth frame is (nearly) inertial, so the accelerations of a body
     /// that moves but goes nowhere average out there, gravity does not. With the
     /// correction closing the loop, inclination follows the accelerometer through a
-    /// second-order low-pass of natural frequency 1/τ and damping ζ = ¾ (the first stage
-    /// turns by half of each tilt correction, the second by all of it): a linear
-    /// acceleration at f is attenuated by (2π·f·τ)², a tilt error decays at e^(−¾·t/τ)
-    /// with a 2.8 % overshoot, and a residual gyro bias b leaves a tilt of 1.5·b·τ.
+    /// second-order low-pass of natural frequency 1/τ: on the ground with damping ζ = ¾
+    /// (the first stage turns by half of each tilt correction, the second by all of it),
+    /// in flight ([`crate::Madgwick::set_in_flight`]) critically damped (both turn by all
+    /// of it: no overshoot on the step a stick release leaves the drag model). A linear
+    /// acceleration at f is attenuated by (2π·f·τ)² either way; with ζ = ¾ a tilt error
+    /// decays at e^(−¾·t/τ) with a 2.8 % overshoot and a residual gyro bias b leaves a
+    /// tilt of 1.5·b·τ (critically damped: e^(−t/τ)·(1 + t/τ), 2·b·τ).
     pub tilt_tau_s: f32,
     /// Time constant (s) of the same two stages while the body is at rest (the gyro
     /// bias estimator's test, [`BiasConfig`]: rate below `rest_gyro_rps` and specific
