@@ -50,9 +50,9 @@ struct Cli {
     beta: Option<f32>,
     /// What the recording's gyro is, which sets the heading correction's two
     /// defaults (the options below override them): `calibrated`, a laboratory
-    /// IMU whose gyro scale factor was calibrated (scale tolerance 1 %, heading
-    /// τ 80 s: chosen by leave-one-out on the seven BROAD dev trials, the same
-    /// pair in every fold), or `mpu9250`, the firmware's datasheet values
+    /// IMU whose gyro scale factor was calibrated (scale tolerance 0.5 %,
+    /// heading τ 80 s: chosen by leave-one-out on the seven BROAD dev trials,
+    /// the same pair in every fold), or `mpu9250`, the firmware's datasheet values
     /// (±3 % sensitivity tolerance, τ 40 s; `fc_ahrs::Config::DEFAULT`).
     #[arg(long, value_enum, default_value = "calibrated")]
     sensor: SensorArg,
@@ -145,7 +145,7 @@ struct Cli {
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
 enum SensorArg {
-    /// A calibrated laboratory IMU (BROAD): scale tolerance 1 %, heading τ 80 s.
+    /// A calibrated laboratory IMU (BROAD): scale tolerance 0.5 %, heading τ 80 s.
     Calibrated,
     /// The MPU-9250 as its datasheet bounds it: the crate's defaults.
     Mpu9250,
@@ -195,7 +195,7 @@ fn fraction(s: &str) -> Result<f32, String> {
 }
 
 /// Gyro scale-factor tolerance of a calibrated recording (`--sensor calibrated`).
-const CALIBRATED_GYRO_SCALE_TOL: f32 = 0.01;
+const CALIBRATED_GYRO_SCALE_TOL: f32 = 0.005;
 /// Heading time constant for a calibrated recording, s (`--sensor calibrated`).
 const CALIBRATED_HEADING_TAU_S: f32 = 80.0;
 
