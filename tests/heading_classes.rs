@@ -584,7 +584,8 @@ fn dev_trials() -> Option<Vec<(String, Vec<Sample>)>> {
 #[test]
 fn the_hard_iron_candidate_on_the_dev_trials() {
     // The same candidate on the seven BROAD dev trials, with replay's
-    // `--sensor calibrated` gains (scale tolerance 1 %, τ_h 80 s); figures for
+    // `--sensor calibrated` gains before the tilt loop's revision (scale
+    // tolerance 1 %, τ_h 80 s); figures for
     // the leave-one-out in the fc-ahrs README. Only the candidate's own
     // bookkeeping is checked here: off, it is the filter as replay runs it.
     let Some(trials) = dev_trials() else {
