@@ -32,7 +32,8 @@ pub struct Config {
     /// bias estimator's test, [`BiasConfig`]: rate below `rest_gyro_rps` and specific
     /// force within `rest_accel_tol` of 1 g for `rest_time_s`) and not flying
     /// ([`crate::Madgwick::set_in_flight`]), where it is shorter than the time constant
-    /// they would run with; `tilt_tau_s` or more: off.
+    /// they would run with; `tilt_tau_s` or more: off. The test runs only with bias
+    /// estimation on (`bias.enabled`).
     ///
     /// At rest there is no acceleration for the long `tilt_tau_s` to reject: the
     /// accelerometer's direction is the vertical, up to its noise (the MPU-9250's
