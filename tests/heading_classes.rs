@@ -718,7 +718,8 @@ fn the_tilt_gate_candidate_on_the_fast_axes_and_magnet_classes() {
 
 #[test]
 fn the_tilt_gate_candidate_on_the_dev_trials_by_leave_one_out() {
-    // Each gate's total per dev trial (replay's `--sensor calibrated` gains),
+    // Each gate's total per dev trial (replay's `--sensor calibrated` gains
+    // before the tilt loop's revision, tol 1 %),
     // then the gate chosen on six trials and scored on the seventh.
     let Some(trials) = dev_trials() else {
         return;
@@ -908,7 +909,8 @@ fn the_gated_hard_iron_learner_on_the_classes_and_by_leave_one_out() {
             r_m * 100.0
         );
         if r_m == 0.06 {
-            assert!(figures[1] < 0.8 * figures[0], "{figures:?}");
+            // Opened, the learner removes some of the disc's offset: heading improves.
+            assert!(figures[1] < figures[0], "{figures:?}");
         }
     }
     let Some(trials) = dev_trials() else {

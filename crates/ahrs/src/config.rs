@@ -20,30 +20,33 @@ pub struct Config {
     /// The estimate's earth frame is (nearly) inertial, so the accelerations of a body
     /// that moves but goes nowhere average out there, gravity does not. With the
     /// correction closing the loop, inclination follows the accelerometer through a
-    /// second-order low-pass of natural frequency 1/τ: on the ground with damping ζ = ¾
-    /// (the first stage turns by half of each tilt correction, the second by all of it),
-    /// in flight ([`crate::Madgwick::set_in_flight`]) critically damped (both turn by all
-    /// of it: no overshoot on the step a stick release leaves the drag model). A linear
+    /// second-order low-pass of natural frequency 1/τ: in its hand-held form (not in
+    /// flight, [`crate::Madgwick::set_in_flight`], and without the multirotor mode) with
+    /// damping ζ = ¾ (the first stage turns by half of each tilt correction, the second
+    /// by all of it), otherwise critically damped (both turn by all of it: no overshoot
+    /// on the step a stick release leaves the drag model). A linear
     /// acceleration at f is attenuated by (2π·f·τ)² either way; with ζ = ¾ a tilt error
     /// decays at e^(−¾·t/τ) with a 2.8 % overshoot and a residual gyro bias b leaves a
     /// tilt of 1.5·b·τ (critically damped: e^(−t/τ)·(1 + t/τ), 2·b·τ).
     pub tilt_tau_s: f32,
     /// Time constant (s) of the same two stages while the body is at rest (the gyro
     /// bias estimator's test, [`BiasConfig`]: rate below `rest_gyro_rps` and specific
-    /// force within `rest_accel_tol` of 1 g for `rest_time_s`) and not flying
-    /// ([`crate::Madgwick::set_in_flight`]), where it is shorter than the time constant
-    /// they would run with; `tilt_tau_s` or more: off. The test runs only with bias
+    /// force within `rest_accel_tol` of 1 g for `rest_time_s`) in the loop's hand-held
+    /// form (not flying, [`crate::Madgwick::set_in_flight`], and without the multirotor
+    /// mode), where it is shorter than the time constant they would run with;
+    /// `tilt_tau_s` or more: off; ≤ 0 or NaN, like `tilt_tau_s`, 1/τ = 2000/s (the
+    /// accelerometer's direction taken at once). The test runs only with bias
     /// estimation on (`bias.enabled`).
     ///
     /// At rest there is no acceleration for the long `tilt_tau_s` to reject: the
     /// accelerometer's direction is the vertical, up to its noise (the MPU-9250's
     /// 300 µg/√Hz is 0.02° through this loop at 0.25 s) and a hand's tremor (8–12 Hz,
     /// attenuated 250× by it). A tilt error the gyro left (a scale error over a fast
-    /// turn about a tilted axis: 3 % of 720° is 21.6°) is then gone within the first
-    /// second of the rest instead of 70 % of it still there after 3 s, and with it the
-    /// compass error it makes (tan(dip) per degree, which the norm/dip check cannot
-    /// see). It never applies while the craft flies: a hovering quad's accelerometer
-    /// does not see its tilt.
+    /// turn about a tilted axis: 3 % of 720° is 21.6°) is then gone within a second of
+    /// the rest test holding instead of 70 % of it still there after 3 s, and with it
+    /// the compass error it makes (tan(dip) per degree, which the norm/dip check cannot
+    /// see). Never in flight or for a multirotor: a hovering craft passes the rest test
+    /// while its accelerometer reads the thrust axis, not the vertical.
     pub rest_tilt_tau_s: f32,
     /// Rotor drag of a multirotor per unit mass (1/s; N per m/s of body velocity per
     /// kg); 0 (the default) for a body that is not a multirotor.

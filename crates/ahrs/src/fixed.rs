@@ -748,6 +748,8 @@ pub struct MadgwickFixed {
     drag_p: [i32; 2],
     /// In flight ([`MadgwickFixed::set_in_flight`]).
     in_flight: bool,
+    /// The tilt loop's hand-held form (as the f32 filter's).
+    hand_held_tilt: bool,
     /// Samples the tilt correction skipped since the drag model last ran.
     drag_skipped: u32,
     /// The last heading correction (Q30 rad), for the drag model's states.
@@ -777,6 +779,7 @@ impl MadgwickFixed {
             drag_lp: [0; 2],
             drag_p: [0; 2],
             in_flight: false,
+            hand_held_tilt: c.inv_drag_q16 == 0,
             drag_skipped: 0,
             drag_tz: 0,
             acc_lp_valid: false,
@@ -845,9 +848,11 @@ impl MadgwickFixed {
     }
 
     /// Whether the body is flying: the multirotor mode's drag model applies only
-    /// then (see [`crate::Madgwick::set_in_flight`]); false at construction.
+    /// then, the tilt loop's hand-held form only when not and without the multirotor
+    /// mode (see [`crate::Madgwick::set_in_flight`]); false at construction.
     pub fn set_in_flight(&mut self, in_flight: bool) {
         self.in_flight = in_flight;
+        self.hand_held_tilt = !in_flight && self.c.inv_drag_q16 == 0;
     }
 
     /// Orientation `q_ned_from_body` as (w, x, y, z) in Q30.
@@ -1102,9 +1107,9 @@ impl MadgwickFixed {
         } else {
             c.inv_tilt_tau_q20
         };
-        // At rest and not flying: `rest_tilt_tau_s` where that is faster (as the f32
+        // At rest, hand-held: `rest_tilt_tau_s` where that is faster (as the f32
         // filter).
-        let rest = i64::from(st.at_rest & !self.in_flight);
+        let rest = i64::from(st.at_rest & self.hand_held_tilt);
         let inv_tau = inv_tau.max(c.inv_rest_tilt_tau_q20 * rest);
         let k = ((i64::from(dt_q31) * inv_tau) >> 21).max(0).min(ONE_Q30) as i32;
         let [s1, s2] = &mut self.acc_lp;
@@ -1335,12 +1340,12 @@ impl MadgwickFixed {
             return false;
         };
         self.q = n;
-        // The first stage turns by half the tilt on the ground, by all of it in
-        // flight (as the f32 filter's `fuse`).
-        let first = if self.in_flight {
-            theta
-        } else {
+        // The first stage turns by half the tilt hand-held, by all of it otherwise
+        // (as the f32 filter's `fuse`).
+        let first = if self.hand_held_tilt {
             [p1, p2, theta[2]]
+        } else {
+            theta
         };
         let [s_first, s_second] = &mut self.acc_lp;
         turn_state(s_first, first);

@@ -178,6 +178,9 @@ pub struct Madgwick {
     drag_p: [f32; 2],
     /// In flight: the multirotor mode's drag model applies ([`Madgwick::set_in_flight`]).
     in_flight: bool,
+    /// The tilt loop's hand-held form (ζ = ¾, the rest correction): neither in flight
+    /// nor configured for a multirotor ([`Madgwick::set_in_flight`]).
+    hand_held_tilt: bool,
     /// Samples the tilt correction skipped since the drag model last ran.
     drag_skipped: u32,
     /// The last heading correction (rad), for the drag model's states.
@@ -272,6 +275,7 @@ impl Madgwick {
             drag_lp: [0.0; 2],
             drag_p: [0.0; 2],
             in_flight: false,
+            hand_held_tilt: drag_model(&cfg).is_none(),
             drag_skipped: 0,
             drag_tz: 0.0,
             acc_lp_valid: false,
@@ -352,14 +356,20 @@ impl Madgwick {
         self.q
     }
 
-    /// Whether the body is flying (the multirotor mode's drag model applies only
-    /// then; false at construction). On the ground the accelerometer's body-plane
-    /// reading is the ground's reaction to gravity on a slope, not drag, and a
-    /// lift-off would read as a sudden change of velocity (sin θ/(μ·τ·e) rad of
-    /// false tilt from a slope θ: 3.7° from 5° for the 250-class quad). The flight
-    /// controller knows: set it once the craft is in the air.
+    /// Whether the body is flying (false at construction). The multirotor mode's drag
+    /// model applies only then: on the ground the accelerometer's body-plane reading
+    /// is the ground's reaction to gravity on a slope, not drag, and a lift-off would
+    /// read as a sudden change of velocity (sin θ/(μ·τ·e) rad of false tilt from a
+    /// slope θ: 3.7° from 5° for the 250-class quad). And the tilt loop's hand-held
+    /// form (ζ = ¾ and the rest correction, [`Config::rest_tilt_tau_s`]) applies only
+    /// when not: a hovering craft passes the rest test while its accelerometer reads
+    /// the thrust axis. (With the multirotor mode configured the loop never takes the
+    /// hand-held form: the flight controller's verdict comes after lift-off and ends
+    /// before touch-down.) The flight controller knows: set it once the craft is in
+    /// the air.
     pub fn set_in_flight(&mut self, in_flight: bool) {
         self.in_flight = in_flight;
+        self.hand_held_tilt = !in_flight && drag_model(&self.cfg).is_none();
     }
 
     /// Set the orientation (normalised; ignored if zero or not finite).
@@ -572,8 +582,8 @@ impl Madgwick {
             self.acc_lp_valid = true;
         }
         let mut inv_tau = inv_tilt_tau(&cfg, self.time_s, initialising);
-        // At rest and not flying: `rest_tilt_tau_s` where that is faster.
-        if st.at_rest && !self.in_flight {
+        // At rest, hand-held: `rest_tilt_tau_s` where that is faster.
+        if st.at_rest && self.hand_held_tilt {
             inv_tau = inv_tau.max(inv_tau_of(cfg.rest_tilt_tau_s));
         }
         let k = (dt_s * inv_tau).clamp(0.0, 1.0);
@@ -741,15 +751,15 @@ impl Madgwick {
             return false;
         };
         self.q = n;
-        // The second stage turns with the estimate; the first, on the ground, by half
-        // its tilt (all of its heading): that damps the loop at ζ = ¾ instead of 1 with
-        // the same natural frequency 1/τ, so the same rejection of linear acceleration
-        // (see `Config::tilt_tau_s`). In flight by all of it: critically damped, no
-        // overshoot on the step the drag model's error leaves at a release.
-        let first = if self.in_flight {
-            theta
-        } else {
+        // The second stage turns with the estimate; the first, hand-held, by half its
+        // tilt (all of its heading): that damps the loop at ζ = ¾ instead of 1 with the
+        // same natural frequency 1/τ, so the same rejection of linear acceleration
+        // (see `Config::tilt_tau_s`). Otherwise by all of it: critically damped, no
+        // overshoot on the step the drag model's error leaves at a stick release.
+        let first = if self.hand_held_tilt {
             [0.5 * theta[0], 0.5 * theta[1], theta[2]]
+        } else {
+            theta
         };
         for (s, t) in self.acc_lp.iter_mut().zip([first, theta]) {
             let c = cross(t, *s);

@@ -308,7 +308,8 @@ impl Pipeline {
     }
 
     /// Whether the craft is flying, from the flight controller: the AHRS's
-    /// multirotor mode applies its drag model only then
+    /// multirotor mode applies its drag model only then, and its tilt loop's
+    /// hand-held form (ζ = ¾, the rest correction) only when not
     /// ([`fc_ahrs::Madgwick::set_in_flight`]).
     pub fn set_in_flight(&mut self, in_flight: bool) {
         self.ahrs.set_in_flight(in_flight);
