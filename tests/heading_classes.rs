@@ -403,11 +403,7 @@ fn more_magnetometer_trust_trades_the_magnet_class_against_fast_turns() {
         gyro_scale_tol: 0.07,
         ..default
     };
-    let calibrated = Config {
-        gyro_scale_tol: 0.01,
-        heading_tau_s: 80.0,
-        ..default
-    };
+    let calibrated = calibrated_before_revision();
     let (m0, f0) = class_figures(&default);
     let (m1, f1) = class_figures(&wide_tol);
     let (m2, f2) = class_figures(&calibrated);
@@ -591,11 +587,7 @@ fn the_hard_iron_candidate_on_the_dev_trials() {
     let Some(trials) = dev_trials() else {
         return;
     };
-    let cfg = Config {
-        gyro_scale_tol: 0.01,
-        heading_tau_s: 80.0,
-        ..Config::DEFAULT
-    };
+    let cfg = calibrated_before_revision();
     for (name, s) in &trials {
         let off = replay::score(s, &run_hard_iron_candidate(s, &cfg, 0.0, 1));
         let today = replay::score(s, &replay::run(s, FilterKind::F32, Mode::Marg, &cfg));
@@ -724,30 +716,47 @@ fn the_tilt_gate_candidate_on_the_dev_trials_by_leave_one_out() {
     let Some(trials) = dev_trials() else {
         return;
     };
-    let cfg = Config {
+    let cfg = calibrated_before_revision();
+    dev_table_and_leave_one_out(&trials, &GATES_DEG, "gate (°)", |s, g| {
+        run_tilt_gate_candidate(s, &cfg, g, GATE_TAU_S)
+    });
+}
+
+/// Replay's `--sensor calibrated` preset before the tilt loop's revision
+/// (scale tolerance 1 %, τ_h 80 s), with which the candidates below were
+/// scored.
+fn calibrated_before_revision() -> Config {
+    Config {
         gyro_scale_tol: 0.01,
         heading_tau_s: 80.0,
         ..Config::DEFAULT
-    };
+    }
+}
+
+/// The total RMS of `run` on each dev trial for each of `choices` (printed per
+/// trial), then the mean per choice and the leave-one-out mean (printed).
+fn dev_table_and_leave_one_out(
+    trials: &[(String, Vec<Sample>)],
+    choices: &[f32],
+    what: &str,
+    run: impl Fn(&[Sample], f32) -> Vec<Quaternion>,
+) {
     let table: Vec<Vec<f64>> = trials
         .iter()
         .map(|(name, s)| {
-            let totals: Vec<f64> = GATES_DEG
+            let totals: Vec<f64> = choices
                 .iter()
-                .map(|&g| {
-                    replay::score(s, &run_tilt_gate_candidate(s, &cfg, g, GATE_TAU_S))
-                        .map_or(f64::NAN, |x| x.total_deg)
-                })
+                .map(|&c| replay::score(s, &run(s, c)).map_or(f64::NAN, |x| x.total_deg))
                 .collect();
-            println!("{name}: total {totals:.3?}° for gates {GATES_DEG:?}°");
+            println!("{name}: total {totals:.3?}° for {what} {choices:?}");
             totals
         })
         .collect();
-    let means: Vec<f64> = (0..GATES_DEG.len())
-        .map(|g| table.iter().map(|r| r[g]).sum::<f64>() / table.len() as f64)
+    let means: Vec<f64> = (0..choices.len())
+        .map(|c| table.iter().map(|r| r[c]).sum::<f64>() / table.len() as f64)
         .collect();
     println!(
-        "mean over all per gate {means:.3?}°; leave-one-out mean {:.3}°",
+        "mean over all per {what} {means:.3?}°; leave-one-out mean {:.3}°",
         leave_one_out(&table)
     );
 }
@@ -916,30 +925,8 @@ fn the_gated_hard_iron_learner_on_the_classes_and_by_leave_one_out() {
     let Some(trials) = dev_trials() else {
         return;
     };
-    let cal = Config {
-        gyro_scale_tol: 0.01,
-        heading_tau_s: 80.0,
-        ..Config::DEFAULT
-    };
-    let table: Vec<Vec<f64>> = trials
-        .iter()
-        .map(|(name, s)| {
-            let totals: Vec<f64> = HARD_IRON_TAUS_S
-                .iter()
-                .map(|&tau| {
-                    let est = run_hard_iron_learner(s, &cal, tau, Some(HARD_IRON_GATE), 1);
-                    replay::score(s, &est).map_or(f64::NAN, |x| x.total_deg)
-                })
-                .collect();
-            println!("{name}: total {totals:.3?}° for gated τ_d {HARD_IRON_TAUS_S:?} s");
-            totals
-        })
-        .collect();
-    let means: Vec<f64> = (0..HARD_IRON_TAUS_S.len())
-        .map(|c| table.iter().map(|r| r[c]).sum::<f64>() / table.len() as f64)
-        .collect();
-    println!(
-        "mean over all per τ_d {means:.3?}°; leave-one-out mean {:.3}°",
-        leave_one_out(&table)
-    );
+    let cal = calibrated_before_revision();
+    dev_table_and_leave_one_out(&trials, &HARD_IRON_TAUS_S, "gated τ_d (s)", |s, tau| {
+        run_hard_iron_learner(s, &cal, tau, Some(HARD_IRON_GATE), 1)
+    });
 }
